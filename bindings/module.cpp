@@ -1,0 +1,182 @@
+// Thin pybind11 layer over glintlab::core. Broadcasting, defaults and docstrings live in the Python
+// package (glintlab/__init__.py); this file only converts arrays, releases the GIL around long calls
+// and maps C++ exceptions (std::invalid_argument -> ValueError, not_implemented -> NotImplementedError).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstring>
+
+#include "glintlab/binomial.hpp"
+#include "glintlab/chi2.hpp"
+#include "glintlab/errors.hpp"
+#include "glintlab/law.hpp"
+#include "glintlab/metrics.hpp"
+
+namespace py = pybind11;
+using namespace glintlab;
+
+namespace {
+
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+py::array_t<double> to_numpy(const std::vector<double>& v) {
+  py::array_t<double> out(static_cast<py::ssize_t>(v.size()));
+  if (!v.empty()) std::memcpy(out.mutable_data(), v.data(), v.size() * sizeof(double));
+  return out;
+}
+
+ParamArray param(const Array& a) { return {a.data(), static_cast<std::size_t>(a.size())}; }
+
+LawParams to_params(const py::dict& kwargs) {
+  LawParams params;
+  for (auto item : kwargs) {
+    const auto key = py::str(item.first).cast<std::string>();
+    if (py::isinstance<py::str>(item.second)) {
+      params[key] = item.second.cast<std::string>();
+    } else if (py::isinstance<py::bool_>(item.second)) {
+      params[key] = item.second.cast<bool>() ? 1.0 : 0.0;
+    } else {
+      try {
+        params[key] = item.second.cast<double>();
+      } catch (const py::cast_error&) {
+        throw std::invalid_argument("law parameter " + key + " = " +
+                                    py::repr(item.second).cast<std::string>() +
+                                    " is invalid; expected a number or a string");
+      }
+    }
+  }
+  return params;
+}
+
+py::dict from_params(const LawParams& params) {
+  py::dict d;
+  for (const auto& [k, v] : params) {
+    if (const double* x = std::get_if<double>(&v)) d[py::str(k)] = *x;
+    else d[py::str(k)] = std::get<std::string>(v);
+  }
+  return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "glintlab C++ core (use the glintlab package, not this module)";
+  m.attr("__version__") = GLINTLAB_VERSION;
+  py::register_exception<not_implemented>(m, "NotImplementedErrorCore", PyExc_NotImplementedError);
+
+  py::class_<Distribution>(m, "Distribution")
+      .def(py::init([](const Array& support, const Array& probs, bool normalize) {
+             if (support.ndim() != 1 || probs.ndim() != 1)
+               throw std::invalid_argument("Distribution: support and probs must be 1-D arrays");
+             std::vector<double> s(support.data(), support.data() + support.size());
+             std::vector<double> p(probs.data(), probs.data() + probs.size());
+             return Distribution(std::move(s), std::move(p), normalize);
+           }),
+           py::arg("support"), py::arg("probs"), py::arg("normalize") = false)
+      .def_property_readonly("support", [](const Distribution& d) { return to_numpy(d.support()); })
+      .def_property_readonly("probs", [](const Distribution& d) { return to_numpy(d.probs()); })
+      .def_property_readonly("mean", &Distribution::mean)
+      .def_property_readonly("var", &Distribution::var)
+      .def_property_readonly("total_mass", &Distribution::total_mass)
+      .def_property_readonly("trimmed_below", &Distribution::trimmed_below)
+      .def_property_readonly("trimmed_above", &Distribution::trimmed_above)
+      .def("cdf", &Distribution::cdf, py::arg("x"))
+      .def("__len__", &Distribution::size)
+      .def_static("empirical", [](const Array& samples) {
+        py::gil_scoped_release release;
+        return Distribution::empirical(samples.data(), static_cast<std::size_t>(samples.size()));
+      }, py::arg("samples"));
+
+  py::class_<CountingLaw, std::shared_ptr<CountingLaw>>(m, "CoreLaw")
+      .def_property_readonly("name", &CountingLaw::name)
+      .def_property_readonly("n_uniforms", &CountingLaw::n_uniforms)
+      .def_property_readonly("has_pmf", &CountingLaw::has_pmf)
+      .def_property_readonly("params", [](const CountingLaw& law) { return from_params(law.params()); })
+      .def("pmf", [](const CountingLaw& law, double n, double p, std::size_t max_support) {
+             law.validate(n, p, 0, false);
+             py::gil_scoped_release release;
+             return law.pmf(n, p, max_support);
+           }, py::arg("n"), py::arg("p"), py::arg("max_support") = kDefaultMaxSupport)
+      .def("sample", [](const CountingLaw& law, const Array& n, const Array& p, std::size_t count,
+                        std::uint64_t s) {
+             py::array_t<double> out(static_cast<py::ssize_t>(count));
+             double* o = out.mutable_data();
+             {
+               py::gil_scoped_release release;
+               sample_many(law, param(n), param(p), count, s, o);
+             }
+             return out;
+           }, py::arg("n"), py::arg("p"), py::arg("count"), py::arg("seed"))
+      .def("evaluate", [](const CountingLaw& law, const Array& n, const Array& p, const Array& u) {
+             const auto count = static_cast<std::size_t>(u.ndim() == 2 ? u.shape(0) : 0);
+             if (u.ndim() != 2 || u.shape(1) != law.n_uniforms())
+               throw std::invalid_argument(law.name() + ".evaluate: u must have shape (m, " +
+                                           std::to_string(law.n_uniforms()) + ")");
+             py::array_t<double> out(static_cast<py::ssize_t>(count));
+             double* o = out.mutable_data();
+             {
+               py::gil_scoped_release release;
+               evaluate_many(law, param(n), param(p), u.data(), count, o);
+             }
+             return out;
+           }, py::arg("n"), py::arg("p"), py::arg("u"));
+
+  m.def("make_law", [](const std::string& name, const py::dict& kwargs) {
+    return std::shared_ptr<CountingLaw>(make_law(name, to_params(kwargs)));
+  }, py::arg("name"), py::arg("params"));
+  m.def("law_infos", [] {
+    std::vector<std::pair<std::string, std::string>> out;
+    for (const auto& info : registered_laws()) out.emplace_back(info.name, info.summary);
+    return out;
+  });
+
+  m.def("metric_names", &metric_names);
+  m.def("distance", [](const Distribution& a, const Distribution& b, const std::string& metric) {
+    const Metric mm = metric_from_name(metric);
+    py::gil_scoped_release release;
+    return distance(a, b, mm);
+  }, py::arg("a"), py::arg("b"), py::arg("metric"));
+
+  py::class_<Chi2Result>(m, "Chi2Result")
+      .def_readonly("statistic", &Chi2Result::statistic)
+      .def_readonly("dof", &Chi2Result::dof)
+      .def_readonly("pvalue", &Chi2Result::pvalue)
+      .def_readonly("samples", &Chi2Result::samples)
+      .def_readonly("note", &Chi2Result::note)
+      .def_property_readonly("lower", [](const Chi2Result& r) { return to_numpy(r.lower); })
+      .def_property_readonly("upper", [](const Chi2Result& r) { return to_numpy(r.upper); })
+      .def_property_readonly("observed", [](const Chi2Result& r) { return to_numpy(r.observed); })
+      .def_property_readonly("expected", [](const Chi2Result& r) { return to_numpy(r.expected); });
+  m.def("chi2_test", [](const Array& samples, const Distribution& law, double min_expected,
+                        int fitted_params) {
+    py::gil_scoped_release release;
+    return chi2_test(samples.data(), static_cast<std::size_t>(samples.size()), law, min_expected,
+                     fitted_params);
+  }, py::arg("samples"), py::arg("law"), py::arg("min_expected"), py::arg("fitted_params"));
+  m.def("sidak_alpha", &sidak_alpha, py::arg("alpha"), py::arg("tests"));
+
+  m.def("uniforms", [](std::size_t start, std::size_t count, int k, std::uint64_t s, int stream) {
+    if (k < 0) throw std::invalid_argument("n_uniforms = " + std::to_string(k) + " is invalid; expected an integer >= 0");
+    if (stream < 0 || stream > 65535) throw std::invalid_argument("stream = " + std::to_string(stream) + " is invalid; expected an integer in [0, 65535]");
+    py::array_t<double> out({static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(k)});
+    double* o = out.mutable_data();
+    {
+      py::gil_scoped_release release;
+      fill_uniforms(s, static_cast<std::uint16_t>(stream), start, count, k, o);
+    }
+    return out;
+  }, py::arg("start"), py::arg("count"), py::arg("k"), py::arg("seed"), py::arg("stream"));
+  m.def("set_num_threads", &set_num_threads, py::arg("threads"));
+  m.def("num_threads", &num_threads);
+
+  // Exact distribution functions, vectorized (numpy broadcasting).
+  m.def("binomial_log_pmf", py::vectorize(&binomial::log_pmf), py::arg("k"), py::arg("n"), py::arg("p"));
+  m.def("binomial_cdf", py::vectorize(&binomial::cdf), py::arg("k"), py::arg("n"), py::arg("p"));
+  m.def("binomial_sf", py::vectorize(&binomial::sf), py::arg("k"), py::arg("n"), py::arg("p"));
+  m.def("binomial_quantile", py::vectorize(&binomial::quantile), py::arg("u"), py::arg("n"), py::arg("p"));
+  m.def("poisson_log_pmf", py::vectorize(&poisson::log_pmf), py::arg("k"), py::arg("lam"));
+  m.def("poisson_cdf", py::vectorize(&poisson::cdf), py::arg("k"), py::arg("lam"));
+  m.def("poisson_sf", py::vectorize(&poisson::sf), py::arg("k"), py::arg("lam"));
+  m.def("poisson_quantile", py::vectorize(&poisson::quantile), py::arg("u"), py::arg("lam"));
+}

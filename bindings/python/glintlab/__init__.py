@@ -1,0 +1,33 @@
+"""glintlab: exact laws, samplers and metrics for the counting laws of glint rendering.
+
+>>> import glintlab as gl
+>>> law = gl.law("binomial")
+>>> d = law.pmf(100, 0.1)                 # exact distribution
+>>> x = law.sample(100, 0.1, size=10**6, seed=1)
+>>> gl.chi2_test(x, d).pvalue
+"""
+from . import _core
+from ._core import Chi2Result, Distribution
+from .exact import binomial, poisson
+from .laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
+from .metrics import METRICS, chi2_test, distance, sidak_alpha
+
+__version__ = _core.__version__
+
+
+def set_num_threads(threads: int) -> None:
+    """Threads used by sampling and evaluation (default: all cores, or $GLINTLAB_NUM_THREADS)."""
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"threads = {threads!r} is invalid; expected an integer >= 1")
+    _core.set_num_threads(threads)
+
+
+def get_num_threads() -> int:
+    return _core.num_threads()
+
+
+__all__ = [
+    "Chi2Result", "CustomLaw", "Distribution", "Law", "METRICS", "binomial", "chi2_test",
+    "custom_law", "distance", "get_num_threads", "law", "law_summaries", "laws", "poisson",
+    "set_num_threads", "sidak_alpha", "uniforms",
+]

@@ -1,0 +1,80 @@
+"""Argument checks shared by the Python layer: one message format, naming the parameter and value."""
+from __future__ import annotations
+
+import operator
+import secrets
+
+import numpy as np
+
+
+def fail(name, value, expected):
+    raise ValueError(f"{name} = {value!r} is invalid; expected {expected}")
+
+
+def as_float_array(name, value):
+    """`value` as a float64 array; strings, objects and complex numbers are rejected by name."""
+    try:
+        arr = np.asarray(value)
+    except Exception:  # ragged sequences and the like
+        fail(name, value, "a number or an array of numbers")
+    if arr.dtype.kind not in "biuf":
+        fail(name, value, "a number or an array of numbers")
+    return arr.astype(np.float64, copy=False)
+
+
+def seed(value):
+    """A seed in [0, 2^64); None draws one from the operating system (not reproducible)."""
+    if value is None:
+        return secrets.randbits(64)
+    if isinstance(value, bool):
+        fail("seed", value, "an integer in [0, 2^64) or None")
+    try:
+        s = operator.index(value)
+    except TypeError:
+        fail("seed", value, "an integer in [0, 2^64) or None")
+    if not 0 <= s < 2**64:
+        fail("seed", value, "an integer in [0, 2^64) or None")
+    return s
+
+
+def size(value):
+    """numpy-style size: None, an int >= 0 or a tuple of them; returns a shape tuple or None."""
+    if value is None:
+        return None
+    dims = value if isinstance(value, (tuple, list)) else (value,)
+    shape = []
+    for d in dims:
+        if isinstance(d, bool):
+            fail("size", value, "an integer >= 0 or a tuple of them")
+        try:
+            d = operator.index(d)
+        except TypeError:
+            fail("size", value, "an integer >= 0 or a tuple of them")
+        if d < 0:
+            fail("size", value, "an integer >= 0 or a tuple of them")
+        shape.append(d)
+    return tuple(shape)
+
+
+def broadcast_params(n, p, shape=None):
+    """Broadcasts n and p (and the requested output shape) numpy-style.
+
+    Returns (n_flat, p_flat, shape): flat contiguous float64 arrays of length 1 (a scalar, broadcast
+    by the C++ drivers without a copy) or prod(shape).
+    """
+    n = as_float_array("n", n)
+    p = as_float_array("p", p)
+    try:
+        common = np.broadcast_shapes(n.shape, p.shape)
+        if shape is not None:
+            if np.broadcast_shapes(common, shape) != tuple(shape):
+                raise ValueError
+            common = tuple(shape)
+    except ValueError:
+        raise ValueError(f"n (shape {n.shape}), p (shape {p.shape}) and size {shape} do not broadcast "
+                         "together; expected numpy-compatible shapes") from None
+
+    def flat(a):
+        return a.reshape(1) if a.size == 1 else np.ascontiguousarray(np.broadcast_to(a, common)).ravel()
+
+    return flat(n), flat(p), common

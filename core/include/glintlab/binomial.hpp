@@ -1,0 +1,85 @@
+// The exact binomial law of the count K of reflecting facets among n, each reflecting with
+// probability p, and the Poisson law of a Poisson layout (K ~ Poisson(n p)).
+//
+// Non-integer n (the "stratified" rule, LAWS.md §2): n = m + f with m = floor(n), f in [0, 1) means
+// m facets fully inside the footprint plus one facet covered by the fraction f, so
+//   K = Binomial(m, p) + Bernoulli(f p),   E[K] = n p exactly,   Var[K] = m p q + f p (1 - f p).
+// For integer n it is the ordinary binomial. This is the law of counting stratified facets in a
+// footprint of area n / N made of whole cells plus one partial cell, and it keeps the mean right,
+// unlike rounding n.
+//
+// Numerics: pmfs in log space by Loader's saddle-point method (special.hpp): accurate for
+// n up to 1e15 and p down to 1e-300. CDF and survival function by pmf summation or, for variances
+// above 1e6, the Lugannani-Rice saddle-point formula (special.hpp), each tail computed directly so
+// that rare-glint tail masses never come from 1 - (something close to 1).
+#pragma once
+
+#include <cstddef>
+
+#include "glintlab/distribution.hpp"
+#include "glintlab/rng.hpp"
+
+namespace glintlab::binomial {
+
+double mean(double n, double p);
+double variance(double n, double p);
+double log_pmf(double k, double n, double p);   // -inf outside the support or for non-integer k
+double pmf(double k, double n, double p);
+double cdf(double k, double n, double p);       // P(K <= k)
+double sf(double k, double n, double p);        // P(K > k)
+// Smallest integer k with P(K <= k) >= min(u, 1 - 2^-53) (inversion; monotone in u). u in [0, 1];
+// the clamp keeps u = 1 finite and continuous with u -> 1 (K = mean + ~8.3 sd, not n).
+double quantile(double u, double n, double p);
+Distribution distribution(double n, double p, std::size_t max_support = kDefaultMaxSupport);
+
+// Draws K with bounded expected cost: inversion by sequential search when min(p, 1 - p) m < 10
+// (expected < 11 steps), otherwise Hörmann's BTRD (1993, "The generation of binomial random
+// variates"), whose expected number of uniforms is below 2.6 for every (n, p). Setup is done once
+// per (n, p); operator() is const and thread-safe.
+class Sampler {
+ public:
+  Sampler(double n, double p);
+  double operator()(CounterRng& rng) const;
+
+ private:
+  double draw_integer_part(CounterRng& rng) const;
+  double inversion(CounterRng& rng) const;
+  double btrd(CounterRng& rng) const;
+
+  enum class Method { kConstant, kInversion, kBtrd } method_;
+  double m_ = 0, g_ = 0;  // integer part of n; probability of the fractional facet (f p)
+  double pp_ = 0;         // min(p, 1 - p)
+  bool flip_ = false;     // p > 1/2: K = m - Binomial(m, 1 - p)
+  double constant_ = 0;   // result of the integer part when it is deterministic (p in {0, 1}, m = 0)
+  // inversion
+  double q0_ = 0, s_ = 0, a_inv_ = 0, bound_ = 0;
+  // BTRD
+  double b_ = 0, a_ = 0, c_ = 0, alpha_ = 0, vr_ = 0, urvr_ = 0, mode_ = 0, r_ = 0, nr_ = 0,
+         npq_ = 0, log_f_mode_ = 0;
+};
+
+}  // namespace glintlab::binomial
+
+namespace glintlab::poisson {
+
+double log_pmf(double k, double lambda);
+double pmf(double k, double lambda);
+double cdf(double k, double lambda);
+double sf(double k, double lambda);
+double quantile(double u, double lambda);  // same convention as binomial::quantile
+Distribution distribution(double lambda, std::size_t max_support = kDefaultMaxSupport);
+
+// Inversion for lambda < 10, Hörmann's PTRD (1993, "The transformed rejection method for
+// generating Poisson random variables") above.
+class Sampler {
+ public:
+  explicit Sampler(double lambda);
+  double operator()(CounterRng& rng) const;
+
+ private:
+  bool ptrd_ = false;
+  double lambda_ = 0, e0_ = 0, bound_ = 0;
+  double b_ = 0, a_ = 0, log_inv_alpha_ = 0, vr_ = 0;
+};
+
+}  // namespace glintlab::poisson

@@ -1,0 +1,36 @@
+// Pearson chi-square goodness of fit of samples against an exact discrete law.
+//
+// Bins: the law's support points in order, merged greedily from the left until each merged bin
+// expects at least `min_expected` samples; a remainder below that joins the last bin. The first and
+// last bins also hold the law's trimmed tails (Distribution::trimmed_below/above), so integer samples
+// beyond a trimmed end count there. Any other sample that is not a support point has probability
+// zero under the law: the test then fails outright (statistic +inf, p-value 0, and a note).
+// dof = bins - 1 - fitted_params; p-value = P(chi2_dof >= statistic) from Boost.Math.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "glintlab/distribution.hpp"
+
+namespace glintlab {
+
+struct Chi2Result {
+  double statistic = 0.0;
+  int dof = 0;
+  double pvalue = 1.0;
+  std::size_t samples = 0;
+  // Merged bins: [lower, upper] support values, observed and expected counts; for failure plots.
+  std::vector<double> lower, upper, observed, expected;
+  std::string note;  // why the test is degenerate or failed outright; empty otherwise
+};
+
+Chi2Result chi2_test(const double* samples, std::size_t count, const Distribution& law,
+                     double min_expected = 5.0, int fitted_params = 0);
+
+// Per-test significance that keeps the family-wise false-failure rate at `alpha` over `tests`
+// independent tests (Šidák): 1 - (1 - alpha)^(1/tests).
+double sidak_alpha(double alpha, int tests);
+
+}  // namespace glintlab

@@ -1,0 +1,107 @@
+// A counting law: a rule producing the count K of reflecting facets from (n, p) and a few uniform
+// random numbers. Each law is one small unit in core/laws/<name>.cpp (evaluate, sample, exact
+// distribution when one exists, a doc string) that registers itself by name; nothing else in the
+// code base switches on law names.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "glintlab/distribution.hpp"
+#include "glintlab/rng.hpp"
+
+namespace glintlab {
+
+using ParamValue = std::variant<double, std::string>;
+using LawParams = std::map<std::string, ParamValue>;
+
+class CountingLaw {
+ public:
+  virtual ~CountingLaw() = default;
+
+  virtual std::string name() const = 0;
+  // Parameters as given to the factory, defaults filled in (for reports and reproducibility).
+  virtual LawParams params() const { return {}; }
+  // Random numbers one evaluate() consumes.
+  virtual int n_uniforms() const = 0;
+
+  // Deterministic evaluation: K from (n, p) and u[0 .. n_uniforms), each u in [0, 1].
+  // Arguments are validated by the vectorized drivers below, not here (hot path).
+  virtual double evaluate(double n, double p, const double* u) const = 0;
+
+  // Samples i0 .. i1-1 of a batch with fixed (n, p): sample i uses CounterRng::for_index(seed, i,
+  // kStreamSample), so results do not depend on how the batch is split between threads. The default
+  // evaluates on n_uniforms() draws; exact laws override it with their own (rejection) samplers and
+  // set up per-(n, p) constants once per range.
+  virtual void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
+                            double* out) const;
+
+  virtual bool has_pmf() const { return false; }
+  // Exact law of K; throws not_implemented when the law has none.
+  virtual Distribution pmf(double n, double p, std::size_t max_support) const;
+
+  // Checks one (n, p) pair; the default requires a finite n >= 0 and p in [0, 1].
+  virtual void validate(double n, double p, std::size_t index, bool is_array) const;
+};
+
+using LawFactory = std::function<std::unique_ptr<CountingLaw>(const LawParams&)>;
+
+struct LawInfo {
+  std::string name;
+  std::string summary;  // one line for listings
+  LawFactory make;
+};
+
+// Registration from a static initializer in the law's own file:
+//   static const bool registered = glintlab::register_law({"binomial", "...", factory});
+bool register_law(LawInfo info);
+std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params = {});
+std::vector<LawInfo> registered_laws();
+
+// Reads law parameters with defaults and rejects unknown or mistyped ones, naming them.
+class ParamReader {
+ public:
+  ParamReader(std::string law, LawParams params) : law_(std::move(law)), params_(std::move(params)) {}
+  double number(const std::string& key, double fallback);
+  std::string text(const std::string& key, const std::string& fallback,
+                   const std::vector<std::string>& allowed);
+  // Throws if a parameter was given that no number()/text() call asked for.
+  void finish() const;
+
+ private:
+  std::string law_;
+  LawParams params_;
+  std::vector<std::string> known_;
+};
+
+// Parameter arrays for the vectorized drivers: `size` is 1 (broadcast) or the batch count.
+struct ParamArray {
+  const double* data;
+  std::size_t size;
+  double operator[](std::size_t i) const { return data[size == 1 ? 0 : i]; }
+};
+
+// Threads used by the drivers (OpenMP; default: all cores, or GLINTLAB_NUM_THREADS).
+void set_num_threads(int threads);
+int num_threads();
+
+// out[i] = K for (n[i], p[i]) drawn with the counter RNG; validates everything first.
+void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count,
+                 std::uint64_t seed, double* out);
+// out[i] = law.evaluate(n[i], p[i], u + i * n_uniforms); validates everything first.
+void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const double* u,
+                   std::size_t count, double* out);
+// Row-major count x k uniforms in (0, 1): row r holds the first k draws of
+// CounterRng::for_index(seed, start + r, stream). With stream = kStreamSample these are exactly the
+// numbers the default sample_range() hands to evaluate(), so a law re-implemented in Python as a
+// custom law reproduces the built-in's samples seed for seed.
+void fill_uniforms(std::uint64_t seed, std::uint16_t stream, std::size_t start, std::size_t count,
+                   int k, double* out);
+
+}  // namespace glintlab

@@ -1,0 +1,363 @@
+#include "glintlab/binomial.hpp"
+
+#include <algorithm>
+#include <boost/math/special_functions/erf.hpp>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+#include "glintlab/errors.hpp"
+#include "glintlab/special.hpp"
+
+namespace glintlab {
+
+namespace {
+
+constexpr double kNegInf = -std::numeric_limits<double>::infinity();
+constexpr double kMaxU = 1.0 - 0x1.0p-53;  // quantiles treat u = 1 as the largest double below 1
+
+bool is_integer(double k) { return std::floor(k) == k; }
+
+double log_add(double a, double b) {
+  if (a == kNegInf) return b;
+  if (b == kNegInf) return a;
+  const double hi = std::max(a, b), lo = std::min(a, b);
+  return hi + std::log1p(std::exp(lo - hi));
+}
+
+// Smallest integer k in [lo, hi] with cdf(k) >= u, written as the complementary test sf(k) <= 1 - u
+// when u > 1/2 so that upper-tail quantiles keep their precision. `guess` seeds an exponential then
+// binary search, so the cost is O(log |k - guess|) distribution-function calls.
+double discrete_inverse(double u, double lo, double hi, double guess,
+                        const std::function<double(double)>& cdf_fn,
+                        const std::function<double(double)>& sf_fn) {
+  const bool upper = u > 0.5;
+  const double tail = 1.0 - u;  // exact for u >= 1/2 (Sterbenz)
+  auto reached = [&](double k) { return upper ? sf_fn(k) <= tail : cdf_fn(k) >= u; };
+  if (u <= 0.0) return lo;
+  double k = std::clamp(std::floor(guess), lo, hi);
+  double a, b;  // invariant at the end: !reached(a) (or a = lo - 1), reached(b)
+  if (reached(k)) {
+    b = k;
+    double step = 1;
+    for (;;) {
+      const double t = std::max(lo - 1, b - step);
+      if (t < lo || !reached(t)) { a = t; break; }
+      b = t;
+      step *= 2;
+    }
+  } else {
+    a = k;
+    double step = 1;
+    for (;;) {
+      const double t = std::min(hi, a + step);
+      if (t >= hi || reached(t)) { b = t; break; }
+      a = t;
+      step *= 2;
+    }
+  }
+  while (b - a > 1) {
+    const double mid = std::floor(a + (b - a) / 2);
+    if (reached(mid)) b = mid; else a = mid;
+  }
+  return b;
+}
+
+double normal_guess(double u, double mean, double sd) {
+  // Phi^-1(u) = -sqrt(2) erfc^-1(2u): finite for every u in [1e-300, 1 - 2^-53].
+  const double uu = std::clamp(u, 1e-300, 1.0 - 0x1.0p-53);
+  return mean - sd * std::sqrt(2.0) * boost::math::erfc_inv(2.0 * uu);
+}
+
+void check_np(const char* where, double n, double p) {
+  check_n(where, n);
+  check_p(where, p);
+}
+
+// Integer-n binomial distribution functions (k an integer); see special.hpp for the method.
+double bin_cdf_int(double k, double n, double p) { return special::binomial_lower_tail(k, n, p); }
+double bin_sf_int(double k, double n, double p) { return special::binomial_upper_tail(k, n, p); }
+
+}  // namespace
+
+namespace binomial {
+
+double mean(double n, double p) {
+  check_np("binomial.mean", n, p);
+  return n * p;
+}
+
+double variance(double n, double p) {
+  check_np("binomial.variance", n, p);
+  const double m = std::floor(n), g = (n - m) * p;
+  return m * p * (1.0 - p) + g * (1.0 - g);
+}
+
+double log_pmf(double k, double n, double p) {
+  check_np("binomial.log_pmf", n, p);
+  if (std::isnan(k)) throw_invalid("binomial.log_pmf", "k", k, "a number");
+  if (!is_integer(k)) return kNegInf;
+  const double m = std::floor(n), g = (n - m) * p;
+  if (g == 0.0) return special::binomial_log_pmf_int(k, m, p);
+  // (1 - g) b(k; m, p) + g b(k - 1; m, p), combined in log space.
+  return log_add(std::log1p(-g) + special::binomial_log_pmf_int(k, m, p),
+                 std::log(g) + special::binomial_log_pmf_int(k - 1, m, p));
+}
+
+double pmf(double k, double n, double p) { return std::exp(log_pmf(k, n, p)); }
+
+double cdf(double k, double n, double p) {
+  check_np("binomial.cdf", n, p);
+  if (std::isnan(k)) throw_invalid("binomial.cdf", "k", k, "a number");
+  k = std::floor(k);
+  const double m = std::floor(n), g = (n - m) * p;
+  if (g == 0.0) return bin_cdf_int(k, m, p);
+  return (1.0 - g) * bin_cdf_int(k, m, p) + g * bin_cdf_int(k - 1, m, p);
+}
+
+double sf(double k, double n, double p) {
+  check_np("binomial.sf", n, p);
+  if (std::isnan(k)) throw_invalid("binomial.sf", "k", k, "a number");
+  k = std::floor(k);
+  const double m = std::floor(n), g = (n - m) * p;
+  if (g == 0.0) return bin_sf_int(k, m, p);
+  return (1.0 - g) * bin_sf_int(k, m, p) + g * bin_sf_int(k - 1, m, p);
+}
+
+double quantile(double u, double n, double p) {
+  check_np("binomial.quantile", n, p);
+  check_u("binomial.quantile", u);
+  const double m = std::floor(n), hi = (n > m && p > 0) ? m + 1 : m;
+  if (p == 0.0) return 0.0;
+  const double sd = std::sqrt(std::max(m * p * (1 - p), 0.25));
+  const double uu = std::min(u, kMaxU);
+  return discrete_inverse(
+      uu, 0.0, hi, normal_guess(uu, n * p, sd), [&](double k) { return cdf(k, n, p); },
+      [&](double k) { return sf(k, n, p); });
+}
+
+Distribution distribution(double n, double p, std::size_t max_support) {
+  check_np("binomial.distribution", n, p);
+  const double m = std::floor(n);
+  const double hi = (n > m && p > 0) ? m + 1 : m;
+  // Width check before walking: the trimmed support spans about +-8.5 standard deviations.
+  const double sd = std::sqrt(variance(n, p));
+  if (std::min(hi + 1, 17.0 * sd + 40.0) > static_cast<double>(max_support))
+    throw std::invalid_argument("binomial.distribution: n = " + format_value(n) + ", p = " +
+                                format_value(p) + " needs about " + format_value(std::floor(17 * sd)) +
+                                " support points, more than max_support = " +
+                                std::to_string(max_support) + "; use cdf/sf/log_pmf instead");
+  const double mode = std::floor((m + 1) * p);
+  return Distribution::from_log_concave([&](double k) { return pmf(k, n, p); }, 0.0, hi, mode,
+                                        max_support, "binomial.distribution");
+}
+
+Sampler::Sampler(double n, double p) {
+  check_np("binomial.sample", n, p);
+  m_ = std::floor(n);
+  g_ = (n - m_) * p;
+  flip_ = p > 0.5;
+  pp_ = flip_ ? 1.0 - p : p;
+  const double mean = m_ * pp_;
+  if (m_ == 0 || pp_ == 0.0) {
+    method_ = Method::kConstant;
+    constant_ = flip_ ? m_ : 0.0;
+  } else if (mean < 10.0) {
+    method_ = Method::kInversion;
+    const double q = 1.0 - pp_;
+    q0_ = std::exp(m_ * std::log1p(-pp_));  // P(K = 0); > e^-14 here, no underflow
+    s_ = pp_ / q;
+    a_inv_ = (m_ + 1) * s_;
+    // The search is cut at mean + 15 sd + 30 (a tail mass below 1e-40 for mean < 10) and restarted
+    // beyond it, so that rounding in the running sum can never make it walk to n = 1e15.
+    bound_ = std::min(m_, std::ceil(mean + 15.0 * std::sqrt(mean) + 30.0));
+  } else {
+    method_ = Method::kBtrd;
+    const double q = 1.0 - pp_;
+    const double spq = std::sqrt(mean * q);
+    b_ = 1.15 + 2.53 * spq;
+    a_ = -0.0873 + 0.0248 * b_ + 0.01 * pp_;
+    c_ = mean + 0.5;
+    alpha_ = (2.83 + 5.1 / b_) * spq;
+    vr_ = 0.92 - 4.2 / b_;
+    urvr_ = 0.86 * vr_;
+    mode_ = std::floor((m_ + 1) * pp_);
+    r_ = pp_ / q;
+    nr_ = (m_ + 1) * r_;
+    npq_ = mean * q;
+    log_f_mode_ = special::binomial_log_pmf_int(mode_, m_, pp_);
+  }
+}
+
+double Sampler::inversion(CounterRng& rng) const {
+  for (;;) {
+    double u = rng.uniform(), r = q0_, k = 0;
+    while (u > r) {
+      u -= r;
+      k += 1;
+      if (k > bound_) break;
+      r *= a_inv_ / k - s_;  // b(k)/b(k-1) = (m - k + 1)/k * p/q
+    }
+    if (k <= bound_) return k;
+  }
+}
+
+double Sampler::btrd(CounterRng& rng) const {
+  // Hörmann (1993), algorithm BTRD, steps 1-3.4. Step 3.3-3.4 (the final acceptance test) compares
+  // log V with log f(k) - log f(mode) from Loader's saddle-point pmf, which stays accurate at
+  // n = 1e15 where the paper's Stirling-difference form loses digits to cancellation.
+  for (;;) {
+    double v = rng.uniform();
+    double u;
+    if (v <= urvr_) {
+      u = v / vr_ - 0.43;
+      return std::floor((2 * a_ / (0.5 - std::abs(u)) + b_) * u + c_);
+    }
+    if (v >= vr_) {
+      u = rng.uniform() - 0.5;
+    } else {
+      u = v / vr_ - 0.93;
+      u = std::copysign(0.5, u) - u;
+      v = rng.uniform() * vr_;
+    }
+    const double us = 0.5 - std::abs(u);
+    const double k = std::floor((2 * a_ / us + b_) * u + c_);
+    if (k < 0 || k > m_) continue;
+    v = v * alpha_ / (a_ / (us * us) + b_);
+    const double km = std::abs(k - mode_);
+    if (km <= 15) {
+      // Step 3.1: f(k)/f(mode) by the recursion f(i)/f(i-1) = (n + 1) r / i - r.
+      double f = 1.0;
+      if (mode_ < k) {
+        for (double i = mode_ + 1; i <= k; i += 1) f *= nr_ / i - r_;
+      } else if (mode_ > k) {
+        for (double i = k + 1; i <= mode_; i += 1) v *= nr_ / i - r_;
+      }
+      if (v <= f) return k;
+      continue;
+    }
+    // Step 3.2: squeeze on log f(k)/f(mode) around the normal approximation.
+    v = std::log(v);
+    const double rho = (km / npq_) * (((km / 3.0 + 0.625) * km + 1.0 / 6.0) * km / npq_ + 0.5);
+    const double t = -km * km / (2 * npq_);
+    if (v < t - rho) return k;
+    if (v > t + rho) continue;
+    if (v <= special::binomial_log_pmf_int(k, m_, pp_) - log_f_mode_) return k;
+  }
+}
+
+double Sampler::draw_integer_part(CounterRng& rng) const {
+  switch (method_) {
+    case Method::kConstant: return constant_;
+    case Method::kInversion: return flip_ ? m_ - inversion(rng) : inversion(rng);
+    case Method::kBtrd: return flip_ ? m_ - btrd(rng) : btrd(rng);
+  }
+  return 0.0;
+}
+
+double Sampler::operator()(CounterRng& rng) const {
+  const double k = draw_integer_part(rng);
+  if (g_ == 0.0) return k;
+  return k + (rng.uniform() < g_ ? 1.0 : 0.0);  // the fractional facet
+}
+
+}  // namespace binomial
+
+namespace poisson {
+
+namespace {
+void check_lambda(const char* where, double lambda) {
+  if (!(lambda >= 0.0) || !std::isfinite(lambda))
+    throw_invalid(where, "lambda", lambda, "a finite mean >= 0");
+}
+}  // namespace
+
+double log_pmf(double k, double lambda) {
+  check_lambda("poisson.log_pmf", lambda);
+  if (std::isnan(k)) throw_invalid("poisson.log_pmf", "k", k, "a number");
+  if (!is_integer(k)) return kNegInf;
+  return special::poisson_log_pmf(k, lambda);
+}
+
+double pmf(double k, double lambda) { return std::exp(log_pmf(k, lambda)); }
+
+double cdf(double k, double lambda) {
+  check_lambda("poisson.cdf", lambda);
+  if (std::isnan(k)) throw_invalid("poisson.cdf", "k", k, "a number");
+  return special::poisson_lower_tail(std::floor(k), lambda);
+}
+
+double sf(double k, double lambda) {
+  check_lambda("poisson.sf", lambda);
+  if (std::isnan(k)) throw_invalid("poisson.sf", "k", k, "a number");
+  return special::poisson_upper_tail(std::floor(k), lambda);
+}
+
+double quantile(double u, double lambda) {
+  check_lambda("poisson.quantile", lambda);
+  check_u("poisson.quantile", u);
+  if (lambda == 0.0) return 0.0;
+  const double hi = std::ceil(lambda + 40.0 * std::sqrt(lambda) + 100.0);
+  const double uu = std::min(u, kMaxU);
+  return discrete_inverse(
+      uu, 0.0, hi, normal_guess(uu, lambda, std::sqrt(lambda)),
+      [&](double k) { return cdf(k, lambda); }, [&](double k) { return sf(k, lambda); });
+}
+
+Distribution distribution(double lambda, std::size_t max_support) {
+  check_lambda("poisson.distribution", lambda);
+  const double sd = std::sqrt(lambda);
+  if (17.0 * sd + 40.0 > static_cast<double>(max_support))
+    throw std::invalid_argument("poisson.distribution: lambda = " + format_value(lambda) +
+                                " needs more than max_support = " + std::to_string(max_support) +
+                                " support points; use cdf/sf/log_pmf instead");
+  return Distribution::from_log_concave([&](double k) { return pmf(k, lambda); }, 0.0,
+                                        std::numeric_limits<double>::max(), std::floor(lambda),
+                                        max_support, "poisson.distribution");
+}
+
+Sampler::Sampler(double lambda) : lambda_(lambda) {
+  check_lambda("poisson.sample", lambda);
+  if (lambda < 10.0) {
+    e0_ = std::exp(-lambda);
+    bound_ = std::ceil(lambda + 15.0 * std::sqrt(lambda) + 30.0);
+  } else {
+    ptrd_ = true;
+    const double slam = std::sqrt(lambda);
+    b_ = 0.931 + 2.53 * slam;
+    a_ = -0.059 + 0.02483 * b_;
+    log_inv_alpha_ = std::log(1.1239 + 1.1328 / (b_ - 3.4));
+    vr_ = 0.9277 - 3.6224 / (b_ - 2);
+  }
+}
+
+double Sampler::operator()(CounterRng& rng) const {
+  if (lambda_ == 0.0) return 0.0;
+  if (!ptrd_) {
+    for (;;) {
+      double u = rng.uniform(), r = e0_, k = 0;
+      while (u > r) {
+        u -= r;
+        k += 1;
+        if (k > bound_) break;
+        r *= lambda_ / k;
+      }
+      if (k <= bound_) return k;
+    }
+  }
+  // Hörmann's PTRD; the final test uses the saddle-point log pmf (accurate for lambda ~ 1e15).
+  for (;;) {
+    const double u = rng.uniform() - 0.5;
+    const double v = rng.uniform();
+    const double us = 0.5 - std::abs(u);
+    const double k = std::floor((2 * a_ / us + b_) * u + lambda_ + 0.43);
+    if (us >= 0.07 && v <= vr_) return k;
+    if (k < 0 || (us < 0.013 && v > us)) continue;
+    if (std::log(v) + log_inv_alpha_ - std::log(a_ / (us * us) + b_) <=
+        special::poisson_log_pmf(k, lambda_))
+      return k;
+  }
+}
+
+}  // namespace poisson
+}  // namespace glintlab

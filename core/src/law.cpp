@@ -1,0 +1,199 @@
+#include "glintlab/law.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <exception>
+#include <mutex>
+#include <stdexcept>
+
+#include "glintlab/errors.hpp"
+
+namespace glintlab {
+
+namespace {
+
+std::map<std::string, LawInfo>& registry() {
+  static std::map<std::string, LawInfo> laws;
+  return laws;
+}
+
+int& thread_setting() {
+  static int threads = [] {
+    if (const char* env = std::getenv("GLINTLAB_NUM_THREADS")) {
+      const int t = std::atoi(env);
+      if (t > 0) return t;
+    }
+    return omp_get_num_procs();
+  }();
+  return threads;
+}
+
+// Below this many items a batch runs on the calling thread: spawning costs more than it saves.
+constexpr std::size_t kParallelThreshold = 2048;
+
+// Runs body(i0, i1) over [0, count) in fixed-size chunks; the chunking does not affect results
+// because every item derives its random numbers from its own index.
+template <class Body>
+void parallel_chunks(std::size_t count, Body body) {
+  const int threads = count < kParallelThreshold ? 1 : thread_setting();
+  constexpr std::size_t chunk = 4096;
+  const std::size_t chunks = (count + chunk - 1) / chunk;
+  std::exception_ptr error;
+  std::mutex error_mutex;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+  for (std::size_t c = 0; c < chunks; ++c) {
+    try {
+      body(c * chunk, std::min(count, (c + 1) * chunk));
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
+    }
+  }
+  if (error) std::rethrow_exception(error);
+}
+
+void validate_all(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count) {
+  if (n.size != 1 && n.size != count)
+    throw std::invalid_argument("n has " + std::to_string(n.size) + " values; expected 1 or " +
+                                std::to_string(count));
+  if (p.size != 1 && p.size != count)
+    throw std::invalid_argument("p has " + std::to_string(p.size) + " values; expected 1 or " +
+                                std::to_string(count));
+  const std::size_t m = std::max(n.size, p.size);
+  for (std::size_t i = 0; i < m; ++i) law.validate(n[i], p[i], i, m > 1);
+}
+
+}  // namespace
+
+void CountingLaw::sample_range(double n, double p, std::uint64_t seed, std::size_t i0,
+                               std::size_t i1, double* out) const {
+  const int k = n_uniforms();
+  std::vector<double> u(static_cast<std::size_t>(k));
+  for (std::size_t i = i0; i < i1; ++i) {
+    auto rng = CounterRng::for_index(seed, i, kStreamSample);
+    for (double& x : u) x = rng.uniform();
+    out[i - i0] = evaluate(n, p, u.data());
+  }
+}
+
+Distribution CountingLaw::pmf(double, double, std::size_t) const {
+  throw not_implemented("law '" + name() +
+                        "' has no exact distribution; estimate one from samples instead");
+}
+
+void CountingLaw::validate(double n, double p, std::size_t index, bool is_array) const {
+  const std::string where = name();
+  check_n(where, n, indexed_name("n", index, is_array));
+  check_p(where, p, indexed_name("p", index, is_array));
+}
+
+bool register_law(LawInfo info) {
+  auto& laws = registry();
+  if (laws.count(info.name)) throw std::logic_error("law registered twice: " + info.name);
+  const std::string key = info.name;
+  laws.emplace(key, std::move(info));
+  return true;
+}
+
+std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params) {
+  const auto& laws = registry();
+  auto it = laws.find(name);
+  if (it == laws.end()) {
+    std::string names;
+    for (const auto& [k, v] : laws) names += (names.empty() ? "" : ", ") + k;
+    throw_invalid("law", "name", "'" + name + "'", "one of: " + names);
+  }
+  return it->second.make(params);
+}
+
+std::vector<LawInfo> registered_laws() {
+  std::vector<LawInfo> out;
+  for (const auto& [k, v] : registry()) out.push_back(v);
+  return out;
+}
+
+double ParamReader::number(const std::string& key, double fallback) {
+  known_.push_back(key);
+  auto it = params_.find(key);
+  if (it == params_.end()) return fallback;
+  if (const double* v = std::get_if<double>(&it->second)) {
+    if (!std::isfinite(*v)) throw_invalid("law '" + law_ + "'", key, *v, "a finite number");
+    return *v;
+  }
+  throw_invalid("law '" + law_ + "'", key, "'" + std::get<std::string>(it->second) + "'", "a number");
+}
+
+std::string ParamReader::text(const std::string& key, const std::string& fallback,
+                              const std::vector<std::string>& allowed) {
+  known_.push_back(key);
+  auto it = params_.find(key);
+  if (it == params_.end()) return fallback;
+  std::string options;
+  for (const auto& a : allowed) options += (options.empty() ? "'" : ", '") + a + "'";
+  const std::string* v = std::get_if<std::string>(&it->second);
+  if (!v) throw_invalid("law '" + law_ + "'", key, std::get<double>(it->second), "one of " + options);
+  if (std::find(allowed.begin(), allowed.end(), *v) == allowed.end())
+    throw_invalid("law '" + law_ + "'", key, "'" + *v + "'", "one of " + options);
+  return *v;
+}
+
+void ParamReader::finish() const {
+  for (const auto& [key, value] : params_) {
+    if (std::find(known_.begin(), known_.end(), key) == known_.end()) {
+      std::string options;
+      for (const auto& k : known_) options += (options.empty() ? "" : ", ") + k;
+      throw std::invalid_argument("law '" + law_ + "': unknown parameter '" + key + "'; expected " +
+                                  (options.empty() ? "no parameters" : "one of: " + options));
+    }
+  }
+}
+
+void set_num_threads(int threads) {
+  if (threads < 1) throw_invalid("set_num_threads", "threads", threads, "an integer >= 1");
+  thread_setting() = threads;
+}
+
+int num_threads() { return thread_setting(); }
+
+void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count,
+                 std::uint64_t seed, double* out) {
+  validate_all(law, n, p, count);
+  if (n.size == 1 && p.size == 1) {
+    parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
+      law.sample_range(n[0], p[0], seed, i0, i1, out + i0);
+    });
+  } else {
+    parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
+      for (std::size_t i = i0; i < i1; ++i) law.sample_range(n[i], p[i], seed, i, i + 1, out + i);
+    });
+  }
+}
+
+void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const double* u,
+                   std::size_t count, double* out) {
+  validate_all(law, n, p, count);
+  const std::size_t k = static_cast<std::size_t>(law.n_uniforms());
+  for (std::size_t i = 0; i < count * k; ++i)
+    if (!(u[i] >= 0.0 && u[i] <= 1.0))
+      throw_invalid(law.name(), "u[" + std::to_string(i / k) + ", " + std::to_string(i % k) + "]",
+                    u[i], "a uniform number in [0, 1]");
+  parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
+    for (std::size_t i = i0; i < i1; ++i) out[i] = law.evaluate(n[i], p[i], u + i * k);
+  });
+}
+
+void fill_uniforms(std::uint64_t seed, std::uint16_t stream, std::size_t start, std::size_t count,
+                   int k, double* out) {
+  if (k < 0) throw_invalid("uniforms", "n_uniforms", k, "an integer >= 0");
+  const std::size_t kk = static_cast<std::size_t>(k);
+  parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
+    for (std::size_t i = i0; i < i1; ++i) {
+      auto rng = CounterRng::for_index(seed, start + i, stream);
+      for (std::size_t j = 0; j < kk; ++j) out[i * kk + j] = rng.uniform();
+    }
+  });
+}
+
+}  // namespace glintlab

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Installs the Debian packages glintlab builds and tests with. Idempotent: packages already present are
+# skipped, and `apt-get update` runs at most once, only when something is missing.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake
+  libeigen3-dev libboost-dev nlohmann-json3-dev catch2 librandom123-dev
+  pybind11-dev python3-dev python3-venv python3-pybind11
+  python3-numpy python3-scipy python3-matplotlib python3-pandas python3-pytest python3-tqdm
+)
+
+missing=()
+for pkg in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$pkg")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done"

@@ -1,0 +1,86 @@
+// The law registry, parameter reading, and the vectorized drivers' determinism and validation.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <vector>
+
+#include "glintlab/errors.hpp"
+#include "glintlab/law.hpp"
+
+using namespace glintlab;
+using Catch::Matchers::Contains;
+
+TEST_CASE("laws are registered by name", "[law]") {
+  std::vector<std::string> names;
+  for (const auto& info : registered_laws()) names.push_back(info.name);
+  CHECK(std::find(names.begin(), names.end(), "binomial") != names.end());
+  CHECK(std::find(names.begin(), names.end(), "poisson") != names.end());
+  CHECK_THROWS_WITH(make_law("nope"), Contains("name = 'nope'") && Contains("binomial"));
+  CHECK_THROWS_WITH(make_law("binomial", {{"cap", 3.0}}), Contains("unknown parameter 'cap'"));
+  auto law = make_law("binomial");
+  CHECK(law->has_pmf());
+  CHECK(law->n_uniforms() == 1);
+}
+
+TEST_CASE("ParamReader reads, defaults and rejects", "[law]") {
+  const LawParams params{{"cap", 8.0}, {"rounding", std::string("round")}};
+  ParamReader r("demo", params);
+  CHECK(r.number("cap", 16) == 8.0);
+  CHECK(r.number("missing", 3) == 3.0);
+  CHECK(r.text("rounding", "floor", {"floor", "round"}) == "round");
+  CHECK_NOTHROW(r.finish());
+  ParamReader bad("demo", {{"rounding", std::string("up")}});
+  CHECK_THROWS_WITH(bad.text("rounding", "floor", {"floor", "round"}), Contains("rounding = 'up'"));
+  ParamReader wrong_type("demo", {{"cap", std::string("x")}});
+  CHECK_THROWS_WITH(wrong_type.number("cap", 16), Contains("cap = 'x'"));
+}
+
+TEST_CASE("sampling is deterministic whatever the number of threads", "[law][determinism]") {
+  auto law = make_law("binomial");
+  const int saved = num_threads();
+  for (auto [n, p] : {std::pair{16.0, 0.1}, {1e6, 0.3}, {10.5, 0.7}}) {
+    std::vector<double> one(50'000), two(50'000), again(50'000);
+    set_num_threads(1);
+    sample_many(*law, {&n, 1}, {&p, 1}, one.size(), 99, one.data());
+    set_num_threads(2);
+    sample_many(*law, {&n, 1}, {&p, 1}, two.size(), 99, two.data());
+    sample_many(*law, {&n, 1}, {&p, 1}, again.size(), 99, again.data());
+    INFO("n = " << n << ", p = " << p);
+    CHECK(one == two);
+    CHECK(two == again);
+    // Sample i depends on i only: a shorter batch is a prefix of a longer one.
+    std::vector<double> prefix(1000);
+    sample_many(*law, {&n, 1}, {&p, 1}, prefix.size(), 99, prefix.data());
+    CHECK(std::equal(prefix.begin(), prefix.end(), one.begin()));
+  }
+  set_num_threads(saved);
+}
+
+TEST_CASE("drivers validate every element and name it", "[law][errors]") {
+  auto law = make_law("poisson");
+  std::vector<double> n{1, 2, -3, 4}, p{0.5}, out(4);
+  CHECK_THROWS_WITH(sample_many(*law, {n.data(), 4}, {p.data(), 1}, 4, 1, out.data()), Contains("n[2] = -3"));
+  n[2] = 3;
+  std::vector<double> pbad{0.5, 0.5, 0.5, NAN};
+  CHECK_THROWS_WITH(sample_many(*law, {n.data(), 4}, {pbad.data(), 4}, 4, 1, out.data()), Contains("p[3] = nan"));
+  std::vector<double> u{0.1, 0.2, 1.5, 0.3};
+  CHECK_THROWS_WITH(evaluate_many(*law, {n.data(), 4}, {p.data(), 1}, u.data(), 4, out.data()), Contains("u[2, 0] = 1.5"));
+  CHECK_THROWS_WITH(sample_many(*law, {n.data(), 3}, {p.data(), 1}, 4, 1, out.data()), Contains("n has 3 values"));
+  CHECK_THROWS_WITH(set_num_threads(0), Contains("threads = 0"));
+}
+
+TEST_CASE("evaluate inverts the exact cdf and fill_uniforms feeds the default sampler", "[law]") {
+  auto law = make_law("binomial");
+  const double n = 30, p = 0.2;
+  std::vector<double> u(1000), k(1000);
+  fill_uniforms(5, kStreamUniforms, 0, u.size(), 1, u.data());
+  evaluate_many(*law, {&n, 1}, {&p, 1}, u.data(), u.size(), k.data());
+  for (std::size_t i = 0; i < u.size(); ++i) {
+    INFO("u = " << u[i] << ", K = " << k[i]);
+    REQUIRE(k[i] >= 0);
+    REQUIRE(k[i] <= n);
+  }
+  // Rows with offset `start` continue the same sequence.
+  std::vector<double> tail(10);
+  fill_uniforms(5, kStreamUniforms, 990, 10, 1, tail.data());
+  CHECK(std::equal(tail.begin(), tail.end(), u.begin() + 990));
+}
