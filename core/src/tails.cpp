@@ -62,7 +62,7 @@ void binomial_saddle(double k, double n, double p, double& ge, double& lt) {
   // w^2 = 2 [bd0(x, np) + bd0(n - x, nq)], s = log(x q / ((n - x) p)), u = 2 sinh(s/2) sqrt(x (n - x)/n).
   const double q = 1.0 - p, np = n * p, nq = n * q;
   auto wu = [&](double x) {
-    const double d = x - np;
+    const double d = k_minus_np(x, n, p);
     const double dev = 2.0 * (bd0(x, np, d) + bd0(n - x, nq, -d));
     const double s = std::log1p(d / np) - std::log1p(-d / nq);
     const double w = std::copysign(std::sqrt(std::fmax(dev, 0.0)), s);
@@ -116,6 +116,12 @@ void binomial_tails(double k, double n, double p, double& lower, double& upper, 
   if (k >= n) { lower = 1; upper = 0; return; }
   if (p == 0.0) { lower = 1; upper = 0; return; }
   if (p == 1.0) { lower = 0; upper = 1; return; }
+  // p > 1/2 through the failures, K' = n - K ~ Binomial(n, 1 - p) with 1 - p exact:
+  // P(K <= k) = P(K' >= n - k) = P(K' > n - k - 1).
+  if (p > 0.5) {
+    binomial_tails(n - k - 1, n, 1.0 - p, upper, lower, method);
+    return;
+  }
   const double var = n * p * (1 - p);
   const bool saddle = method == 0 ? var > kTailSumVariance : method == 2;
   if (saddle) binomial_saddle(k + 1, n, p, upper, lower);  // P(K >= k + 1) = P(K > k)

@@ -4,6 +4,8 @@
 // the saddle-point form keeps relative accuracy near 1e-13 for every n.
 #pragma once
 
+#include <cmath>
+
 namespace glintlab::special {
 
 // stirlerr(x) = log(x!) - [(x + 1/2) log x - x + log sqrt(2 pi)]: the error of Stirling's formula.
@@ -14,6 +16,14 @@ double stirlerr(double x);
 // (n - k) - n (1 - p)).
 double bd0(double x, double m, double x_minus_m);
 inline double bd0(double x, double m) { return bd0(x, m, x - m); }
+
+// x - n p computed without the rounding error of the product n p (an error-free FMA split): at
+// n = 1e15 the product alone is off by up to 0.06, comparable to what the deviance terms resolve.
+inline double k_minus_np(double x, double n, double p) {
+  const double np = n * p;
+  const double np_lo = std::fma(n, p, -np);  // n p = np + np_lo exactly
+  return (x - np) - np_lo;
+}
 
 // log P(K = k) for K ~ Binomial(n, p), integer-valued n >= 0 and k in [0, n].
 double binomial_log_pmf_int(double k, double n, double p);
