@@ -14,7 +14,10 @@ namespace glintlab {
 namespace {
 
 constexpr double kNegInf = -std::numeric_limits<double>::infinity();
-constexpr double kMaxU = 1.0 - 0x1.0p-53;  // quantiles treat u = 1 as the largest double below 1
+// Quantiles clamp u to [2^-53, 1 - 2^-53], the range of the samplers' own uniforms: u = 1 gives a
+// finite K, u = 0 a possible one (never a K of probability zero), and K is continuous in u at both ends.
+constexpr double kMaxU = 1.0 - 0x1.0p-53;
+constexpr double kMinU = 0x1.0p-53;
 
 bool is_integer(double k) { return std::floor(k) == k; }
 
@@ -34,7 +37,6 @@ double discrete_inverse(double u, double lo, double hi, double guess,
   const bool upper = u > 0.5;
   const double tail = 1.0 - u;  // exact for u >= 1/2 (Sterbenz)
   auto reached = [&](double k) { return upper ? sf_fn(k) <= tail : cdf_fn(k) >= u; };
-  if (u <= 0.0) return lo;
   double k = std::clamp(std::floor(guess), lo, hi);
   double a, b;  // invariant at the end: !reached(a) (or a = lo - 1), reached(b)
   if (reached(k)) {
@@ -130,7 +132,7 @@ double quantile(double u, double n, double p) {
   const double m = std::floor(n), hi = (n > m && p > 0) ? m + 1 : m;
   if (p == 0.0) return 0.0;
   const double sd = std::sqrt(std::max(m * p * (1 - p), 0.25));
-  const double uu = std::min(u, kMaxU);
+  const double uu = std::clamp(u, kMinU, kMaxU);
   return discrete_inverse(
       uu, 0.0, hi, normal_guess(uu, n * p, sd), [&](double k) { return cdf(k, n, p); },
       [&](double k) { return sf(k, n, p); });
@@ -148,7 +150,7 @@ Distribution distribution(double n, double p, std::size_t max_support) {
                                 " support points, more than max_support = " +
                                 std::to_string(max_support) + "; use cdf/sf/log_pmf instead");
   const double mode = std::floor((m + 1) * p);
-  return Distribution::from_log_concave([&](double k) { return pmf(k, n, p); }, 0.0, hi, mode,
+  return Distribution::from_log_concave([&](double k) { return log_pmf(k, n, p); }, 0.0, hi, mode,
                                         max_support, "binomial.distribution");
 }
 
@@ -298,7 +300,7 @@ double quantile(double u, double lambda) {
   check_u("poisson.quantile", u);
   if (lambda == 0.0) return 0.0;
   const double hi = std::ceil(lambda + 40.0 * std::sqrt(lambda) + 100.0);
-  const double uu = std::min(u, kMaxU);
+  const double uu = std::clamp(u, kMinU, kMaxU);
   return discrete_inverse(
       uu, 0.0, hi, normal_guess(uu, lambda, std::sqrt(lambda)),
       [&](double k) { return cdf(k, lambda); }, [&](double k) { return sf(k, lambda); });
@@ -311,7 +313,7 @@ Distribution distribution(double lambda, std::size_t max_support) {
     throw std::invalid_argument("poisson.distribution: lambda = " + format_value(lambda) +
                                 " needs more than max_support = " + std::to_string(max_support) +
                                 " support points; use cdf/sf/log_pmf instead");
-  return Distribution::from_log_concave([&](double k) { return pmf(k, lambda); }, 0.0,
+  return Distribution::from_log_concave([&](double k) { return log_pmf(k, lambda); }, 0.0,
                                         std::numeric_limits<double>::max(), std::floor(lambda),
                                         max_support, "poisson.distribution");
 }

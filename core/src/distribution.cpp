@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -38,23 +39,27 @@ Distribution::Distribution(std::vector<double> support, std::vector<double> prob
 }
 
 void Distribution::finish() {
-  // Compensated sums; the variance in a second pass around the mean (support values reach 1e15).
-  double mass = 0.0, c = 0.0;
-  for (double q : probs_) {
-    double y = q - c, t = mass + y;
+  // Moments about a shift (the most probable point): support values reach 1e15, where sum p x
+  // would lose ~1e-16 x per term (a mean off by tens); x - shift is exact for integer supports.
+  std::size_t top = 0;
+  for (std::size_t i = 1; i < probs_.size(); ++i)
+    if (probs_[i] > probs_[top]) top = i;
+  const double shift = support_[top];
+  double mass = 0.0, c = 0.0, m1 = 0.0;
+  for (std::size_t i = 0; i < probs_.size(); ++i) {
+    const double y = probs_[i] - c, t = mass + y;  // compensated (Kahan) mass
     c = (t - mass) - y;
     mass = t;
+    m1 += probs_[i] * (support_[i] - shift);
   }
-  double m = 0.0;
-  for (std::size_t i = 0; i < probs_.size(); ++i) m += probs_[i] * support_[i];
-  m /= mass;
+  const double dm = m1 / mass;  // mean - shift
   double v = 0.0;
   for (std::size_t i = 0; i < probs_.size(); ++i) {
-    const double d = support_[i] - m;
+    const double d = (support_[i] - shift) - dm;
     v += probs_[i] * d * d;
   }
   mass_ = mass;
-  mean_ = m;
+  mean_ = shift + dm;
   var_ = v / mass;
 }
 
@@ -64,43 +69,43 @@ double Distribution::cdf(double x) const {
   return std::min(s, 1.0);
 }
 
-Distribution Distribution::from_log_concave(const std::function<double(double)>& pmf, double lo,
+Distribution Distribution::from_log_concave(const std::function<double(double)>& log_pmf, double lo,
                                             double hi, double mode, std::size_t max_support,
                                             std::string_view where) {
   const double half = kTrimMass / 2;
   mode = std::clamp(std::floor(mode), lo, hi);
-  std::deque<double> ks{mode}, ps{pmf(mode)};
+  std::deque<double> ks{mode}, ps{std::exp(log_pmf(mode))};
   auto too_large = [&] {
     throw std::invalid_argument(std::string(where) + ": the distribution needs more than " +
                                 std::to_string(max_support) +
                                 " support points to hold all but 1e-14 of its mass; use the cdf/sf "
                                 "functions for such parameters or raise max_support");
   };
-  // Right tail: with r = pmf(k)/pmf(k-1) non-increasing, sum_{j>k} pmf(j) <= pmf(k) r / (1 - r).
-  for (double k = mode + 1, prev = ps.back(); k <= hi; k += 1) {
-    const double f = pmf(k);
-    ks.push_back(k);
-    ps.push_back(f);
-    if (ks.size() > max_support) too_large();
-    const double r = prev > 0 ? f / prev : 0.0;
-    if (f == 0.0 || (r < 1.0 && f * r / (1.0 - r) <= half)) break;
-    prev = f;
-  }
-  for (double k = mode - 1, prev = ps.front(); k >= lo; k -= 1) {
-    const double f = pmf(k);
-    ks.push_front(k);
-    ps.push_front(f);
-    if (ks.size() > max_support) too_large();
-    const double r = prev > 0 ? f / prev : 0.0;
-    if (f == 0.0 || (r < 1.0 && f * r / (1.0 - r) <= half)) break;
-    prev = f;
-  }
-  // Drop exact zeros at the ends (e.g. p = 0 puts all mass on k = 0).
+  // Walks one side; returns whether a tail with positive mass was left out. With the ratio
+  // r = pmf(k)/pmf(k -+ 1) non-increasing away from the mode, the rest is at most pmf(k) r / (1 - r).
+  auto walk = [&](int dir) {
+    double prev = ps.front();
+    if (dir > 0) prev = ps.back();
+    for (double k = mode + dir; dir > 0 ? k <= hi : k >= lo; k += dir) {
+      const double lf = log_pmf(k);
+      if (lf == -std::numeric_limits<double>::infinity()) return false;  // impossible from here on
+      const double f = std::exp(lf);
+      if (dir > 0) { ks.push_back(k); ps.push_back(f); } else { ks.push_front(k); ps.push_front(f); }
+      if (ks.size() > max_support) too_large();
+      if (f == 0.0) return true;  // underflow: the rest is below 1e-308 but not zero
+      const double r = prev > 0 ? f / prev : 0.0;
+      if (r < 1.0 && f * r / (1.0 - r) <= half) return dir > 0 ? k < hi : k > lo;
+      prev = f;
+    }
+    return false;  // reached the end of the support
+  };
+  const bool above = walk(+1), below = walk(-1);
+  // Drop zeros (underflowed or impossible) at the ends.
   while (ps.size() > 1 && ps.back() == 0.0) { ps.pop_back(); ks.pop_back(); }
   while (ps.size() > 1 && ps.front() == 0.0) { ps.pop_front(); ks.pop_front(); }
   Distribution d;
-  d.trimmed_below_ = ks.front() > lo && ps.front() > 0.0;
-  d.trimmed_above_ = ks.back() < hi && ps.back() > 0.0;
+  d.trimmed_below_ = below;
+  d.trimmed_above_ = above;
   d.support_.assign(ks.begin(), ks.end());
   d.probs_.assign(ps.begin(), ps.end());
   d.finish();

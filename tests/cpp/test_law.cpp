@@ -72,7 +72,7 @@ TEST_CASE("evaluate inverts the exact cdf and fill_uniforms feeds the default sa
   auto law = make_law("binomial");
   const double n = 30, p = 0.2;
   std::vector<double> u(1000), k(1000);
-  fill_uniforms(5, kStreamUniforms, 0, u.size(), 1, u.data());
+  fill_uniforms(5, kStreamSample, 0, u.size(), 1, u.data());
   evaluate_many(*law, {&n, 1}, {&p, 1}, u.data(), u.size(), k.data());
   for (std::size_t i = 0; i < u.size(); ++i) {
     INFO("u = " << u[i] << ", K = " << k[i]);
@@ -81,6 +81,6 @@ TEST_CASE("evaluate inverts the exact cdf and fill_uniforms feeds the default sa
   }
   // Rows with offset `start` continue the same sequence.
   std::vector<double> tail(10);
-  fill_uniforms(5, kStreamUniforms, 990, 10, 1, tail.data());
+  fill_uniforms(5, kStreamSample, 990, 10, 1, tail.data());
   CHECK(std::equal(tail.begin(), tail.end(), u.begin() + 990));
 }

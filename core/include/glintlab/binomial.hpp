@@ -10,7 +10,7 @@
 //
 // Numerics: pmfs in log space by Loader's saddle-point method (special.hpp): accurate for
 // n up to 1e15 and p down to 1e-300. CDF and survival function by pmf summation or, for variances
-// above 1e6, the Lugannani-Rice saddle-point formula (special.hpp), each tail computed directly so
+// above 1e7, the Lugannani-Rice saddle-point formula (special.hpp), each tail computed directly so
 // that rare-glint tail masses never come from 1 - (something close to 1).
 #pragma once
 
@@ -27,8 +27,9 @@ double log_pmf(double k, double n, double p);   // -inf outside the support or f
 double pmf(double k, double n, double p);
 double cdf(double k, double n, double p);       // P(K <= k)
 double sf(double k, double n, double p);        // P(K > k)
-// Smallest integer k with P(K <= k) >= min(u, 1 - 2^-53) (inversion; monotone in u). u in [0, 1];
-// the clamp keeps u = 1 finite and continuous with u -> 1 (K = mean + ~8.3 sd, not n).
+// Smallest integer k with P(K <= k) >= u' (inversion; monotone in u), u in [0, 1] clamped to
+// u' in [2^-53, 1 - 2^-53]: u = 1 stays finite and continuous with u -> 1 (K = mean + ~8.3 sd,
+// not n), and u = 0 likewise (K = 0 when P(K = 0) >= 2^-53; n when p = 1), never an impossible K.
 double quantile(double u, double n, double p);
 Distribution distribution(double n, double p, std::size_t max_support = kDefaultMaxSupport);
 

@@ -34,12 +34,14 @@ class Distribution {
   // Cumulative probability of the support points <= x.
   double cdf(double x) const;
 
-  // The law on the integers of [lo, hi] whose pmf is `pmf(k)` (log-concave: pmf(k+1)/pmf(k) is
-  // non-increasing, true for binomial, Poisson and their convolutions). Walks outward from `mode`
-  // and stops on each side once a geometric bound on the remaining tail is below kTrimMass / 2.
-  // Throws std::invalid_argument naming `where` when more than `max_support` points are needed.
-  static Distribution from_log_concave(const std::function<double(double)>& pmf, double lo, double hi,
-                                       double mode, std::size_t max_support, std::string_view where);
+  // The law on the integers of [lo, hi] whose log pmf is `log_pmf(k)` (-inf where the law is
+  // impossible; log-concave: pmf(k+1)/pmf(k) non-increasing, true for binomial, Poisson and their
+  // convolutions). Walks outward from `mode` and stops on each side once a geometric bound on the
+  // remaining tail is below kTrimMass / 2 (a trimmed tail), or at lo / hi / an impossible value
+  // (nothing trimmed). Throws std::invalid_argument naming `where` beyond `max_support` points.
+  static Distribution from_log_concave(const std::function<double(double)>& log_pmf, double lo,
+                                       double hi, double mode, std::size_t max_support,
+                                       std::string_view where);
 
   // The empirical law of samples (each distinct value with its frequency). Samples must be finite.
   static Distribution empirical(const double* samples, std::size_t count);

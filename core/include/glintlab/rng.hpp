@@ -14,10 +14,12 @@
 
 namespace glintlab {
 
-// Well-known stream ids, so that unrelated uses of one seed never share numbers.
+// Well-known stream ids, so that unrelated uses of one seed never share numbers. Later users
+// (grid cells, LOD levels) take their own ids here.
 enum Stream : std::uint16_t {
-  kStreamSample = 0,    // law.sample(): sample i keyed by x = low 32 bits of i, y = high 32 bits
-  kStreamUniforms = 1,  // gl.uniforms(): rows handed to law.evaluate / custom laws
+  // law.sample() and gl.uniforms(): sample i keyed by x = low 32 bits of i, y = high 32 bits. One
+  // stream for both on purpose: a custom law fed gl.uniforms() reproduces a built-in's samples.
+  kStreamSample = 0,
 };
 
 class CounterRng {
