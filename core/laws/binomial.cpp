@@ -18,7 +18,7 @@ class BinomialLaw final : public CountingLaw {
   }
   void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                     double* out) const override {
-    const binomial::Sampler sampler(n, p);
+    const binomial::Sampler sampler(n, p, /*tabulate=*/i1 - i0 >= kTabulateMinBatch);
     for (std::size_t i = i0; i < i1; ++i) {
       auto rng = CounterRng::for_index(seed, i, kStreamSample);
       out[i - i0] = sampler(rng);

@@ -154,7 +154,11 @@ Distribution distribution(double n, double p, std::size_t max_support) {
                                         max_support, "binomial.distribution");
 }
 
-Sampler::Sampler(double n, double p) {
+// Below this mean, inversion (expected mean + 1 steps, O(1) with the table); above, BTRD/PTRD,
+// which are exact only from mean 10 on and at their slowest just above it.
+constexpr double kInversionMaxMean = 30.0;
+
+Sampler::Sampler(double n, double p, bool tabulate) {
   check_np("binomial.sample", n, p);
   m_ = std::floor(n);
   g_ = (n - m_) * p;
@@ -164,15 +168,12 @@ Sampler::Sampler(double n, double p) {
   if (m_ == 0 || pp_ == 0.0) {
     method_ = Method::kConstant;
     constant_ = flip_ ? m_ : 0.0;
-  } else if (mean < 10.0) {
+  } else if (mean < kInversionMaxMean) {
     method_ = Method::kInversion;
-    const double q = 1.0 - pp_;
-    q0_ = std::exp(m_ * std::log1p(-pp_));  // P(K = 0); > e^-14 here, no underflow
-    s_ = pp_ / q;
-    a_inv_ = (m_ + 1) * s_;
-    // The search is cut at mean + 15 sd + 30 (a tail mass below 1e-40 for mean < 10) and restarted
-    // beyond it, so that rounding in the running sum can never make it walk to n = 1e15.
-    bound_ = std::min(m_, std::ceil(mean + 15.0 * std::sqrt(mean) + 30.0));
+    // P(K = 0) = (1 - p)^m > e^-61 here (p <= 1/2, m p < 30): no underflow. Ratio (m - k + 1)/k p/q.
+    const double s = pp_ / (1.0 - pp_);
+    const double bound = std::min(m_, std::ceil(mean + 15.0 * std::sqrt(mean) + 30.0));
+    inversion_ = SmallMeanInversion(std::exp(m_ * std::log1p(-pp_)), (m_ + 1) * s, s, bound, tabulate);
   } else {
     method_ = Method::kBtrd;
     const double q = 1.0 - pp_;
@@ -182,25 +183,13 @@ Sampler::Sampler(double n, double p) {
     c_ = mean + 0.5;
     alpha_ = (2.83 + 5.1 / b_) * spq;
     vr_ = 0.92 - 4.2 / b_;
+    inv_vr_ = 1.0 / vr_;
     urvr_ = 0.86 * vr_;
     mode_ = std::floor((m_ + 1) * pp_);
     r_ = pp_ / q;
     nr_ = (m_ + 1) * r_;
     npq_ = mean * q;
-    log_f_mode_ = special::binomial_log_pmf_int(mode_, m_, pp_);
-  }
-}
-
-double Sampler::inversion(CounterRng& rng) const {
-  for (;;) {
-    double u = rng.uniform(), r = q0_, k = 0;
-    while (u > r) {
-      u -= r;
-      k += 1;
-      if (k > bound_) break;
-      r *= a_inv_ / k - s_;  // b(k)/b(k-1) = (m - k + 1)/k * p/q
-    }
-    if (k <= bound_) return k;
+    log_ratio_ = special::BinomialLogRatio(m_, pp_, mode_);  // 0 < mode < m since m pp >= 30
   }
 }
 
@@ -212,13 +201,13 @@ double Sampler::btrd(CounterRng& rng) const {
     double v = rng.uniform();
     double u;
     if (v <= urvr_) {
-      u = v / vr_ - 0.43;
+      u = v * inv_vr_ - 0.43;
       return std::floor((2 * a_ / (0.5 - std::abs(u)) + b_) * u + c_);
     }
     if (v >= vr_) {
       u = rng.uniform() - 0.5;
     } else {
-      u = v / vr_ - 0.93;
+      u = v * inv_vr_ - 0.93;
       u = std::copysign(0.5, u) - u;
       v = rng.uniform() * vr_;
     }
@@ -240,18 +229,23 @@ double Sampler::btrd(CounterRng& rng) const {
     }
     // Step 3.2: squeeze on log f(k)/f(mode) around the normal approximation.
     v = std::log(v);
-    const double rho = (km / npq_) * (((km / 3.0 + 0.625) * km + 1.0 / 6.0) * km / npq_ + 0.5);
+    const double rho = (km / npq_) * (((km / 3.0 + 0.625) * km + 1.0 / 6.0) / npq_ + 0.5);
     const double t = -km * km / (2 * npq_);
     if (v < t - rho) return k;
     if (v > t + rho) continue;
-    if (v <= special::binomial_log_pmf_int(k, m_, pp_) - log_f_mode_) return k;
+    if (k == 0 || k == m_) {  // the ends, outside BinomialLogRatio's domain (far in the tails)
+      if (v <= special::binomial_log_pmf_int(k, m_, pp_) - special::binomial_log_pmf_int(mode_, m_, pp_))
+        return k;
+      continue;
+    }
+    if (v <= log_ratio_(k)) return k;
   }
 }
 
 double Sampler::draw_integer_part(CounterRng& rng) const {
   switch (method_) {
     case Method::kConstant: return constant_;
-    case Method::kInversion: return flip_ ? m_ - inversion(rng) : inversion(rng);
+    case Method::kInversion: return flip_ ? m_ - inversion_(rng) : inversion_(rng);
     case Method::kBtrd: return flip_ ? m_ - btrd(rng) : btrd(rng);
   }
   return 0.0;
@@ -318,11 +312,11 @@ Distribution distribution(double lambda, std::size_t max_support) {
                                         max_support, "poisson.distribution");
 }
 
-Sampler::Sampler(double lambda) : lambda_(lambda) {
+Sampler::Sampler(double lambda, bool tabulate) : lambda_(lambda) {
   check_lambda("poisson.sample", lambda);
-  if (lambda < 10.0) {
-    e0_ = std::exp(-lambda);
-    bound_ = std::ceil(lambda + 15.0 * std::sqrt(lambda) + 30.0);
+  if (lambda < binomial::kInversionMaxMean) {
+    inversion_ = SmallMeanInversion(std::exp(-lambda), lambda, 0.0,
+                                    std::ceil(lambda + 15.0 * std::sqrt(lambda) + 30.0), tabulate);
   } else {
     ptrd_ = true;
     const double slam = std::sqrt(lambda);
@@ -335,18 +329,7 @@ Sampler::Sampler(double lambda) : lambda_(lambda) {
 
 double Sampler::operator()(CounterRng& rng) const {
   if (lambda_ == 0.0) return 0.0;
-  if (!ptrd_) {
-    for (;;) {
-      double u = rng.uniform(), r = e0_, k = 0;
-      while (u > r) {
-        u -= r;
-        k += 1;
-        if (k > bound_) break;
-        r *= lambda_ / k;
-      }
-      if (k <= bound_) return k;
-    }
-  }
+  if (!ptrd_) return inversion_(rng);
   // Hörmann's PTRD; the final test uses the saddle-point log pmf (accurate for lambda ~ 1e15).
   for (;;) {
     const double u = rng.uniform() - 0.5;

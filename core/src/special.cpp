@@ -88,6 +88,19 @@ double binomial_log_pmf_int(double k, double n, double p) {
   return lc - 0.5 * lf;
 }
 
+BinomialLogRatio::BinomialLogRatio(double n, double p, double j)
+    : n_(n), np_hi_(n * p), np_lo_(std::fma(n, p, -n * p)), nq_(n * (1.0 - p)) {
+  at_j_ = term(j);
+}
+
+double BinomialLogRatio::term(double k) const {
+  const double d = (k - np_hi_) - np_lo_;
+  return -stirlerr(k) - stirlerr(n_ - k) - bd0(k, np_hi_, d) - bd0(n_ - k, nq_, -d) -
+         0.5 * (std::log(k) + std::log1p(-k / n_));
+}
+
+double BinomialLogRatio::operator()(double k) const { return term(k) - at_j_; }
+
 double poisson_log_pmf(double k, double lambda) {
   constexpr double ninf = -std::numeric_limits<double>::infinity();
   if (k < 0) return ninf;

@@ -41,16 +41,18 @@ BINOMIAL_CASES = _seeded([
     (1, 0.5, "inversion"),
     (16, 0.5, "inversion"),                 # m min(p, q) = 8
     (20, 0.45, "inversion"),                # 9
-    (1000, 0.0099, "inversion"),            # 9.9: just below the switch
-    (1000, 0.01, "btrd"),                   # 10: at the switch
-    (30, 0.5, "btrd"),
-    (100, 0.1, "btrd"),
+    (1000, 0.01, "inversion"),              # 10: BTRD's own lower limit, inverted here
+    (1000, 0.0299, "inversion"),            # 29.9: just below the switch
+    (1000, 0.03, "btrd"),                   # 30: at the switch
+    (30, 0.5, "inversion"),
+    (100, 0.31, "btrd"),
     (1000, 0.3, "btrd"),
     (1e6, 0.5, "btrd"),
     (20, 0.8, "inversion-flipped"),
     (100, 0.95, "inversion-flipped"),
     (1000, 0.999, "inversion-flipped"),
-    (50, 0.7, "btrd-flipped"),
+    (50, 0.7, "inversion-flipped-15"),
+    (150, 0.7, "btrd-flipped"),
     (1000, 0.9, "btrd-flipped"),
     (0.5, 0.5, "fractional-facet-only"),
     (10.5, 0.3, "nonint-inversion"),
@@ -68,8 +70,9 @@ BINOMIAL_CASES = _seeded([
 POISSON_CASES = _seeded([
     (1e-3, 1.0, "inversion"),
     (1, 0.5, "inversion"),
-    (9.99, 1.0, "inversion"),               # lam just below the switch
-    (10, 1.0, "ptrd"),                      # lam = 10: at the switch
+    (29.99, 1.0, "inversion"),              # lam just below the switch
+    (30, 1.0, "ptrd"),                      # lam = 30: at the switch
+    (10, 1.0, "inversion-10"),              # PTRD's own lower limit, inverted here
     (100, 0.3, "ptrd"),
     (33.5, 0.9, "ptrd"),
     (1e6, 0.5, "ptrd"),

@@ -17,7 +17,9 @@
 #include <cstddef>
 
 #include "glintlab/distribution.hpp"
+#include "glintlab/inversion.hpp"
 #include "glintlab/rng.hpp"
+#include "glintlab/special.hpp"
 
 namespace glintlab::binomial {
 
@@ -33,18 +35,19 @@ double sf(double k, double n, double p);        // P(K > k)
 double quantile(double u, double n, double p);
 Distribution distribution(double n, double p, std::size_t max_support = kDefaultMaxSupport);
 
-// Draws K with bounded expected cost: inversion by sequential search when min(p, 1 - p) m < 10
-// (expected < 11 steps), otherwise Hörmann's BTRD (1993, "The generation of binomial random
-// variates"), whose expected number of uniforms is below 2.6 for every (n, p). Setup is done once
-// per (n, p); operator() is const and thread-safe.
+// Draws K with bounded expected cost: inversion (inversion.hpp) when min(p, 1 - p) m < 30,
+// otherwise Hörmann's BTRD (1993, "The generation of binomial random variates"), whose expected
+// number of uniforms is below 2.6 for every (n, p). The method depends on (n, p) only, so a draw is
+// a function of (n, p, seed, index) whatever the batch. `tabulate` builds the inversion table
+// (worth it for batches; the result is bit-identical either way). operator() is const and
+// thread-safe.
 class Sampler {
  public:
-  Sampler(double n, double p);
+  Sampler(double n, double p, bool tabulate = false);
   double operator()(CounterRng& rng) const;
 
  private:
   double draw_integer_part(CounterRng& rng) const;
-  double inversion(CounterRng& rng) const;
   double btrd(CounterRng& rng) const;
 
   enum class Method { kConstant, kInversion, kBtrd } method_;
@@ -52,11 +55,11 @@ class Sampler {
   double pp_ = 0;         // min(p, 1 - p)
   bool flip_ = false;     // p > 1/2: K = m - Binomial(m, 1 - p)
   double constant_ = 0;   // result of the integer part when it is deterministic (p in {0, 1}, m = 0)
-  // inversion
-  double q0_ = 0, s_ = 0, a_inv_ = 0, bound_ = 0;
+  SmallMeanInversion inversion_;
   // BTRD
-  double b_ = 0, a_ = 0, c_ = 0, alpha_ = 0, vr_ = 0, urvr_ = 0, mode_ = 0, r_ = 0, nr_ = 0,
-         npq_ = 0, log_f_mode_ = 0;
+  double b_ = 0, a_ = 0, c_ = 0, alpha_ = 0, vr_ = 0, inv_vr_ = 0, urvr_ = 0, mode_ = 0, r_ = 0, nr_ = 0,
+         npq_ = 0;
+  special::BinomialLogRatio log_ratio_;  // log f(k) - log f(mode)
 };
 
 }  // namespace glintlab::binomial
@@ -70,16 +73,17 @@ double sf(double k, double lambda);
 double quantile(double u, double lambda);  // same convention as binomial::quantile
 Distribution distribution(double lambda, std::size_t max_support = kDefaultMaxSupport);
 
-// Inversion for lambda < 10, Hörmann's PTRD (1993, "The transformed rejection method for
-// generating Poisson random variables") above.
+// Inversion for lambda < 30 (as the binomial), Hörmann's PTRD (1993, "The transformed rejection
+// method for generating Poisson random variables") above.
 class Sampler {
  public:
-  explicit Sampler(double lambda);
+  explicit Sampler(double lambda, bool tabulate = false);
   double operator()(CounterRng& rng) const;
 
  private:
   bool ptrd_ = false;
-  double lambda_ = 0, e0_ = 0, bound_ = 0;
+  double lambda_ = 0;
+  SmallMeanInversion inversion_;
   double b_ = 0, a_ = 0, log_inv_alpha_ = 0, vr_ = 0;
 };
 

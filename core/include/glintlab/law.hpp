@@ -50,6 +50,10 @@ class CountingLaw {
   virtual void validate(double n, double p, std::size_t index, bool is_array) const;
 };
 
+// Batches at least this long amortize a per-(n, p) table (e.g. inversion tables); results must not
+// depend on the choice.
+inline constexpr std::size_t kTabulateMinBatch = 64;
+
 using LawFactory = std::function<std::unique_ptr<CountingLaw>(const LawParams&)>;
 
 struct LawInfo {

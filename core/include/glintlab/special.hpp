@@ -27,6 +27,19 @@ inline double k_minus_np(double x, double n, double p) {
 
 // log P(K = k) for K ~ Binomial(n, p), integer-valued n >= 0 and k in [0, n].
 double binomial_log_pmf_int(double k, double n, double p);
+// log P(K = k) - log P(K = j) for Binomial(n, p), p <= 1/2, 0 < j, k < n, with n p split as
+// np_hi + np_lo exactly: the samplers' acceptance test, which must not pay for std::fma (a
+// software routine without -mfma) nor for the terms of the fixed point j on every call.
+struct BinomialLogRatio {
+  BinomialLogRatio() = default;
+  BinomialLogRatio(double n, double p, double j);
+  double operator()(double k) const;  // log f(k) - log f(j)
+
+ private:
+  double term(double k) const;  // log f(k) + stirlerr(n) (the part that depends on k)
+  double n_ = 0, np_hi_ = 0, np_lo_ = 0, nq_ = 0, at_j_ = 0;
+};
+
 // log P(K = k) for K ~ Poisson(lambda), integer k >= 0.
 double poisson_log_pmf(double k, double lambda);
 
