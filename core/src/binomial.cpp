@@ -189,7 +189,7 @@ Sampler::Sampler(double n, double p, bool tabulate) {
     r_ = pp_ / q;
     nr_ = (m_ + 1) * r_;
     npq_ = mean * q;
-    log_ratio_ = special::BinomialLogRatio(m_, pp_, mode_);  // 0 < mode < m since m pp >= 30
+    log_ratio_ = special::BinomialLogRatio(m_, pp_, mode_, tabulate);  // 0 < mode < m: m pp >= 30
   }
 }
 
@@ -217,14 +217,17 @@ double Sampler::btrd(CounterRng& rng) const {
     v = v * alpha_ / (a_ / (us * us) + b_);
     const double km = std::abs(k - mode_);
     if (km <= 15) {
-      // Step 3.1: f(k)/f(mode) by the recursion f(i)/f(i-1) = (n + 1) r / i - r.
-      double f = 1.0;
-      if (mode_ < k) {
-        for (double i = mode_ + 1; i <= k; i += 1) f *= nr_ / i - r_;
-      } else if (mode_ > k) {
-        for (double i = k + 1; i <= mode_; i += 1) v *= nr_ / i - r_;
+      // Step 3.1: f(k)/f(mode) by the recursion f(i)/f(i-1) = ((n + 1) r - r i) / i, kept as a
+      // ratio of two products so that no division is needed (<= 15 factors each, all in
+      // [~30, 1e15]: no overflow or underflow).
+      double num = 1.0, den = 1.0;
+      const double lo = std::min(k, mode_) + 1, hi = std::max(k, mode_);
+      for (double i = lo; i <= hi; i += 1) {
+        num *= nr_ - r_ * i;
+        den *= i;
       }
-      if (v <= f) return k;
+      // mode < k: accept iff v <= num/den; mode > k: iff v num/den <= 1.
+      if (mode_ < k ? v * den <= num : v * num <= den) return k;
       continue;
     }
     // Step 3.2: squeeze on log f(k)/f(mode) around the normal approximation.

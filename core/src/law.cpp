@@ -62,7 +62,8 @@ void validate_all(const CountingLaw& law, ParamArray n, ParamArray p, std::size_
     throw std::invalid_argument("p has " + std::to_string(p.size) + " values; expected 1 or " +
                                 std::to_string(count));
   const std::size_t m = std::max(n.size, p.size);
-  for (std::size_t i = 0; i < m; ++i) law.validate(n[i], p[i], i, m > 1);
+  for (std::size_t i = 0; i < m; ++i)
+    if (!law.accepts(n[i], p[i])) law.validate(n[i], p[i], i, m > 1);
 }
 
 }  // namespace
@@ -84,9 +85,12 @@ Distribution CountingLaw::pmf(double, double, std::size_t) const {
 }
 
 void CountingLaw::validate(double n, double p, std::size_t index, bool is_array) const {
+  if (accepts(n, p)) return;
   const std::string where = name();
   check_n(where, n, indexed_name("n", index, is_array));
   check_p(where, p, indexed_name("p", index, is_array));
+  throw std::invalid_argument(where + ": (n, p) = (" + format_value(n) + ", " + format_value(p) +
+                              ") is outside the law's domain");
 }
 
 bool register_law(LawInfo info) {
@@ -165,8 +169,14 @@ void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t
       law.sample_range(n[0], p[0], seed, i0, i1, out + i0);
     });
   } else {
+    // Runs of equal (n, p) share one sampler setup (results are keyed by index, so unchanged).
     parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
-      for (std::size_t i = i0; i < i1; ++i) law.sample_range(n[i], p[i], seed, i, i + 1, out + i);
+      for (std::size_t i = i0; i < i1;) {
+        std::size_t j = i + 1;
+        while (j < i1 && n[j] == n[i] && p[j] == p[i]) ++j;
+        law.sample_range(n[i], p[i], seed, i, j, out + i);
+        i = j;
+      }
     });
   }
 }

@@ -88,18 +88,25 @@ double binomial_log_pmf_int(double k, double n, double p) {
   return lc - 0.5 * lf;
 }
 
-BinomialLogRatio::BinomialLogRatio(double n, double p, double j)
-    : n_(n), np_hi_(n * p), np_lo_(std::fma(n, p, -n * p)), nq_(n * (1.0 - p)) {
-  at_j_ = term(j);
+BinomialLogRatio::BinomialLogRatio(double n, double p, double j, bool precompute)
+    : n_(n), p_(p), j_(j), np_hi_(n * p), nq_(n * (1.0 - p)), precomputed_(precompute) {
+  if (precompute) {
+    np_lo_ = std::fma(n, p, -np_hi_);
+    at_j_ = term(j, np_lo_);
+  }
 }
 
-double BinomialLogRatio::term(double k) const {
-  const double d = (k - np_hi_) - np_lo_;
+double BinomialLogRatio::term(double k, double np_lo) const {
+  const double d = (k - np_hi_) - np_lo;
   return -stirlerr(k) - stirlerr(n_ - k) - bd0(k, np_hi_, d) - bd0(n_ - k, nq_, -d) -
          0.5 * (std::log(k) + std::log1p(-k / n_));
 }
 
-double BinomialLogRatio::operator()(double k) const { return term(k) - at_j_; }
+double BinomialLogRatio::operator()(double k) const {
+  if (precomputed_) return term(k, np_lo_) - at_j_;
+  const double np_lo = std::fma(n_, p_, -np_hi_);
+  return term(k, np_lo) - term(j_, np_lo);
+}
 
 double poisson_log_pmf(double k, double lambda) {
   constexpr double ninf = -std::numeric_limits<double>::infinity();

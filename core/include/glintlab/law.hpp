@@ -46,7 +46,12 @@ class CountingLaw {
   // Exact law of K; throws not_implemented when the law has none.
   virtual Distribution pmf(double n, double p, std::size_t max_support) const;
 
-  // Checks one (n, p) pair; the default requires a finite n >= 0 and p in [0, 1].
+  // Whether (n, p) is in the law's domain; the default: a finite n >= 0 and p in [0, 1]. Cheap:
+  // the drivers call it for every element and build a message only on failure.
+  virtual bool accepts(double n, double p) const {
+    return n >= 0.0 && n <= 1.7976931348623157e308 && p >= 0.0 && p <= 1.0;
+  }
+  // Throws std::invalid_argument naming the bad parameter ("n[12] = -1 ...") if !accepts(n, p).
   virtual void validate(double n, double p, std::size_t index, bool is_array) const;
 };
 

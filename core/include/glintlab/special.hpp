@@ -30,14 +30,17 @@ double binomial_log_pmf_int(double k, double n, double p);
 // log P(K = k) - log P(K = j) for Binomial(n, p), p <= 1/2, 0 < j, k < n, with n p split as
 // np_hi + np_lo exactly: the samplers' acceptance test, which must not pay for std::fma (a
 // software routine without -mfma) nor for the terms of the fixed point j on every call.
+// `precompute` = false defers all setup to each call (for one-off samplers, which rarely reach the
+// acceptance test at all).
 struct BinomialLogRatio {
   BinomialLogRatio() = default;
-  BinomialLogRatio(double n, double p, double j);
+  BinomialLogRatio(double n, double p, double j, bool precompute);
   double operator()(double k) const;  // log f(k) - log f(j)
 
  private:
-  double term(double k) const;  // log f(k) + stirlerr(n) (the part that depends on k)
-  double n_ = 0, np_hi_ = 0, np_lo_ = 0, nq_ = 0, at_j_ = 0;
+  double term(double k, double np_lo) const;  // log f(k) + stirlerr(n) (the part that depends on k)
+  double n_ = 0, p_ = 0, j_ = 0, np_hi_ = 0, np_lo_ = 0, nq_ = 0, at_j_ = 0;
+  bool precomputed_ = false;
 };
 
 // log P(K = k) for K ~ Poisson(lambda), integer k >= 0.
