@@ -26,6 +26,9 @@ venv:
 	  echo "$(CURDIR)/bindings/python" > $$site/glintlab.pth
 	@printf '#!%s\nimport sys\nfrom glintlab.cli import main\nsys.exit(main())\n' "$(CURDIR)/$(VENV)/bin/python" > $(VENV)/bin/glintlab
 	@chmod +x $(VENV)/bin/glintlab
+	@# A "python3" Jupyter kernel inside the venv, so notebooks run with the installed package.
+	@test -f $(VENV)/share/jupyter/kernels/python3/kernel.json || \
+	  $(VENV)/bin/python -m ipykernel install --sys-prefix --name python3 --display-name "Python 3 (glintlab)" > /dev/null
 
 run: build
 	@$(VENV)/bin/glintlab report --out out/report $(if $(QUICK),--quick,)

@@ -8,7 +8,7 @@ PACKAGES=(
   libeigen3-dev libboost-dev nlohmann-json3-dev catch2 librandom123-dev
   pybind11-dev python3-dev python3-venv python3-pybind11
   python3-numpy python3-scipy python3-matplotlib python3-pandas python3-pytest python3-tqdm
-  python3-rich python3-mpmath
+  python3-rich python3-mpmath python3-nbclient python3-nbformat python3-ipykernel
 )
 
 missing=()
