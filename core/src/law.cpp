@@ -12,6 +12,11 @@
 
 namespace glintlab {
 
+namespace detail {
+void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start,
+                         std::size_t count, int k, double* out, bool allow_simd = true);
+}  // namespace detail
+
 namespace {
 
 std::map<std::string, LawInfo>& registry() {
@@ -70,12 +75,15 @@ void validate_all(const CountingLaw& law, ParamArray n, ParamArray p, std::size_
 
 void CountingLaw::sample_range(double n, double p, std::uint64_t seed, std::size_t i0,
                                std::size_t i1, double* out) const {
+  // The uniforms of fill_uniforms (the vectorized Philox), a block of rows at a time.
   const int k = n_uniforms();
-  std::vector<double> u(static_cast<std::size_t>(k));
-  for (std::size_t i = i0; i < i1; ++i) {
-    auto rng = CounterRng::for_index(seed, i, kStreamSample);
-    for (double& x : u) x = rng.uniform();
-    out[i - i0] = evaluate(n, p, u.data());
+  const std::size_t kk = static_cast<std::size_t>(k);
+  constexpr std::size_t kRows = 256;
+  std::vector<double> u(kRows * std::max<std::size_t>(kk, 1));
+  for (std::size_t b0 = i0; b0 < i1; b0 += kRows) {
+    const std::size_t rows = std::min(kRows, i1 - b0);
+    if (k > 0) detail::philox_uniform_rows(seed, kStreamSample, b0, rows, k, u.data());
+    for (std::size_t r = 0; r < rows; ++r) out[b0 - i0 + r] = evaluate(n, p, u.data() + r * kk);
   }
 }
 
@@ -197,12 +205,10 @@ void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const dou
 void fill_uniforms(std::uint64_t seed, std::uint16_t stream, std::size_t start, std::size_t count,
                    int k, double* out) {
   if (k < 0) throw_invalid("uniforms", "n_uniforms", k, "an integer >= 0");
+  if (k == 0) return;
   const std::size_t kk = static_cast<std::size_t>(k);
   parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
-    for (std::size_t i = i0; i < i1; ++i) {
-      auto rng = CounterRng::for_index(seed, start + i, stream);
-      for (std::size_t j = 0; j < kk; ++j) out[i * kk + j] = rng.uniform();
-    }
+    detail::philox_uniform_rows(seed, stream, start + i0, i1 - i0, k, out + i0 * kk);
   });
 }
 

@@ -7,6 +7,8 @@ import os
 from pathlib import Path
 
 import nbformat
+
+import glintlab
 import pytest
 from nbclient import NotebookClient
 
@@ -22,6 +24,9 @@ def test_notebook_runs(path, monkeypatch):
     monkeypatch.setenv("GLINTLAB_NB_SAMPLES", "20000")
     monkeypatch.setenv("MPLBACKEND", "Agg")
     monkeypatch.setenv("PYDEVD_DISABLE_FILE_VALIDATION", "1")  # ipykernel debugger chatter
+    # The kernel imports the same glintlab as this test, whichever interpreter Jupyter starts.
+    package_root = str(Path(glintlab.__file__).resolve().parents[1])
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [package_root, os.environ.get("PYTHONPATH")])))
     nb = nbformat.read(path, as_version=4)
     assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code"), \
         f"{path.name} is stored with outputs; clear them before committing"

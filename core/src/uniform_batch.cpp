@@ -1,0 +1,116 @@
+// Batch generation of the counter-based uniforms of fill_uniforms(): Philox4x32-10 for 8 rows at a
+// time with AVX2 (the 32x32 -> 64-bit multiplies of even and odd lanes), dispatched at run time, and
+// a portable path for other CPUs. Both are bit-identical to CounterRng: the same Philox4x32-10
+// (Salmon et al. 2011, constants as in Random123), counter layout and 53-bit conversion;
+// tests/cpp/test_rng.cpp checks the identity for both paths.
+#include <immintrin.h>
+
+#include <cstddef>
+#include <cstdint>
+
+namespace glintlab::detail {
+
+namespace {
+
+constexpr std::uint32_t kM0 = 0xD2511F53u, kM1 = 0xCD9E8D57u;  // Philox4x32 multipliers
+constexpr std::uint32_t kW0 = 0x9E3779B9u, kW1 = 0xBB67AE85u;  // Weyl key increments
+
+inline double to_unit(std::uint32_t hi, std::uint32_t lo) {
+  const std::uint64_t bits = (static_cast<std::uint64_t>(hi) << 32) | lo;
+  return (static_cast<double>(bits >> 11) + 0.5) * 0x1.0p-53;
+}
+
+// Writes the two doubles of block `b` into row `row` (the second only if the row has room).
+inline void store_block(double* row, std::size_t b, std::size_t k, std::uint32_t o0, std::uint32_t o1,
+                        std::uint32_t o2, std::uint32_t o3) {
+  row[2 * b] = to_unit(o0, o1);
+  if (2 * b + 1 < k) row[2 * b + 1] = to_unit(o2, o3);
+}
+
+void rows_portable(std::uint32_t key0, std::uint32_t key1, std::uint32_t c3_init, std::size_t start,
+                   std::size_t count, std::size_t k, double* out) {
+  const std::size_t blocks = (k + 1) / 2;
+  for (std::size_t r = 0; r < count; ++r) {
+    const std::uint64_t row = start + r;
+    for (std::size_t b = 0; b < blocks; ++b) {
+      std::uint32_t c0 = static_cast<std::uint32_t>(b), c1 = static_cast<std::uint32_t>(row),
+                    c2 = static_cast<std::uint32_t>(row >> 32), c3 = c3_init, k0 = key0, k1 = key1;
+      for (int round = 0; round < 10; ++round) {
+        const std::uint64_t p0 = static_cast<std::uint64_t>(kM0) * c0;
+        const std::uint64_t p1 = static_cast<std::uint64_t>(kM1) * c2;
+        c0 = static_cast<std::uint32_t>(p1 >> 32) ^ c1 ^ k0;
+        c1 = static_cast<std::uint32_t>(p1);
+        c2 = static_cast<std::uint32_t>(p0 >> 32) ^ c3 ^ k1;
+        c3 = static_cast<std::uint32_t>(p0);
+        k0 += kW0;
+        k1 += kW1;
+      }
+      store_block(out + r * k, b, k, c0, c1, c2, c3);
+    }
+  }
+}
+
+// (hi, lo) of m * x for the 8 unsigned 32-bit lanes of x.
+__attribute__((target("avx2"))) inline void mulhilo8(__m256i m, __m256i x, __m256i& hi, __m256i& lo) {
+  const __m256i even = _mm256_mul_epu32(x, m);                         // lanes 0, 2, 4, 6
+  const __m256i odd = _mm256_mul_epu32(_mm256_srli_epi64(x, 32), m);  // lanes 1, 3, 5, 7
+  lo = _mm256_blend_epi32(even, _mm256_slli_epi64(odd, 32), 0xAA);
+  hi = _mm256_blend_epi32(_mm256_srli_epi64(even, 32), odd, 0xAA);
+}
+
+__attribute__((target("avx2"))) void rows_avx2(std::uint32_t key0, std::uint32_t key1,
+                                                std::uint32_t c3_init, std::size_t start,
+                                                std::size_t count, std::size_t k, double* out) {
+  const std::size_t blocks = (k + 1) / 2;
+  const __m256i m0 = _mm256_set1_epi32(static_cast<int>(kM0)), m1 = _mm256_set1_epi32(static_cast<int>(kM1));
+  std::size_t base = 0;
+  for (; base + 8 <= count; base += 8) {
+    const std::uint64_t first = start + base;
+    // Row numbers: low words first + lane; the high word is per lane too (a batch may cross 2^32).
+    alignas(32) std::uint32_t lo_words[8], hi_words[8];
+    for (int l = 0; l < 8; ++l) {
+      lo_words[l] = static_cast<std::uint32_t>(first + l);
+      hi_words[l] = static_cast<std::uint32_t>((first + l) >> 32);
+    }
+    for (std::size_t b = 0; b < blocks; ++b) {
+      __m256i c0 = _mm256_set1_epi32(static_cast<int>(b));
+      __m256i c1 = _mm256_load_si256(reinterpret_cast<const __m256i*>(lo_words));
+      __m256i c2 = _mm256_load_si256(reinterpret_cast<const __m256i*>(hi_words));
+      __m256i c3 = _mm256_set1_epi32(static_cast<int>(c3_init));
+      std::uint32_t k0 = key0, k1 = key1;
+      for (int round = 0; round < 10; ++round) {
+        __m256i hi0, lo0, hi1, lo1;
+        mulhilo8(m0, c0, hi0, lo0);
+        mulhilo8(m1, c2, hi1, lo1);
+        c0 = _mm256_xor_si256(_mm256_xor_si256(hi1, c1), _mm256_set1_epi32(static_cast<int>(k0)));
+        c1 = lo1;
+        c2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), _mm256_set1_epi32(static_cast<int>(k1)));
+        c3 = lo0;
+        k0 += kW0;
+        k1 += kW1;
+      }
+      alignas(32) std::uint32_t o0[8], o1[8], o2[8], o3[8];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(o0), c0);
+      _mm256_store_si256(reinterpret_cast<__m256i*>(o1), c1);
+      _mm256_store_si256(reinterpret_cast<__m256i*>(o2), c2);
+      _mm256_store_si256(reinterpret_cast<__m256i*>(o3), c3);
+      for (int l = 0; l < 8; ++l) store_block(out + (base + l) * k, b, k, o0[l], o1[l], o2[l], o3[l]);
+    }
+  }
+  rows_portable(key0, key1, c3_init, start + base, count - base, k, out + base * k);
+}
+
+}  // namespace
+
+// Rows [start, start + count): row r gets blocks 0 .. ceil(k/2) - 1 of key (seed, r, stream).
+void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start,
+                         std::size_t count, int k, double* out, bool allow_simd) {
+  const std::uint32_t key0 = static_cast<std::uint32_t>(seed), key1 = static_cast<std::uint32_t>(seed >> 32);
+  const std::uint32_t c3 = stream;  // level 0 in the upper 16 bits
+  const std::size_t kk = static_cast<std::size_t>(k);
+  static const bool has_avx2 = __builtin_cpu_supports("avx2");
+  if (allow_simd && has_avx2) rows_avx2(key0, key1, c3, start, count, kk, out);
+  else rows_portable(key0, key1, c3, start, count, kk, out);
+}
+
+}  // namespace glintlab::detail
