@@ -98,17 +98,23 @@ PYBIND11_MODULE(_core, m) {
              py::gil_scoped_release release;
              return law.pmf(n, p, max_support);
            }, py::arg("n"), py::arg("p"), py::arg("max_support") = kDefaultMaxSupport)
+      .def("supports", [](const CountingLaw& law, const std::string& precision) {
+             return law.supports(precision_from_name(precision));
+           }, py::arg("precision"))
       .def("sample", [](const CountingLaw& law, const Array& n, const Array& p, std::size_t count,
-                        std::uint64_t s) {
+                        std::uint64_t s, const std::string& precision) {
+             const Precision prec = precision_from_name(precision);
              py::array_t<double> out(static_cast<py::ssize_t>(count));
              double* o = out.mutable_data();
              {
                py::gil_scoped_release release;
-               sample_many(law, param(n), param(p), count, s, o);
+               sample_many(law, param(n), param(p), count, s, o, prec);
              }
              return out;
-           }, py::arg("n"), py::arg("p"), py::arg("count"), py::arg("seed"))
-      .def("evaluate", [](const CountingLaw& law, const Array& n, const Array& p, const Array& u) {
+           }, py::arg("n"), py::arg("p"), py::arg("count"), py::arg("seed"), py::arg("precision"))
+      .def("evaluate", [](const CountingLaw& law, const Array& n, const Array& p, const Array& u,
+                          const std::string& precision) {
+             const Precision prec = precision_from_name(precision);
              const auto count = static_cast<std::size_t>(u.ndim() == 2 ? u.shape(0) : 0);
              if (u.ndim() != 2 || u.shape(1) != law.n_uniforms())
                throw std::invalid_argument(law.name() + ".evaluate: u must have shape (m, " +
@@ -117,10 +123,10 @@ PYBIND11_MODULE(_core, m) {
              double* o = out.mutable_data();
              {
                py::gil_scoped_release release;
-               evaluate_many(law, param(n), param(p), u.data(), count, o);
+               evaluate_many(law, param(n), param(p), u.data(), count, o, prec);
              }
              return out;
-           }, py::arg("n"), py::arg("p"), py::arg("u"));
+           }, py::arg("n"), py::arg("p"), py::arg("u"), py::arg("precision"));
 
   m.def("make_law", [](const std::string& name, const py::dict& kwargs) {
     return std::shared_ptr<CountingLaw>(make_law(name, to_params(kwargs)));

@@ -112,6 +112,14 @@ Distribution Distribution::from_log_concave(const std::function<double(double)>&
   return d;
 }
 
+Distribution Distribution::with_trimmed_tails(std::vector<double> support, std::vector<double> probs,
+                                              bool trimmed_below, bool trimmed_above) {
+  Distribution d(std::move(support), std::move(probs));
+  d.trimmed_below_ = trimmed_below;
+  d.trimmed_above_ = trimmed_above;
+  return d;
+}
+
 Distribution Distribution::empirical(const double* samples, std::size_t count) {
   if (count == 0) throw std::invalid_argument("empirical distribution: samples is empty");
   std::vector<double> v(samples, samples + count);

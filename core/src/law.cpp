@@ -87,6 +87,41 @@ void CountingLaw::sample_range(double n, double p, std::uint64_t seed, std::size
   }
 }
 
+double CountingLaw::evaluate_f32(double, double, const double*) const {
+  throw_invalid(name(), "precision", "'float32'", "'float64' (this law is defined in float64 only)");
+}
+
+Precision precision_from_name(const std::string& name) {
+  if (name == "float64") return Precision::kFloat64;
+  if (name == "float32") return Precision::kFloat32;
+  throw_invalid("precision", "precision", "'" + name + "'", "'float64' or 'float32'");
+}
+
+std::string precision_name(Precision precision) {
+  return precision == Precision::kFloat32 ? "float32" : "float64";
+}
+
+namespace {
+void require_precision(const CountingLaw& law, Precision precision) {
+  if (!law.supports(precision))
+    throw_invalid(law.name(), "precision", "'" + precision_name(precision) + "'",
+                  "'float64' (this law is defined in float64 only)");
+}
+
+// float32 sampling: evaluate_f32 on the batch uniforms, a block of rows at a time.
+void sample_range_f32(const CountingLaw& law, double n, double p, std::uint64_t seed, std::size_t i0,
+                      std::size_t i1, double* out) {
+  const std::size_t kk = static_cast<std::size_t>(law.n_uniforms());
+  constexpr std::size_t kRows = 256;
+  std::vector<double> u(kRows * std::max<std::size_t>(kk, 1));
+  for (std::size_t b0 = i0; b0 < i1; b0 += kRows) {
+    const std::size_t rows = std::min(kRows, i1 - b0);
+    if (kk > 0) detail::philox_uniform_rows(seed, kStreamSample, b0, rows, static_cast<int>(kk), u.data());
+    for (std::size_t r = 0; r < rows; ++r) out[b0 - i0 + r] = law.evaluate_f32(n, p, u.data() + r * kk);
+  }
+}
+}  // namespace
+
 Distribution CountingLaw::pmf(double, double, std::size_t) const {
   throw not_implemented("law '" + name() +
                         "' has no exact distribution; estimate one from samples instead");
@@ -170,19 +205,22 @@ void set_num_threads(int threads) {
 int num_threads() { return thread_setting(); }
 
 void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count,
-                 std::uint64_t seed, double* out) {
+                 std::uint64_t seed, double* out, Precision precision) {
+  require_precision(law, precision);
   validate_all(law, n, p, count);
+  const auto range = [&](double nn, double pp, std::size_t i0, std::size_t i1, double* o) {
+    if (precision == Precision::kFloat32) sample_range_f32(law, nn, pp, seed, i0, i1, o);
+    else law.sample_range(nn, pp, seed, i0, i1, o);
+  };
   if (n.size == 1 && p.size == 1) {
-    parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
-      law.sample_range(n[0], p[0], seed, i0, i1, out + i0);
-    });
+    parallel_chunks(count, [&](std::size_t i0, std::size_t i1) { range(n[0], p[0], i0, i1, out + i0); });
   } else {
     // Runs of equal (n, p) share one sampler setup (results are keyed by index, so unchanged).
     parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
       for (std::size_t i = i0; i < i1;) {
         std::size_t j = i + 1;
         while (j < i1 && n[j] == n[i] && p[j] == p[i]) ++j;
-        law.sample_range(n[i], p[i], seed, i, j, out + i);
+        range(n[i], p[i], i, j, out + i);
         i = j;
       }
     });
@@ -190,7 +228,8 @@ void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t
 }
 
 void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const double* u,
-                   std::size_t count, double* out) {
+                   std::size_t count, double* out, Precision precision) {
+  require_precision(law, precision);
   validate_all(law, n, p, count);
   const std::size_t k = static_cast<std::size_t>(law.n_uniforms());
   for (std::size_t i = 0; i < count * k; ++i)
@@ -198,7 +237,11 @@ void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const dou
       throw_invalid(law.name(), "u[" + std::to_string(i / k) + ", " + std::to_string(i % k) + "]",
                     u[i], "a uniform number in [0, 1]");
   parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
-    for (std::size_t i = i0; i < i1; ++i) out[i] = law.evaluate(n[i], p[i], u + i * k);
+    if (precision == Precision::kFloat32) {
+      for (std::size_t i = i0; i < i1; ++i) out[i] = law.evaluate_f32(n[i], p[i], u + i * k);
+    } else {
+      for (std::size_t i = i0; i < i1; ++i) out[i] = law.evaluate(n[i], p[i], u + i * k);
+    }
   });
 }
 

@@ -84,3 +84,32 @@ TEST_CASE("evaluate inverts the exact cdf and fill_uniforms feeds the default sa
   fill_uniforms(5, kStreamSample, 990, 10, 1, tail.data());
   CHECK(std::equal(tail.begin(), tail.end(), u.begin() + 990));
 }
+
+TEST_CASE("precision: templated laws run in float32, exact laws refuse it", "[law][precision]") {
+  auto gauss = make_law("gaussian", {{"rounding", std::string("round")}});
+  auto binom = make_law("binomial");
+  CHECK(gauss->supports(Precision::kFloat32));
+  CHECK_FALSE(binom->supports(Precision::kFloat32));
+  CHECK(precision_from_name("float32") == Precision::kFloat32);
+  CHECK_THROWS_WITH(precision_from_name("half"), Contains("precision = 'half'"));
+  const double n = 1e6, p = 0.3;
+  std::vector<double> out(4096), out32(4096);
+  sample_many(*gauss, {&n, 1}, {&p, 1}, out.size(), 3, out.data(), Precision::kFloat64);
+  sample_many(*gauss, {&n, 1}, {&p, 1}, out32.size(), 3, out32.data(), Precision::kFloat32);
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < out.size(); ++i) differ += out[i] != out32[i];
+  // float has a spacing of 0.03 at n p = 3e5: a few percent of the rounding boundaries move.
+  CHECK(differ > 0);
+  CHECK(differ < out.size() / 5);
+  CHECK_THROWS_WITH(sample_many(*binom, {&n, 1}, {&p, 1}, 4, 3, out.data(), Precision::kFloat32),
+                    Contains("precision = 'float32'"));
+  // u = 0 and u = 1 (Phi^-1 infinite) and a degenerate sd stay finite and in range.
+  for (double uu : {0.0, 1.0}) {
+    for (auto [nn, pp] : {std::pair{16.0, 0.0}, {16.0, 1.0}, {0.0, 0.5}, {16.0, 0.5}}) {
+      const double k = gauss->evaluate(nn, pp, &uu), k32 = gauss->evaluate_f32(nn, pp, &uu);
+      INFO("n = " << nn << ", p = " << pp << ", u = " << uu << ": K = " << k << ", K32 = " << k32);
+      CHECK((k >= 0 && k <= std::ceil(nn)));
+      CHECK((k32 >= 0 && k32 <= std::ceil(nn)));
+    }
+  }
+}

@@ -12,6 +12,7 @@ from . import _core
 from . import _validate as v
 from ._core import Distribution
 
+PRECISIONS = ("float64", "float32")
 _CHUNK = 1 << 20  # rows of uniforms materialized at once for custom laws (8 MB per uniform)
 _custom_laws: dict[str, "CustomLaw"] = {}
 
@@ -39,6 +40,11 @@ class Law:
     def has_pmf(self) -> bool:
         return self._core.has_pmf
 
+    @property
+    def precisions(self) -> tuple:
+        """Arithmetic the law can be evaluated in: ("float64",) or ("float64", "float32")."""
+        return tuple(x for x in PRECISIONS if self._core.supports(x))
+
     def __repr__(self):
         args = "".join(f", {k}={val!r}" for k, val in self.params.items())
         return f"glintlab.law({self.name!r}{args})"
@@ -54,28 +60,31 @@ class Law:
             v.fail("max_support", max_support, "an integer >= 1")
         return self._core.pmf(n, p, int(max_support))
 
-    def sample(self, n, p, size=None, seed=None) -> np.ndarray:
+    def sample(self, n, p, size=None, seed=None, precision: str = "float64") -> np.ndarray:
         """Draws counts (float64). n, p: scalars or arrays broadcast numpy-style with ``size``.
 
         Sample i uses random numbers keyed by (seed, i) only, so the output is the same whatever the
         number of threads; ``seed=None`` draws a fresh seed from the operating system.
+        ``precision="float32"`` evaluates the law in single precision (see ``precisions``).
         """
         shape = v.size(size)
         seed = v.seed(seed)
+        precision = _precision(precision)
         nf, pf, shape = v.broadcast_params(n, p, shape)
         count = int(np.prod(shape, dtype=np.int64))
-        return self._sample_flat(nf, pf, count, seed).reshape(shape)
+        return self._sample_flat(nf, pf, count, seed, precision).reshape(shape)
 
-    def _sample_flat(self, nf, pf, count, seed):
-        return self._core.sample(nf, pf, count, seed)
+    def _sample_flat(self, nf, pf, count, seed, precision):
+        return self._core.sample(nf, pf, count, seed, precision)
 
-    def evaluate(self, n, p, u) -> np.ndarray:
+    def evaluate(self, n, p, u, precision: str = "float64") -> np.ndarray:
         """Deterministic counts from explicit uniforms u of shape (m, n_uniforms); n, p broadcast to (m,)."""
+        precision = _precision(precision)
         u = _uniform_rows(u, self.n_uniforms)
         nf, pf, _ = v.broadcast_params(n, p, (u.shape[0],))
-        return self._core.evaluate(nf, pf, u)
+        return self._core.evaluate(nf, pf, u, precision)
 
-    def estimate_pmf(self, n, p, samples: int = 10**6, seed=0) -> Distribution:
+    def estimate_pmf(self, n, p, samples: int = 10**6, seed=0, precision: str = "float64") -> Distribution:
         """Empirical distribution of ``samples`` draws at scalar (n, p).
 
         Each probability has Monte Carlo standard error sqrt(q (1 - q) / samples).
@@ -83,7 +92,7 @@ class Law:
         n, p = _scalar("n", n), _scalar("p", p)
         if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
             v.fail("samples", samples, "an integer >= 1")
-        return Distribution.empirical(self.sample(n, p, size=int(samples), seed=seed))
+        return Distribution.empirical(self.sample(n, p, size=int(samples), seed=seed, precision=precision))
 
 
 class CustomLaw(Law):
@@ -103,16 +112,19 @@ class CustomLaw(Law):
     params = property(lambda self: {})
     n_uniforms = property(lambda self: self._k)
     has_pmf = property(lambda self: False)
+    precisions = property(lambda self: PRECISIONS)
 
     def pmf(self, n, p, max_support: int = 50_000_000):
         raise NotImplementedError(
             f"custom law {self._name!r} has no exact distribution; use "
             f"law.estimate_pmf(n, p, samples=..., seed=...) for a Monte Carlo estimate")
 
-    def _call(self, nf, pf, u):
+    def _call(self, nf, pf, u, precision="float64"):
         m = u.shape[0]
         n_rows = np.broadcast_to(nf, (m,)) if nf.size == 1 else nf
         p_rows = np.broadcast_to(pf, (m,)) if pf.size == 1 else pf
+        if precision == "float32":  # the function sees float32 inputs, as a shader would
+            n_rows, p_rows, u = n_rows.astype(np.float32), p_rows.astype(np.float32), u.astype(np.float32)
         try:
             out = np.asarray(self._fn(n_rows, p_rows, u), dtype=np.float64)
         except Exception as exc:
@@ -138,20 +150,21 @@ class CustomLaw(Law):
                 label = name if arr.size == 1 else f"{name}[{i}]"
                 raise ValueError(f"{self._name}: {label} = {arr[i]!r} is invalid; expected {expected}")
 
-    def evaluate(self, n, p, u):
+    def evaluate(self, n, p, u, precision: str = "float64"):
+        precision = _precision(precision)
         u = _uniform_rows(u, self._k)
         nf, pf, _ = v.broadcast_params(n, p, (u.shape[0],))
         self._check_np(nf, pf)
-        return self._call(nf, pf, u)
+        return self._call(nf, pf, u, precision)
 
-    def _sample_flat(self, nf, pf, count, seed):
+    def _sample_flat(self, nf, pf, count, seed, precision):
         self._check_np(nf, pf)
         out = np.empty(count)
         for i0 in range(0, count, _CHUNK):
             i1 = min(count, i0 + _CHUNK)
             u = _core.uniforms(i0, i1 - i0, self._k, seed, 0)
             out[i0:i1] = self._call(nf if nf.size == 1 else nf[i0:i1],
-                                    pf if pf.size == 1 else pf[i0:i1], u)
+                                    pf if pf.size == 1 else pf[i0:i1], u, precision)
         return out
 
 
@@ -205,6 +218,12 @@ def uniforms(size: int, n_uniforms: int, seed=0, start: int = 0) -> np.ndarray:
     if isinstance(start, bool) or not isinstance(start, (int, np.integer)) or start < 0:
         v.fail("start", start, "an integer >= 0")
     return _core.uniforms(int(start), shape[0], int(n_uniforms), v.seed(seed), 0)
+
+
+def _precision(value):
+    if value not in PRECISIONS:
+        v.fail("precision", value, "'float64' or 'float32'")
+    return value
 
 
 def _scalar(name, value):

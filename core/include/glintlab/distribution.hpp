@@ -43,6 +43,11 @@ class Distribution {
                                        double hi, double mode, std::size_t max_support,
                                        std::string_view where);
 
+  // A law given on part of its support, the rest (below the first / above the last point, total
+  // below 1e-14) trimmed away: probs sum to 1 within 1e-9 as in the constructor.
+  static Distribution with_trimmed_tails(std::vector<double> support, std::vector<double> probs,
+                                         bool trimmed_below, bool trimmed_above);
+
   // The empirical law of samples (each distinct value with its frequency). Samples must be finite.
   static Distribution empirical(const double* samples, std::size_t count);
 

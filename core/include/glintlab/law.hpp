@@ -19,6 +19,12 @@
 namespace glintlab {
 
 using ParamValue = std::variant<double, std::string>;
+
+// Arithmetic a law is evaluated in. float32 rounds n, p and the uniforms to float and computes in
+// float (a shader's view); results come back as double. Exact laws exist in float64 only.
+enum class Precision { kFloat64, kFloat32 };
+Precision precision_from_name(const std::string& name);  // "float64" / "float32"; throws naming it
+std::string precision_name(Precision precision);
 using LawParams = std::map<std::string, ParamValue>;
 
 class CountingLaw {
@@ -34,6 +40,9 @@ class CountingLaw {
   // Deterministic evaluation: K from (n, p) and u[0 .. n_uniforms), each u in [0, 1].
   // Arguments are validated by the vectorized drivers below, not here (hot path).
   virtual double evaluate(double n, double p, const double* u) const = 0;
+  // The same in float32 (see Precision); laws that support it say so in supports().
+  virtual double evaluate_f32(double n, double p, const double* u) const;
+  virtual bool supports(Precision precision) const { return precision == Precision::kFloat64; }
 
   // Samples i0 .. i1-1 of a batch with fixed (n, p): sample i uses CounterRng::for_index(seed, i,
   // kStreamSample), so results do not depend on how the batch is split between threads. The default
@@ -101,11 +110,12 @@ void set_num_threads(int threads);
 int num_threads();
 
 // out[i] = K for (n[i], p[i]) drawn with the counter RNG; validates everything first.
+// In float32, sample i is evaluate_f32 on the uniforms of row i (those of fill_uniforms).
 void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count,
-                 std::uint64_t seed, double* out);
+                 std::uint64_t seed, double* out, Precision precision = Precision::kFloat64);
 // out[i] = law.evaluate(n[i], p[i], u + i * n_uniforms); validates everything first.
 void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const double* u,
-                   std::size_t count, double* out);
+                   std::size_t count, double* out, Precision precision = Precision::kFloat64);
 // Row-major count x k uniforms in (0, 1): row r holds the first k draws of
 // CounterRng::for_index(seed, start + r, stream). With stream = kStreamSample these are exactly the
 // numbers the default sample_range() hands to evaluate(), so a law re-implemented in Python as a

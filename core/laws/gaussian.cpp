@@ -1,0 +1,75 @@
+// Law "gaussian": the moment-matched normal approximation of the binomial (LAWS.md §3),
+//   G = n p + sqrt(n p (1 - p)) Phi^-1(u),   K = clamp(floor(G) or round(G), 0, top),
+// with top = ceil(n), the largest count of the stratified binomial (binomial.hpp) it approximates.
+// Rounding "round" is floor(G + 1/2). Parameters: rounding = "floor" (default) | "round".
+//
+// Exact law: with thresholds t_k = k (floor) or k - 1/2 (round),
+//   P(K = k) = P(t_k <= G < t_{k+1}) for 0 < k < top; the clamped ends take the tails:
+//   P(K = 0) = P(G < t_1), P(K = top) = P(G >= t_top).
+// Degenerate sd (p in {0, 1} or n = 0) gives K = clamp(rounding(n p)).
+#include <cmath>
+
+#include "glintlab/errors.hpp"
+#include "glintlab/normal.hpp"
+#include "glintlab/templated_law.hpp"
+
+namespace glintlab {
+namespace {
+
+class GaussianLaw final : public TemplatedLaw<GaussianLaw> {
+ public:
+  explicit GaussianLaw(bool round) : round_(round) {}
+  std::string name() const override { return "gaussian"; }
+  LawParams params() const override { return {{"rounding", std::string(round_ ? "round" : "floor")}}; }
+  int n_uniforms() const override { return 1; }
+
+  template <class T>
+  T eval(T n, T p, const T* u) const {
+    const T mean = n * p, sd = std::sqrt(mean * (T(1) - p));
+    const T top = std::ceil(n);
+    // sd = 0 would make 0 * (+-inf) = NaN at u in {0, 1}: the law is then the point n p.
+    const T g = sd > T(0) ? mean + sd * normal::quantile(u[0]) : mean;
+    const T k = round_ ? std::floor(g + T(0.5)) : std::floor(g);
+    return k < T(0) ? T(0) : (k > top ? top : k);  // clamp; +-inf map to the ends
+  }
+
+  bool has_pmf() const override { return true; }
+  Distribution pmf(double n, double p, std::size_t max_support) const override {
+    const double mean = n * p, sd = std::sqrt(mean * (1.0 - p)), top = std::ceil(n);
+    const double shift = round_ ? 0.5 : 0.0;  // K = k iff k - shift <= G < k + 1 - shift
+    if (!(sd > 0)) {
+      const double u = 0.5;
+      return Distribution({eval<double>(n, p, &u)}, {1.0});
+    }
+    // Support: the counts whose interval lies within 8.5 sd of the mean (the rest < 1e-16 a side).
+    const double lo = std::max(0.0, std::floor(mean + shift - 8.5 * sd));
+    const double hi = std::min(top, std::ceil(mean + shift + 8.5 * sd));
+    if (hi - lo + 1 > static_cast<double>(max_support))
+      throw std::invalid_argument("gaussian.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
+                                  " needs more than max_support = " + std::to_string(max_support) +
+                                  " support points");
+    std::vector<double> ks, ps;
+    for (double k = lo; k <= hi; k += 1) {
+      const double a = k == 0 ? -INFINITY : (k - shift - mean) / sd;
+      const double b = k == top ? INFINITY : (k + 1 - shift - mean) / sd;
+      ks.push_back(k);
+      ps.push_back(normal::interval(a, b));
+    }
+    return Distribution::with_trimmed_tails(std::move(ks), std::move(ps), lo > 0, hi < top);
+  }
+
+ private:
+  bool round_;
+};
+
+const bool registered = register_law(
+    {"gaussian", "moment-matched normal, floor or round (rounding=), clamped to [0, ceil(n)]",
+     [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
+       ParamReader reader("gaussian", params);
+       const bool round = reader.text("rounding", "floor", {"floor", "round"}) == "round";
+       reader.finish();
+       return std::make_unique<GaussianLaw>(round);
+     }});
+
+}  // namespace
+}  // namespace glintlab

@@ -1,0 +1,109 @@
+"""Approximate (constant-time) laws: exact pmf against the law itself, samplers against the pmf, the
+extremes of LAWS.md section 8 in float64 and float32, and bad parameters.
+
+Each law here maps one uniform through a monotone quantile-like function, so its exact pmf can be
+checked deterministically first: P(K = k) is the length of the set of u with evaluate(u) = k, which
+a fine grid of u measures to within its spacing. Chi-square tests come second: fixed seeds, 1e6
+samples, family-wise false-failure rate 1e-3 split over the module's checks with Sidak.
+"""
+import math
+
+import numpy as np
+import pytest
+
+import glintlab as gl
+
+APPROX = [("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"})]
+POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (10.5, 0.3), (1, 0.5), (1e6, 1e-6), (40, 0.97), (3.7, 0.6)]
+ALPHA = gl.sidak_alpha(1e-3, len(APPROX) * len(POINTS))
+
+
+def ids(case):
+    name, params = case
+    return name + "".join(f"-{k}={v}" for k, v in params.items())
+
+
+@pytest.mark.parametrize("case", APPROX, ids=ids)
+@pytest.mark.parametrize("n,p", POINTS)
+def test_pmf_matches_the_law_on_a_fine_grid_of_u(case, n, p):
+    name, params = case
+    law = gl.law(name, **params)
+    m = 2_000_000
+    u = (np.arange(m) + 0.5) / m
+    k = law.evaluate(n, p, u.reshape(-1, 1))
+    values, counts = np.unique(k, return_counts=True)
+    grid = gl.Distribution(values, counts / m)
+    d = law.pmf(n, p)
+    # Each value's measure is off by at most one grid cell per boundary it has (2 / m).
+    assert gl.distance(grid, d, "tv") <= len(values) * 2 / m + 1e-12, (name, params, n, p)
+    assert abs(d.probs.sum() - 1) < 1e-12
+
+
+@pytest.mark.parametrize("case", APPROX, ids=ids)
+@pytest.mark.parametrize("n,p", POINTS)
+def test_sampler_matches_pmf(case, n, p):
+    name, params = case
+    law = gl.law(name, **params)
+    seed = 4000 + POINTS.index((n, p))
+    x = law.sample(n, p, size=10**6, seed=seed)
+    r = gl.chi2_test(x, law.pmf(n, p))
+    assert r.pvalue > ALPHA, f"{name} {params} n={n} p={p} seed={seed}: chi2={r.statistic} dof={r.dof} p={r.pvalue} {r.note}"
+
+
+def test_the_check_rejects_the_wrong_rounding():
+    # Samples of the floor variant against the round variant's pmf must fail.
+    x = gl.law("gaussian", rounding="floor").sample(16, 0.1, size=10**6, seed=9)
+    assert gl.chi2_test(x, gl.law("gaussian", rounding="round").pmf(16, 0.1)).pvalue < 1e-10
+
+
+EXTREME_N = [0.0, 1e-6, 0.5, 1.0, 2.0, 16.0, 17.0, 1e9, 1e15]
+EXTREME_P = [0.0, 1e-300, 1e-12, 1e-7, 0.5, 1 - 1e-7, 1.0]
+EXTREME_U = np.array([0.0, 2.0**-53, 1e-300, 0.5, 1 - 2.0**-53, 1.0, 0.999969482421875,  # a float16 value
+                      np.float64(np.float16(0.3))])
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+@pytest.mark.parametrize("case", APPROX, ids=ids)
+def test_extremes_give_finite_counts_in_range(case, precision):
+    name, params = case
+    law = gl.law(name, **params)
+    nn, pp, uu = np.meshgrid(EXTREME_N, EXTREME_P, EXTREME_U, indexing="ij")
+    k = law.evaluate(nn.ravel(), pp.ravel(), uu.reshape(-1, 1), precision=precision)
+    top = np.ceil(nn.ravel())
+    bad = ~(np.isfinite(k) & (k >= 0) & (k <= top) & (k == np.floor(k)))
+    assert not bad.any(), [(n, p, u, kk) for n, p, u, kk in
+                           zip(nn.ravel()[bad], pp.ravel()[bad], uu.ravel()[bad], k[bad])][:5]
+
+
+@pytest.mark.parametrize("case", APPROX, ids=ids)
+def test_float32_is_the_same_law_where_float_resolves_it(case):
+    # At moderate n the float32 evaluation of the same uniforms gives the same counts (almost
+    # always); at n p ~ 3e5 float spacing (0.03) moves a measurable share of the floor boundaries.
+    name, params = case
+    law = gl.law(name, **params)
+    u = gl.uniforms(200_000, 1, seed=5)
+    same = law.evaluate(16, 0.1, u) == law.evaluate(16, 0.1, u, precision="float32")
+    assert same.mean() > 0.999
+    far = law.evaluate(1e6, 0.3, u) != law.evaluate(1e6, 0.3, u, precision="float32")
+    assert far.mean() > 1e-3
+
+
+def test_bad_parameters_are_named():
+    with pytest.raises(ValueError, match="rounding = 'up'"):
+        gl.law("gaussian", rounding="up")
+    with pytest.raises(ValueError, match="unknown parameter 'cap'"):
+        gl.law("gaussian", cap=3)
+    with pytest.raises(ValueError, match="precision"):
+        gl.law("gaussian").sample(1, 0.5, size=3, seed=1, precision="float16")
+    with pytest.raises(ValueError, match="precision = 'float32'"):
+        gl.law("binomial").sample(1, 0.5, size=3, seed=1, precision="float32")
+    with pytest.raises(ValueError, match=r"p = 1\.5"):
+        gl.law("gaussian").sample(1, 1.5, size=3, seed=1)
+
+
+def test_sample_is_evaluate_on_the_sample_uniforms():
+    law = gl.law("gaussian", rounding="round")
+    for precision in ("float64", "float32"):
+        x = law.sample(1e3, 0.01, size=5000, seed=11, precision=precision)
+        y = law.evaluate(1e3, 0.01, gl.uniforms(5000, 1, seed=11), precision=precision)
+        assert np.array_equal(x, y), precision
