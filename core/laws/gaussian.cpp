@@ -9,7 +9,6 @@
 // Degenerate sd (p in {0, 1} or n = 0) gives K = clamp(rounding(n p)).
 #include <cmath>
 
-#include "glintlab/errors.hpp"
 #include "glintlab/normal.hpp"
 #include "glintlab/templated_law.hpp"
 
@@ -35,27 +34,14 @@ class GaussianLaw final : public TemplatedLaw<GaussianLaw> {
 
   bool has_pmf() const override { return true; }
   Distribution pmf(double n, double p, std::size_t max_support) const override {
-    const double mean = n * p, sd = std::sqrt(mean * (1.0 - p)), top = std::ceil(n);
-    const double shift = round_ ? 0.5 : 0.0;  // K = k iff k - shift <= G < k + 1 - shift
+    const double mean = n * p, sd = std::sqrt(mean * (1.0 - p));
     if (!(sd > 0)) {
       const double u = 0.5;
       return Distribution({eval<double>(n, p, &u)}, {1.0});
     }
-    // Support: the counts whose interval lies within 8.5 sd of the mean (the rest < 1e-16 a side).
-    const double lo = std::max(0.0, std::floor(mean + shift - 8.5 * sd));
-    const double hi = std::min(top, std::ceil(mean + shift + 8.5 * sd));
-    if (hi - lo + 1 > static_cast<double>(max_support))
-      throw std::invalid_argument("gaussian.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
-                                  " needs more than max_support = " + std::to_string(max_support) +
-                                  " support points");
-    std::vector<double> ks, ps;
-    for (double k = lo; k <= hi; k += 1) {
-      const double a = k == 0 ? -INFINITY : (k - shift - mean) / sd;
-      const double b = k == top ? INFINITY : (k + 1 - shift - mean) / sd;
-      ks.push_back(k);
-      ps.push_back(normal::interval(a, b));
-    }
-    return Distribution::with_trimmed_tails(std::move(ks), std::move(ps), lo > 0, hi < top);
+    auto law = normal::discretized(mean, sd, std::ceil(n), round_ ? 0.5 : 0.0, max_support, "gaussian.pmf");
+    return Distribution::with_trimmed_tails(std::move(law.support), std::move(law.probs),
+                                            law.trimmed_below, law.trimmed_above);
   }
 
  private:

@@ -13,8 +13,10 @@ import pytest
 
 import glintlab as gl
 
-APPROX = [("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"})]
-POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (10.5, 0.3), (1, 0.5), (1e6, 1e-6), (40, 0.97), (3.7, 0.6)]
+APPROX = [("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"}), ("gated", {}),
+          ("zk16", {}), ("zk16", {"cap": 4}), ("threshold", {}), ("threshold", {"T": 2.5})]
+POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (10.5, 0.3), (1, 0.5), (1e6, 1e-6), (40, 0.97), (3.7, 0.6),
+          (40, 0.1), (0.4, 0.9)]
 ALPHA = gl.sidak_alpha(1e-3, len(APPROX) * len(POINTS))
 
 
@@ -26,17 +28,28 @@ def ids(case):
 @pytest.mark.parametrize("case", APPROX, ids=ids)
 @pytest.mark.parametrize("n,p", POINTS)
 def test_pmf_matches_the_law_on_a_fine_grid_of_u(case, n, p):
+    """Deterministic: the exact pmf against the measure of {u : evaluate(u) = k} on a grid of u
+    (1-D for one-uniform laws, 2-D for two); laws with more uniforms are left to chi-square."""
     name, params = case
     law = gl.law(name, **params)
-    m = 2_000_000
-    u = (np.arange(m) + 0.5) / m
-    k = law.evaluate(n, p, u.reshape(-1, 1))
-    values, counts = np.unique(k, return_counts=True)
-    grid = gl.Distribution(values, counts / m)
     d = law.pmf(n, p)
-    # Each value's measure is off by at most one grid cell per boundary it has (2 / m).
-    assert gl.distance(grid, d, "tv") <= len(values) * 2 / m + 1e-12, (name, params, n, p)
     assert abs(d.probs.sum() - 1) < 1e-12
+    if law.n_uniforms == 1:
+        m = 2_000_000
+        u = ((np.arange(m) + 0.5) / m).reshape(-1, 1)
+        cells = m
+    elif law.n_uniforms == 2:
+        m = 1500
+        g = (np.arange(m) + 0.5) / m
+        u = np.stack(np.meshgrid(g, g, indexing="ij"), axis=-1).reshape(-1, 2)
+        cells = m
+    else:
+        pytest.skip(f"{law.n_uniforms} uniforms: no grid")
+    k = law.evaluate(n, p, u)
+    values, counts = np.unique(k, return_counts=True)
+    grid = gl.Distribution(values, counts / len(k))
+    # Each value's region is off by at most one grid cell along each boundary it has.
+    assert gl.distance(grid, d, "tv") <= (len(values) + 1) * 2 / cells + 1e-12, (name, params, n, p)
 
 
 @pytest.mark.parametrize("case", APPROX, ids=ids)
@@ -46,7 +59,11 @@ def test_sampler_matches_pmf(case, n, p):
     law = gl.law(name, **params)
     seed = 4000 + POINTS.index((n, p))
     x = law.sample(n, p, size=10**6, seed=seed)
-    r = gl.chi2_test(x, law.pmf(n, p))
+    d = law.pmf(n, p)
+    if len(d) == 1:  # a deterministic output: every sample is that value
+        assert np.all(x == d.support[0]), (name, params, n, p)
+        return
+    r = gl.chi2_test(x, d)
     assert r.pvalue > ALPHA, f"{name} {params} n={n} p={p} seed={seed}: chi2={r.statistic} dof={r.dof} p={r.pvalue} {r.note}"
 
 
@@ -68,14 +85,20 @@ def test_extremes_give_finite_counts_in_range(case, precision):
     name, params = case
     law = gl.law(name, **params)
     nn, pp, uu = np.meshgrid(EXTREME_N, EXTREME_P, EXTREME_U, indexing="ij")
-    k = law.evaluate(nn.ravel(), pp.ravel(), uu.reshape(-1, 1), precision=precision)
+    # Row i gives uniform j the extreme value (i + j) mod len: every column sees every extreme.
+    shift = np.searchsorted(np.sort(EXTREME_U), uu.ravel())  # any fixed per-row offset works
+    cols = (shift[:, None] + np.arange(law.n_uniforms)[None, :]) % len(EXTREME_U)
+    u = np.sort(EXTREME_U)[cols]
+    k = law.evaluate(nn.ravel(), pp.ravel(), u, precision=precision)
     top = np.ceil(nn.ravel())
-    bad = ~(np.isfinite(k) & (k >= 0) & (k <= top) & (k == np.floor(k)))
-    assert not bad.any(), [(n, p, u, kk) for n, p, u, kk in
-                           zip(nn.ravel()[bad], pp.ravel()[bad], uu.ravel()[bad], k[bad])][:5]
+    # Counts are integers, except the threshold law's mean n p above T (documented).
+    integer = (k == np.floor(k)) | (name == "threshold")
+    bad = ~(np.isfinite(k) & (k >= 0) & (k <= top) & integer)
+    assert not bad.any(), [(n, p, tuple(row), kk) for n, p, row, kk in
+                           zip(nn.ravel()[bad], pp.ravel()[bad], u[bad], k[bad])][:5]
 
 
-@pytest.mark.parametrize("case", APPROX, ids=ids)
+@pytest.mark.parametrize("case", APPROX[:2], ids=ids)
 def test_float32_is_the_same_law_where_float_resolves_it(case):
     # At moderate n the float32 evaluation of the same uniforms gives the same counts (almost
     # always); at n p ~ 3e5 float spacing (0.03) moves a measurable share of the floor boundaries.
@@ -88,7 +111,28 @@ def test_float32_is_the_same_law_where_float_resolves_it(case):
     assert far.mean() > 1e-3
 
 
+def test_documented_effects():
+    b = gl.law("binomial")
+    # gated: P(K = 0) = (1 - p)^n exactly (the gate as intended, not as printed).
+    for n, p in [(16, 0.1), (1e3, 1e-2), (10.5, 0.3)]:
+        d = gl.law("gated").pmf(n, p)
+        assert d.probs[0] == pytest.approx((1 - p) ** n, rel=1e-12)
+    # zk16: below the switch with n <= cap the loop is the exact binomial; n > cap truncates to cap.
+    assert gl.distance(gl.law("zk16").pmf(16, 0.1), b.pmf(16, 0.1), "tv") < 1e-12
+    assert gl.law("zk16").pmf(40, 0.1).mean == pytest.approx(16 * 0.1)
+    # threshold: exact below T, the mean (zero variance) above.
+    assert gl.distance(gl.law("threshold").pmf(40, 0.1), b.pmf(40, 0.1), "tv") < 1e-12
+    d = gl.law("threshold").pmf(1e6, 0.3)
+    assert len(d) == 1 and d.var == 0 and d.mean == pytest.approx(3e5)
+
+
 def test_bad_parameters_are_named():
+    with pytest.raises(ValueError, match="cap = 0"):
+        gl.law("zk16", cap=0)
+    with pytest.raises(ValueError, match="cap = 65"):
+        gl.law("zk16", cap=65)
+    with pytest.raises(ValueError, match="T = -1"):
+        gl.law("threshold", T=-1)
     with pytest.raises(ValueError, match="rounding = 'up'"):
         gl.law("gaussian", rounding="up")
     with pytest.raises(ValueError, match="unknown parameter 'cap'"):

@@ -3,7 +3,9 @@
 
 #include <boost/math/special_functions/erf.hpp>
 #include <cmath>
+#include <cstddef>
 #include <limits>
+#include <vector>
 
 namespace glintlab::normal {
 
@@ -26,5 +28,15 @@ inline double interval(double a, double b) {
   if (b <= 0) return cdf(b) - cdf(a);
   return 1.0 - cdf(a) - sf(b);
 }
+
+// The exact law of K = clamp(floor(mean + sd Z + shift), 0, top) (shift 0: floor, 1/2: round),
+// on the counts within 8.5 sd of the mean (the rest, < 1e-16 a side, trimmed and flagged).
+// sd must be > 0. Throws std::invalid_argument naming `where` beyond max_support points.
+struct LatticeLaw {
+  std::vector<double> support, probs;
+  bool trimmed_below = false, trimmed_above = false;
+};
+LatticeLaw discretized(double mean, double sd, double top, double shift, std::size_t max_support,
+                       const char* where);
 
 }  // namespace glintlab::normal

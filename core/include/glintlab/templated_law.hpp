@@ -17,7 +17,7 @@
 
 namespace glintlab {
 
-inline constexpr int kMaxTemplatedUniforms = 8;
+inline constexpr int kMaxTemplatedUniforms = 64;
 
 template <class Derived>
 class TemplatedLaw : public CountingLaw {

@@ -1,0 +1,78 @@
+// Law "gated": DB23's gated Gaussian (eq. 16-18) as intended.
+//   P1 = 1 - (1 - p)^n                       (eq. 16; computed as -expm1(n log1p(-p)))
+//   mu = (n - 1) p, sigma = sqrt((n - 1) p (1 - p))   (eq. 17: the Gaussian of Binomial(n - 1, p))
+//   K = [theta0 < P1] (1 + floor(mu + sigma Phi^-1(theta1)))   (eq. 18)
+// The paper prints H(theta0 - P1), which gates with probability 1 - P1; the intent is theta0 < P1
+// (so that P(K = 0) = (1 - p)^n, as for the binomial). LAWS.md §3.
+//
+// Policy where the paper is silent: floor(G) is clamped to [0, ceil(n) - 1], so that a gated count
+// is at least 1 and K never exceeds ceil(n) (the stratified binomial's top). For n < 1, n - 1 is
+// replaced by 0 (mu = sigma = 0: K = Bernoulli(P1)). The mass the clamp moves is
+// P1 Phi(-mu / sigma) at the bottom, visible in the exact pmf below (tests measure it).
+//
+// Exact law: P(K = 0) = 1 - P1; P(K = 1 + j) = P1 P(clamp(floor(G), 0, ceil(n) - 1) = j).
+#include <cmath>
+
+#include "glintlab/normal.hpp"
+#include "glintlab/templated_law.hpp"
+
+namespace glintlab {
+namespace {
+
+class GatedLaw final : public TemplatedLaw<GatedLaw> {
+ public:
+  std::string name() const override { return "gated"; }
+  int n_uniforms() const override { return 2; }
+
+  template <class T>
+  T eval(T n, T p, const T* u) const {
+    const T p1 = -std::expm1(n * std::log1p(-p));
+    if (!(u[0] < p1)) return T(0);
+    const T m = n > T(1) ? n - T(1) : T(0);
+    const T mu = m * p, sigma = std::sqrt(mu * (T(1) - p));
+    const T g = sigma > T(0) ? mu + sigma * normal::quantile(u[1]) : mu;
+    const T top = std::ceil(n) - T(1);
+    const T j = std::floor(g);
+    return T(1) + (j < T(0) ? T(0) : (j > top ? top : j));
+  }
+
+  bool has_pmf() const override { return true; }
+  Distribution pmf(double n, double p, std::size_t max_support) const override {
+    const double p1 = -std::expm1(n * std::log1p(-p));
+    const double m = n > 1 ? n - 1 : 0.0, mu = m * p, sigma = std::sqrt(mu * (1 - p));
+    std::vector<double> ks{0.0}, ps{1.0 - p1};
+    bool trimmed_above = false;
+    if (p1 > 0) {
+      if (sigma > 0) {
+        auto law = normal::discretized(mu, sigma, std::ceil(n) - 1, 0.0, max_support, "gated.pmf");
+        // Below the gated part's first point lies trimmed mass < 1e-16 that belongs to K >= 1:
+        // fold it into K = 1 by starting at j = 0 when trimmed (it is < 1e-16 of P1).
+        for (std::size_t i = 0; i < law.support.size(); ++i) {
+          ks.push_back(1 + law.support[i]);
+          ps.push_back(p1 * law.probs[i]);
+        }
+        trimmed_above = law.trimmed_above;
+      } else {
+        const double one = std::clamp(std::floor(mu), 0.0, std::ceil(n) - 1);
+        ks.push_back(1 + one);
+        ps.push_back(p1);
+      }
+    }
+    if (ps.front() == 0.0 && ks.size() > 1) {  // p1 = 1: no zero count
+      ks.erase(ks.begin());
+      ps.erase(ps.begin());
+    }
+    // Gaps (support starting above 1) carry probability zero exactly: keep the support strict.
+    return Distribution::with_trimmed_tails(std::move(ks), std::move(ps), false, trimmed_above);
+  }
+};
+
+const bool registered = register_law(
+    {"gated", "DB23 gated Gaussian (eq. 16-18, gate theta0 < P1), floor(G) clamped to [0, ceil(n)-1]",
+     [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
+       ParamReader("gated", params).finish();
+       return std::make_unique<GatedLaw>();
+     }});
+
+}  // namespace
+}  // namespace glintlab

@@ -1,0 +1,75 @@
+// Law "zk16": Zirr & Kaplanyan's hybrid as DB23 eq. 15 describes it.
+//   n p > 5:  K = clamp(floor(n p + sqrt(n p (1 - p)) Phi^-1(theta0)), 0, ceil(n))
+//   else:     K = sum of min(floor(n), cap) Bernoulli trials [theta_k < p], plus, when floor(n) < cap
+//             and n is not an integer, the stratified rule's fractional facet [theta_m < frac(n) p].
+// DB23 prints H(theta_k - p), which counts failures; the intent is theta_k < p (mean n p). The loop
+// is capped at `cap` trials (default 16, DB23's "up to N = 16"; 1..64): for n > cap and n p <= 5 the
+// law is Binomial(cap, p), whose mean cap p falls short of n p; that is the cap's measured effect.
+// Cost grows with min(n, cap) below the switch: the point of DB23's constant-time law.
+//
+// Exact law: the Gaussian branch's is normal::discretized (floor); the loop's is the (stratified)
+// binomial of min(n, cap) trials (n itself when floor(n) < cap).
+#include <cmath>
+
+#include "glintlab/binomial.hpp"
+#include "glintlab/normal.hpp"
+#include "glintlab/errors.hpp"
+#include "glintlab/templated_law.hpp"
+
+namespace glintlab {
+namespace {
+
+class Zk16Law final : public TemplatedLaw<Zk16Law> {
+ public:
+  explicit Zk16Law(int cap) : cap_(cap) {}
+  std::string name() const override { return "zk16"; }
+  LawParams params() const override { return {{"cap", static_cast<double>(cap_)}}; }
+  int n_uniforms() const override { return cap_; }
+
+  template <class T>
+  T eval(T n, T p, const T* u) const {
+    const T mean = n * p;
+    if (mean > T(5)) {
+      const T sd = std::sqrt(mean * (T(1) - p));
+      const T g = sd > T(0) ? mean + sd * normal::quantile(u[0]) : mean;
+      const T k = std::floor(g), top = std::ceil(n);
+      return k < T(0) ? T(0) : (k > top ? top : k);
+    }
+    const T whole = std::floor(n);
+    const int trials = whole < T(cap_) ? static_cast<int>(whole) : cap_;
+    T k = 0;
+    for (int i = 0; i < trials; ++i) k += u[i] < p ? T(1) : T(0);
+    if (trials < cap_ && n > whole) k += u[trials] < (n - whole) * p ? T(1) : T(0);
+    return k;
+  }
+
+  bool has_pmf() const override { return true; }
+  Distribution pmf(double n, double p, std::size_t max_support) const override {
+    const double mean = n * p;
+    if (mean > 5) {
+      auto law = normal::discretized(mean, std::sqrt(mean * (1 - p)), std::ceil(n), 0.0, max_support,
+                                     "zk16.pmf");
+      return Distribution::with_trimmed_tails(std::move(law.support), std::move(law.probs),
+                                              law.trimmed_below, law.trimmed_above);
+    }
+    const double trials = std::floor(n) < cap_ ? n : static_cast<double>(cap_);
+    return binomial::distribution(trials, p, max_support);
+  }
+
+ private:
+  int cap_;
+};
+
+const bool registered = register_law(
+    {"zk16", "ZK16 hybrid (DB23 eq. 15): Gaussian if n p > 5, else Bernoulli loop capped at cap=16",
+     [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
+       ParamReader reader("zk16", params);
+       const double cap = reader.number("cap", 16);
+       reader.finish();
+       if (!(cap >= 1 && cap <= kMaxTemplatedUniforms && cap == std::floor(cap)))
+         throw_invalid("law 'zk16'", "cap", cap, "an integer in [1, 64]");
+       return std::make_unique<Zk16Law>(static_cast<int>(cap));
+     }});
+
+}  // namespace
+}  // namespace glintlab
