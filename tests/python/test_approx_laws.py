@@ -14,7 +14,8 @@ import pytest
 import glintlab as gl
 
 APPROX = [("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"}), ("gated", {}),
-          ("zk16", {}), ("zk16", {"cap": 4}), ("threshold", {}), ("threshold", {"T": 2.5})]
+          ("zk16", {}), ("zk16", {"cap": 4}), ("threshold", {}), ("threshold", {"T": 2.5}),
+          ("head_cf", {})]
 POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (10.5, 0.3), (1, 0.5), (1e6, 1e-6), (40, 0.97), (3.7, 0.6),
           (40, 0.1), (0.4, 0.9)]
 ALPHA = gl.sidak_alpha(1e-3, len(APPROX) * len(POINTS))
@@ -124,6 +125,20 @@ def test_documented_effects():
     assert gl.distance(gl.law("threshold").pmf(40, 0.1), b.pmf(40, 0.1), "tv") < 1e-12
     d = gl.law("threshold").pmf(1e6, 0.3)
     assert len(d) == 1 and d.var == 0 and d.mean == pytest.approx(3e5)
+
+
+def test_head_cf_beats_gated_on_the_worst_case():
+    """glintlab's law against DB23's gated Gaussian: exact TV to the binomial over a log grid of n
+    (integers and not) and p on both sides of 1/2; the worst case must be far lower."""
+    b, h, g = gl.law("binomial"), gl.law("head_cf"), gl.law("gated")
+    worst_h = worst_g = 0.0
+    for n in np.concatenate([np.logspace(0, 5, 11), [2.5, 7.3, 150.5]]):
+        for p in [1e-6, 1e-3, 0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 0.98, 1 - 1e-3, 1 - 1e-6]:
+            ref = b.pmf(n, p)
+            worst_h = max(worst_h, gl.distance(h.pmf(n, p), ref, "tv"))
+            worst_g = max(worst_g, gl.distance(g.pmf(n, p), ref, "tv"))
+    assert worst_h < 0.01, worst_h
+    assert worst_g > 0.3, worst_g  # DB23's gate as intended, near p = 1 (LAWS.md: about 0.5)
 
 
 def test_bad_parameters_are_named():

@@ -9,6 +9,7 @@
 from . import _core
 from ._core import Chi2Result, Distribution
 from .exact import binomial, poisson
+from .grid import error_table, standard_grid
 from .laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
 from .metrics import METRICS, chi2_test, distance, sidak_alpha
 
@@ -28,6 +29,6 @@ def get_num_threads() -> int:
 
 __all__ = [
     "Chi2Result", "CustomLaw", "Distribution", "Law", "METRICS", "binomial", "chi2_test",
-    "custom_law", "distance", "get_num_threads", "law", "law_summaries", "laws", "poisson",
-    "set_num_threads", "sidak_alpha", "uniforms",
+    "custom_law", "distance", "error_table", "get_num_threads", "law", "law_summaries", "laws", "poisson",
+    "set_num_threads", "sidak_alpha", "standard_grid", "uniforms",
 ]

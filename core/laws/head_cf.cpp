@@ -1,0 +1,151 @@
+// Law "head_cf": glintlab's constant-time law (issue: beat the gated Gaussian's worst case).
+//
+// Derivation. Count the rarer outcome, Y ~ Binomial(m, pt) with pt = min(p, 1 - p) and m = floor(n)
+// (K = Y, or m - Y when p > 1/2, so p -> 1 behaves like p -> 0, where DB23's gate reaches TV 0.5).
+// Invert its CDF with one uniform u0, exactly where the law is most discrete and skewed and
+// approximately in the bulk:
+//   - the head: P(Y = 0), P(Y = 1), P(Y = 2) in closed form (q^m through exp(m log1p(-pt)), then the
+//     ratio recurrence), so u0 <= F(2) returns the exact count;
+//   - the tail: the continuity-corrected normal quantile with a one-term Cornish-Fisher skewness
+//     correction, Y = ceil(mu + sd (z + g (z^2 - 1) / 6) - 1/2), z = Phi^-1(u0), g = (1 - 2 pt)/sd the
+//     binomial's skewness, clamped to [3, m]. z is clamped to the increasing branch of the cubic-free
+//     quadratic (z >= -3/g), which keeps Y monotone in u0.
+// The fractional facet of a non-integer n (the stratified rule) is an independent Bernoulli(f p)
+// drawn with u1. Cost: exp, log1p, sqrt, one Phi^-1 and a few products: constant in n, like gated.
+//
+// Exact law: the head is exact; in the tail Y <= k iff z <= z_k, the increasing root of
+// mu + sd (z + g (z^2 - 1)/6) - 1/2 = k, so P(Y <= k) = max(F(2), Phi(z_k)) for 3 <= k < m (F(2) when
+// no root: the tail never reaches k); then the fractional facet by convolution.
+#include <algorithm>
+#include <cmath>
+
+#include "glintlab/errors.hpp"
+#include "glintlab/normal.hpp"
+#include "glintlab/templated_law.hpp"
+
+namespace glintlab {
+namespace {
+
+template <class T>
+struct Head {
+  T m, pt, f0, f1, f2;  // F(0), F(1), F(2) of Binomial(m, pt)
+  Head(T n, T p) : m(std::floor(n)), pt(p < T(0.5) ? p : T(1) - p) {
+    const T qt = T(1) - pt;
+    const T p0 = std::exp(m * std::log1p(-pt));
+    const T p1 = m >= T(1) ? p0 * m * pt / qt : T(0);
+    const T p2 = m >= T(2) ? p1 * (m - T(1)) * pt / (T(2) * qt) : T(0);
+    f0 = p0;
+    f1 = p0 + p1;
+    f2 = p0 + p1 + p2;
+  }
+};
+
+class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
+ public:
+  std::string name() const override { return "head_cf"; }
+  int n_uniforms() const override { return 2; }
+
+  template <class T>
+  T eval(T n, T p, const T* u) const {
+    const Head<T> h(n, p);
+    T y;
+    if (u[0] <= h.f0) y = T(0);
+    else if (u[0] <= h.f1) y = T(1);
+    else if (u[0] <= h.f2) y = T(2);
+    else {
+      const T mu = h.m * h.pt, sd = std::sqrt(mu * (T(1) - h.pt));
+      if (sd > T(0)) {
+        const T g = (T(1) - T(2) * h.pt) / sd;
+        T z = normal::quantile(u[0]);
+        if (g > T(0) && z < T(-3) / g) z = T(-3) / g;  // stay on the increasing branch
+        // g = 0 (p = 1/2): no correction (and no 0 * inf at u = 1).
+        const T cf = g > T(0) ? z + g * (z * z - T(1)) / T(6) : z;
+        y = std::ceil(mu + sd * cf - T(0.5));
+      } else {
+        y = mu;
+      }
+      y = y < T(3) ? T(3) : y;
+    }
+    y = y > h.m ? h.m : y;
+    const T whole = p <= T(0.5) ? y : h.m - y;
+    const T frac_p = (n - h.m) * p;  // the stratified rule's fractional facet
+    return whole + (u[1] < frac_p ? T(1) : T(0));
+  }
+
+  bool has_pmf() const override { return true; }
+  Distribution pmf(double n, double p, std::size_t max_support) const override {
+    const Head<double> h(n, p);
+    const double m = h.m, mu = m * h.pt, sd = std::sqrt(mu * (1 - h.pt));
+    // CDF of Y on 0..m, evaluated where it moves: the head, then the tail's thresholds.
+    auto cdf = [&](double k) -> double {
+      if (k >= m) return 1.0;
+      if (k < 0) return 0.0;
+      if (k == 0) return h.f0;
+      if (k == 1) return h.f1;
+      if (k == 2 || !(sd > 0)) return h.f2;
+      const double g = (1 - 2 * h.pt) / sd, a = g / 6, c = (k + 0.5 - mu) / sd;
+      // a z^2 + z - a - c = 0, increasing root; stable form for a -> 0.
+      const double disc = 1 + 4 * a * (a + c);
+      if (disc < 0) return h.f2;
+      const double zk = 2 * (a + c) / (1 + std::sqrt(disc));
+      return std::max(h.f2, normal::cdf(zk));
+    };
+    // The support reaches as far as the law's own uniforms can send it: the uniforms lie in
+    // [2^-53, 1 - 2^-53], so |z| <= 8.3, and the tail map at z = -+8.3 bounds the counts.
+    auto tail_at = [&](double z) {
+      if (!(sd > 0)) return mu;
+      const double g = (1 - 2 * h.pt) / sd;
+      if (g > 0 && z < -3 / g) z = -3 / g;
+      return std::ceil(mu + sd * (z + g * (z * z - 1) / 6) - 0.5);
+    };
+    const double lo_k = h.f2 >= 1e-17 ? 0.0 : std::clamp(tail_at(-8.3) - 2, 0.0, m);
+    const double hi_k = std::clamp(tail_at(8.3) + 2, std::min(m, 2.0), m);
+    if (hi_k - lo_k + 2 > static_cast<double>(max_support))
+      throw std::invalid_argument("head_cf.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
+                                  " needs more than max_support = " + std::to_string(max_support) +
+                                  " support points");
+    std::vector<double> ys, py;
+    double prev = cdf(lo_k - 1);
+    const bool cut_below = prev > 0;
+    for (double k = lo_k; k <= hi_k; k += 1) {
+      const double c = cdf(k);
+      ys.push_back(k);
+      py.push_back(std::max(0.0, c - prev));
+      prev = c;
+    }
+    const bool cut_above = prev < 1;
+    // K = Y (or m - Y) plus the fractional facet.
+    std::vector<double> ks, pk;
+    const bool flip = p > 0.5;
+    const double gp = (n - m) * p;
+    std::vector<double> base(ys.size());
+    for (std::size_t i = 0; i < ys.size(); ++i) base[i] = flip ? m - ys[i] : ys[i];
+    if (flip) { std::reverse(base.begin(), base.end()); std::reverse(py.begin(), py.end()); }
+    for (std::size_t i = 0; i <= base.size(); ++i) {
+      // value base[0] + i collects (1 - gp) P(base = v) + gp P(base = v - 1); base is contiguous.
+      const double here = i < base.size() ? py[i] : 0.0, below = i > 0 ? py[i - 1] : 0.0;
+      const double prob = (1 - gp) * here + gp * below;
+      if (i == base.size() && gp == 0) break;
+      ks.push_back(base.front() + static_cast<double>(i));
+      pk.push_back(prob);
+    }
+    // Drop exact zeros at the ends (a strict support), keep the trimming flags honest.
+    while (pk.size() > 1 && pk.back() == 0) { pk.pop_back(); ks.pop_back(); }
+    std::size_t first = 0;
+    while (first + 1 < pk.size() && pk[first] == 0) ++first;
+    ks.erase(ks.begin(), ks.begin() + static_cast<std::ptrdiff_t>(first));
+    pk.erase(pk.begin(), pk.begin() + static_cast<std::ptrdiff_t>(first));
+    const bool below = flip ? cut_above : cut_below, above = flip ? cut_below : cut_above;
+    return Distribution::with_trimmed_tails(std::move(ks), std::move(pk), below, above);
+  }
+};
+
+const bool registered = register_law(
+    {"head_cf", "glintlab: exact head (K <= 2) + Cornish-Fisher tail of the rarer outcome; constant time",
+     [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
+       ParamReader("head_cf", params).finish();
+       return std::make_unique<HeadCfLaw>();
+     }});
+
+}  // namespace
+}  // namespace glintlab
