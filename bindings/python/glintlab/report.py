@@ -202,6 +202,17 @@ def _trade_figures(out: Path, trade: pd.DataFrame, errors: pd.DataFrame):
     return paths
 
 
+def _figure9(out: Path, samples: int, seed: int):
+    import matplotlib.pyplot as plt
+
+    from .figures import figure9
+    fig, rows = figure9(laws=("gated", "head_cf"), samples=samples, seed=seed)
+    path = out / "db23_figure9.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path], pd.DataFrame(rows)
+
+
 def _figures(out: Path, samples: int, seed: int):
     import matplotlib
     matplotlib.use("Agg")
@@ -256,7 +267,9 @@ def run(out: Path, quick: bool = False, seed: int = 1, quiet: bool = False) -> d
             "binomial_vs_poisson": metrics_table(),
             "speed_accuracy": trade,
         }
-    figures = _figures(out, samples, seed) + _trade_figures(out, trade, errors)
+    fig9_paths, fig9 = _figure9(out, samples, seed)
+    tables["db23_figure9"] = fig9
+    figures = _figures(out, samples, seed) + _trade_figures(out, trade, errors) + fig9_paths
     errors.to_csv(out / "error_table_standard_grid.csv", index=False)
     for name, df in tables.items():
         df.to_csv(out / f"{name}.csv", index=False)
@@ -303,6 +316,8 @@ def print_summary(summary) -> None:
          t["sampler_checks"], ["law", "n", "p", "pvalue", "tv_hist", "mean_rel_err", "ns_per_sample"])
     show("uniform vs Poisson layout (exact distances)", t["binomial_vs_poisson"],
          ["n", "p", "tv", "hellinger", "js", "w1", "ks"])
+    show("DB23 Figure 9 idea: exact TV to the binomial, chi-square p of the samples", t["db23_figure9"],
+         ["law", "n", "p", "tv", "pvalue"])
     show("speed / accuracy over the standard grid (exact errors vs the binomial)", t["speed_accuracy"],
          ["law", "tv_max", "tv_median", "hellinger_max", "w1_max", "mean_rel_err_max", "ns_per_sample",
           "ns_ratio_1e9_vs_16"])
