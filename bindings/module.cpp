@@ -92,6 +92,7 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("name", &CountingLaw::name)
       .def_property_readonly("n_uniforms", &CountingLaw::n_uniforms)
       .def_property_readonly("has_pmf", &CountingLaw::has_pmf)
+      .def_property_readonly("binning", &CountingLaw::binning)
       .def_property_readonly("params", [](const CountingLaw& law) { return from_params(law.params()); })
       .def("pmf", [](const CountingLaw& law, double n, double p, std::size_t max_support) {
              law.validate(n, p, 0, false);

@@ -15,7 +15,7 @@ import glintlab as gl
 
 APPROX = [("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"}), ("gated", {}),
           ("zk16", {}), ("zk16", {"cap": 4}), ("threshold", {}), ("threshold", {"T": 2.5}),
-          ("head_cf", {})]
+          ("head_cf", {}), ("gated_shader", {})]
 POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (10.5, 0.3), (1, 0.5), (1e6, 1e-6), (40, 0.97), (3.7, 0.6),
           (40, 0.1), (0.4, 0.9)]
 ALPHA = gl.sidak_alpha(1e-3, len(APPROX) * len(POINTS))
@@ -46,7 +46,7 @@ def test_pmf_matches_the_law_on_a_fine_grid_of_u(case, n, p):
         cells = m
     else:
         pytest.skip(f"{law.n_uniforms} uniforms: no grid")
-    k = law.evaluate(n, p, u)
+    k = law.bin(law.evaluate(n, p, u))
     values, counts = np.unique(k, return_counts=True)
     grid = gl.Distribution(values, counts / len(k))
     # Each value's region is off by at most one grid cell along each boundary it has.
@@ -59,7 +59,7 @@ def test_sampler_matches_pmf(case, n, p):
     name, params = case
     law = gl.law(name, **params)
     seed = 4000 + POINTS.index((n, p))
-    x = law.sample(n, p, size=10**6, seed=seed)
+    x = law.bin(law.sample(n, p, size=10**6, seed=seed))
     d = law.pmf(n, p)
     if len(d) == 1:  # a deterministic output: every sample is that value
         assert np.all(x == d.support[0]), (name, params, n, p)
@@ -92,8 +92,10 @@ def test_extremes_give_finite_counts_in_range(case, precision):
     u = np.sort(EXTREME_U)[cols]
     k = law.evaluate(nn.ravel(), pp.ravel(), u, precision=precision)
     top = np.ceil(nn.ravel())
-    # Counts are integers, except the threshold law's mean n p above T (documented).
-    integer = (k == np.floor(k)) | (name == "threshold")
+    if name == "gated_shader":  # the shader's K = gate (1 + clamp(floor(G), 0, n)) reaches n + 1
+        top = top + 1
+    # Counts are integers, except the threshold law's mean n p above T and the shader's soft gate.
+    integer = (k == np.floor(k)) | (name in ("threshold", "gated_shader"))
     bad = ~(np.isfinite(k) & (k >= 0) & (k <= top) & integer)
     assert not bad.any(), [(n, p, tuple(row), kk) for n, p, row, kk in
                            zip(nn.ravel()[bad], pp.ravel()[bad], u[bad], k[bad])][:5]
@@ -139,6 +141,24 @@ def test_head_cf_beats_gated_on_the_worst_case():
             worst_g = max(worst_g, gl.distance(g.pmf(n, p), ref, "tv"))
     assert worst_h < 0.01, worst_h
     assert worst_g > 0.3, worst_g  # DB23's gate as intended, near p = 1 (LAWS.md: about 0.5)
+
+
+def test_gated_shader_measured_defects():
+    s = gl.law("gated_shader")
+    assert s.binning == "round" and gl.law("gated").binning == "none"
+    # K can exceed n: floor(z sd + mu) is clamped to n, then 1 is added.
+    assert s.pmf(100, 0.999).support.max() == 101
+    # Half-float Gaussians leave gaps at large n: far fewer reachable counts than the binomial.
+    assert len(s.pmf(1e6, 0.3)) < 0.7 * len(gl.law("binomial").pmf(1e6, 0.3))
+    # Dropouts: where P1 rounds to 1.0f the hard gate theta0 < P1 fails for the half-float uniform
+    # 1.0 (u > 1 - 2^-12), so K = 0 with probability 2^-12 even at n = 1e6, p = 1/2.
+    d = s.pmf(1e6, 0.5)
+    assert d.support[0] == 0 and d.probs[0] == pytest.approx(2.0**-12, rel=1e-9)
+    assert d.var > 100 * gl.law("binomial").pmf(1e6, 0.5).var
+    # The soft gate makes counts non-integer near P1 (here P1 = 1 - 0.9^16 = 0.81).
+    u = np.column_stack([np.linspace(0.72, 0.9, 2000), np.full(2000, 0.5)])
+    k = s.evaluate(16, 0.1, u)
+    assert np.any(k != np.floor(k))
 
 
 def test_bad_parameters_are_named():

@@ -41,6 +41,17 @@ class Law:
         return self._core.has_pmf
 
     @property
+    def binning(self) -> str:
+        """How outputs are binned for ``pmf`` and comparisons: "none" (integer counts) or "round"
+        (round half up, unit bins [k - 1/2, k + 1/2)); apply it to samples with ``bin``."""
+        return self._core.binning
+
+    def bin(self, samples) -> np.ndarray:
+        """Samples binned as ``pmf`` is (identity for integer-valued laws)."""
+        x = np.asarray(samples, dtype=np.float64)
+        return np.floor(x + 0.5) if self.binning == "round" else x
+
+    @property
     def precisions(self) -> tuple:
         """Arithmetic the law can be evaluated in: ("float64",) or ("float64", "float32")."""
         return tuple(x for x in PRECISIONS if self._core.supports(x))
@@ -113,6 +124,7 @@ class CustomLaw(Law):
     n_uniforms = property(lambda self: self._k)
     has_pmf = property(lambda self: False)
     precisions = property(lambda self: PRECISIONS)
+    binning = property(lambda self: "none")
 
     def pmf(self, n, p, max_support: int = 50_000_000):
         raise NotImplementedError(

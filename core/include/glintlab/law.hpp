@@ -51,6 +51,10 @@ class CountingLaw {
   virtual void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                             double* out) const;
 
+  // How real-valued outputs are binned for pmf() and comparisons: "none" (integer counts) or
+  // "round" (round half up: unit bins [k - 1/2, k + 1/2)).
+  virtual std::string binning() const { return "none"; }
+
   virtual bool has_pmf() const { return false; }
   // Exact law of K; throws not_implemented when the law has none.
   virtual Distribution pmf(double n, double p, std::size_t max_support) const;
