@@ -30,12 +30,8 @@ class BinomialLaw final : public CountingLaw {
   }
 };
 
-const bool registered = register_law(
-    {"binomial", "exact Binomial(n, p); non-integer n = Binomial(floor n, p) + Bernoulli(frac(n) p)",
-     [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
-       ParamReader("binomial", params).finish();
-       return std::make_unique<BinomialLaw>();
-     }});
+const bool registered = register_parameterless_law<BinomialLaw>(
+    "binomial", "exact Binomial(n, p); non-integer n = Binomial(floor n, p) + Bernoulli(frac(n) p)");
 
 }  // namespace
 }  // namespace glintlab

@@ -67,12 +67,8 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
   }
 };
 
-const bool registered = register_law(
-    {"gated", "DB23 gated Gaussian (eq. 16-18, gate theta0 < P1), floor(G) clamped to [0, ceil(n)-1]",
-     [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
-       ParamReader("gated", params).finish();
-       return std::make_unique<GatedLaw>();
-     }});
+const bool registered = register_parameterless_law<GatedLaw>(
+    "gated", "DB23 gated Gaussian (eq. 16-18, gate theta0 < P1), floor(G) clamped to [0, ceil(n)-1]");
 
 }  // namespace
 }  // namespace glintlab

@@ -189,12 +189,8 @@ class GatedShaderLaw final : public TemplatedLaw<GatedShaderLaw> {
   }
 };
 
-const bool registered = register_law(
-    {"gated_shader", "DB23 gated Gaussian as the public shader runs it: float32, soft gate, half-float randoms",
-     [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
-       ParamReader("gated_shader", params).finish();
-       return std::make_unique<GatedShaderLaw>();
-     }});
+const bool registered = register_parameterless_law<GatedShaderLaw>(
+    "gated_shader", "DB23 gated Gaussian as the public shader runs it: float32, soft gate, half-float randoms");
 
 }  // namespace
 }  // namespace glintlab

@@ -140,12 +140,8 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
   }
 };
 
-const bool registered = register_law(
-    {"head_cf", "glintlab: exact head (K <= 2) + Cornish-Fisher tail of the rarer outcome; constant time",
-     [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
-       ParamReader("head_cf", params).finish();
-       return std::make_unique<HeadCfLaw>();
-     }});
+const bool registered = register_parameterless_law<HeadCfLaw>(
+    "head_cf", "glintlab: exact head (K <= 2) + Cornish-Fisher tail of the rarer outcome; constant time");
 
 }  // namespace
 }  // namespace glintlab

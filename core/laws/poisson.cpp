@@ -27,12 +27,8 @@ class PoissonLaw final : public CountingLaw {
   }
 };
 
-const bool registered = register_law(
-    {"poisson", "exact Poisson(n p): the count of a Poisson facet layout",
-     [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
-       ParamReader("poisson", params).finish();
-       return std::make_unique<PoissonLaw>();
-     }});
+const bool registered = register_parameterless_law<PoissonLaw>(
+    "poisson", "exact Poisson(n p): the count of a Poisson facet layout");
 
 }  // namespace
 }  // namespace glintlab

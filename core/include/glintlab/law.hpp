@@ -102,6 +102,15 @@ class ParamReader {
   std::vector<std::string> known_;
 };
 
+// Registration of a law without parameters (any given parameter is refused by name).
+template <class Law>
+bool register_parameterless_law(const std::string& name, const std::string& summary) {
+  return register_law({name, summary, [name](const LawParams& params) -> std::unique_ptr<CountingLaw> {
+                         ParamReader(name, params).finish();
+                         return std::make_unique<Law>();
+                       }});
+}
+
 // Parameter arrays for the vectorized drivers: `size` is 1 (broadcast) or the batch count.
 struct ParamArray {
   const double* data;
