@@ -15,7 +15,7 @@ import glintlab as gl
 
 APPROX = [("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"}), ("gated", {}),
           ("zk16", {}), ("zk16", {"cap": 4}), ("threshold", {}), ("threshold", {"T": 2.5}),
-          ("head_cf", {}), ("gated_shader", {})]
+          ("head_cf", {}), ("gated_shader", {}), ("gated_continuous", {}), ("dual_gated", {})]
 POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (10.5, 0.3), (1, 0.5), (1e6, 1e-6), (40, 0.97), (3.7, 0.6),
           (40, 0.1), (0.4, 0.9)]
 ALPHA = gl.sidak_alpha(1e-3, len(APPROX) * len(POINTS))
@@ -95,7 +95,8 @@ def test_extremes_give_finite_counts_in_range(case, precision):
     if name == "gated_shader":  # the shader's K = gate (1 + clamp(floor(G), 0, n)) reaches n + 1
         top = top + 1
     # Counts are integers, except the threshold law's mean n p above T and the shader's soft gate.
-    integer = (k == np.floor(k)) | (name in ("threshold", "gated_shader"))
+    # (gated_continuous and dual_gated have real outputs by definition.)
+    integer = (k == np.floor(k)) | (name in ("threshold", "gated_shader", "gated_continuous", "dual_gated"))
     bad = ~(np.isfinite(k) & (k >= 0) & (k <= top) & integer)
     assert not bad.any(), [(n, p, tuple(row), kk) for n, p, row, kk in
                            zip(nn.ravel()[bad], pp.ravel()[bad], u[bad], k[bad])][:5]
@@ -159,6 +160,32 @@ def test_gated_shader_measured_defects():
     u = np.column_stack([np.linspace(0.72, 0.9, 2000), np.full(2000, 0.5)])
     k = s.evaluate(16, 0.1, u)
     assert np.any(k != np.floor(k))
+
+
+def test_kk_laws_documented_effects():
+    b, c, d = gl.law("binomial"), gl.law("gated_continuous"), gl.law("dual_gated")
+    assert c.binning == "round" and d.binning == "round"
+    # KK24 below one facet: a Bernoulli(n p) gate, so the mean is exact; above, P(K = 0) = (1-p)^n.
+    assert c.pmf(0.4, 0.9).probs[0] == pytest.approx(1 - 0.36, rel=1e-14)
+    assert c.pmf(16, 0.1).probs[0] == pytest.approx(0.9**16, rel=1e-12)
+    # ... and its mean is biased upwards at small n p (the gated Gaussian's conditional mean).
+    assert c.pmf(16, 0.1).mean > 1.2 * 1.6
+    # KK25 is the exact binomial at n <= 2, and the stratified binomial between 1 and 2.
+    for n in (0.3, 1, 1.5, 2):
+        for p in (1e-3, 0.3, 0.9):
+            assert gl.distance(d.pmf(n, p), b.pmf(n, p), "tv") < 1e-14, (n, p)
+    # Its two gates make p and 1 - p mirror images at integer n: K(n, 1-p) ~ n - K(n, p).
+    for n, p in [(16, 0.1), (40, 0.03), (1e3, 0.2)]:
+        lo, hi = d.pmf(n, p), d.pmf(n, 1 - p)
+        mirrored = gl.Distribution(n - lo.support[::-1], lo.probs[::-1])
+        assert gl.distance(mirrored, hi, "tv") < 1e-12, (n, p)
+    # P(K = 0) = (1-p)^n and P(K = n) = p^n exactly.
+    q = d.pmf(16, 0.8)
+    assert q.probs[0] == pytest.approx(0.2**16, rel=1e-9) and q.probs[-1] == pytest.approx(0.8**16, rel=1e-12)
+    # Where DB23's gate fails (p near 1), the dual gate does not: exact TV to the binomial.
+    for n, p in [(16, 1 - 1e-3), (1e4, 1 - 1e-6)]:
+        assert gl.distance(d.pmf(n, p), b.pmf(n, p), "tv") < 0.01
+        assert gl.distance(gl.law("gated").pmf(n, p), b.pmf(n, p), "tv") > 0.5
 
 
 def test_bad_parameters_are_named():

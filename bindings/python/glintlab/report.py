@@ -34,7 +34,8 @@ EXACT_POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6), (1e15, 1e-13), 
 SAMPLER_POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6), (60, 0.9), (10.5, 0.3)]
 # The speed/accuracy trade: every law with an exact pmf, over the standard grid.
 TRADE_LAWS = [("binomial", {}), ("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"}),
-              ("zk16", {}), ("gated", {}), ("gated_shader", {}), ("threshold", {}), ("head_cf", {})]
+              ("zk16", {}), ("gated", {}), ("gated_shader", {}), ("gated_continuous", {}), ("dual_gated", {}),
+              ("threshold", {}), ("head_cf", {})]
 TIMING_POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6)]
 
 
