@@ -11,13 +11,34 @@
 // P1 Phi(-mu / sigma) at the bottom, visible in the exact pmf below (tests measure it).
 //
 // Exact law: P(K = 0) = 1 - P1; P(K = 1 + j) = P1 P(clamp(floor(G), 0, ceil(n) - 1) = j).
+#include <algorithm>
 #include <cmath>
 
 #include "glintlab/normal.hpp"
+#include "glintlab/step_inversion.hpp"
 #include "glintlab/templated_law.hpp"
 
 namespace glintlab {
 namespace {
+
+// The per-(n, p) constants of eq. 16-17, so that a batch computes them once (same expressions).
+template <class T>
+struct GatedConstants {
+  T p1, mu, sigma, top;
+  GatedConstants(T n, T p) {
+    p1 = -std::expm1(n * std::log1p(-p));
+    const T m = n > T(1) ? n - T(1) : T(0);
+    mu = m * p;
+    sigma = std::sqrt(mu * (T(1) - p));
+    top = std::ceil(n) - T(1);
+  }
+  // clamp(floor(G), 0, top) from theta1.
+  T gaussian_count(T theta1) const {
+    const T g = sigma > T(0) ? mu + sigma * normal::quantile(theta1) : mu;
+    const T j = std::floor(g);
+    return j < T(0) ? T(0) : (j > top ? top : j);
+  }
+};
 
 class GatedLaw final : public TemplatedLaw<GatedLaw> {
  public:
@@ -26,14 +47,23 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
 
   template <class T>
   T eval(T n, T p, const T* u) const {
-    const T p1 = -std::expm1(n * std::log1p(-p));
-    if (!(u[0] < p1)) return T(0);
-    const T m = n > T(1) ? n - T(1) : T(0);
-    const T mu = m * p, sigma = std::sqrt(mu * (T(1) - p));
-    const T g = sigma > T(0) ? mu + sigma * normal::quantile(u[1]) : mu;
-    const T top = std::ceil(n) - T(1);
-    const T j = std::floor(g);
-    return T(1) + (j < T(0) ? T(0) : (j > top ? top : j));
+    const GatedConstants<T> c(n, p);
+    if (!(u[0] < c.p1)) return T(0);
+    return T(1) + c.gaussian_count(u[1]);
+  }
+
+  // A batch at one (n, p): constants once, and the Gaussian count by table inversion.
+  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
+    const GatedConstants<double> c(n, p);
+    auto steps = floor_gaussian_steps(c.mu, c.sigma, 0.0, c.top, std::max<std::size_t>(count / 4, 64));
+    if (!steps) return make_row_batch_sampler(2, [c](const double* u) {
+      return u[0] < c.p1 ? 1 + c.gaussian_count(u[1]) : 0.0;
+    });
+    return make_row_batch_sampler(2, [c, table = std::move(*steps)](const double* u) {
+      if (!(u[0] < c.p1)) return 0.0;
+      const double j = table(u[1]);
+      return 1 + (j >= 0 ? j : c.gaussian_count(u[1]));
+    });
   }
 
   bool has_pmf() const override { return true; }

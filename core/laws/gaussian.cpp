@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "glintlab/normal.hpp"
+#include "glintlab/step_inversion.hpp"
 #include "glintlab/templated_law.hpp"
 
 namespace glintlab {
@@ -30,6 +31,18 @@ class GaussianLaw final : public TemplatedLaw<GaussianLaw> {
     const T g = sd > T(0) ? mean + sd * normal::quantile(u[0]) : mean;
     const T k = round_ ? std::floor(g + T(0.5)) : std::floor(g);
     return k < T(0) ? T(0) : (k > top ? top : k);  // clamp; +-inf map to the ends
+  }
+
+  // A batch at one (n, p): the count by table inversion (bit-identical to eval; see step_inversion).
+  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
+    const double mean = n * p, sd = std::sqrt(mean * (1.0 - p));
+    auto steps = floor_gaussian_steps(mean, sd, round_ ? 0.5 : 0.0, std::ceil(n),
+                                      std::max<std::size_t>(count / 4, 64));
+    if (!steps) return nullptr;
+    return make_row_batch_sampler(1, [this, n, p, table = std::move(*steps)](const double* u) {
+      const double k = table(u[0]);
+      return k >= 0 ? k : eval<double>(n, p, u);
+    });
   }
 
   bool has_pmf() const override { return true; }

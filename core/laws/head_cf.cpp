@@ -21,6 +21,7 @@
 
 #include "glintlab/errors.hpp"
 #include "glintlab/normal.hpp"
+#include "glintlab/step_inversion.hpp"
 #include "glintlab/templated_law.hpp"
 
 namespace glintlab {
@@ -37,6 +38,43 @@ struct Head {
     f0 = p0;
     f1 = p0 + p1;
     f2 = p0 + p1 + p2;
+  }
+};
+
+// The exact CDF of Y (see the header comment) and where its tail steps sit in z.
+struct HeadCfCdf {
+  Head<double> h;
+  double m, mu, sd;
+  HeadCfCdf(double n, double p) : h(n, p), m(h.m), mu(m * h.pt), sd(std::sqrt(mu * (1 - h.pt))) {}
+  // z_k: Y <= k iff z <= z_k in the tail (NaN when the tail never reaches k).
+  double z_step(double k) const {
+    const double g = (1 - 2 * h.pt) / sd, a = g / 6, c = (k + 0.5 - mu) / sd;
+    // a z^2 + z - a - c = 0, increasing root; stable form for a -> 0.
+    const double disc = 1 + 4 * a * (a + c);
+    if (disc < 0) return NAN;
+    return 2 * (a + c) / (1 + std::sqrt(disc));
+  }
+  double operator()(double k) const {
+    if (k >= m) return 1.0;
+    if (k < 0) return 0.0;
+    if (k == 0) return h.f0;
+    if (k == 1) return h.f1;
+    if (k == 2 || !(sd > 0)) return h.f2;
+    const double zk = z_step(k);
+    return std::isnan(zk) ? h.f2 : std::max(h.f2, normal::cdf(zk));
+  }
+  // The tail map at z (clamped to the increasing branch, as eval does).
+  double tail_at(double z) const {
+    if (!(sd > 0)) return mu;
+    const double g = (1 - 2 * h.pt) / sd;
+    if (g > 0 && z < -3 / g) z = -3 / g;
+    return std::ceil(mu + sd * (z + g * (z * z - 1) / 6) - 0.5);
+  }
+  // The range of Y the law's uniforms (in [2^-53, 1 - 2^-53], |z| <= 8.3) can reach, padded.
+  std::pair<double, double> reach() const {
+    const double lo = h.f2 >= 1e-17 ? 0.0 : std::clamp(tail_at(-8.3) - 2, 0.0, m);
+    const double hi = std::clamp(tail_at(8.3) + 2, std::min(m, 2.0), m);
+    return {lo, hi};
   }
 };
 
@@ -72,34 +110,45 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
     return whole + (u[1] < frac_p ? T(1) : T(0));
   }
 
+  // A batch at one (n, p): Y by table inversion of its exact CDF (the thresholds pmf() uses), with
+  // guard bands so that every answer equals eval's; the fractional facet as in eval.
+  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
+    const HeadCfCdf cdf(n, p);
+    const auto [lo, hi] = cdf.reach();
+    if (hi - lo > static_cast<double>(std::max<std::size_t>(count / 4, 64)) || hi - lo > (1 << 16))
+      return nullptr;
+    std::vector<double> t, guard;
+    const double g = cdf.sd > 0 ? (1 - 2 * cdf.h.pt) / cdf.sd : 0.0;
+    double covered = 0;
+    for (double k = lo; k < hi; k += 1) {  // Y > k iff u > cdf(k)
+      t.push_back(cdf(k));
+      double band = 64 * 2.220446049250313e-16;  // head: eval compares with the same f0, f1, f2
+      if (k >= 2 && cdf.sd > 0) {
+        const double zk = cdf.z_step(k);
+        const double slope = std::isnan(zk) ? 1e-6 : std::max(1e-6, 1 + g * zk / 3);
+        const double z = std::isnan(zk) ? 0.0 : zk;
+        band = StepInversion::gaussian_guard(t.back(), z, cdf.sd, slope,
+                                             std::abs(cdf.mu) + cdf.sd * (std::abs(z) + g * z * z) + 1);
+      }
+      guard.push_back(band);
+      covered += 2 * band;
+    }
+    if (covered > 1e-3) return nullptr;
+    const bool flip = p > 0.5;
+    const double m = cdf.m, frac_p = (n - m) * p;
+    StepInversion table(std::move(t), std::move(guard), lo, lo == 0, hi == m);
+    return make_row_batch_sampler(2, [this, n, p, m, flip, frac_p, table = std::move(table)](const double* u) {
+      const double y = table(u[0]);
+      if (y < 0) return eval<double>(n, p, u);
+      return (flip ? m - y : y) + (u[1] < frac_p ? 1.0 : 0.0);
+    });
+  }
+
   bool has_pmf() const override { return true; }
   Distribution pmf(double n, double p, std::size_t max_support) const override {
-    const Head<double> h(n, p);
-    const double m = h.m, mu = m * h.pt, sd = std::sqrt(mu * (1 - h.pt));
-    // CDF of Y on 0..m, evaluated where it moves: the head, then the tail's thresholds.
-    auto cdf = [&](double k) -> double {
-      if (k >= m) return 1.0;
-      if (k < 0) return 0.0;
-      if (k == 0) return h.f0;
-      if (k == 1) return h.f1;
-      if (k == 2 || !(sd > 0)) return h.f2;
-      const double g = (1 - 2 * h.pt) / sd, a = g / 6, c = (k + 0.5 - mu) / sd;
-      // a z^2 + z - a - c = 0, increasing root; stable form for a -> 0.
-      const double disc = 1 + 4 * a * (a + c);
-      if (disc < 0) return h.f2;
-      const double zk = 2 * (a + c) / (1 + std::sqrt(disc));
-      return std::max(h.f2, normal::cdf(zk));
-    };
-    // The support reaches as far as the law's own uniforms can send it: the uniforms lie in
-    // [2^-53, 1 - 2^-53], so |z| <= 8.3, and the tail map at z = -+8.3 bounds the counts.
-    auto tail_at = [&](double z) {
-      if (!(sd > 0)) return mu;
-      const double g = (1 - 2 * h.pt) / sd;
-      if (g > 0 && z < -3 / g) z = -3 / g;
-      return std::ceil(mu + sd * (z + g * (z * z - 1) / 6) - 0.5);
-    };
-    const double lo_k = h.f2 >= 1e-17 ? 0.0 : std::clamp(tail_at(-8.3) - 2, 0.0, m);
-    const double hi_k = std::clamp(tail_at(8.3) + 2, std::min(m, 2.0), m);
+    const HeadCfCdf cdf(n, p);
+    const double m = cdf.m;
+    const auto [lo_k, hi_k] = cdf.reach();
     if (hi_k - lo_k + 2 > static_cast<double>(max_support))
       throw std::invalid_argument("head_cf.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
                                   " needs more than max_support = " + std::to_string(max_support) +

@@ -12,11 +12,6 @@
 
 namespace glintlab {
 
-namespace detail {
-void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start,
-                         std::size_t count, int k, double* out, bool allow_simd = true);
-}  // namespace detail
-
 namespace {
 
 std::map<std::string, LawInfo>& registry() {
@@ -85,6 +80,10 @@ void CountingLaw::sample_range(double n, double p, std::uint64_t seed, std::size
     if (k > 0) detail::philox_uniform_rows(seed, kStreamSample, b0, rows, k, u.data());
     for (std::size_t r = 0; r < rows; ++r) out[b0 - i0 + r] = evaluate(n, p, u.data() + r * kk);
   }
+}
+
+std::unique_ptr<BatchSampler> CountingLaw::batch_sampler(double, double, std::size_t) const {
+  return nullptr;
 }
 
 double CountingLaw::evaluate_f32(double, double, const double*) const {
@@ -213,6 +212,12 @@ void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t
     else law.sample_range(nn, pp, seed, i0, i1, o);
   };
   if (n.size == 1 && p.size == 1) {
+    if (precision == Precision::kFloat64 && count >= kTabulateMinBatch) {
+      if (const auto batch = law.batch_sampler(n[0], p[0], count)) {
+        parallel_chunks(count, [&](std::size_t i0, std::size_t i1) { batch->sample_range(seed, i0, i1, out + i0); });
+        return;
+      }
+    }
     parallel_chunks(count, [&](std::size_t i0, std::size_t i1) { range(n[0], p[0], i0, i1, out + i0); });
   } else {
     // Runs of equal (n, p) share one sampler setup (results are keyed by index, so unchanged).

@@ -6,6 +6,7 @@
 #include <immintrin.h>
 
 #include <cstddef>
+#include <climits>
 #include <cstdint>
 
 namespace glintlab::detail {
@@ -58,36 +59,84 @@ __attribute__((target("avx2"))) inline void mulhilo8(__m256i m, __m256i x, __m25
   hi = _mm256_blend_epi32(_mm256_srli_epi64(even, 32), odd, 0xAA);
 }
 
+// to_unit() of lanes 4h .. 4h + 3 of (hi, lo), with the same IEEE operations: the 53-bit integer
+// x = (hi:lo) >> 11 is assembled exactly as a * 2^32 + b (a < 2^21, b < 2^32, each converted
+// exactly), then (x + 0.5) * 2^-53 rounds as the scalar code does.
+__attribute__((target("avx2"))) inline __m256d to_unit4(__m256i hi, __m256i lo, int h) {
+  const __m256i a = _mm256_srli_epi32(hi, 11);
+  const __m256i b = _mm256_or_si256(_mm256_slli_epi32(hi, 21), _mm256_srli_epi32(lo, 11));
+  const __m128i a4 = h == 0 ? _mm256_castsi256_si128(a) : _mm256_extracti128_si256(a, 1);
+  const __m128i b4 = h == 0 ? _mm256_castsi256_si128(b) : _mm256_extracti128_si256(b, 1);
+  const __m256d da = _mm256_cvtepi32_pd(a4);
+  // b as unsigned: flip the sign bit, convert signed, add 2^31 back (all exact).
+  const __m256d db = _mm256_add_pd(_mm256_cvtepi32_pd(_mm_xor_si128(b4, _mm_set1_epi32(INT32_MIN))),
+                                   _mm256_set1_pd(2147483648.0));
+  const __m256d x = _mm256_add_pd(_mm256_mul_pd(da, _mm256_set1_pd(4294967296.0)), db);
+  return _mm256_mul_pd(_mm256_add_pd(x, _mm256_set1_pd(0.5)), _mm256_set1_pd(0x1.0p-53));
+}
+
+// Rows r .. r + 3 of a two-uniform batch: [u0[r], u1[r], u0[r+1], u1[r+1], ...].
+__attribute__((target("avx2"))) inline void store_interleaved(double* out, __m256d u0, __m256d u1) {
+  const __m256d lo = _mm256_unpacklo_pd(u0, u1), hi = _mm256_unpackhi_pd(u0, u1);
+  _mm256_storeu_pd(out, _mm256_permute2f128_pd(lo, hi, 0x20));
+  _mm256_storeu_pd(out + 4, _mm256_permute2f128_pd(lo, hi, 0x31));
+}
+
 __attribute__((target("avx2"))) void rows_avx2(std::uint32_t key0, std::uint32_t key1,
                                                 std::uint32_t c3_init, std::size_t start,
                                                 std::size_t count, std::size_t k, double* out) {
   const std::size_t blocks = (k + 1) / 2;
   const __m256i m0 = _mm256_set1_epi32(static_cast<int>(kM0)), m1 = _mm256_set1_epi32(static_cast<int>(kM1));
+  // The key schedule (Weyl sequence) once per call.
+  __m256i round_key0[10], round_key1[10];
+  for (std::uint32_t round = 0, k0 = key0, k1 = key1; round < 10; ++round, k0 += kW0, k1 += kW1) {
+    round_key0[round] = _mm256_set1_epi32(static_cast<int>(k0));
+    round_key1[round] = _mm256_set1_epi32(static_cast<int>(k1));
+  }
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   std::size_t base = 0;
   for (; base + 8 <= count; base += 8) {
     const std::uint64_t first = start + base;
     // Row numbers: low words first + lane; the high word is per lane too (a batch may cross 2^32).
     alignas(32) std::uint32_t lo_words[8], hi_words[8];
-    for (int l = 0; l < 8; ++l) {
-      lo_words[l] = static_cast<std::uint32_t>(first + l);
-      hi_words[l] = static_cast<std::uint32_t>((first + l) >> 32);
+    __m256i row_lo, row_hi;
+    if ((first & 0xFFFFFFFFu) <= 0xFFFFFFFFu - 7) {  // the 8 rows share their high word
+      row_lo = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(static_cast<std::uint32_t>(first))), lane);
+      row_hi = _mm256_set1_epi32(static_cast<int>(static_cast<std::uint32_t>(first >> 32)));
+    } else {
+      for (int l = 0; l < 8; ++l) {
+        lo_words[l] = static_cast<std::uint32_t>(first + static_cast<std::uint64_t>(l));
+        hi_words[l] = static_cast<std::uint32_t>((first + static_cast<std::uint64_t>(l)) >> 32);
+      }
+      row_lo = _mm256_load_si256(reinterpret_cast<const __m256i*>(lo_words));
+      row_hi = _mm256_load_si256(reinterpret_cast<const __m256i*>(hi_words));
     }
     for (std::size_t b = 0; b < blocks; ++b) {
       __m256i c0 = _mm256_set1_epi32(static_cast<int>(b));
-      __m256i c1 = _mm256_load_si256(reinterpret_cast<const __m256i*>(lo_words));
-      __m256i c2 = _mm256_load_si256(reinterpret_cast<const __m256i*>(hi_words));
+      __m256i c1 = row_lo, c2 = row_hi;
       __m256i c3 = _mm256_set1_epi32(static_cast<int>(c3_init));
-      std::uint32_t k0 = key0, k1 = key1;
       for (int round = 0; round < 10; ++round) {
         __m256i hi0, lo0, hi1, lo1;
         mulhilo8(m0, c0, hi0, lo0);
         mulhilo8(m1, c2, hi1, lo1);
-        c0 = _mm256_xor_si256(_mm256_xor_si256(hi1, c1), _mm256_set1_epi32(static_cast<int>(k0)));
+        c0 = _mm256_xor_si256(_mm256_xor_si256(hi1, c1), round_key0[round]);
         c1 = lo1;
-        c2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), _mm256_set1_epi32(static_cast<int>(k1)));
+        c2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), round_key1[round]);
         c3 = lo0;
-        k0 += kW0;
-        k1 += kW1;
+      }
+      if (k <= 2) {
+        // Vector conversion and store of the common one- and two-uniform rows.
+        double* row0 = out + base * k;
+        const __m256d u0_lo = to_unit4(c0, c1, 0), u0_hi = to_unit4(c0, c1, 1);
+        if (k == 1) {
+          _mm256_storeu_pd(row0, u0_lo);
+          _mm256_storeu_pd(row0 + 4, u0_hi);
+        } else {
+          const __m256d u1_lo = to_unit4(c2, c3, 0), u1_hi = to_unit4(c2, c3, 1);
+          store_interleaved(row0, u0_lo, u1_lo);
+          store_interleaved(row0 + 8, u0_hi, u1_hi);
+        }
+        continue;
       }
       alignas(32) std::uint32_t o0[8], o1[8], o2[8], o3[8];
       _mm256_store_si256(reinterpret_cast<__m256i*>(o0), c0);

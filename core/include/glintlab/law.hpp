@@ -9,7 +9,9 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <string>
+#include <algorithm>
 #include <variant>
 #include <vector>
 
@@ -26,6 +28,15 @@ enum class Precision { kFloat64, kFloat32 };
 Precision precision_from_name(const std::string& name);  // "float64" / "float32"; throws naming it
 std::string precision_name(Precision precision);
 using LawParams = std::map<std::string, ParamValue>;
+
+// Per-(n, p) state for a long batch at one (n, p): hoisted constants and inversion tables, built
+// once per sample_many() call and shared by its threads. sample_range must give exactly what
+// CountingLaw::sample_range gives (the tables are an optimization, never a different law).
+class BatchSampler {
+ public:
+  virtual ~BatchSampler() = default;
+  virtual void sample_range(std::uint64_t seed, std::size_t i0, std::size_t i1, double* out) const = 0;
+};
 
 class CountingLaw {
  public:
@@ -51,6 +62,10 @@ class CountingLaw {
   virtual void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                             double* out) const;
 
+  // A batch sampler for `count` samples at one (n, p), or nullptr (then sample_range is used).
+  // (n, p) are already validated.
+  virtual std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const;
+
   // How real-valued outputs are binned for pmf() and comparisons: "none" (integer counts) or
   // "round" (round half up: unit bins [k - 1/2, k + 1/2)).
   virtual std::string binning() const { return "none"; }
@@ -67,6 +82,41 @@ class CountingLaw {
   // Throws std::invalid_argument naming the bad parameter ("n[12] = -1 ...") if !accepts(n, p).
   virtual void validate(double n, double p, std::size_t index, bool is_array) const;
 };
+
+namespace detail {
+// Rows [start, start + count) of fill_uniforms (AVX2 when available; bit-identical either way).
+void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start,
+                         std::size_t count, int k, double* out, bool allow_simd = true);
+
+// A BatchSampler that hands each row's k uniforms (those of fill_uniforms) to f(const double* u).
+template <class F>
+class RowBatchSampler final : public BatchSampler {
+ public:
+  RowBatchSampler(int k, F f) : k_(k), f_(std::move(f)) {}
+  void sample_range(std::uint64_t seed, std::size_t i0, std::size_t i1, double* out) const override {
+    constexpr std::size_t kRows = 256;
+    const std::size_t kk = static_cast<std::size_t>(k_);
+    double u[kRows * 4];
+    static_assert(sizeof(u) > 0);
+    for (std::size_t b0 = i0; b0 < i1; b0 += kRows) {
+      const std::size_t rows = std::min(kRows, i1 - b0);
+      philox_uniform_rows(seed, kStreamSample, b0, rows, k_, u);
+      for (std::size_t r = 0; r < rows; ++r) out[b0 - i0 + r] = f_(u + r * kk);
+    }
+  }
+
+ private:
+  int k_;
+  F f_;
+};
+}  // namespace detail
+
+// Batch sampler from a row function, for laws with 1 to 4 uniforms.
+template <class F>
+std::unique_ptr<BatchSampler> make_row_batch_sampler(int k, F f) {
+  if (k < 1 || k > 4) throw std::logic_error("make_row_batch_sampler: 1 to 4 uniforms");
+  return std::make_unique<detail::RowBatchSampler<F>>(k, std::move(f));
+}
 
 // Batches at least this long amortize a per-(n, p) table (e.g. inversion tables); results must not
 // depend on the choice.
