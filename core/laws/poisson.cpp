@@ -13,6 +13,7 @@ class PoissonLaw final : public CountingLaw {
   double evaluate(double n, double p, const double* u) const override {
     return poisson::quantile(u[0], n * p);
   }
+  bool samples_by_evaluate() const override { return false; }
   void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                     double* out) const override {
     const poisson::Sampler sampler(n * p, /*tabulate=*/i1 - i0 >= kTabulateMinBatch);

@@ -61,6 +61,10 @@ class CountingLaw {
   // set up per-(n, p) constants once per range.
   virtual void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                             double* out) const;
+  // Whether sample_range is evaluate() on the fill_uniforms rows (the default). Laws that override
+  // sample_range with their own sampler return false. The drivers use it to evaluate a batch whose
+  // (n, p) change at every sample (a renderer's pixels) directly on one block of uniforms.
+  virtual bool samples_by_evaluate() const { return true; }
 
   // A batch sampler for `count` samples at one (n, p), or nullptr (then sample_range is used).
   // (n, p) are already validated.

@@ -1,0 +1,75 @@
+// Batch samplers (per-(n, p) tables) must give exactly what per-sample evaluation gives.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <vector>
+
+#include "glintlab/law.hpp"
+#include "glintlab/normal.hpp"
+#include "glintlab/step_inversion.hpp"
+
+using namespace glintlab;
+
+TEST_CASE("batch samplers equal per-sample evaluation, bit for bit", "[law][batch]") {
+  // Every registered law, at regimes that exercise the table (small and large supports), its
+  // fallbacks (too many steps: n = 1e15) and degenerate parameters.
+  const std::vector<std::pair<double, double>> points{
+      {16, 0.1}, {1e3, 1e-2}, {1e6, 0.3}, {1e9, 1e-6}, {10.5, 0.3}, {0.3, 0.2}, {1e15, 0.5},
+      {40, 0.97}, {3.7, 0.6}, {1e6, 1 - 1e-7}, {1, 0.5}, {0, 0.5}, {100, 0}, {100, 1}};
+  const std::size_t count = 20'000;
+  std::vector<double> batch(count), direct(count);
+  for (const auto& info : registered_laws()) {
+    const auto law = make_law(info.name);
+    for (const auto& [n, p] : points) {
+      if (!law->accepts(n, p)) continue;
+      sample_many(*law, {&n, 1}, {&p, 1}, count, 42, batch.data());
+      law->CountingLaw::sample_range(n, p, 42, 0, count, direct.data());
+      if (law->batch_sampler(n, p, count) == nullptr) law->sample_range(n, p, 42, 0, count, direct.data());
+      std::size_t mismatches = 0;
+      for (std::size_t i = 0; i < count; ++i) mismatches += batch[i] != direct[i];
+      INFO(info.name << " n = " << n << " p = " << p);
+      CHECK(mismatches == 0);
+    }
+  }
+}
+
+TEST_CASE("step tables answer exactly or not at all", "[batch]") {
+  // v(u) = clamp(floor(mu + sd Phi^-1(u)), 0, top) on a fine grid of u, including u just beside
+  // every threshold: the table's answer, when it gives one, is the direct value.
+  const double mu = 3e5, sd = 458.0, top = 1e6;
+  const auto table = floor_gaussian_steps(mu, sd, 0.0, top);
+  REQUIRE(table.has_value());
+  auto direct = [&](double u) { return std::clamp(std::floor(mu + sd * normal::quantile(u)), 0.0, top); };
+  std::size_t answered = 0, checked = 0;
+  for (double j = mu - 300; j <= mu + 300; j += 1) {
+    const double t = normal::cdf((j - mu) / sd);
+    for (double u : {std::nextafter(t, 0.0), t, std::nextafter(t, 1.0), t * (1 - 1e-13), t * (1 + 1e-13),
+                     t * (1 - 1e-7), t * (1 + 1e-7)}) {
+      const double v = (*table)(u);
+      ++checked;
+      if (v < 0) continue;
+      ++answered;
+      REQUIRE(v == direct(u));
+    }
+  }
+  // Far from thresholds the table answers; right beside them it declines.
+  CHECK(answered >= checked * 2 / 7);
+  CHECK(answered < checked);
+}
+
+TEST_CASE("a step table without guard bands would be wrong (the check can fail)", "[batch]") {
+  // Thresholds off by 1e-9 and no guards: u between the true and the shifted threshold gets the
+  // wrong step, and the comparison above would catch it.
+  const double mu = 50, sd = 7;
+  std::vector<double> t, guard;
+  for (double j = 1; j <= 100; j += 1) {
+    t.push_back(normal::cdf((j - mu) / sd) + 1e-9);
+    guard.push_back(0.0);
+  }
+  const StepInversion wrong(t, guard, 0, true, true);
+  std::size_t errors = 0;
+  for (double j = 30; j <= 70; j += 1) {
+    const double u = normal::cdf((j - mu) / sd) + 5e-10;
+    errors += wrong(u) != std::clamp(std::floor(mu + sd * normal::quantile(u)), 0.0, 100.0);
+  }
+  CHECK(errors > 30);
+}
