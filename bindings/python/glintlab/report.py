@@ -256,6 +256,56 @@ def _figures(out: Path, samples: int, seed: int):
     return paths
 
 
+def _precision(out: Path, samples: int, seed: int):
+    """float32 against float64 over the standard grid (coupled draws), and (1 - p)^n four ways."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+
+    from .precision import float32_summary, float32_table, one_minus_p_pow_n
+    laws = [law(name, **params) for name, params in TRADE_LAWS if name != "binomial"]
+    table = float32_table(laws, samples=samples, seed=seed)
+    summary = float32_summary(table)
+    names = list(summary.law)
+    cols = 4
+    rows = (len(names) + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.8 * rows), squeeze=False)
+    n_values, p_values = standard_grid()
+    for ax, name in zip(axes.ravel(), names):
+        sub = table[table.law == name].pivot(index="p", columns="n", values="mismatch")
+        im = ax.imshow(np.clip(sub.to_numpy(), 1.0 / samples / 2, 1), origin="lower", aspect="auto",
+                       norm=LogNorm(1.0 / samples / 2, 1), extent=[0, len(n_values), 0, len(p_values)],
+                       cmap="viridis")
+        ax.set_title(name, fontsize=8)
+        ax.set_xticks([0, len(n_values) / 2, len(n_values)], ["1", "1e3", "1e6"], fontsize=7)
+        ax.set_yticks([0, len(p_values) / 2, len(p_values)], ["1e-6", "0.5", "1-1e-6"], fontsize=7)
+    for ax in axes.ravel()[len(names):]:
+        ax.axis("off")
+    fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8, label="P(K_f32 != K_f64) >= TV")
+    fig.suptitle(f"float32 vs float64 on the same uniforms ({samples} draws per point): n (x) by p (y)",
+                 fontsize=9)
+    paths = [out / "float32_mismatch_maps.png"]
+    fig.savefig(paths[-1], dpi=100)
+    plt.close(fig)
+
+    pow_table = one_minus_p_pow_n()
+    fig, ax = plt.subplots(figsize=(6.4, 3.8))
+    styles = {("float32", "pow(1-p, n)"): "-", ("float32", "exp(n log1p(-p))"): "--",
+              ("float64", "pow(1-p, n)"): ":", ("float64", "exp(n log1p(-p))"): "-."}
+    for (prec, method), g in pow_table[pow_table.n == 1e3].groupby(["precision", "method"]):
+        ax.loglog(g.p, np.maximum(g.p1_rel_err, 1e-17), styles[(prec, method)], label=f"{prec} {method}")
+    ax.set_xlabel("p (n = 1000)")
+    ax.set_ylabel("relative error of P1 = 1 - (1-p)^n")
+    ax.set_title("The gate probability, four ways (reference: mpmath)", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    paths.append(out / "one_minus_p_pow_n.png")
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+    table.to_csv(out / "float32_vs_float64_standard_grid.csv", index=False)
+    return paths, summary, pow_table
+
+
 def run(out: Path, quick: bool = False, seed: int = 1, quiet: bool = False) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     samples = 10**5 if quick else 10**6
@@ -270,7 +320,9 @@ def run(out: Path, quick: bool = False, seed: int = 1, quiet: bool = False) -> d
         }
     fig9_paths, fig9 = _figure9(out, samples, seed)
     tables["db23_figure9"] = fig9
-    figures = _figures(out, samples, seed) + _trade_figures(out, trade, errors) + fig9_paths
+    precision_paths, tables["float32_vs_float64"], tables["one_minus_p_pow_n"] = _precision(
+        out, 256 if quick else 1024, seed)
+    figures = _figures(out, samples, seed) + _trade_figures(out, trade, errors) + fig9_paths + precision_paths
     errors.to_csv(out / "error_table_standard_grid.csv", index=False)
     for name, df in tables.items():
         df.to_csv(out / f"{name}.csv", index=False)
@@ -322,3 +374,6 @@ def print_summary(summary) -> None:
     show("speed / accuracy over the standard grid (exact errors vs the binomial)", t["speed_accuracy"],
          ["law", "tv_max", "tv_median", "hellinger_max", "w1_max", "mean_rel_err_max", "ns_per_sample",
           "ns_ratio_1e9_vs_16"])
+    show("float32 vs float64 on the same uniforms (mismatch >= TV; breaks: non-finite, < 0, > n)",
+         t["float32_vs_float64"], ["law", "mismatch_max", "at_n", "at_p", "max_abs_diff",
+                                   "share_points_over_1pct", "points_broken_f32", "points_broken_f64"])
