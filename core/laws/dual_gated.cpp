@@ -61,18 +61,35 @@ class DualGatedLaw final : public TemplatedLaw<DualGatedLaw> {
   std::string name() const override { return "dual_gated"; }
   int n_uniforms() const override { return 2; }
 
+  // The per-(n, p) constants (gates, central Gaussian), computed once per batch.
+  template <class T>
+  struct Constants {
+    Gates<T> g;
+    T n, a, s;
+    Constants(T n_, T p) : g(n_, p), n(n_) {
+      const T var = (n - T(2)) * p * (T(1) - p);
+      a = T(1) + (n - T(2)) * p;
+      s = var > T(0) ? std::sqrt(var) : T(0);
+    }
+    T operator()(const T* u) const {
+      const T theta0 = u[0];
+      if (theta0 < g.all) return g.top;
+      if (theta0 < g.one) return T(1);
+      if (!(theta0 < g.none) || n <= T(1)) return T(0);
+      if (n < T(2)) return T(1);
+      const T x = a + (s > T(0) ? s * normal::quantile(u[1]) : T(0));
+      const T hi = n - T(1);
+      return x < T(1) ? T(1) : (x > hi ? hi : x);  // also maps x = +-inf to the ends
+    }
+  };
+
   template <class T>
   T eval(T n, T p, const T* u) const {
-    const Gates<T> g(n, p);
-    const T theta0 = u[0];
-    if (theta0 < g.all) return g.top;
-    if (theta0 < g.one) return T(1);
-    if (!(theta0 < g.none) || n <= T(1)) return T(0);
-    if (n < T(2)) return T(1);
-    const T var = (n - T(2)) * p * (T(1) - p);
-    const T x = T(1) + (n - T(2)) * p + (var > T(0) ? std::sqrt(var) * normal::quantile(u[1]) : T(0));
-    const T hi = n - T(1);
-    return x < T(1) ? T(1) : (x > hi ? hi : x);  // also maps x = +-inf to the ends
+    return Constants<T>(n, p)(u);
+  }
+
+  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t) const override {
+    return make_row_batch_sampler(2, Constants<double>(n, p));
   }
 
   std::string binning() const override { return "round"; }

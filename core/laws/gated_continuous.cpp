@@ -30,13 +30,29 @@ class GatedContinuousLaw final : public TemplatedLaw<GatedContinuousLaw> {
     return n < T(1) ? n * p : -std::expm1(n * std::log1p(-p));
   }
 
+  // The per-(n, p) constants, so that a batch computes them once (same expressions as eval).
+  template <class T>
+  struct Constants {
+    T p1, m, a, s;
+    Constants(T n, T p) : p1(gate_probability(n, p)), m(n > T(1) ? n : T(1)) {
+      const T var = (m - T(1)) * p * (T(1) - p);
+      a = T(1) + (m - T(1)) * p;
+      s = var > T(0) ? std::sqrt(var) : T(0);
+    }
+    T operator()(const T* u) const {
+      if (!(u[0] < p1)) return T(0);
+      const T g = a + (s > T(0) ? s * normal::quantile(u[1]) : T(0));
+      return g < T(1) ? T(1) : (g > m ? m : g);  // also maps g = +-inf (theta1 = 0 or 1) to the ends
+    }
+  };
+
   template <class T>
   T eval(T n, T p, const T* u) const {
-    if (!(u[0] < gate_probability(n, p))) return T(0);
-    const T m = n > T(1) ? n : T(1);
-    const T var = (m - T(1)) * p * (T(1) - p);
-    const T g = T(1) + (m - T(1)) * p + (var > T(0) ? std::sqrt(var) * normal::quantile(u[1]) : T(0));
-    return g < T(1) ? T(1) : (g > m ? m : g);  // also maps g = +-inf (theta1 = 0 or 1) to the ends
+    return Constants<T>(n, p)(u);
+  }
+
+  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t) const override {
+    return make_row_batch_sampler(2, Constants<double>(n, p));
   }
 
   std::string binning() const override { return "round"; }
