@@ -437,7 +437,7 @@ def test_custom_law_is_registered_by_name():
 
 def test_sample_releases_the_gil(restore_threads):
     gl.set_num_threads(1)  # one core for each sampling thread, leaving room to observe the other
-    size, jobs = 5 * 10**6, [(1e9, 0.3, 101), (50.5, 0.7, 102)]
+    size, jobs = 10**7, [(1e9, 0.3, 101), (50.5, 0.7, 102)]
     t0 = time.perf_counter()
     serial = [BINOMIAL.sample(n, p, size=size, seed=s) for n, p, s in jobs]
     serial_time = time.perf_counter() - t0
@@ -467,6 +467,8 @@ def test_sample_releases_the_gil(restore_threads):
     for (n, p, s), got, want in zip(jobs, results, serial):
         assert np.array_equal(got, want), f"threaded sample differs from the serial one: n={n}, p={p}, seed={s}"
     per_call = serial_time / len(jobs)
-    assert max_gap < per_call / 4, (
+    # Held, the gap would last a whole call; free, it lasts a scheduler slice (three runnable threads
+    # on two cores, and ctest runs other tests beside this one: up to ~50 ms seen), hence 1/2.
+    assert max_gap < per_call / 2, (
         f"the main thread stalled for {max_gap:.3f} s while one sample() call takes {per_call:.3f} s: "
         "is the GIL held during sampling?")
