@@ -180,27 +180,35 @@ def _trade_figures(out: Path, trade: pd.DataFrame, errors: pd.DataFrame):
     fig.savefig(paths[-1], dpi=110)
     plt.close(fig)
 
-    names = list(trade.law)
+    paths.append(_grid_maps(out / "error_maps_tv.png", errors, list(trade.law), "tv", 1e-6, "magma",
+                            "TV to the binomial", "Exact TV over the standard grid: n (log, x) by p (y)"))
+    return paths
+
+
+def _grid_maps(path: Path, table: pd.DataFrame, names, column: str, floor: float, cmap: str,
+               label: str, title: str) -> Path:
+    """One log-scaled map of `column` over the standard grid (n by p) per law, four to a row."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+
     cols = 4
     rows = (len(names) + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.8 * rows), squeeze=False)
     n_values, p_values = standard_grid()
     for ax, name in zip(axes.ravel(), names):
-        sub = errors[errors.law == name].pivot(index="p", columns="n", values="tv")
-        im = ax.imshow(np.clip(sub.to_numpy(), 1e-6, 1), origin="lower", aspect="auto",
-                       norm=__import__("matplotlib.colors", fromlist=["LogNorm"]).LogNorm(1e-6, 1),
-                       extent=[0, len(n_values), 0, len(p_values)], cmap="magma")
+        sub = table[table.law == name].pivot(index="p", columns="n", values=column)
+        im = ax.imshow(np.clip(sub.to_numpy(), floor, 1), origin="lower", aspect="auto",
+                       norm=LogNorm(floor, 1), extent=[0, len(n_values), 0, len(p_values)], cmap=cmap)
         ax.set_title(name, fontsize=8)
         ax.set_xticks([0, len(n_values) / 2, len(n_values)], ["1", "1e3", "1e6"], fontsize=7)
         ax.set_yticks([0, len(p_values) / 2, len(p_values)], ["1e-6", "0.5", "1-1e-6"], fontsize=7)
     for ax in axes.ravel()[len(names):]:
         ax.axis("off")
-    fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8, label="TV to the binomial")
-    fig.suptitle("Exact TV over the standard grid: n (log, x) by p (y)", fontsize=9)
-    paths.append(out / "error_maps_tv.png")
-    fig.savefig(paths[-1], dpi=100)
+    fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8, label=label)
+    fig.suptitle(title, fontsize=9)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
-    return paths
+    return path
 
 
 def _figure9(out: Path, samples: int, seed: int):
@@ -259,33 +267,14 @@ def _figures(out: Path, samples: int, seed: int):
 def _precision(out: Path, samples: int, seed: int):
     """float32 against float64 over the standard grid (coupled draws), and (1 - p)^n four ways."""
     import matplotlib.pyplot as plt
-    from matplotlib.colors import LogNorm
 
     from .precision import float32_summary, float32_table, one_minus_p_pow_n
     laws = [law(name, **params) for name, params in TRADE_LAWS if name != "binomial"]
     table = float32_table(laws, samples=samples, seed=seed)
     summary = float32_summary(table)
-    names = list(summary.law)
-    cols = 4
-    rows = (len(names) + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.8 * rows), squeeze=False)
-    n_values, p_values = standard_grid()
-    for ax, name in zip(axes.ravel(), names):
-        sub = table[table.law == name].pivot(index="p", columns="n", values="mismatch")
-        im = ax.imshow(np.clip(sub.to_numpy(), 1.0 / samples / 2, 1), origin="lower", aspect="auto",
-                       norm=LogNorm(1.0 / samples / 2, 1), extent=[0, len(n_values), 0, len(p_values)],
-                       cmap="viridis")
-        ax.set_title(name, fontsize=8)
-        ax.set_xticks([0, len(n_values) / 2, len(n_values)], ["1", "1e3", "1e6"], fontsize=7)
-        ax.set_yticks([0, len(p_values) / 2, len(p_values)], ["1e-6", "0.5", "1-1e-6"], fontsize=7)
-    for ax in axes.ravel()[len(names):]:
-        ax.axis("off")
-    fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8, label="P(K_f32 != K_f64) >= TV")
-    fig.suptitle(f"float32 vs float64 on the same uniforms ({samples} draws per point): n (x) by p (y)",
-                 fontsize=9)
-    paths = [out / "float32_mismatch_maps.png"]
-    fig.savefig(paths[-1], dpi=100)
-    plt.close(fig)
+    paths = [_grid_maps(out / "float32_mismatch_maps.png", table, list(summary.law), "mismatch",
+                        1.0 / samples / 2, "viridis", "P(K_f32 != K_f64) >= TV",
+                        f"float32 vs float64 on the same uniforms ({samples} draws per point): n (x) by p (y)")]
 
     pow_table = one_minus_p_pow_n()
     fig, ax = plt.subplots(figsize=(6.4, 3.8))
