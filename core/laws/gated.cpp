@@ -59,10 +59,13 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
     if (!steps) return make_row_batch_sampler(2, [c](const double* u) {
       return u[0] < c.p1 ? 1 + c.gaussian_count(u[1]) : 0.0;
     });
-    return make_row_batch_sampler(2, [c, table = std::move(*steps)](const double* u) {
-      if (!(u[0] < c.p1)) return 0.0;
-      const double j = table(u[1]);
-      return 1 + (j >= 0 ? j : c.gaussian_count(u[1]));
+    // Per block of rows: the table lookups as vector gathers, the gate as a select.
+    StepInversion::Affine f;
+    f.a = 1;
+    f.gate_col = 0;
+    f.gate_below = c.p1;
+    return make_block_batch_sampler(2, [this, n, p, f, table = std::move(*steps)](const double* u, std::size_t rows, double* out) {
+      table.sample_rows(u, 2, 1, rows, f, out, [&](const double* row) { return eval<double>(n, p, row); });
     });
   }
 

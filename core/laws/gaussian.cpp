@@ -39,9 +39,8 @@ class GaussianLaw final : public TemplatedLaw<GaussianLaw> {
     auto steps = floor_gaussian_steps(mean, sd, round_ ? 0.5 : 0.0, std::ceil(n),
                                       std::max<std::size_t>(count / 4, 64));
     if (!steps) return nullptr;
-    return make_row_batch_sampler(1, [this, n, p, table = std::move(*steps)](const double* u) {
-      const double k = table(u[0]);
-      return k >= 0 ? k : eval<double>(n, p, u);
+    return make_block_batch_sampler(1, [this, n, p, table = std::move(*steps)](const double* u, std::size_t rows, double* out) {
+      table.sample_rows(u, 1, 0, rows, StepInversion::Affine{}, out, [&](const double* row) { return eval<double>(n, p, row); });
     });
   }
 

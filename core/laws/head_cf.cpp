@@ -137,10 +137,14 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
     const bool flip = p > 0.5;
     const double m = cdf.m, frac_p = (n - m) * p;
     StepInversion table(std::move(t), std::move(guard), lo, lo == 0, hi == m);
-    return make_row_batch_sampler(2, [this, n, p, m, flip, frac_p, table = std::move(table)](const double* u) {
-      const double y = table(u[0]);
-      if (y < 0) return eval<double>(n, p, u);
-      return (flip ? m - y : y) + (u[1] < frac_p ? 1.0 : 0.0);
+    // eval's (flip ? m - y : y) + [u1 < frac_p] as the table's affine map (s = -1: m + (-y) = m - y).
+    StepInversion::Affine f;
+    f.a = flip ? m : 0.0;
+    f.s = flip ? -1.0 : 1.0;
+    f.extra_col = 1;
+    f.extra_below = frac_p;
+    return make_block_batch_sampler(2, [this, n, p, f, table = std::move(table)](const double* u, std::size_t rows, double* out) {
+      table.sample_rows(u, 2, 0, rows, f, out, [&](const double* row) { return eval<double>(n, p, row); });
     });
   }
 

@@ -2,9 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
+#include <immintrin.h>
+
+#include "glintlab/law.hpp"
 #include "glintlab/normal.hpp"
+
+// GCC 12's AVX-512 intrinsics start from an undefined vector and trip -Wmaybe-uninitialized.
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 
 namespace glintlab {
 
@@ -15,8 +22,10 @@ StepInversion::StepInversion(std::vector<double> thresholds, std::vector<double>
   if (t_.size() != guard_.size()) throw std::logic_error("StepInversion: one guard per threshold");
   if (!std::is_sorted(t_.begin(), t_.end())) throw std::logic_error("StepInversion: unsorted thresholds");
   if (t_.size() > (1u << 24)) throw std::logic_error("StepInversion: too many thresholds");
-  std::size_t size = 1024;
-  while (size < 16 * t_.size() && size < (std::size_t{1} << 22)) size *= 2;
+  // At least 64 cells per threshold (so few cells are void: a band touches one or two), within
+  // 1 MiB of int32 so the table stays in a core's L2 cache.
+  std::size_t size = 4096;
+  while (size < 64 * t_.size() && size < (std::size_t{1} << 18)) size *= 2;
   cells_scale_ = static_cast<double>(size);
   cell_.assign(size, 0);
   // Count thresholds at or below each cell's left edge; then void the cells a band touches.
@@ -25,22 +34,108 @@ StepInversion::StepInversion(std::vector<double> thresholds, std::vector<double>
     const double left = static_cast<double>(g) / cells_scale_;
     while (i < t_.size() && t_[i] <= left) ++i;
     cell_[g] = static_cast<std::int32_t>(i);
-    if ((i == 0 && !exact_below_) || (i == t_.size() && !exact_above_)) cell_[g] = -1;
+    if ((i == 0 && !exact_below_) || (i == t_.size() && !exact_above_)) cell_[g] = -1 - cell_[g];
   }
   for (std::size_t j = 0; j < t_.size(); ++j) {
     const double lo = std::max(0.0, t_[j] - guard_[j]) * cells_scale_;
     const double hi = std::min(1.0, t_[j] + guard_[j]) * cells_scale_;
     const std::size_t a = static_cast<std::size_t>(std::floor(lo));
     const std::size_t b = std::min(size - 1, static_cast<std::size_t>(std::floor(hi)));
-    for (std::size_t g = a; g <= b && g < size; ++g) cell_[g] = -1;
+    for (std::size_t g = a; g <= b && g < size; ++g)
+      if (cell_[g] >= 0) cell_[g] = -1 - cell_[g];
   }
+  // A void cell keeps its count as -1 - count: where search() starts.
   // A threshold on a cell's left edge belongs to that cell (t <= left counts it; the band covers
   // the cell to the left through floor(lo)), so every kept cell has one value throughout.
 }
 
+namespace {
+
+#define GLINTLAB_AVX512 __attribute__((target("avx512f,avx512dq,avx512bw,avx512vl")))
+
+// 8 doubles of column `col` of the 8 rows at u (row length k).
+GLINTLAB_AVX512 inline __m512d load_column(const double* u, std::size_t k, std::size_t col) {
+  if (k == 1) return _mm512_loadu_pd(u);
+  if (k == 2) {
+    const __m512i pick = col == 0 ? _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14)
+                                  : _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
+    return _mm512_permutex2var_pd(_mm512_loadu_pd(u), pick, _mm512_loadu_pd(u + 8));
+  }
+  const __m256i idx = _mm256_mullo_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+                                         _mm256_set1_epi32(static_cast<int>(k)));
+  return _mm512_i32gather_pd(idx, u + col, 8);
+}
+
+// Rows [0, 8 * floor(rows / 8)) of affine_rows: the cells gathered, then the affine map, extra
+// term and gate with the scalar code's operations (int32 -> double is exact; s * v is exact for
+// s = +-1; a masked add of 1.0 where the scalar code adds 1.0, the value kept where it adds 0.0).
+// mask[r / 8] gets the lanes whose cell is void. Returns the rows done.
+GLINTLAB_AVX512 std::size_t affine_avx512(const std::int32_t* cells, std::size_t size, double scale,
+                                          double base, const double* u, std::size_t k, std::size_t col,
+                                          std::size_t rows, const StepInversion::Affine& f, double* out,
+                                          std::uint8_t* mask) {
+  const __m512d vscale = _mm512_set1_pd(scale), vbase = _mm512_set1_pd(base);
+  const __m512d va = _mm512_set1_pd(f.a), vs = _mm512_set1_pd(f.s), one = _mm512_set1_pd(1.0);
+  const __m512d gate_below = _mm512_set1_pd(f.gate_below), extra_below = _mm512_set1_pd(f.extra_below);
+  const __m256i last = _mm256_set1_epi32(static_cast<int>(size - 1));
+  std::size_t r = 0;
+  for (; r + 8 <= rows; r += 8) {
+    const double* row = u + r * k;
+    __m256i cell = _mm512_cvttpd_epi32(_mm512_mul_pd(load_column(row, k, col), vscale));
+    cell = _mm256_min_epi32(cell, last);  // u = 1 (probability 2^-53) lands in the last cell
+    const __m256i v = _mm256_i32gather_epi32(cells, cell, 4);
+    const __m512d step = _mm512_add_pd(_mm512_cvtepi32_pd(v), vbase);
+    __m512d x = _mm512_add_pd(va, _mm512_mul_pd(vs, step));
+    if (f.extra_col >= 0) {
+      const __m512d ue = load_column(row, k, static_cast<std::size_t>(f.extra_col));
+      x = _mm512_mask_add_pd(x, _mm512_cmp_pd_mask(ue, extra_below, _CMP_LT_OQ), x, one);
+    }
+    if (f.gate_col >= 0) {
+      const __m512d ug = load_column(row, k, static_cast<std::size_t>(f.gate_col));
+      x = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(ug, gate_below, _CMP_LT_OQ), x);
+    }
+    _mm512_storeu_pd(out + r, x);
+    mask[r / 8] = static_cast<std::uint8_t>(_mm256_movepi32_mask(v));
+  }
+  _mm256_zeroupper();
+  return r;
+}
+
+}  // namespace
+
+void StepInversion::affine_rows(const double* u, std::size_t k, std::size_t col, std::size_t rows,
+                                const Affine& f, double* out, std::uint8_t* mask) const {
+  if (rows > 256) throw std::logic_error("StepInversion::affine_rows: at most 256 rows");
+  // The scalar expression for row r from its step value v; false when v asks for direct evaluation.
+  const auto finish = [&](std::size_t r, double v) {
+    if (v < 0) return false;
+    const double* row = u + r * k;
+    double x = f.a + f.s * v;
+    if (f.extra_col >= 0) x = x + (row[f.extra_col] < f.extra_below ? 1.0 : 0.0);
+    out[r] = f.gate_col < 0 || row[f.gate_col] < f.gate_below ? x : 0.0;
+    return true;
+  };
+  std::size_t done = 0;
+  if (detail::simd_level() >= 2)
+    done = affine_avx512(cell_.data(), cell_.size(), cells_scale_, base_, u, k, col, rows, f, out, mask);
+  // Vector lanes on a void cell: the search of operator().
+  for (std::size_t g = 0; g < done / 8; ++g)
+    for (std::size_t l = 0; l < 8 && mask[g]; ++l)
+      if ((mask[g] >> l & 1) && finish(8 * g + l, search(u[(8 * g + l) * k + col])))
+        mask[g] = static_cast<std::uint8_t>(mask[g] & ~(1u << l));
+  for (std::size_t g = done / 8; g < (rows + 7) / 8; ++g) mask[g] = 0;
+  for (std::size_t r = done; r < rows; ++r)
+    if (!finish(r, (*this)(u[r * k + col]))) mask[r / 8] = static_cast<std::uint8_t>(mask[r / 8] | 1u << (r % 8));
+}
+
 double StepInversion::search(double u) const {
+  // A void cell stores -1 - #{t <= its left edge}: #{t <= u} is found by scanning the few
+  // thresholds inside the cell (64 cells per mean gap between thresholds; at least 4 in any table).
   const std::size_t count = t_.size();
-  const std::size_t i = static_cast<std::size_t>(std::upper_bound(t_.begin(), t_.end(), u) - t_.begin());
+  std::size_t g = static_cast<std::size_t>(u * cells_scale_);
+  if (g >= cell_.size()) g = cell_.size() - 1;
+  std::size_t i = static_cast<std::size_t>(-1 - static_cast<std::int64_t>(cell_[g]));
+  while (i < count && t_[i] <= u) ++i;
   if (i > 0 ? (u - t_[i - 1] < guard_[i - 1]) : !exact_below_) return -1.0;
   if (i < count ? (t_[i] - u <= guard_[i]) : !exact_above_) return -1.0;
   return base_ + static_cast<double>(i);

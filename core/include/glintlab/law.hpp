@@ -88,24 +88,29 @@ class CountingLaw {
 };
 
 namespace detail {
-// Rows [start, start + count) of fill_uniforms (AVX2 when available; bit-identical either way).
-void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start,
-                         std::size_t count, int k, double* out, bool allow_simd = true);
+// The highest instruction set the vector kernels may use: 2 AVX-512, 1 AVX2, 0 portable
+// (default 2; the CPU caps it too). Every level gives the same bits: tests lower it to check so.
+void set_simd_level(int level);
+int simd_level();  // the level in effect: min(the setting, what the CPU has)
 
-// A BatchSampler that hands each row's k uniforms (those of fill_uniforms) to f(const double* u).
+// Rows [start, start + count) of fill_uniforms (bit-identical at every SIMD level).
+void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start,
+                         std::size_t count, int k, double* out);
+
+// A BatchSampler that hands blocks of rows to f(const double* u, std::size_t rows, double* out):
+// u holds `rows` rows of k uniforms (those of fill_uniforms), out gets one sample per row. Blocks
+// let a law run vector code over many rows (a table lookup for all, then a select).
 template <class F>
-class RowBatchSampler final : public BatchSampler {
+class BlockBatchSampler final : public BatchSampler {
  public:
-  RowBatchSampler(int k, F f) : k_(k), f_(std::move(f)) {}
+  static constexpr std::size_t kRows = 256;
+  BlockBatchSampler(int k, F f) : k_(k), f_(std::move(f)) {}
   void sample_range(std::uint64_t seed, std::size_t i0, std::size_t i1, double* out) const override {
-    constexpr std::size_t kRows = 256;
-    const std::size_t kk = static_cast<std::size_t>(k_);
-    double u[kRows * 4];
-    static_assert(sizeof(u) > 0);
+    alignas(64) double u[kRows * 4];
     for (std::size_t b0 = i0; b0 < i1; b0 += kRows) {
       const std::size_t rows = std::min(kRows, i1 - b0);
       philox_uniform_rows(seed, kStreamSample, b0, rows, k_, u);
-      for (std::size_t r = 0; r < rows; ++r) out[b0 - i0 + r] = f_(u + r * kk);
+      f_(static_cast<const double*>(u), rows, out + (b0 - i0));
     }
   }
 
@@ -115,11 +120,20 @@ class RowBatchSampler final : public BatchSampler {
 };
 }  // namespace detail
 
-// Batch sampler from a row function, for laws with 1 to 4 uniforms.
+// Batch sampler from a block function f(u, rows, out) (see BlockBatchSampler), 1 to 4 uniforms.
+template <class F>
+std::unique_ptr<BatchSampler> make_block_batch_sampler(int k, F f) {
+  if (k < 1 || k > 4) throw std::logic_error("make_block_batch_sampler: 1 to 4 uniforms");
+  return std::make_unique<detail::BlockBatchSampler<F>>(k, std::move(f));
+}
+
+// Batch sampler from a row function f(const double* u) -> sample, for laws with 1 to 4 uniforms.
 template <class F>
 std::unique_ptr<BatchSampler> make_row_batch_sampler(int k, F f) {
-  if (k < 1 || k > 4) throw std::logic_error("make_row_batch_sampler: 1 to 4 uniforms");
-  return std::make_unique<detail::RowBatchSampler<F>>(k, std::move(f));
+  const std::size_t kk = static_cast<std::size_t>(k);
+  return make_block_batch_sampler(k, [kk, f = std::move(f)](const double* u, std::size_t rows, double* out) {
+    for (std::size_t r = 0; r < rows; ++r) out[r] = f(u + r * kk);
+  });
 }
 
 // Batches at least this long amortize a per-(n, p) table (e.g. inversion tables); results must not

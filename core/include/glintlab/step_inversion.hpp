@@ -4,9 +4,10 @@
 // fixed (n, p) the result is a step function of u whose steps sit at analytic thresholds t_i
 // (Phi((j - mu)/sd)). A batch of samples at one (n, p) can find its step with one table load instead
 // of evaluating logs, square roots and rational functions per sample (the cost a shader pays once
-// per pixel; a Monte Carlo study pays it 1e7 times): [0, 1) is cut into 2^b equal cells (at least
-// 16 per threshold, so u * 2^b is exact); a cell that no threshold or guard band touches stores its
-// value, the others (a few percent) fall back to a binary search.
+// per pixel; a Monte Carlo study pays it 1e7 times): [0, 1) is cut into 2^b equal cells (64 per
+// threshold up to 2^18 cells, so u * 2^b is exact); a cell that no threshold or guard band touches
+// stores its value, the others (about 2%) store where to start a short scan of the thresholds.
+// sample_rows() runs the lookups of a block of rows as AVX-512 gathers when the CPU has them.
 //
 // Exactness: the analytic t_i and the law's floating-point evaluation may disagree by a few ulps
 // about which side of a step a u lies on. Every threshold therefore carries a guard band, wider
@@ -38,6 +39,33 @@ class StepInversion {
     return v >= 0 ? base_ + static_cast<double>(v) : search(u);
   }
 
+  // A sample built from the step value v of one uniform column, as the constant-time laws do:
+  //   out = gate ? a + s * v + [u[extra_col] < extra_below] : 0,  gate = u[gate_col] < gate_below,
+  // (a column of -1 drops its term: the gate is then always open, the extra term 0).
+  struct Affine {
+    double a = 0, s = 1;
+    int gate_col = -1;
+    double gate_below = 0;
+    int extra_col = -1;
+    double extra_below = 0;
+  };
+  // out[r] for rows r of k uniforms each (row r at u + r k), v from column `col`; rows whose v
+  // needs direct evaluation get out[r] = direct(u + r k) instead. With vector gathers (AVX-512)
+  // where the CPU has them; the same values as the scalar expression above either way.
+  template <class Direct>
+  void sample_rows(const double* u, std::size_t k, std::size_t col, std::size_t rows, const Affine& f,
+                   double* out, Direct&& direct) const {
+    constexpr std::size_t kChunk = 256;
+    std::uint8_t mask[kChunk / 8];
+    for (std::size_t r0 = 0; r0 < rows; r0 += kChunk) {
+      const std::size_t n = rows - r0 < kChunk ? rows - r0 : kChunk;
+      affine_rows(u + r0 * k, k, col, n, f, out + r0, mask);
+      for (std::size_t g = 0; g < (n + 7) / 8; ++g)
+        if (mask[g]) [[unlikely]]
+          for (std::size_t l = 0; l < 8; ++l)
+            if (mask[g] >> l & 1) out[r0 + 8 * g + l] = direct(u + (r0 + 8 * g + l) * k);
+    }
+  }
   std::size_t size() const { return t_.size(); }
 
   // The guard for a threshold t at standard-normal quantile z of a law whose step variable is
@@ -47,8 +75,11 @@ class StepInversion {
 
  private:
   double search(double u) const;
+  // sample_rows for at most 256 rows: mask bit r set where direct evaluation is needed.
+  void affine_rows(const double* u, std::size_t k, std::size_t col, std::size_t rows, const Affine& f,
+                   double* out, std::uint8_t* mask) const;
   std::vector<double> t_, guard_;
-  std::vector<std::int32_t> cell_;  // #{t <= u} for every u of the cell, or -1: search
+  std::vector<std::int32_t> cell_;  // #{t <= u} for every u of the cell, or -1 - #{t <= left edge}: search
   double cells_scale_;
   double base_;
   bool exact_below_, exact_above_;
