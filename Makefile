@@ -39,6 +39,7 @@ test: build
 bench: build
 	@$(VENV)/bin/python validation/bench/bench_binomial.py --cpp build/validation/glintlab_bench_binomial
 	@$(VENV)/bin/python validation/bench/bench_laws.py
+	@$(VENV)/bin/python validation/bench/bench_ground_truth.py
 
 # C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module in this build).
 sanitize: deps

@@ -12,6 +12,7 @@ from .exact import binomial, poisson
 from .grid import error_table, standard_grid
 from .laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
 from .metrics import METRICS, chi2_test, distance, sidak_alpha
+from .spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 
 __version__ = _core.__version__
 
@@ -28,7 +29,8 @@ def get_num_threads() -> int:
 
 
 __all__ = [
-    "Chi2Result", "CustomLaw", "Distribution", "Law", "METRICS", "binomial", "chi2_test",
+    "Chi2Result", "CustomLaw", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
+    "chi2_test", "footprint_for_area", "ground_truth", "joint_counts",
     "custom_law", "distance", "error_table", "get_num_threads", "law", "law_summaries", "laws", "poisson",
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms",
 ]
