@@ -1,6 +1,7 @@
 // Thin pybind11 layer over glintlab::core. Broadcasting, defaults and docstrings live in the Python
 // package (glintlab/__init__.py); this file only converts arrays, releases the GIL around long calls
 // and maps C++ exceptions (std::invalid_argument -> ValueError, not_implemented -> NotImplementedError).
+#include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -8,6 +9,7 @@
 #include <cstring>
 
 #include "glintlab/binomial.hpp"
+#include "glintlab/blend.hpp"
 #include "glintlab/chi2.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/law.hpp"
@@ -249,4 +251,83 @@ PYBIND11_MODULE(_core, m) {
     return arr.reshape({static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(fps.size())});
   }, py::arg("layout"), py::arg("density"), py::arg("p"), py::arg("footprints"), py::arg("centers"), py::arg("count"),
      py::arg("seed"));
+
+  // LOD blending.
+  py::class_<BlendedLaw, std::shared_ptr<BlendedLaw>>(m, "BlendedLaw")
+      .def_property_readonly("name", [](const BlendedLaw& b) { return b.rule().name(); })
+      .def_property_readonly("params", [](const BlendedLaw& b) { return from_params(b.rule().params()); })
+      .def_property_readonly("inner_name", [](const BlendedLaw& b) { return b.inner().name; })
+      .def_property_readonly("level_ratio", [](const BlendedLaw& b) { return b.ladder().ratio(); })
+      .def_property_readonly("base_area", [](const BlendedLaw& b) { return b.ladder().base_area(); })
+      .def_property_readonly("binning", &BlendedLaw::binning)
+      .def_property_readonly("has_pmf", &BlendedLaw::has_pmf)
+      .def("bracket", [](const BlendedLaw& b, double area) {
+             const LevelBracket br = b.ladder().bracket(area);
+             py::dict d;
+             d["level"] = br.lo;
+             d["area_lo"] = br.area_lo;
+             d["area_hi"] = br.area_hi;
+             d["w_lod"] = br.w_lod;
+             d["w_area"] = br.w_area;
+             return d;
+           }, py::arg("P"))
+      .def("pmf", &BlendedLaw::pmf, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("max_support") = kDefaultMaxSupport,
+           py::call_guard<py::gil_scoped_release>())
+      .def("sample", [](const BlendedLaw& b, double density, const Array& area, const Array& p, std::size_t count,
+                        std::uint64_t seed) {
+             py::array_t<double> out(static_cast<py::ssize_t>(count));
+             double* o = out.mutable_data();
+             {
+               py::gil_scoped_release release;
+               b.sample(density, param(area), param(p), count, seed, o);
+             }
+             return out;
+           }, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("count"), py::arg("seed"))
+      .def("sample_at", [](const BlendedLaw& b, double density, const Array& area, const Array& p, const Array& x,
+                           const Array& y, std::size_t count, std::uint64_t seed) {
+             py::array_t<double> out(static_cast<py::ssize_t>(count));
+             double* o = out.mutable_data();
+             {
+               py::gil_scoped_release release;
+               b.sample_at(density, param(area), param(p), param(x), param(y), count, seed, o);
+             }
+             return out;
+           }, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("x"), py::arg("y"), py::arg("count"), py::arg("seed"));
+  m.def("make_blended_law", [](const std::string& name, const py::dict& kwargs, std::shared_ptr<CountingLaw> inner,
+                               double ratio, double base_area) {
+    return std::make_shared<BlendedLaw>(make_blend(name, to_params(kwargs)), InnerLaw::from_law(std::move(inner)),
+                                        LevelLadder(ratio, base_area));
+  }, py::arg("name"), py::arg("params"), py::arg("inner"), py::arg("level_ratio"), py::arg("base_area"));
+  // An inner law written in Python: fn(n, p, u) -> counts, called on the calling thread with the GIL.
+  m.def("make_blended_law_custom", [](const std::string& name, const py::dict& kwargs, py::function fn,
+                                      int n_uniforms, const std::string& inner_name, double ratio, double base_area) {
+    InnerLaw inner;
+    inner.name = inner_name;
+    inner.n_uniforms = n_uniforms;
+    inner.integer_output = false;  // unknown: samples are binned, no exact pmf
+    inner.thread_safe = false;
+    const auto k = static_cast<py::ssize_t>(n_uniforms);
+    inner.evaluate = [fn, k](const double* n, const double* p, const double* u, std::size_t rows_count, double* out) {
+      py::gil_scoped_acquire acquire;
+      const auto rows = static_cast<py::ssize_t>(rows_count);
+      py::array_t<double> na(rows), pa(rows), ua({rows, k});
+      std::memcpy(na.mutable_data(), n, rows_count * sizeof(double));
+      std::memcpy(pa.mutable_data(), p, rows_count * sizeof(double));
+      if (k > 0) std::memcpy(ua.mutable_data(), u, rows_count * static_cast<std::size_t>(k) * sizeof(double));
+      const auto result = fn(na, pa, ua).cast<Array>();
+      if (result.size() != rows)
+        throw std::invalid_argument("custom inner law returned " + std::to_string(result.size()) + " values; expected " +
+                                    std::to_string(rows_count));
+      std::memcpy(out, result.data(), rows_count * sizeof(double));
+    };
+    return std::make_shared<BlendedLaw>(make_blend(name, to_params(kwargs)), std::move(inner),
+                                        LevelLadder(ratio, base_area));
+  }, py::arg("name"), py::arg("params"), py::arg("fn"), py::arg("n_uniforms"), py::arg("inner_name"),
+     py::arg("level_ratio"), py::arg("base_area"));
+  m.def("blend_infos", [] {
+    std::vector<std::pair<std::string, std::string>> out;
+    for (const auto& info : registered_blends()) out.emplace_back(info.name, info.summary);
+    return out;
+  });
+  m.def("roulette_moments", &blend_detail::roulette_moments, py::arg("weight"), py::arg("epsilon"));
 }

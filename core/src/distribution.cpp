@@ -138,4 +138,42 @@ Distribution Distribution::empirical(const double* samples, std::size_t count) {
   return d;
 }
 
+Distribution scaled_sum(const Distribution& x, double a, const Distribution& y, double b, bool round_half_up,
+                        std::size_t max_support, std::string_view where) {
+  if (!(a >= 0.0 && b >= 0.0 && std::isfinite(a) && std::isfinite(b)))
+    throw std::logic_error("scaled_sum: scales must be finite and >= 0");
+  const auto bin = [&](double v) {
+    if (round_half_up) return std::floor(v + 0.5);
+    if (v != std::floor(v)) throw std::logic_error("scaled_sum: a non-integer value without rounding");
+    return v;
+  };
+  // Non-negative scales keep the extremes at the ends of the supports.
+  const double lo = bin(a * x.support().front() + b * y.support().front());
+  const double hi = bin(a * x.support().back() + b * y.support().back());
+  if (hi - lo + 1 > static_cast<double>(max_support))
+    throw std::invalid_argument(std::string(where) + ": the law needs more than max_support = " +
+                                std::to_string(max_support) + " support points");
+  std::vector<double> probs(static_cast<std::size_t>(hi - lo) + 1, 0.0);
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double xi = a * x.support()[i], pi = x.probs()[i];
+    for (std::size_t k = 0; k < y.size(); ++k)
+      probs[static_cast<std::size_t>(bin(xi + b * y.support()[k]) - lo)] += pi * y.probs()[k];
+  }
+  // Keep the support tight: drop empty bins at the ends, and inside only when rounding leaves gaps
+  // (a lattice of scaled values); integer convolutions keep every point between the ends.
+  std::vector<double> support, kept;
+  for (std::size_t i = 0; i < probs.size(); ++i) {
+    if (probs[i] == 0.0 && (round_half_up || support.empty())) continue;
+    support.push_back(lo + static_cast<double>(i));
+    kept.push_back(probs[i]);
+  }
+  while (kept.size() > 1 && kept.back() == 0.0) {
+    kept.pop_back();
+    support.pop_back();
+  }
+  return Distribution::with_trimmed_tails(std::move(support), std::move(kept),
+                                          x.trimmed_below() || y.trimmed_below(),
+                                          x.trimmed_above() || y.trimmed_above());
+}
+
 }  // namespace glintlab

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "glintlab/errors.hpp"
+#include "parallel.hpp"
 
 namespace glintlab {
 
@@ -30,28 +31,12 @@ int& thread_setting() {
   return threads;
 }
 
-// Below this many items a batch runs on the calling thread: spawning costs more than it saves.
+// Laws' batches: below this many items a batch runs on the calling thread.
 constexpr std::size_t kParallelThreshold = 2048;
 
-// Runs body(i0, i1) over [0, count) in fixed-size chunks; the chunking does not affect results
-// because every item derives its random numbers from its own index.
 template <class Body>
 void parallel_chunks(std::size_t count, Body body) {
-  const int threads = count < kParallelThreshold ? 1 : thread_setting();
-  constexpr std::size_t chunk = 4096;
-  const std::size_t chunks = (count + chunk - 1) / chunk;
-  std::exception_ptr error;
-  std::mutex error_mutex;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
-  for (std::size_t c = 0; c < chunks; ++c) {
-    try {
-      body(c * chunk, std::min(count, (c + 1) * chunk));
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(error_mutex);
-      if (!error) error = std::current_exception();
-    }
-  }
-  if (error) std::rethrow_exception(error);
+  detail::parallel_chunks(count, 4096, kParallelThreshold, std::move(body));
 }
 
 void validate_all(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count) {

@@ -13,12 +13,11 @@
 #include "glintlab/errors.hpp"
 #include "glintlab/law.hpp"
 #include "glintlab/rng.hpp"
+#include "parallel.hpp"
 
 namespace glintlab::spatial {
 
 namespace {
-
-constexpr std::uint16_t kStreamGroundTruth = 2;  // realizations: never shares a block with law.sample()
 
 double cross(double ax, double ay, double bx, double by) { return ax * by - ay * bx; }
 
@@ -464,43 +463,12 @@ CounterRng realization_rng(std::uint64_t seed, std::size_t r) {
                     0, kStreamGroundTruth);
 }
 
+// Realizations are scheduled 16 at a time (their costs vary with the footprint's position).
 template <class Body>
 void parallel_realizations(std::size_t count, Body body) {
-  std::exception_ptr error;
-  std::mutex error_mutex;
-  const int threads = count < 64 ? 1 : num_threads();
-#pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
-  for (std::size_t r = 0; r < count; ++r) {
-    try {
-      body(r);
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(error_mutex);
-      if (!error) error = std::current_exception();
-    }
-  }
-  if (error) std::rethrow_exception(error);
-}
-
-Distribution convolve(const Distribution& a, const Distribution& b, std::size_t max_support) {
-  const double lo = a.support().front() + b.support().front();
-  const double hi = a.support().back() + b.support().back();
-  if (hi - lo + 1 > static_cast<double>(max_support))
-    throw std::invalid_argument("ground_truth.pmf: the law needs more than max_support = " +
-                                std::to_string(max_support) + " support points");
-  std::vector<double> probs(static_cast<std::size_t>(hi - lo) + 1, 0.0);
-  for (std::size_t i = 0; i < a.size(); ++i)
-    for (std::size_t k = 0; k < b.size(); ++k)
-      probs[static_cast<std::size_t>(a.support()[i] + b.support()[k] - lo)] += a.probs()[i] * b.probs()[k];
-  std::vector<double> support(probs.size());
-  for (std::size_t i = 0; i < support.size(); ++i) support[i] = lo + static_cast<double>(i);
-  // Drop zero-probability points at the ends (keeps supports tight).
-  std::size_t first = 0, last = probs.size();
-  while (first + 1 < last && probs[first] == 0) ++first;
-  while (last - 1 > first && probs[last - 1] == 0) --last;
-  return Distribution::with_trimmed_tails(
-      std::vector<double>(support.begin() + static_cast<std::ptrdiff_t>(first), support.begin() + static_cast<std::ptrdiff_t>(last)),
-      std::vector<double>(probs.begin() + static_cast<std::ptrdiff_t>(first), probs.begin() + static_cast<std::ptrdiff_t>(last)),
-      a.trimmed_below() || b.trimmed_below(), a.trimmed_above() || b.trimmed_above());
+  detail::parallel_chunks(count, 16, 64, [&](std::size_t r0, std::size_t r1) {
+    for (std::size_t r = r0; r < r1; ++r) body(r);
+  });
 }
 
 }  // namespace
@@ -590,7 +558,8 @@ Distribution GroundTruth::pmf(std::size_t max_support, int quadrature) const {
     const Coverage cov = stratified_coverage(footprint_, x, y, side_);
     std::vector<double> q(cov.fractions);
     for (double& v : q) v *= p_;
-    return convolve(binomial::distribution(cov.interior, p_, max_support), poisson_binomial(q, max_support), max_support);
+    return convolve(binomial::distribution(cov.interior, p_, max_support), poisson_binomial(q, max_support),
+                    max_support, "ground_truth.pmf");
   };
   if (center_) return law_at(center_->first, center_->second);
   if (quadrature < 1) throw_invalid("ground_truth.pmf", "quadrature", quadrature, "an integer >= 1");

@@ -8,6 +8,7 @@
 """
 from . import _core
 from ._core import Chi2Result, Distribution
+from .blending import BlendedLaw, blend_summaries, blended_law, blends, roulette_keep_moments, zk16_variance_ratio
 from .exact import binomial, poisson
 from .grid import error_table, standard_grid
 from .laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
@@ -29,7 +30,8 @@ def get_num_threads() -> int:
 
 
 __all__ = [
-    "Chi2Result", "CustomLaw", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
+    "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
+    "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
     "chi2_test", "footprint_for_area", "ground_truth", "joint_counts",
     "custom_law", "distance", "error_table", "get_num_threads", "law", "law_summaries", "laws", "poisson",
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms",

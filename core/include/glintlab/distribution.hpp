@@ -58,4 +58,17 @@ class Distribution {
   bool trimmed_below_ = false, trimmed_above_ = false;
 };
 
+// The law of a·X + b·Y for independent X ~ x and Y ~ y (a, b >= 0), on integer bins: values are
+// rounded half up to integers when `round_half_up`, and must already be integers otherwise
+// (std::logic_error if not). With a = b = 1 on integer supports this is the convolution. Cost:
+// x.size() · y.size(). Throws std::invalid_argument naming `where` when the result would need
+// more than `max_support` points. Trimmed-tail flags are inherited.
+Distribution scaled_sum(const Distribution& x, double a, const Distribution& y, double b, bool round_half_up,
+                        std::size_t max_support, std::string_view where);
+// The law of X + Y for independent X ~ x, Y ~ y on integer supports.
+inline Distribution convolve(const Distribution& x, const Distribution& y, std::size_t max_support,
+                             std::string_view where) {
+  return scaled_sum(x, 1.0, y, 1.0, false, max_support, where);
+}
+
 }  // namespace glintlab

@@ -20,6 +20,12 @@ enum Stream : std::uint16_t {
   // law.sample() and gl.uniforms(): sample i keyed by x = low 32 bits of i, y = high 32 bits. One
   // stream for both on purpose: a custom law fed gl.uniforms() reproduces a built-in's samples.
   kStreamSample = 0,
+  // Ground-truth realizations (spatial.hpp): realization r keyed by x, y = low, high bits of r.
+  kStreamGroundTruth = 2,
+  // LOD cells (blend.hpp): the inner law's uniforms of cell (x, y) at a level, and the per-facet
+  // decisions (Russian roulette) of the same cell.
+  kStreamLevelCount = 3,
+  kStreamLevelFacets = 4,
 };
 
 class CounterRng {

@@ -1,0 +1,36 @@
+// Blend "nearest": WB16's stepped grid scale. One level, the nearer in LOD (round(w), w = 0.5 goes
+// up), its count rescaled to the footprint: K = (P / A_l) · b(N A_l, p). Right mean, the variance of
+// the level's cell rescaled, and a pop each time the rounded level changes.
+#include "glintlab/blend.hpp"
+
+namespace glintlab {
+namespace {
+
+class Nearest final : public BlendRule {
+ public:
+  std::string name() const override { return "nearest"; }
+  static bool upper(const LevelBracket& b) { return b.w_lod >= 0.5; }
+  std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
+    if (upper(b)) return {0.0, density * b.area_hi};
+    return {density * b.area_lo, 0.0};
+  }
+  double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
+                 std::array<CounterRng, 2>&) const override {
+    return upper(b) ? area / b.area_hi * k_hi : area / b.area_lo * k_lo;
+  }
+  Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo, const Distribution& hi,
+                           std::size_t max_support) const override {
+    // The level not drawn is a point mass at 0.
+    return scaled_sum(lo, area / b.area_lo, hi, area / b.area_hi, true, max_support, "blended_law('nearest').pmf");
+  }
+};
+
+const bool registered = register_blend(
+    {"nearest", "one level, round(w), count rescaled by P / A_l (WB16 stepping: pops at level changes)",
+     [](const LawParams& params) -> std::unique_ptr<BlendRule> {
+       ParamReader("nearest", params).finish();
+       return std::make_unique<Nearest>();
+     }});
+
+}  // namespace
+}  // namespace glintlab

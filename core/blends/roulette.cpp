@@ -1,0 +1,124 @@
+// Blend "roulette": KPT25's Russian-roulette interpolation (§3.3.3, eq. 8) in counting form. Each
+// level is drawn at full density, b(N A_l, p) in its cell, and each of its reflecting facets is kept
+// with the level's LOD weight (1 - w below, w above), so single glints switch on and off at full
+// intensity instead of fading as in zk16_linear; K = (P / A_lo) kept_lo + (P / A_hi) kept_hi.
+//
+// epsilon = 0 is the hard roulette: facet i of a level is kept iff r_i < weight. The kept count is
+// then Binomial(k, weight) given k, drawn by inversion from one uniform of the level cell's facet
+// stream (monotone in the weight: a zoom only ever adds facets), and E[K] = N P p exactly.
+// epsilon > 0 is KPT25's mollified roulette (eq. 8): facet i contributes
+//   R(r_i, weight) = smoothstep(max(0, r_i - eps), min(1, r_i + eps), weight)  in [0, 1],
+// with r_i the i-th uniform of the level cell's facet stream (explicit facets up to 64 per level;
+// above, the sum of R over k facets is drawn as a normal with its exact mean and variance, clamped to
+// [0, k]). E[R] = weight for weight in [2 eps, 1 - 2 eps], where the smoothstep's window [r - eps,
+// r + eps] is never clipped to [0, 1]; nearer the ends it is not (blend_detail::roulette_moments),
+// but the two levels' errors cancel: E[R(r, w)] + E[R(r, 1 - w)] = 1 for every w (R(r, w) =
+// 1 - R(1 - r, 1 - w) by symmetry of the smoothstep), so E[K] = N P p at every w (tested). KPT25 use
+// eps = 0.1.
+// A non-integer level count k (a law with continuous output) is floor(k) facets plus one facet of
+// weight frac(k).
+#include <boost/math/quadrature/gauss_kronrod.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+#include "glintlab/blend.hpp"
+#include "glintlab/errors.hpp"
+#include "glintlab/normal.hpp"
+
+namespace glintlab {
+
+namespace blend_detail {
+
+double roulette_keep(double r, double weight, double eps) {
+  if (eps <= 0) return r < weight ? 1.0 : 0.0;
+  const double e0 = std::max(0.0, r - eps), e1 = std::min(1.0, r + eps);
+  const double t = std::clamp((weight - e0) / (e1 - e0), 0.0, 1.0);
+  return t * t * (3.0 - 2.0 * t);
+}
+
+std::array<double, 2> roulette_moments(double weight, double eps) {
+  if (eps <= 0) return {weight, weight};
+  // R(., weight) is smooth between these breakpoints (where a clamp or the smoothstep saturates).
+  std::vector<double> cuts = {0.0, 1.0, eps, 1.0 - eps, weight - eps, weight + eps};
+  std::sort(cuts.begin(), cuts.end());
+  std::array<double, 2> m = {0.0, 0.0};
+  using Gk = boost::math::quadrature::gauss_kronrod<double, 31>;
+  for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
+    const double a = std::clamp(cuts[i], 0.0, 1.0), b = std::clamp(cuts[i + 1], 0.0, 1.0);
+    if (!(b > a)) continue;
+    m[0] += Gk::integrate([&](double r) { return roulette_keep(r, weight, eps); }, a, b, 0);
+    m[1] += Gk::integrate([&](double r) { const double v = roulette_keep(r, weight, eps); return v * v; }, a, b, 0);
+  }
+  return m;
+}
+
+}  // namespace blend_detail
+
+namespace {
+
+constexpr double kExplicitFacets = 64;
+
+class Roulette final : public BlendRule {
+ public:
+  explicit Roulette(double eps) : eps_(eps) {}
+  std::string name() const override { return "roulette"; }
+  LawParams params() const override { return {{"epsilon", eps_}}; }
+  std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
+    return {density * b.area_lo, density * b.area_hi};
+  }
+  bool thins() const override { return true; }
+  bool has_pmf() const override { return eps_ == 0; }
+
+  double kept(double k, double weight, CounterRng& facets) const {
+    if (k <= 0) return 0.0;
+    const double whole = std::floor(k), part = k - whole;
+    if (eps_ == 0) {
+      const double u = facets.uniform(), u_part = facets.uniform();
+      return blend_detail::thin(whole, weight, u) + (part > 0 && u_part < weight ? part : 0.0);
+    }
+    if (k <= kExplicitFacets) {
+      double sum = 0;
+      for (double i = 0; i < whole; ++i) sum += blend_detail::roulette_keep(facets.uniform(), weight, eps_);
+      if (part > 0) sum += part * blend_detail::roulette_keep(facets.uniform(), weight, eps_);
+      return sum;
+    }
+    const auto m = blend_detail::roulette_moments(weight, eps_);
+    const double sd = std::sqrt(std::max(0.0, k * (m[1] - m[0] * m[0])));
+    return std::clamp(k * m[0] + sd * normal::quantile(facets.uniform()), 0.0, k);
+  }
+
+  double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
+                 std::array<CounterRng, 2>& facets) const override {
+    return area / b.area_lo * kept(k_lo, 1.0 - b.w_lod, facets[0]) +
+           area / b.area_hi * kept(k_hi, b.w_lod, facets[1]);
+  }
+
+  Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo, const Distribution& hi,
+                           std::size_t max_support) const override {
+    if (eps_ > 0)
+      throw not_implemented("blended_law('roulette', epsilon > 0): the mollified roulette's K has a continuous "
+                            "part and no exact pmf; estimate one from samples instead");
+    return scaled_sum(blend_detail::thinned(lo, 1.0 - b.w_lod, max_support), area / b.area_lo,
+                      blend_detail::thinned(hi, b.w_lod, max_support), area / b.area_hi, true, max_support,
+                      "blended_law('roulette').pmf");
+  }
+
+ private:
+  double eps_;
+};
+
+const bool registered = register_blend(
+    {"roulette",
+     "KPT25 Russian roulette: each facet of a level kept with the level's weight (epsilon > 0: eq. 8 mollified)",
+     [](const LawParams& params) -> std::unique_ptr<BlendRule> {
+       ParamReader reader("roulette", params);
+       const double eps = reader.number("epsilon", 0.1);
+       reader.finish();
+       if (!(eps >= 0.0 && eps <= 0.5))
+         throw_invalid("blended_law('roulette')", "epsilon", eps, "a number in [0, 0.5] (0: hard roulette)");
+       return std::make_unique<Roulette>(eps);
+     }});
+
+}  // namespace
+}  // namespace glintlab

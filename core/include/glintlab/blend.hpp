@@ -1,0 +1,153 @@
+// Blending a counting law between two LOD levels (LAWS.md §4; DB23 §3-4, KPT25 §3.3.3, WB16 §3.2).
+//
+// Level l of the ladder has cells of area A_l = base_area · ratio^l (any integer l; ratio 4 for mip
+// levels, whose texel side doubles, and 2 as DB23 eq. 13 prints). A footprint of area P sits
+// between A_lo <= P < A_hi = ratio · A_lo. Each level draws its counts from its own cells: the count
+// of level l at texture position (x, y) uses the random numbers keyed by (seed, cell of (x, y) at
+// level l, l), so a realization is coherent across pixels and frames, and the two levels of one
+// pixel are independent. A blend rule says how many trials the inner single-footprint law sees at
+// each level and how the two level counts combine into K:
+//
+//   nearest      one level, round(w), K = (P / A_l) · b(N A_l, p)                (WB16 stepping)
+//   zk16_linear  K = P [(1 - w) b(N A_lo, p) / A_lo + w b(N A_hi, p) / A_hi]     (ZK16 output blend)
+//   distributed  K = b(w̲ N A_lo, p) + b(w̄ N A_hi, p), w̄ = (P - A_lo)/(A_hi - A_lo)  (DB23 eq. 10)
+//   roulette     each reflecting facet of a level is kept with the level's weight (KPT25 eq. 8)
+//
+// with w = log_ratio(P / A_lo), the fractional LOD a mip chain uses, and b the inner law.
+// Non-integer trial counts (w̄ N A_hi, ...) go to the inner law as they are; each law states its
+// rule for them (the exact binomial: Binomial(floor n, p) + Bernoulli(frac(n) p)).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "glintlab/distribution.hpp"
+#include "glintlab/law.hpp"
+#include "glintlab/rng.hpp"
+
+namespace glintlab {
+
+// Where a footprint of area P sits on the level ladder.
+struct LevelBracket {
+  int lo;              // A_lo = base_area · ratio^lo <= P < A_hi
+  double area_lo, area_hi;
+  double w_lod;        // log_ratio(P / A_lo) in [0, 1): the fractional LOD
+  double w_area;       // (P - A_lo) / (A_hi - A_lo) in [0, 1): DB23 eq. 10's weight of the upper level
+};
+
+class LevelLadder {
+ public:
+  // Validates (std::invalid_argument naming the parameter): ratio finite > 1, base_area finite > 0.
+  LevelLadder(double ratio, double base_area);
+  double ratio() const { return ratio_; }
+  double base_area() const { return base_area_; }
+  double area(int level) const;
+  // P finite > 0 whose level index fits 16 bits (|l| < 32768); otherwise std::invalid_argument.
+  LevelBracket bracket(double footprint_area) const;
+
+ private:
+  double ratio_, base_area_;
+};
+
+// The inner law as the blend sees it: a vectorized evaluation on explicit uniforms, so that a
+// built-in law and a user's function (Python) are driven the same way.
+struct InnerLaw {
+  std::string name;
+  int n_uniforms = 0;
+  bool integer_output = true;  // counts are integers (exact pmfs need them)
+  bool thread_safe = true;     // evaluate may run on several threads at once (not a Python callback)
+  // out[i] = K for (n[i], p[i]) on uniforms u[i * n_uniforms ...]; called from one thread.
+  std::function<void(const double* n, const double* p, const double* u, std::size_t m, double* out)> evaluate;
+  std::shared_ptr<const CountingLaw> law;  // set for built-in laws: domain checks and exact pmfs
+
+  static InnerLaw from_law(std::shared_ptr<const CountingLaw> law);
+};
+
+// One blend rule (a file in core/blends/, registered by name).
+class BlendRule {
+ public:
+  virtual ~BlendRule() = default;
+  virtual std::string name() const = 0;
+  virtual LawParams params() const { return {}; }
+  // Trials handed to the inner law at the lower and upper level; 0 means the level is not drawn.
+  virtual std::array<double, 2> trials(double density, double area, const LevelBracket& b) const = 0;
+  // Whether combine() reads the per-facet streams (roulette), and needs integer level counts.
+  virtual bool thins() const { return false; }
+  // K from the level counts; `facets[j]` is level j's stream for per-facet decisions (thins() only).
+  virtual double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
+                         std::array<CounterRng, 2>& facets) const = 0;
+  // Whether combine_pmf can give an exact law (given exact inner laws).
+  virtual bool has_pmf() const { return true; }
+  // Whether K is an integer when the inner counts are.
+  virtual bool integer_output() const { return false; }
+  // Exact law of K from the inner laws' exact laws at each level (a point mass at 0 where trials()
+  // is 0), on
+  // integer bins (round half up) when !integer_output(). Throws not_implemented when underivable.
+  virtual Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo,
+                                   const Distribution& hi, std::size_t max_support) const = 0;
+};
+
+using BlendFactory = std::function<std::unique_ptr<BlendRule>(const LawParams&)>;
+struct BlendInfo {
+  std::string name;
+  std::string summary;
+  BlendFactory make;
+};
+bool register_blend(BlendInfo info);
+std::vector<BlendInfo> registered_blends();
+std::unique_ptr<BlendRule> make_blend(const std::string& name, const LawParams& params = {});
+
+// A blend rule, an inner law and a ladder: a counting law of (N, P, p) on LOD levels.
+class BlendedLaw {
+ public:
+  BlendedLaw(std::unique_ptr<BlendRule> rule, InnerLaw inner, LevelLadder ladder);
+
+  const BlendRule& rule() const { return *rule_; }
+  const InnerLaw& inner() const { return inner_; }
+  const LevelLadder& ladder() const { return ladder_; }
+  // "none" when K is always an integer, else "round" (unit bins, as CountingLaw::binning).
+  std::string binning() const;
+  bool has_pmf() const;
+
+  // Exact law of K (see BlendRule::combine_pmf); not_implemented when the inner law has no exact
+  // law or produces non-integer counts.
+  Distribution pmf(double density, double area, double p, std::size_t max_support = kDefaultMaxSupport) const;
+
+  // Independent samples: sample i sits in cell (i mod 2^32, i >> 32) at every level. density is a
+  // scalar; area and p are arrays of 1 or `count` values.
+  void sample(double density, ParamArray area, ParamArray p, std::size_t count, std::uint64_t seed,
+              double* out) const;
+  // Counts at texture positions (x[i], y[i]): the cell of level l is (floor(x / s_l), floor(y / s_l))
+  // with s_l = sqrt(A_l), so nearby pixels and successive frames share cells (coherence).
+  void sample_at(double density, ParamArray area, ParamArray p, ParamArray x, ParamArray y, std::size_t count,
+                 std::uint64_t seed, double* out) const;
+
+ private:
+  template <class CellOf>
+  void run(double density, ParamArray area, ParamArray p, std::size_t count, std::uint64_t seed, CellOf cell_of,
+           double* out) const;
+  std::unique_ptr<BlendRule> rule_;
+  InnerLaw inner_;
+  LevelLadder ladder_;
+};
+
+// Parameters shared by the blend rules' implementations.
+namespace blend_detail {
+// Binomial thinning by inversion: how many of floor(k) facets are kept with probability q, from one
+// uniform (monotone in q for a fixed uniform, so a zoom keeps facets switched on as q grows).
+double thin(double k, double q, double u);
+// The law of facets kept with probability q from a count with law `counts` (a binomial mixture).
+Distribution thinned(const Distribution& counts, double q, std::size_t max_support);
+// KPT25 eq. 8: how much of a facet with roulette number r is kept at level weight `weight`
+// (eps = 0: the hard roulette [r < weight]).
+double roulette_keep(double r, double weight, double eps);
+// E[R(r, weight)] and E[R(r, weight)^2] for r ~ U(0, 1) (Gauss-Kronrod between R's breakpoints).
+std::array<double, 2> roulette_moments(double weight, double eps);
+}  // namespace blend_detail
+
+}  // namespace glintlab

@@ -1,0 +1,287 @@
+#include "glintlab/blend.hpp"
+
+#include <cmath>
+#include <map>
+#include <stdexcept>
+
+#include "glintlab/binomial.hpp"
+#include "glintlab/errors.hpp"
+#include "parallel.hpp"
+
+namespace glintlab {
+
+namespace {
+
+std::map<std::string, BlendInfo>& blend_registry() {
+  static std::map<std::string, BlendInfo> blends;
+  return blends;
+}
+
+// Level l's 16-bit key in the counter (two's complement, so negative levels are distinct).
+std::uint16_t level_key(int level) { return static_cast<std::uint16_t>(static_cast<std::int16_t>(level)); }
+
+constexpr std::size_t kChunk = 2048;
+
+}  // namespace
+
+LevelLadder::LevelLadder(double ratio, double base_area) : ratio_(ratio), base_area_(base_area) {
+  if (!(ratio > 1.0) || !std::isfinite(ratio))
+    throw_invalid("blended_law", "level_ratio", ratio, "a finite number > 1 (4 for mip levels)");
+  if (!(base_area > 0.0) || !std::isfinite(base_area))
+    throw_invalid("blended_law", "base_area", base_area, "a finite area > 0");
+}
+
+double LevelLadder::area(int level) const { return base_area_ * std::pow(ratio_, level); }
+
+LevelBracket LevelLadder::bracket(double footprint_area) const {
+  const double a = footprint_area;
+  if (!(a > 0.0) || !std::isfinite(a)) throw_invalid("blended_law", "P", a, "a finite footprint area > 0");
+  const double guess = std::floor(std::log(a / base_area_) / std::log(ratio_));
+  if (!(std::abs(guess) < 32767))
+    throw_invalid("blended_law", "P", a, "an area within 32767 levels of base_area (level index is 16 bits)");
+  int lo = static_cast<int>(guess);
+  // The logarithm can land one level off near a level's area: settle A_lo <= P < A_hi exactly.
+  while (area(lo) > a) --lo;
+  while (area(lo + 1) <= a) ++lo;
+  LevelBracket b;
+  b.lo = lo;
+  b.area_lo = area(lo);
+  b.area_hi = area(lo + 1);
+  b.w_lod = std::clamp(std::log(a / b.area_lo) / std::log(ratio_), 0.0, std::nextafter(1.0, 0.0));
+  b.w_area = std::clamp((a - b.area_lo) / (b.area_hi - b.area_lo), 0.0, std::nextafter(1.0, 0.0));
+  return b;
+}
+
+InnerLaw InnerLaw::from_law(std::shared_ptr<const CountingLaw> law) {
+  InnerLaw inner;
+  inner.name = law->name();
+  inner.n_uniforms = law->n_uniforms();
+  inner.integer_output = law->binning() == "none";
+  inner.thread_safe = true;
+  const CountingLaw* raw = law.get();
+  const std::size_t k = static_cast<std::size_t>(inner.n_uniforms);
+  inner.evaluate = [raw, k](const double* n, const double* p, const double* u, std::size_t m, double* out) {
+    for (std::size_t i = 0; i < m; ++i) out[i] = raw->evaluate(n[i], p[i], u + i * k);
+  };
+  inner.law = std::move(law);
+  return inner;
+}
+
+bool register_blend(BlendInfo info) {
+  auto& blends = blend_registry();
+  if (blends.count(info.name)) throw std::logic_error("blend registered twice: " + info.name);
+  const std::string name = info.name;
+  blends.emplace(name, std::move(info));
+  return true;
+}
+
+std::vector<BlendInfo> registered_blends() {
+  std::vector<BlendInfo> out;
+  for (const auto& [name, info] : blend_registry()) out.push_back(info);
+  return out;
+}
+
+std::unique_ptr<BlendRule> make_blend(const std::string& name, const LawParams& params) {
+  const auto& blends = blend_registry();
+  const auto it = blends.find(name);
+  if (it == blends.end()) {
+    std::string known;
+    for (const auto& [key, info] : blends) known += (known.empty() ? "" : ", ") + key;
+    throw_invalid("blended_law", "name", "'" + name + "'", "one of: " + known);
+  }
+  return it->second.make(params);
+}
+
+BlendedLaw::BlendedLaw(std::unique_ptr<BlendRule> rule, InnerLaw inner, LevelLadder ladder)
+    : rule_(std::move(rule)), inner_(std::move(inner)), ladder_(ladder) {
+  if (!inner_.evaluate) throw std::logic_error("BlendedLaw: inner law without evaluate");
+  if (inner_.n_uniforms < 0 || inner_.n_uniforms > 64)
+    throw_invalid("blended_law", "inner.n_uniforms", inner_.n_uniforms, "0 to 64 uniforms");
+}
+
+std::string BlendedLaw::binning() const {
+  return rule_->integer_output() && inner_.integer_output ? "none" : "round";
+}
+
+bool BlendedLaw::has_pmf() const {
+  return rule_->has_pmf() && inner_.law && inner_.law->has_pmf() && inner_.integer_output;
+}
+
+Distribution BlendedLaw::pmf(double density, double area, double p, std::size_t max_support) const {
+  const std::string where = "blended_law('" + rule_->name() + "', inner='" + inner_.name + "')";
+  check_n(where, density, "N");
+  check_p(where, p);
+  const LevelBracket b = ladder_.bracket(area);
+  if (!has_pmf())
+    throw not_implemented(where + " has no exact distribution: " +
+                          (!rule_->has_pmf() ? std::string("the blend's K has a continuous part")
+                           : inner_.law && inner_.law->has_pmf() ? std::string("the inner law produces non-integer counts")
+                                                                  : std::string("the inner law has none")) +
+                          "; estimate one from samples instead");
+  const auto trials = rule_->trials(density, area, b);
+  Distribution levels[2] = {Distribution({0.0}, {1.0}), Distribution({0.0}, {1.0})};
+  for (int j = 0; j < 2; ++j) {
+    if (!(trials[j] > 0)) continue;
+    levels[j] = inner_.law->pmf(trials[j], p, max_support);
+    for (double v : levels[j].support())
+      if (v != std::floor(v))
+        throw not_implemented(where + " has no exact distribution: the inner law gives the non-integer count " +
+                              format_value(v) + " at n = " + format_value(trials[j]));
+  }
+  return rule_->combine_pmf(area, b, levels[0], levels[1], max_support);
+}
+
+template <class CellOf>
+void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t count, std::uint64_t seed,
+                     CellOf cell_of, double* out) const {
+  const std::string where = "blended_law('" + rule_->name() + "', inner='" + inner_.name + "')";
+  check_n(where, density, "N");
+  if (area.size != 1 && area.size != count)
+    throw std::invalid_argument(where + ": P has " + std::to_string(area.size) + " values; expected 1 or " +
+                                std::to_string(count));
+  if (p.size != 1 && p.size != count)
+    throw std::invalid_argument(where + ": p has " + std::to_string(p.size) + " values; expected 1 or " +
+                                std::to_string(count));
+  // Validate everything before drawing anything: a bad element is named, no partial output.
+  for (std::size_t i = 0; i < area.size; ++i) {
+    const double a = area[i];
+    if (!(a > 0.0) || !std::isfinite(a))
+      throw_invalid(where, indexed_name("P", i, area.size > 1), a, "a finite footprint area > 0");
+  }
+  for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
+  if (inner_.law) {
+    const std::size_t m = std::max(area.size, p.size);
+    for (std::size_t i = 0; i < m; ++i) {
+      const LevelBracket b = ladder_.bracket(area[i]);
+      const auto trials = rule_->trials(density, area[i], b);
+      for (double t : trials)
+        if (t > 0 && !inner_.law->accepts(t, p[i]))
+          throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(t) +
+                                      " at p = " + format_value(p[i]) + " (P = " + format_value(area[i]) + ")");
+    }
+  }
+
+  const std::size_t k = static_cast<std::size_t>(inner_.n_uniforms);
+  const bool thins = rule_->thins();
+  auto chunk_body = [&](std::size_t i0, std::size_t i1) {
+    const std::size_t m = i1 - i0;
+    std::vector<LevelBracket> brackets(m);
+    // Per level: the rows it is drawn for (compacted), their trials, p, uniforms and counts.
+    std::vector<std::size_t> rows[2];
+    std::vector<double> n[2], pp[2], u[2], kk[2];
+    std::vector<double> k_level[2] = {std::vector<double>(m, 0.0), std::vector<double>(m, 0.0)};
+    for (std::size_t r = 0; r < m; ++r) {
+      const std::size_t i = i0 + r;
+      brackets[r] = ladder_.bracket(area[i]);
+      const auto trials = rule_->trials(density, area[i], brackets[r]);
+      for (int j = 0; j < 2; ++j) {
+        if (!(trials[j] > 0)) continue;
+        const int level = brackets[r].lo + j;
+        const auto [cx, cy] = cell_of(i, j == 0 ? brackets[r].area_lo : brackets[r].area_hi);
+        CounterRng rng(seed, cx, cy, level_key(level), kStreamLevelCount);
+        rows[j].push_back(r);
+        n[j].push_back(trials[j]);
+        pp[j].push_back(p[i]);
+        for (std::size_t d = 0; d < k; ++d) u[j].push_back(rng.uniform());
+      }
+    }
+    for (int j = 0; j < 2; ++j) {
+      kk[j].resize(rows[j].size());
+      if (!rows[j].empty()) inner_.evaluate(n[j].data(), pp[j].data(), u[j].data(), rows[j].size(), kk[j].data());
+      for (std::size_t q = 0; q < rows[j].size(); ++q) {
+        if (!std::isfinite(kk[j][q]))
+          throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[j][q]) + " at n = " +
+                                      format_value(n[j][q]) + ", p = " + format_value(pp[j][q]));
+        k_level[j][rows[j][q]] = kk[j][q];
+      }
+    }
+    for (std::size_t r = 0; r < m; ++r) {
+      const std::size_t i = i0 + r;
+      const LevelBracket& b = brackets[r];
+      std::array<CounterRng, 2> facets = {CounterRng(seed, 0, 0), CounterRng(seed, 0, 0)};
+      if (thins) {
+        for (int j = 0; j < 2; ++j) {
+          const auto [cx, cy] = cell_of(i, j == 0 ? b.area_lo : b.area_hi);
+          facets[static_cast<std::size_t>(j)] = CounterRng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
+        }
+      }
+      out[i] = rule_->combine(area[i], b, k_level[0][r], k_level[1][r], facets);
+    }
+  };
+  if (inner_.thread_safe) {
+    detail::parallel_chunks(count, kChunk, kChunk, chunk_body);
+  } else {
+    for (std::size_t i0 = 0; i0 < count; i0 += kChunk) chunk_body(i0, std::min(count, i0 + kChunk));
+  }
+}
+
+void BlendedLaw::sample(double density, ParamArray area, ParamArray p, std::size_t count, std::uint64_t seed,
+                        double* out) const {
+  run(density, area, p, count, seed,
+      [](std::size_t i, double) {
+        return std::pair<std::uint32_t, std::uint32_t>(static_cast<std::uint32_t>(i),
+                                                       static_cast<std::uint32_t>(static_cast<std::uint64_t>(i) >> 32));
+      },
+      out);
+}
+
+void BlendedLaw::sample_at(double density, ParamArray area, ParamArray p, ParamArray x, ParamArray y,
+                           std::size_t count, std::uint64_t seed, double* out) const {
+  const std::string where = "blended_law('" + rule_->name() + "').sample_at";
+  for (auto [name, arr] : {std::pair<const char*, ParamArray>{"x", x}, {"y", y}}) {
+    if (arr.size != 1 && arr.size != count)
+      throw std::invalid_argument(where + ": " + name + " has " + std::to_string(arr.size) +
+                                  " values; expected 1 or " + std::to_string(count));
+    for (std::size_t i = 0; i < arr.size; ++i)
+      if (!std::isfinite(arr[i]) || std::abs(arr[i]) > 1e9)
+        throw_invalid(where, indexed_name(name, i, arr.size > 1), arr[i], "a finite texture coordinate, |x| <= 1e9");
+  }
+  run(density, area, p, count, seed,
+      [x, y](std::size_t i, double level_area) {
+        // Cells of side sqrt(A_l) anchored at the origin; indices wrap modulo 2^32 in the key.
+        const double side = std::sqrt(level_area);
+        const auto cx = static_cast<std::int64_t>(std::floor(x[i] / side));
+        const auto cy = static_cast<std::int64_t>(std::floor(y[i] / side));
+        return std::pair<std::uint32_t, std::uint32_t>(static_cast<std::uint32_t>(cx), static_cast<std::uint32_t>(cy));
+      },
+      out);
+}
+
+namespace blend_detail {
+
+double thin(double k, double q, double u) {
+  if (k <= 0 || q <= 0) return 0.0;
+  if (q >= 1) return k;
+  return binomial::quantile(u, std::floor(k), q);
+}
+
+Distribution thinned(const Distribution& counts, double q, std::size_t max_support) {
+  const double hi = counts.support().back();
+  if (hi + 1 > static_cast<double>(max_support))
+    throw std::invalid_argument("roulette pmf: the law needs more than max_support = " + std::to_string(max_support) +
+                                " support points");
+  std::vector<double> probs(static_cast<std::size_t>(hi) + 1, 0.0);
+  for (std::size_t i = 0; i < counts.size(); ++i) {
+    const double k = counts.support()[i];
+    if (counts.probs()[i] == 0) continue;
+    if (q <= 0 || k == 0) {
+      probs[0] += counts.probs()[i];
+      continue;
+    }
+    const Distribution kept = binomial::distribution(k, std::min(q, 1.0), max_support);
+    for (std::size_t s = 0; s < kept.size(); ++s)
+      probs[static_cast<std::size_t>(kept.support()[s])] += counts.probs()[i] * kept.probs()[s];
+  }
+  std::vector<double> support, kept_probs;
+  for (std::size_t v = 0; v < probs.size(); ++v) {
+    if (probs[v] == 0) continue;
+    support.push_back(static_cast<double>(v));
+    kept_probs.push_back(probs[v]);
+  }
+  return Distribution::with_trimmed_tails(std::move(support), std::move(kept_probs), counts.trimmed_below() || q > 0,
+                                          counts.trimmed_above() || q > 0);
+}
+
+}  // namespace blend_detail
+
+}  // namespace glintlab
