@@ -58,6 +58,11 @@ class BlendedLaw:
         return (f"glintlab.blended_law({self.name!r}, inner={self._inner.name!r}, level_ratio={self.level_ratio:g}, "
                 f"base_area={self.base_area:g}{args})")
 
+    def at_density(self, N) -> "_AtDensity":
+        """A law-like view of this blend at facet density N: ``.pmf(n, p)`` and ``.sample(n, p, size,
+        seed)`` with P = n / N (plugs into ``figures.figure9``, which compares laws of (n, p))."""
+        return _AtDensity(self, _density(N))
+
     def levels(self, P) -> dict:
         """Where area P sits: level index, area_lo, area_hi, w_lod and w_area."""
         return dict(self._core.bracket(_number("P", P)))
@@ -102,6 +107,20 @@ class BlendedLaw:
                 for a in arrays]
         count = int(np.prod(shape, dtype=np.int64))
         return self._core.sample_at(_density(N), *flat, count, seed).reshape(shape)
+
+
+class _AtDensity:
+    def __init__(self, blend, N):
+        self._blend, self._N = blend, N
+        self.name = f"{blend.name}[{blend.inner.name}]"
+        self.params = {"N": N}
+
+    def pmf(self, n, p):
+        return self._blend.pmf(self._N, _number("n", n) / self._N, p)
+
+    def sample(self, n, p, size=None, seed=None):
+        return self._blend.bin(self._blend.sample(self._N, np.asarray(n, dtype=np.float64) / self._N, p,
+                                                  size=size, seed=seed))
 
 
 def blended_law(name: str, inner="binomial", level_ratio: float = 4, base_area: float = 1.0, **params) -> BlendedLaw:

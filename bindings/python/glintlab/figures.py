@@ -1,6 +1,8 @@
 """Paper figures as functions of the Python API (used by `make run` and the notebooks)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .laws import law as get_law
@@ -75,3 +77,90 @@ def _window(d, mass=1e-4):
     lo = d.support[np.searchsorted(c, mass / 2)]
     hi = d.support[min(np.searchsorted(c, 1 - mass / 2), len(c) - 1)]
     return lo, hi
+
+
+def figure4(table, panels, columns: int = 3):
+    """DB23 Figure 4 quantified (from ``lod.figure4_table``): per footprint, the ground truth's exact
+    law (bars), ZK16 linear blending and the distributed binomial (exact laws as lines, samples as
+    dots), with each source's chi-square p-value against the truth and its variance ratio."""
+    import matplotlib.pyplot as plt
+
+    rows = math.ceil(len(panels) / columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 2.9 * rows), squeeze=False)
+    colors = {"zk16_linear": "#d6604d", "distributed": "#2166ac"}
+    for ax, panel in zip(axes.ravel(), panels):
+        truth = panel["truth"]
+        ax.bar(truth.support, truth.probs, width=0.9 if len(truth) < 80 else 1.0, color="#bbbbbb",
+               label="ground truth (exact)")
+        sel = table[(table.N == panel["N"]) & (table.p == panel["p"]) & (table.P == panel["P"])]
+        for label, src in panel["sources"].items():
+            row = sel[sel.source == label].iloc[0]
+            base = label.split("[")[0]
+            if base not in colors:
+                continue
+            color = colors[base] if "[" not in label else "#5aae61"
+            d = src["exact"]
+            text = f"{label}: p={row.pvalue:.2g}, var x{row.var_ratio:.2f}"
+            if d is not None:
+                ax.step(d.support, d.probs, where="mid", color=color, lw=1.3, label=text)
+            values, counts = np.unique(src["samples"], return_counts=True)
+            ax.plot(values, counts / counts.sum(), ".", ms=2.5, color=color,
+                    label=None if d is not None else text)
+        lo, hi = _window(truth, 1e-5)
+        ax.set_xlim(lo - 1, hi + 1)
+        ax.set_title(f"N={panel['N']}, p={panel['p']:g}: n={panel['n']:g} ({panel['footprint']}), "
+                     f"w_area={panel['w_area']:g}", fontsize=8)
+        ax.legend(fontsize=6, loc="upper right")
+        ax.set_xlabel("K", fontsize=8)
+    for ax in axes.ravel()[len(panels):]:
+        ax.axis("off")
+    fig.suptitle("DB23 Fig. 4: blending two LOD levels against spatialized Bernoulli trials "
+                 "(grey: truth; red: ZK16 output blend; blue: distributed, eq. 10)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def coherence_figure(zoom_K, pan_K, zoom_table, pan_table, examples: int = 3):
+    """Counts along a few zoom and pan paths per law (same paths and seeds for every law), and the
+    coherence metrics of ``lod.zoom_study`` / ``lod.pan_study``."""
+    import matplotlib.pyplot as plt
+
+    labels = [key for key in zoom_K if key[1] in ("-", "binomial")]
+    fig, axes = plt.subplots(2, len(labels), figsize=(2.6 * len(labels), 5.2), sharey="row", squeeze=False)
+    for row, (K_by, table, kind) in enumerate(((zoom_K, zoom_table, "zoom"), (pan_K, pan_table, "pan"))):
+        for col, key in enumerate(labels):
+            ax = axes[row, col]
+            K = K_by[key]
+            for j in range(min(examples, K.shape[0])):
+                ax.plot(K[j], lw=1.0)
+            m = table[(table.law == key[0]) & (table.inner == key[1])].iloc[0]
+            ax.set_title(f"{kind}: {key[0]}\n|dK| {m.mean_abs_step:.2f}, pops {m.pop_rate:.3f}, "
+                         f"r1 {m.corr_lag1:.2f}", fontsize=7)
+            ax.set_xlabel("step", fontsize=7)
+            ax.tick_params(labelsize=7)
+        axes[row, 0].set_ylabel("K")
+    fig.suptitle("Coherence along a zoom (A_lo to A_hi) and a pan (1/16 footprint per step): same paths, "
+                 "same seeds; ground truth counted on one facet realization per path", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def strip_figure(images, exponents, vmax: float = 4.0):
+    """The receding-plane strip of ``lod.strip_images``: intensity K / (N P p) per pixel per law."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(images), 1, figsize=(9, 1.05 * len(images) + 0.6), squeeze=False)
+    for ax, (label, img) in zip(axes[:, 0], images.items()):
+        ax.imshow(np.sqrt(np.clip(img, 0, vmax) / vmax), cmap="magma", vmin=0, vmax=1, aspect="auto",
+                  interpolation="nearest")
+        ax.set_ylabel(label, rotation=0, ha="right", va="center", fontsize=8)
+        ax.set_yticks([])
+        edges = np.searchsorted(exponents, [0.0, 0.5, 1.0])
+        ax.set_xticks(edges)
+        ax.set_xticklabels(["A_lo", "w=1/2", "A_hi"], fontsize=7)
+        for x in edges:
+            ax.axvline(x, color="white", lw=0.4, alpha=0.5)
+    fig.suptitle("A plane receding across one LOD transition (left: level lo, right: level hi); "
+                 "pixel intensity K / (N P p), sqrt scale", fontsize=9)
+    fig.tight_layout()
+    return fig

@@ -8,7 +8,9 @@ self-contained ``index.html``:
 2. sampler checks: the binomial and Poisson samplers against their exact laws (chi-square p-value,
    exact TV of the sample histogram, ns/sample);
 3. metrics: the distance between the uniform layout's law (binomial) and the Poisson layout's law
-   for the same mean, over n and p: when the two ground truths differ visibly, and by how much.
+   for the same mean, over n and p: when the two ground truths differ visibly, and by how much;
+4. LOD blending (glintlab.lod): DB23 Fig. 4 quantified against the stratified ground truth, the
+   effect of non-integer trial counts, coherence along zoom and pan paths, the receding strip.
 """
 from __future__ import annotations
 
@@ -214,8 +216,11 @@ def _grid_maps(path: Path, table: pd.DataFrame, names, column: str, floor: float
 def _figure9(out: Path, samples: int, seed: int):
     import matplotlib.pyplot as plt
 
+    from .blending import blended_law
     from .figures import figure9
-    fig, rows = figure9(laws=("gated", "head_cf"), samples=samples, seed=seed)
+    # DB23 Fig. 9a: the gated Gaussian inside the distributed binomial (N = 4^8: n = 8 sits mid-level).
+    lod = blended_law("distributed", inner="gated").at_density(4.0**8)
+    fig, rows = figure9(laws=("gated", "head_cf", lod), samples=samples, seed=seed)
     path = out / "db23_figure9.png"
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -295,6 +300,38 @@ def _precision(out: Path, samples: int, seed: int):
     return paths, summary, pow_table
 
 
+def _lod(out: Path, quick: bool, seed: int):
+    """DB23 Fig. 4 quantified, the non-integer trial rule, coherence along zoom/pan paths, the strip."""
+    import matplotlib.pyplot as plt
+
+    from . import lod
+    from .figures import coherence_figure, figure4, strip_figure
+    paths = []
+    table, panels = lod.figure4_table(samples=20_000 if quick else 200_000, seed=seed)
+    fig = figure4(table, panels)
+    paths.append(out / "db23_figure4.png")
+    fig.savefig(paths[-1], dpi=100)
+    plt.close(fig)
+    trials = lod.non_integer_trials_table()
+    n_paths = 200 if quick else 1000
+    zoom, zoom_K = lod.zoom_study(paths=n_paths, seed=seed)
+    pan, pan_K = lod.pan_study(paths=n_paths, seed=seed)
+    fig = coherence_figure(zoom_K, pan_K, zoom, pan)
+    paths.append(out / "lod_coherence.png")
+    fig.savefig(paths[-1], dpi=100)
+    plt.close(fig)
+    # Quick: a coarser level at a quarter of the density keeps n = N P (and the look) unchanged.
+    images, exponents = lod.strip_images(N=2.5e7 if quick else 1e8, width=128 if quick else 256,
+                                         height=32 if quick else 64, level=-9 if quick else -10, seed=seed)
+    fig = strip_figure(images, exponents)
+    paths.append(out / "lod_strip.png")
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+    tables = {"db23_figure4": table, "lod_non_integer_trials": trials,
+              "lod_coherence": pd.concat([zoom, pan], ignore_index=True)}
+    return paths, tables
+
+
 def run(out: Path, quick: bool = False, seed: int = 1, quiet: bool = False) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     samples = 10**5 if quick else 10**6
@@ -311,7 +348,10 @@ def run(out: Path, quick: bool = False, seed: int = 1, quiet: bool = False) -> d
     tables["db23_figure9"] = fig9
     precision_paths, tables["float32_vs_float64"], tables["one_minus_p_pow_n"] = _precision(
         out, 256 if quick else 1024, seed)
-    figures = _figures(out, samples, seed) + _trade_figures(out, trade, errors) + fig9_paths + precision_paths
+    lod_paths, lod_tables = _lod(out, quick, seed)
+    tables.update(lod_tables)
+    figures = (_figures(out, samples, seed) + _trade_figures(out, trade, errors) + fig9_paths + lod_paths
+               + precision_paths)
     errors.to_csv(out / "error_table_standard_grid.csv", index=False)
     for name, df in tables.items():
         df.to_csv(out / f"{name}.csv", index=False)
@@ -360,6 +400,13 @@ def print_summary(summary) -> None:
          ["n", "p", "tv", "hellinger", "js", "w1", "ks"])
     show("DB23 Figure 9 idea: exact TV to the binomial, chi-square p of the samples", t["db23_figure9"],
          ["law", "n", "p", "tv", "pvalue"])
+    show("DB23 Figure 4: blending two LOD levels against the stratified ground truth (chi-square p, variance ratio)",
+         t["db23_figure4"], ["N", "p", "n", "w_area", "source", "pvalue", "var_ratio", "var_ratio_se",
+                             "var_ratio_analytic", "tv_vs_square"])
+    show("distributed with non-integer trial counts vs Binomial(N P, p)", t["lod_non_integer_trials"],
+         ["N", "cells_lo", "p", "max_tv", "mean_tv", "max_var_excess", "bound"])
+    show("coherence along zoom and pan paths", t["lod_coherence"],
+         ["path", "law", "inner", "mean_abs_step", "pop_rate", "corr_lag1", "corr_lag16", "corr_ends", "mean_K"])
     show("speed / accuracy over the standard grid (exact errors vs the binomial)", t["speed_accuracy"],
          ["law", "tv_max", "tv_median", "hellinger_max", "w1_max", "mean_rel_err_max", "ns_per_sample",
           "ns_ratio_1e9_vs_16"])
