@@ -26,12 +26,8 @@ class Distributed final : public BlendRule {
   }
 };
 
-const bool registered = register_blend(
-    {"distributed", "DB23 eq. 10: b(w_lo N A_lo, p) + b(w_hi N A_hi, p), area weights (Binomial(NP, p) exactly)",
-     [](const LawParams& params) -> std::unique_ptr<BlendRule> {
-       ParamReader("distributed", params).finish();
-       return std::make_unique<Distributed>();
-     }});
+const bool registered = register_parameterless_blend<Distributed>(
+    "distributed", "DB23 eq. 10: b(w_lo N A_lo, p) + b(w_hi N A_hi, p), area weights (Binomial(NP, p) exactly)");
 
 }  // namespace
 }  // namespace glintlab

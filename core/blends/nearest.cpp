@@ -25,12 +25,8 @@ class Nearest final : public BlendRule {
   }
 };
 
-const bool registered = register_blend(
-    {"nearest", "one level, round(w), count rescaled by P / A_l (WB16 stepping: pops at level changes)",
-     [](const LawParams& params) -> std::unique_ptr<BlendRule> {
-       ParamReader("nearest", params).finish();
-       return std::make_unique<Nearest>();
-     }});
+const bool registered = register_parameterless_blend<Nearest>(
+    "nearest", "one level, round(w), count rescaled by P / A_l (WB16 stepping: pops at level changes)");
 
 }  // namespace
 }  // namespace glintlab

@@ -26,12 +26,8 @@ class Zk16Linear final : public BlendRule {
   }
 };
 
-const bool registered = register_blend(
-    {"zk16_linear", "ZK16 output blend: P[(1-w) b_lo/A_lo + w b_hi/A_hi] (right mean, variance deficit, ghosting)",
-     [](const LawParams& params) -> std::unique_ptr<BlendRule> {
-       ParamReader("zk16_linear", params).finish();
-       return std::make_unique<Zk16Linear>();
-     }});
+const bool registered = register_parameterless_blend<Zk16Linear>(
+    "zk16_linear", "ZK16 output blend: P[(1-w) b_lo/A_lo + w b_hi/A_hi] (right mean, variance deficit, ghosting)");
 
 }  // namespace
 }  // namespace glintlab

@@ -11,6 +11,16 @@ def fail(name, value, expected):
     raise ValueError(f"{name} = {value!r} is invalid; expected {expected}")
 
 
+def real(name, value):
+    """`value` as a Python float (bools, strings and other objects rejected by name)."""
+    if isinstance(value, bool):
+        fail(name, value, "a real number")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        fail(name, value, "a real number")
+
+
 def as_float_array(name, value):
     """`value` as a float64 array; strings, objects and complex numbers are rejected by name."""
     try:

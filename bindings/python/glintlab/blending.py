@@ -180,12 +180,7 @@ def zk16_variance_ratio(P, level_ratio: float = 4, base_area: float = 1.0):
 
 
 def _number(name, value):
-    if isinstance(value, bool):
-        V.fail(name, value, "a real number")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        V.fail(name, value, "a real number")
+    x = V.real(name, value)
     if not np.isfinite(x):
         V.fail(name, value, "a finite real number")
     return x

@@ -29,14 +29,7 @@ from . import _validate as V
 LAYOUTS = ("uniform", "poisson", "stratified")
 
 
-def _number(name, value):
-    if isinstance(value, bool):
-        V.fail(name, value, "a real number")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        V.fail(name, value, "a real number")
-    return x
+_number = V.real
 
 
 class _Footprint:

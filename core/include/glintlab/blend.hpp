@@ -102,6 +102,15 @@ bool register_blend(BlendInfo info);
 std::vector<BlendInfo> registered_blends();
 std::unique_ptr<BlendRule> make_blend(const std::string& name, const LawParams& params = {});
 
+// Registration of a blend without parameters (any given parameter is refused by name).
+template <class Rule>
+bool register_parameterless_blend(const std::string& name, const std::string& summary) {
+  return register_blend({name, summary, [name](const LawParams& params) -> std::unique_ptr<BlendRule> {
+                           ParamReader(name, params).finish();
+                           return std::make_unique<Rule>();
+                         }});
+}
+
 // A blend rule, an inner law and a ladder: a counting law of (N, P, p) on LOD levels.
 class BlendedLaw {
  public:
