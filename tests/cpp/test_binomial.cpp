@@ -162,7 +162,7 @@ TEST_CASE("binomial edge cases are exact", "[binomial]") {
   CHECK(binomial::cdf(5, 5, 0.5) == 1.0);
 }
 
-TEST_CASE("cdf, sf and the pmf agree; sf is accurate in the far tail", "[binomial]") {
+TEST_CASE("cdf, sf and the pmf agree, and sf is accurate in the far tail", "[binomial]") {
   for (auto [n, p] : {std::pair{20.0, 0.3}, {1000.0, 0.01}, {50.0, 0.9}, {7.0, 0.5}}) {
     double acc = 0;
     for (double k = 0; k <= n; k += 1) {

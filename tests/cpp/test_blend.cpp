@@ -172,7 +172,7 @@ TEST_CASE("ZK16's variance is the analytic fraction P[(1-w)^2/A_lo + w^2/A_hi] o
   }
 }
 
-TEST_CASE("roulette: the hard roulette's mean is N P p; so is the mollified one's", "[blend][statistical]") {
+TEST_CASE("roulette: the hard and the mollified roulette both have mean N P p", "[blend][statistical]") {
   for (double w : {0.2, 0.5, 0.8}) {
     const auto m = blend_detail::roulette_moments(w, 0.1);
     CHECK(m[0] == Approx(w).epsilon(1e-12));
@@ -215,7 +215,7 @@ TEST_CASE("roulette: the hard roulette's mean is N P p; so is the mollified one'
   }
 }
 
-TEST_CASE("positioned draws are coherent: one level cell, one count; results do not depend on threads", "[blend]") {
+TEST_CASE("positioned draws are coherent (one level cell, one count) and do not depend on threads", "[blend]") {
   const auto law = blended("distributed", "binomial", 4, 1.0);
   const double N = 1e8, p = 0.05;
   // P just above A_lo = 4^-9 (cells of side 2^-9): the lower level carries almost all trials.
