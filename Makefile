@@ -6,7 +6,7 @@ JOBS ?= 2
 BUILD_TYPE ?= Release
 QUICK ?=
 
-.PHONY: build run test bench sanitize deps venv clean
+.PHONY: build run test bench sanitize fuzz deps venv clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -50,5 +50,24 @@ sanitize: deps
 	@cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --output-on-failure -j $(JOBS)
 
+# libFuzzer (clang, ASan + UBSan) on the experiment and bounds parsers for FUZZ_SECONDS, from a fresh
+# corpus of the shipped and test documents. A crash, leak, timeout or sanitizer report fails the target;
+# the input is kept as build-fuzz/crash-* (replay: build-fuzz/validation/glintlab_fuzz_documents FILE).
+FUZZ_SECONDS ?= 30
+fuzz: deps
+	@CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DGLINTLAB_FUZZ=ON \
+	  -DGLINTLAB_PYTHON=OFF > build-fuzz.log 2>&1 || { cat build-fuzz.log; exit 1; }
+	@cmake --build build-fuzz -j $(JOBS) --target glintlab_fuzz_documents >> build-fuzz.log 2>&1 \
+	  || { tail -60 build-fuzz.log; echo "make fuzz: build failed (build-fuzz.log)"; exit 1; }
+	@rm -rf build-fuzz/corpus && mkdir -p build-fuzz/corpus
+	@shopt -s nullglob globstar; \
+	  for f in data/experiments/*.json data/bounds/*.json tests/data/documents/**/*.json; do \
+	    cp "$$f" "build-fuzz/corpus/$$(echo "$$f" | tr / _)"; done
+	@cd build-fuzz && ./validation/glintlab_fuzz_documents corpus -dict=../validation/fuzz/json.dict \
+	  -max_total_time=$(FUZZ_SECONDS) -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 > fuzz.log 2>&1 \
+	  || { tail -60 fuzz.log; echo "make fuzz: the fuzzer found a failure (build-fuzz/fuzz.log, build-fuzz/crash-*)"; exit 1; }
+	@grep -E '^(Done|stat::number_of_executed_units|stat::peak_rss_mb)' build-fuzz/fuzz.log; \
+	  echo "make fuzz: no failure in $(FUZZ_SECONDS) s ($$(ls build-fuzz/corpus | wc -l) corpus inputs)"
+
 clean:
-	rm -rf build build-asan out build.log build-asan.log
+	rm -rf build build-asan build-fuzz out build.log build-asan.log build-fuzz.log

@@ -15,6 +15,8 @@
 #include "glintlab/law.hpp"
 #include "glintlab/metrics.hpp"
 #include "glintlab/spatial.hpp"
+#include "glintlab/validation/documents.hpp"
+#include "glintlab/validation/plugin.hpp"
 
 namespace py = pybind11;
 using namespace glintlab;
@@ -67,6 +69,13 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "glintlab C++ core (use the glintlab package, not this module)";
   m.attr("__version__") = GLINTLAB_VERSION;
   py::register_exception<not_implemented>(m, "NotImplementedErrorCore", PyExc_NotImplementedError);
+  // Experiment and bounds documents (validation/documents.hpp): the normalized document as JSON text;
+  // bad input raises InputError (a ValueError) "<source>: at <pointer>: expected ..., got ...".
+  py::register_exception<validation::InputError>(m, "InputError", PyExc_ValueError);
+  m.def("parse_document", [](const std::string& kind, std::string_view text, const std::string& source) {
+    return validation::parse_document(kind, text, source).dump();
+  }, py::arg("kind"), py::arg("text"), py::arg("source"));
+  m.def("schema_text", &validation::schema_text, py::arg("name"));
 
   py::class_<Distribution>(m, "Distribution")
       .def(py::init([](const Array& support, const Array& probs, bool normalize) {
@@ -138,6 +147,13 @@ PYBIND11_MODULE(_core, m) {
   m.def("law_infos", [] {
     std::vector<std::pair<std::string, std::string>> out;
     for (const auto& info : registered_laws()) out.emplace_back(info.name, info.summary);
+    return out;
+  });
+  // C++ plugin laws (glintlab/plugin.h); `reserved`: names of the Python custom laws.
+  m.def("load_plugin", &load_plugin, py::arg("path"), py::arg("reserved"));
+  m.def("loaded_plugins", [] {
+    std::vector<std::pair<std::string, std::vector<std::string>>> out;
+    for (const auto& p : loaded_plugins()) out.emplace_back(p.path, p.laws);
     return out;
   });
 

@@ -19,6 +19,12 @@ std::map<std::string, LawInfo>& registry() {
   static std::map<std::string, LawInfo> laws;
   return laws;
 }
+// Laws also register after static initialization (plugins, validation/src/plugin_loader.cpp), possibly
+// while other threads look laws up: every registry access holds this lock.
+std::mutex& registry_mutex() {
+  static std::mutex m;
+  return m;
+}
 
 int& thread_setting() {
   static int threads = [] {
@@ -121,6 +127,7 @@ void CountingLaw::validate(double n, double p, std::size_t index, bool is_array)
 }
 
 bool register_law(LawInfo info) {
+  std::lock_guard lock(registry_mutex());
   auto& laws = registry();
   if (laws.count(info.name)) throw std::logic_error("law registered twice: " + info.name);
   const std::string key = info.name;
@@ -129,17 +136,23 @@ bool register_law(LawInfo info) {
 }
 
 std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params) {
-  const auto& laws = registry();
-  auto it = laws.find(name);
-  if (it == laws.end()) {
-    std::string names;
-    for (const auto& [k, v] : laws) names += (names.empty() ? "" : ", ") + k;
-    throw_invalid("law", "name", "'" + name + "'", "one of: " + names);
+  LawFactory make;
+  {
+    std::lock_guard lock(registry_mutex());
+    const auto& laws = registry();
+    auto it = laws.find(name);
+    if (it == laws.end()) {
+      std::string names;
+      for (const auto& [k, v] : laws) names += (names.empty() ? "" : ", ") + k;
+      throw_invalid("law", "name", "'" + name + "'", "one of: " + names);
+    }
+    make = it->second.make;
   }
-  return it->second.make(params);
+  return make(params);  // outside the lock: a factory may look up other laws
 }
 
 std::vector<LawInfo> registered_laws() {
+  std::lock_guard lock(registry_mutex());
   std::vector<LawInfo> out;
   for (const auto& [k, v] : registry()) out.push_back(v);
   return out;

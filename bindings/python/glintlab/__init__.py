@@ -13,9 +13,15 @@ from .exact import binomial, poisson
 from .grid import error_table, standard_grid
 from .laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
 from .metrics import METRICS, chi2_test, distance, sidak_alpha
+from .plugins import load_plugin, loaded_plugins
 from .spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 
 __version__ = _core.__version__
+
+# After __version__: sweeps, results and stores record it.
+from .sweep import sweep  # noqa: E402
+from .bounds import check, perturbed_law  # noqa: E402
+from .experiment import run_experiment  # noqa: E402
 
 
 def set_num_threads(threads: int) -> None:
@@ -30,9 +36,10 @@ def get_num_threads() -> int:
 
 
 __all__ = [
+    "sweep", "check", "perturbed_law", "run_experiment",
     "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
     "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
     "chi2_test", "footprint_for_area", "ground_truth", "joint_counts",
     "custom_law", "distance", "error_table", "get_num_threads", "law", "law_summaries", "laws", "poisson",
-    "set_num_threads", "sidak_alpha", "standard_grid", "uniforms",
+    "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
 ]

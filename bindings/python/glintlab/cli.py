@@ -1,7 +1,12 @@
-"""The `glintlab` command line. Exit status: 0 success, 1 a check failed, 2 bad input."""
+"""The `glintlab` command line. Exit status: 0 success, 1 a check failed, 2 bad input.
+
+Subcommands: laws, run (one experiment), sweep (an experiment from flags), check (error bounds),
+bench (speed against accuracy), extremes (numerical extremes of every law), report (the main job).
+"""
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -28,15 +33,211 @@ def _cmd_report(args) -> int:
     return 0
 
 
+def _load_plugins(paths):
+    from .plugins import load_plugin
+    for path in paths or []:
+        load_plugin(path)
+
+
+def _print_table(df, quiet, max_rows=60):
+    if quiet:
+        return
+    import pandas as pd
+    with pd.option_context("display.width", 200, "display.max_columns", 30, "display.max_rows", max_rows):
+        print(df.to_string(index=False, float_format=lambda x: f"{x:.4g}", max_rows=max_rows))
+
+
+def _run_experiment(source, args) -> int:
+    from .experiment import run_experiment
+    _load_plugins(args.plugin)
+    out = Path(args.out) if args.out else None
+    result = run_experiment(source, out=out, store=args.store, progress=None if not args.quiet else False)
+    name = result.config["name"]
+    if not args.quiet:
+        _print_table(result.table, args.quiet)
+        where = f"; wrote {', '.join(str(f) for f in result.files)}" if result.files else ""
+        print(f"\n{name}: {len(result.table)} rows in {result.seconds} s{where}")
+    return 0
+
+
+def _cmd_run(args) -> int:
+    if args.out is None:
+        args.out = "out/experiments/" + Path(args.experiment).stem
+    return _run_experiment(args.experiment, args)
+
+
+def _axis_arg(values, flag):
+    """--n 16 1000 | --n logspace:0:6:13 | --n linspace:0:1:5 | --n standard"""
+    if values is None:
+        return "standard"
+    if len(values) == 1 and values[0] == "standard":
+        return "standard"
+    if len(values) == 1 and ":" in values[0]:
+        kind, *rest = values[0].split(":")
+        if kind not in ("logspace", "linspace") or len(rest) != 3:
+            raise ValueError(f"{flag} = {values[0]!r} is invalid; expected numbers, 'standard', "
+                             "'logspace:LO:HI:COUNT' or 'linspace:LO:HI:COUNT'")
+        try:
+            return {kind: [float(rest[0]), float(rest[1]), int(rest[2])]}
+        except ValueError:
+            raise ValueError(f"{flag} = {values[0]!r} is invalid; expected LO and HI numbers and an integer COUNT") from None
+    try:
+        return [float(x) for x in values]
+    except ValueError:
+        raise ValueError(f"{flag} = {' '.join(values)!r} is invalid; expected numbers") from None
+
+
+def _law_arg(text):
+    """name, or name:key=value,key=value (built-in parameters)."""
+    name, _, rest = text.partition(":")
+    if not rest:
+        return name
+    params = {}
+    for item in rest.split(","):
+        key, eq, value = item.partition("=")
+        if not eq:
+            raise ValueError(f"--laws {text!r} is invalid; expected NAME or NAME:KEY=VALUE,...")
+        try:
+            params[key] = float(value)
+        except ValueError:
+            params[key] = value
+    return {"name": name, "params": params}
+
+
+def _cmd_sweep(args) -> int:
+    doc = {"name": args.name, "laws": [_law_arg(x) for x in args.laws],
+           "grid": {"n": _axis_arg(args.n, "--n"), "p": _axis_arg(args.p, "--p")},
+           "metrics": args.metrics, "reference": _law_arg(args.reference) if args.reference else "binomial",
+           "samples": args.samples, "seed": args.seed}
+    if isinstance(doc["reference"], dict):
+        doc["reference"] = {"law": doc["reference"]}
+    if args.out is None:
+        args.out = "out/sweeps/" + args.name
+    return _run_experiment(json.dumps(doc), args)
+
+
+def _cmd_check(args) -> int:
+    from .bounds import check, format_table, write_junit
+    _load_plugins(args.plugin)
+    table = check(args.bounds, progress=None if not args.quiet else False)
+    if args.junit:
+        write_junit(table, args.junit)
+    bad = table[~table.ok]
+    if not args.quiet:
+        print(format_table(table))
+        print(f"\n{len(table) - len(bad)} of {len(table)} bounds hold ({args.bounds})")
+    for r in bad.itertuples():
+        rel = "<=" if r.limit == "max" else ">="
+        print(f"glintlab check: VIOLATED {r.id}: {r.metric} = {r.worst:.6g} at n = {r.at_n:g}, p = {r.at_p:g} "
+              f"(bound {rel} {r.bound:.6g})", file=sys.stderr)
+    return 1 if len(bad) else 0
+
+
+def _cmd_bench(args) -> int:
+    from .bench import speed_accuracy, write_bench
+    _load_plugins(args.plugin)
+    laws = [_law_arg(x) for x in args.laws] if args.laws else None
+    summary, errors = speed_accuracy(laws, samples=args.samples, seed=args.seed, repeats=args.repeats,
+                                     progress=None if not args.quiet else False)
+    files = write_bench(args.out, summary, errors)
+    if not args.quiet:
+        _print_table(summary[["law", "accuracy", "tv_max", "tv_median", "mean_rel_err_max", "ns_per_sample",
+                              "speedup_vs_numpy", "ns_ratio_1e9_vs_16", "pareto"]], args.quiet)
+        print(f"\nnumpy binomial: {summary.numpy_ns.iloc[0]:.1f} ns/sample (mean of the timing points); "
+              f"wrote {', '.join(str(f) for f in files)}")
+    return 0
+
+
+def _cmd_extremes(args) -> int:
+    from .extremes import extremes_summary, extremes_table, invalid_inputs_table, write_extremes_report
+    _load_plugins(args.plugin)
+    laws = [_law_arg(x) for x in args.laws] if args.laws else None
+    if laws is not None:
+        from .sweep import resolve_law
+        laws = [resolve_law(x) for x in laws]
+    table = extremes_table(laws, samples=args.samples, seed=args.seed)
+    invalid = invalid_inputs_table(laws)
+    summary = extremes_summary(table)
+    path = write_extremes_report(args.out, table, invalid, summary)
+    failures = int((~table.ok).sum()) + int((~invalid.ok).sum())
+    if not args.quiet:
+        _print_table(summary, args.quiet)
+        print(f"\n{failures} failing rows; wrote {path}")
+    return 1 if (failures and args.strict) else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="glintlab",
-        description="Exact laws, samplers and metrics for the counting laws of glint rendering.")
+        description="Exact laws, samplers and metrics for the counting laws of glint rendering. "
+                    "Exit status: 0 success, 1 a check failed, 2 bad input.")
     parser.add_argument("--version", action="version", version=f"glintlab {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     p = sub.add_parser("laws", help="list the registered counting laws")
     p.set_defaults(func=_cmd_laws)
+
+    def common(p, out_default=None, plugins=True):
+        p.add_argument("--out", default=out_default, help=f"output directory (default: {out_default or 'see above'})")
+        p.add_argument("--quiet", action="store_true", help="no tables on stdout, no progress bar")
+        if plugins:
+            p.add_argument("--plugin", action="append", metavar="LIB.so",
+                           help="load a C++ plugin's laws first (repeatable)")
+
+    p = sub.add_parser("run", help="run one experiment (JSON) to CSV, JSON and plots",
+                       description="Runs an experiment file (data/schema/experiment.schema.json), or re-runs a "
+                                   "results.json exactly. Writes results.csv, results.json and one PNG per metric.")
+    p.add_argument("experiment", help="experiment JSON, or a results.json written by an earlier run")
+    p.add_argument("--store", help="resumable store (JSON lines): finished rows are kept across interruptions")
+    common(p, None)
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("sweep", help="sweep laws over an (n, p) grid from flags",
+                       description="An experiment given by flags. Axes: numbers, 'standard', 'logspace:LO:HI:COUNT' "
+                                   "(exponents of 10) or 'linspace:LO:HI:COUNT'. Laws: NAME or NAME:KEY=VALUE,...")
+    p.add_argument("--laws", nargs="+", required=True, help="laws (e.g. gated head_cf gaussian:rounding=round)")
+    p.add_argument("--n", nargs="+", help="values of n (default: standard)")
+    p.add_argument("--p", nargs="+", help="values of p (default: standard)")
+    p.add_argument("--metrics", nargs="+", default=["tv", "mean_rel_err", "var_rel_err"],
+                   help="tv chi2_distance hellinger kl js w1 ks mean_rel_err var_rel_err chi2_pvalue")
+    p.add_argument("--reference", help="reference law (default: binomial)")
+    p.add_argument("--samples", type=int, help="draws per grid point (default: exact distributions)")
+    p.add_argument("--seed", type=int, default=1, help="seed (default: 1)")
+    p.add_argument("--name", default="sweep", help="experiment name (default: sweep)")
+    p.add_argument("--store", help="resumable store (JSON lines): finished rows are kept across interruptions")
+    common(p, None)
+    p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser("check", help="check error bounds; exit 1 on any violation",
+                       description="Evaluates each bound of BOUNDS.json (law, regime, metric, maximum or minimum), "
+                                   "prints a table and exits 1 if any bound is violated.")
+    p.add_argument("bounds", nargs="?", default="data/bounds/default.json",
+                   help="bounds file (default: data/bounds/default.json)")
+    p.add_argument("--junit", metavar="FILE.xml", help="also write JUnit XML (one testcase per bound)")
+    p.add_argument("--quiet", action="store_true", help="print only violations")
+    p.add_argument("--plugin", action="append", metavar="LIB.so", help="load a C++ plugin's laws first")
+    p.set_defaults(func=_cmd_check)
+
+    p = sub.add_parser("bench", help="ns/sample and accuracy per law: table and Pareto plot",
+                       description="Times every law (or --laws) against numpy's binomial and measures its error "
+                                   "against the exact binomial over the standard grid, in one run.")
+    p.add_argument("--laws", nargs="+", help="laws (default: every built-in approximate law and the binomial)")
+    p.add_argument("--samples", type=int, default=10**6, help="draws per timed call (default: 1e6)")
+    p.add_argument("--repeats", type=int, default=2, help="timed calls per point, best kept (default: 2)")
+    p.add_argument("--seed", type=int, default=1)
+    common(p, "out/bench")
+    p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("extremes", help="the numerical-extremes suite (LAWS.md §8) for every law",
+                       description="Evaluates every law in float32 and float64 at extreme n, p and uniforms: finite, "
+                                   "in [0, n], mean error, pmf mass; invalid inputs must raise clear errors. Writes "
+                                   "extremes.html with failures highlighted.")
+    p.add_argument("--laws", nargs="+", help="laws (default: every registered law and blend)")
+    p.add_argument("--samples", type=int, default=4096, help="ordinary draws per point (default: 4096)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--strict", action="store_true", help="exit 1 if any check fails")
+    common(p, "out/extremes")
+    p.set_defaults(func=_cmd_extremes)
 
     p = sub.add_parser("report", help="the main job: a report of the exact laws, samplers and metrics",
                        description="Writes index.html, report.json, CSV tables and PNG figures. "
@@ -63,6 +264,12 @@ def main(argv=None) -> int:
     except ValueError as exc:
         print(f"glintlab {args.command}: {exc}", file=sys.stderr)
         return 2
+    except NotImplementedError as exc:
+        print(f"glintlab {args.command}: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"glintlab {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

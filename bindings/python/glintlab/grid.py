@@ -16,7 +16,7 @@ DATA = Path(__file__).resolve().parents[3] / "data"
 
 
 def standard_grid() -> tuple[np.ndarray, np.ndarray]:
-    """(n values, p values) of data/grids/standard.json: 52 x 48 points."""
+    """(n values, p values) of data/grids/standard.json: 51 x 47 points."""
     spec = json.loads((DATA / "grids" / "standard.json").read_text())
     return np.array(spec["n"]), np.array(spec["p"])
 

@@ -27,6 +27,8 @@ import pandas as pd
 
 from . import __version__
 from .exact import binomial as binom_fn
+from . import _validate as V
+from .bench import grid_maps, pareto_figure, speed_accuracy
 from .grid import error_table, standard_grid
 from .laws import law
 from .metrics import METRICS, chi2_test, distance
@@ -38,7 +40,6 @@ SAMPLER_POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6), (60, 0.9), (1
 TRADE_LAWS = [("binomial", {}), ("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"}),
               ("zk16", {}), ("gated", {}), ("gated_shader", {}), ("gated_continuous", {}), ("dual_gated", {}),
               ("threshold", {}), ("head_cf", {})]
-TIMING_POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6)]
 
 
 def _progress(total, quiet):
@@ -118,41 +119,9 @@ def metrics_table() -> pd.DataFrame:
 
 
 def trade_table(samples: int, seed: int, progress):
-    """Exact errors over the standard grid (worst and median) and ns/sample timed in this run.
-
-    ns/sample: best of 2 calls of `samples` draws at each timing point (both cores, from Python),
-    averaged over the points; `ns_ratio_1e9_vs_16` shows whether the cost depends on n.
-    """
-    laws = [law(name, **params) for name, params in TRADE_LAWS]
-    errors = error_table(laws)
-    agg = errors.groupby("law", sort=False).agg(
-        tv_max=("tv", "max"), tv_median=("tv", "median"), hellinger_max=("hellinger", "max"),
-        w1_max=("w1", "max"), mean_rel_err_max=("mean_rel_err", "max"),
-        var_rel_err_median=("var_rel_err", "median")).reset_index()
-    speed = {}
-    for lw in laws:
-        times = []
-        for n, p in TIMING_POINTS:
-            progress.step(f"timing {lw.name} n={n:g}")
-            lw.sample(n, p, size=1000, seed=seed)
-            best = min(_timed(lambda: lw.sample(n, p, size=samples, seed=seed)) for _ in range(2))
-            times.append(best / samples * 1e9)
-        key = _trade_label(lw)
-        speed[key] = (float(np.mean(times)), times[-1] / times[0])
-    agg["ns_per_sample"] = agg.law.map(lambda k: speed[k][0])
-    agg["ns_ratio_1e9_vs_16"] = agg.law.map(lambda k: speed[k][1])
-    return agg, errors
-
-
-def _trade_label(lw):
-    params = lw.params
-    return lw.name + "".join(f"[{k}={v}]" for k, v in sorted(params.items())) if params else lw.name
-
-
-def _timed(fn):
-    t0 = time.perf_counter()
-    fn()
-    return time.perf_counter() - t0
+    """Errors over the standard grid (worst and median) and ns/sample timed in this run (glintlab.bench)."""
+    progress.step("speed / accuracy of every law")
+    return speed_accuracy([law(name, **params) for name, params in TRADE_LAWS], samples=samples, seed=seed)
 
 
 def _rel(a, b):
@@ -162,55 +131,13 @@ def _rel(a, b):
 def _trade_figures(out: Path, trade: pd.DataFrame, errors: pd.DataFrame):
     import matplotlib.pyplot as plt
 
-    paths = []
-    fig, ax = plt.subplots(figsize=(6.4, 4))
-    floor = 1e-6  # exact laws (TV ~ 1e-16) are drawn on this floor
-    for _, row in trade.iterrows():
-        ax.plot(row.ns_per_sample, max(row.tv_max, floor), "o", color="#b2182b")
-        ax.plot(row.ns_per_sample, max(row.tv_median, floor), "s", color="#2166ac", alpha=0.7)
-        label = row.law + (" (exact)" if row.tv_max < floor else "")
-        ax.annotate(label, (row.ns_per_sample, max(row.tv_max, floor)), fontsize=7,
-                    xytext=(4, 2), textcoords="offset points")
-    ax.set_yscale("log")
-    ax.set_ylim(floor / 2, 2)
-    ax.set_xlabel("ns / sample (from Python, both cores, mean of 4 points)")
-    ax.set_ylabel("TV to the binomial (exact)")
-    ax.set_title("Speed / accuracy over the standard grid (red: worst, blue: median)", fontsize=9)
-    ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    paths.append(out / "trade_pareto.png")
+    fig = pareto_figure(trade)
+    paths = [out / "trade_pareto.png"]
     fig.savefig(paths[-1], dpi=110)
     plt.close(fig)
-
-    paths.append(_grid_maps(out / "error_maps_tv.png", errors, list(trade.law), "tv", 1e-6, "magma",
-                            "TV to the binomial", "Exact TV over the standard grid: n (log, x) by p (y)"))
+    paths.append(grid_maps(out / "error_maps_tv.png", errors, list(trade.law), "tv", 1e-6, "magma",
+                           "TV to the binomial", "Exact TV over the standard grid: n (log, x) by p (y)"))
     return paths
-
-
-def _grid_maps(path: Path, table: pd.DataFrame, names, column: str, floor: float, cmap: str,
-               label: str, title: str) -> Path:
-    """One log-scaled map of `column` over the standard grid (n by p) per law, four to a row."""
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import LogNorm
-
-    cols = 4
-    rows = (len(names) + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.8 * rows), squeeze=False)
-    n_values, p_values = standard_grid()
-    for ax, name in zip(axes.ravel(), names):
-        sub = table[table.law == name].pivot(index="p", columns="n", values=column)
-        im = ax.imshow(np.clip(sub.to_numpy(), floor, 1), origin="lower", aspect="auto",
-                       norm=LogNorm(floor, 1), extent=[0, len(n_values), 0, len(p_values)], cmap=cmap)
-        ax.set_title(name, fontsize=8)
-        ax.set_xticks([0, len(n_values) / 2, len(n_values)], ["1", "1e3", "1e6"], fontsize=7)
-        ax.set_yticks([0, len(p_values) / 2, len(p_values)], ["1e-6", "0.5", "1-1e-6"], fontsize=7)
-    for ax in axes.ravel()[len(names):]:
-        ax.axis("off")
-    fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8, label=label)
-    fig.suptitle(title, fontsize=9)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
 
 
 def _figure9(out: Path, samples: int, seed: int):
@@ -277,7 +204,7 @@ def _precision(out: Path, samples: int, seed: int):
     laws = [law(name, **params) for name, params in TRADE_LAWS if name != "binomial"]
     table = float32_table(laws, samples=samples, seed=seed)
     summary = float32_summary(table)
-    paths = [_grid_maps(out / "float32_mismatch_maps.png", table, list(summary.law), "mismatch",
+    paths = [grid_maps(out / "float32_mismatch_maps.png", table, list(summary.law), "mismatch",
                         1.0 / samples / 2, "viridis", "P(K_f32 != K_f64) >= TV",
                         f"float32 vs float64 on the same uniforms ({samples} draws per point): n (x) by p (y)")]
 
@@ -333,10 +260,11 @@ def _lod(out: Path, quick: bool, seed: int):
 
 
 def run(out: Path, quick: bool = False, seed: int = 1, quiet: bool = False) -> dict:
+    seed = V.seed(seed)  # before any work: a bad seed is refused by name, not deep inside numpy
     out.mkdir(parents=True, exist_ok=True)
     samples = 10**5 if quick else 10**6
     t0 = time.perf_counter()
-    with _progress(len(SAMPLER_POINTS) * 2 + len(TRADE_LAWS) * len(TIMING_POINTS), quiet) as progress:
+    with _progress(len(SAMPLER_POINTS) * 2 + 1, quiet) as progress:
         trade, errors = trade_table(samples, seed, progress)
         tables = {
             "exact_laws": exact_table(),

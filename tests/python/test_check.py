@@ -1,0 +1,77 @@
+"""Error bounds: data/bounds/default.json holds, each of its bounds fails for a perturbed law, and the
+`glintlab check` command's exit codes and JUnit XML."""
+import json
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+import glintlab as gl
+from glintlab.bounds import DEFAULT_BOUNDS, check, perturbed_law
+from glintlab.cli import main
+from glintlab.grid import _label
+from glintlab.sweep import resolve_law
+
+DOC = json.loads(DEFAULT_BOUNDS.read_text())
+
+
+def test_default_bounds_cover_every_built_in_law_and_hold():
+    table = check()
+    assert table.ok.all(), table[~table.ok].to_string()
+    built_in = {name for name, _ in gl._core.law_infos()}
+    covered = {lw.split("[")[0] for lw in table.law}
+    assert built_in <= covered
+    # Each limit sits above the value measured when it was set (stated margin: 25% + 1e-12).
+    for b, r in zip(DOC["bounds"], table.itertuples()):
+        if "maximum" in b:
+            assert b["maximum"] >= b["measured"] * 1.25
+            assert r.worst <= b["maximum"]
+
+
+@pytest.mark.parametrize("index", range(len(DOC["bounds"])), ids=[b["id"] for b in DOC["bounds"]])
+def test_every_default_bound_fails_for_a_perturbed_law(index):
+    bound = DOC["bounds"][index]
+    law = resolve_law(bound["law"])
+    table = check(dict(DOC, bounds=[bound]), substitute={_label(law): perturbed_law(law, p_scale=1.5)})
+    assert not table.ok.iloc[0], f"{bound['id']} held for a law evaluated at 1.5 p: worst {table.worst.iloc[0]}"
+
+
+def test_a_shifted_sampler_fails_its_chi_square_bound():
+    bound = next(b for b in DOC["bounds"] if b["id"] == "head_cf/sampler/chi2")
+    table = check(dict(DOC, bounds=[bound]),
+                  substitute={"head_cf": perturbed_law("head_cf", p_scale=1.0, shift=1.0)})
+    assert not table.ok.iloc[0] and table.worst.iloc[0] < 1e-6
+
+
+def test_check_command_exit_codes_and_junit(tmp_path, capsys):
+    bounds = {"bounds": [
+        {"id": "gated-ok", "law": "gated", "regime": {"n": [16, 1000], "p": [0.1]}, "metric": "tv", "maximum": 0.5},
+        {"id": "gated-tight", "law": "gated", "regime": {"n": [16, 1000], "p": [0.1]}, "metric": "tv",
+         "maximum": 1e-3},
+    ]}
+    path = tmp_path / "b.json"
+    path.write_text(json.dumps(bounds))
+    junit = tmp_path / "junit.xml"
+    assert main(["check", str(path), "--junit", str(junit)]) == 1
+    out, err = capsys.readouterr()
+    assert "VIOLATED gated-tight" in err and "gated-ok" in out
+    suite = ET.parse(junit).getroot()
+    assert suite.get("tests") == "2" and suite.get("failures") == "1"
+    failing = [c for c in suite.iter("testcase") if c.find("failure") is not None]
+    assert [c.get("name") for c in failing] == ["gated-tight"]
+    bounds["bounds"].pop()
+    path.write_text(json.dumps(bounds))
+    assert main(["check", str(path), "--quiet"]) == 0
+
+
+def test_check_command_bad_file_exit_2(tmp_path, capsys):
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps({"bounds": [{"id": "x", "law": "gated", "metric": "tv", "maximum": -1}]}))
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and "/bounds/0/maximum" in err
+    path.write_text(json.dumps({"bounds": [{"id": "x", "law": "gatd", "metric": "tv", "maximum": 1}]}))
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "/bounds/0/law" in err and "gatd" in err
+    assert main(["check", str(tmp_path / "missing.json")]) == 2
