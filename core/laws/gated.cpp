@@ -26,7 +26,8 @@ template <class T>
 struct GatedConstants {
   T p1, mu, sigma, top;
   GatedConstants(T n, T p) {
-    p1 = -std::expm1(n * std::log1p(-p));
+    // n = 0 facets never reflect; the guard also avoids 0 * log1p(-1) = 0 * -inf = NaN at p = 1.
+    p1 = n > T(0) ? -std::expm1(n * std::log1p(-p)) : T(0);
     const T m = n > T(1) ? n - T(1) : T(0);
     mu = m * p;
     sigma = std::sqrt(mu * (T(1) - p));
@@ -71,7 +72,7 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
 
   bool has_pmf() const override { return true; }
   Distribution pmf(double n, double p, std::size_t max_support) const override {
-    const double p1 = -std::expm1(n * std::log1p(-p));
+    const double p1 = n > 0 ? -std::expm1(n * std::log1p(-p)) : 0.0;  // as GatedConstants
     const double m = n > 1 ? n - 1 : 0.0, mu = m * p, sigma = std::sqrt(mu * (1 - p));
     std::vector<double> ks{0.0}, ps{1.0 - p1};
     bool trimmed_above = false;

@@ -9,7 +9,9 @@
 //
 // Exact law: the Gaussian branch's is normal::discretized (floor); the loop's is the (stratified)
 // binomial of min(n, cap) trials (n itself when floor(n) < cap).
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "glintlab/binomial.hpp"
 #include "glintlab/normal.hpp"
@@ -46,6 +48,10 @@ class Zk16Law final : public TemplatedLaw<Zk16Law> {
   bool has_pmf() const override { return true; }
   Distribution pmf(double n, double p, std::size_t max_support) const override {
     const double mean = n * p;
+    if (mean > 5 && p == 1) {  // sd = 0: evaluate's G is the mean itself, a point mass
+      const std::vector<double> k{std::clamp(std::floor(mean), 0.0, std::ceil(n))};
+      return Distribution(k, {1.0});
+    }
     if (mean > 5) {
       auto law = normal::discretized(mean, std::sqrt(mean * (1 - p)), std::ceil(n), 0.0, max_support,
                                      "zk16.pmf");

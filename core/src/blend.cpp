@@ -1,6 +1,7 @@
 #include "glintlab/blend.hpp"
 
 #include <cmath>
+#include <limits>
 #include <map>
 #include <stdexcept>
 
@@ -21,6 +22,20 @@ std::map<std::string, BlendInfo>& blend_registry() {
 std::uint16_t level_key(int level) { return static_cast<std::uint16_t>(static_cast<std::int16_t>(level)); }
 
 constexpr std::size_t kChunk = 2048;
+
+// A rule's trial counts come from products of areas and densities, which land a few ulps off the
+// integers they stand for (N A_hi = n (A_hi / P) at P one ulp below A_hi; w N A_hi at w = 1e-16).
+// Left alone, the stratified rule turns such an ulp into a Bernoulli facet, so K could reach
+// ceil(n) + 1 (found by the extremes suite). Counts within 4 ulps of the pair's total from an
+// integer are that integer; elsewhere the counts are untouched.
+std::array<double, 2> snap_trials(std::array<double, 2> t) {
+  const double tolerance = 4 * std::numeric_limits<double>::epsilon() * (std::abs(t[0]) + std::abs(t[1]));
+  for (double& x : t) {
+    const double r = std::round(x);
+    if (std::abs(x - r) <= tolerance) x = r;
+  }
+  return t;
+}
 
 }  // namespace
 
@@ -118,7 +133,7 @@ Distribution BlendedLaw::pmf(double density, double area, double p, std::size_t 
                            : inner_.law && inner_.law->has_pmf() ? std::string("the inner law produces non-integer counts")
                                                                   : std::string("the inner law has none")) +
                           "; estimate one from samples instead");
-  const auto trials = rule_->trials(density, area, b);
+  const auto trials = snap_trials(rule_->trials(density, area, b));
   Distribution levels[2] = {Distribution({0.0}, {1.0}), Distribution({0.0}, {1.0})};
   for (int j = 0; j < 2; ++j) {
     if (!(trials[j] > 0)) continue;
@@ -153,7 +168,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     const std::size_t m = std::max(area.size, p.size);
     for (std::size_t i = 0; i < m; ++i) {
       const LevelBracket b = ladder_.bracket(area[i]);
-      const auto trials = rule_->trials(density, area[i], b);
+      const auto trials = snap_trials(rule_->trials(density, area[i], b));
       for (double t : trials)
         if (t > 0 && !inner_.law->accepts(t, p[i]))
           throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(t) +
@@ -173,7 +188,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
       brackets[r] = ladder_.bracket(area[i]);
-      const auto trials = rule_->trials(density, area[i], brackets[r]);
+      const auto trials = snap_trials(rule_->trials(density, area[i], brackets[r]));
       for (int j = 0; j < 2; ++j) {
         if (!(trials[j] > 0)) continue;
         const int level = brackets[r].lo + j;

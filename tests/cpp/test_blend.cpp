@@ -2,6 +2,7 @@
 // equality with Binomial(N P, p), ZK16's variance deficit, the roulette's mean, coherence of
 // positioned draws, thread independence and bad input.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <vector>
@@ -262,4 +263,26 @@ TEST_CASE("bad input is refused, naming the parameter", "[blend]") {
   CHECK_THROWS_WITH(make_blend("nearest", {{"epsilon", 0.1}}), Catch::Contains("epsilon"));
   CHECK_THROWS_AS(blended("roulette", "binomial", 4, 1, {{"epsilon", 0.1}}).pmf(100, 0.3, 0.1), not_implemented);
   CHECK_THROWS_AS(blended("distributed", "gated_continuous").pmf(100, 0.3, 0.1), not_implemented);
+}
+
+// Footprints an ulp either side of a level boundary (found by the extremes suite): trial counts a few
+// ulps off an integer must not add a facet, so K never exceeds ceil(N P), even at p = 1.
+TEST_CASE("no facet beyond ceil(N P) an ulp either side of a level boundary", "[blend]") {
+  const double boundary = 4.0;  // level 1 of the default ladder
+  for (const char* name : {"nearest", "zk16_linear", "distributed", "roulette"}) {
+    const BlendedLaw law = blended(name);
+    for (double P : {std::nextafter(boundary, 0.0), boundary, std::nextafter(boundary, 10.0)}) {
+      for (double n : {1.0, 16.0, 1e9, 1e15}) {
+        const double N = n / P, top = std::ceil(N * P);
+        INFO(name << " P " << P << " n " << n);
+        auto k = draw(law, N, P, 1.0, 512, 3);
+        for (double& x : k) x = std::floor(x + 0.5);  // real outputs (rescaled counts) binned as their pmf
+        CHECK(*std::max_element(k.begin(), k.end()) <= top);
+        if (law.has_pmf() && n <= 1e9) {
+          const Distribution d = law.pmf(N, P, 1.0);
+          CHECK(d.support().back() <= top);
+        }
+      }
+    }
+  }
 }

@@ -113,3 +113,36 @@ TEST_CASE("precision: templated laws run in float32, exact laws refuse it", "[la
     }
   }
 }
+
+// The corners of the domain (found by the extremes suite: gated's pmf at n = 0, p = 1 was NaN, and
+// zk16's Gaussian branch at p = 1 had zero mass). Every law with a pmf must give one there, and it
+// must hold the counts evaluate produces.
+TEST_CASE("pmf at the corners of the domain holds what evaluate produces", "[law][extremes]") {
+  const std::vector<double> ns{0.0, 1e-6, 1.0, 16.0, 17.5, 1e9};
+  const std::vector<double> ps{0.0, 1e-300, 0.5, 1.0};
+  for (const auto& info : registered_laws()) {
+    const auto law = make_law(info.name);
+    if (!law->has_pmf()) continue;
+    const int k = law->n_uniforms();
+    for (double n : ns) {
+      for (double p : ps) {
+        INFO(info.name << " n " << n << " p " << p);
+        Distribution d;
+        REQUIRE_NOTHROW(d = law->pmf(n, p, 1u << 22));
+        double mass = 0;
+        for (double q : d.probs()) mass += q;
+        CHECK(std::abs(mass - 1) < 1e-9);
+        std::vector<double> u(static_cast<std::size_t>(std::max(k, 1)));
+        for (double v : {1e-9, 0.25, 0.5, 0.75, 1 - 1e-9}) {
+          std::fill(u.begin(), u.end(), v);
+          double x = law->evaluate(n, p, u.data());
+          if (law->binning() == "round") x = std::floor(x + 0.5);
+          bool found = false;
+          for (std::size_t i = 0; i < d.support().size(); ++i) found |= d.support()[i] == x && d.probs()[i] > 0;
+          INFO("u " << v << " K " << x);
+          CHECK(found);
+        }
+      }
+    }
+  }
+}

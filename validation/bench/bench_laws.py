@@ -28,20 +28,11 @@ import numpy as np
 import pandas as pd
 
 import glintlab as gl
+from glintlab.bench import best_time as best
 
 POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6)]
 LAWS = [("binomial", {}), ("gaussian", {"rounding": "round"}), ("zk16", {}), ("threshold", {}),
         ("gated", {}), ("gated_shader", {}), ("gated_continuous", {}), ("dual_gated", {}), ("head_cf", {})]
-
-
-def best(fn, repeats):
-    fn()  # warm-up: page in code and tables
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def label(name, params):

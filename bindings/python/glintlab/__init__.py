@@ -10,6 +10,7 @@ from . import _core
 from ._core import Chi2Result, Distribution
 from .blending import BlendedLaw, blend_summaries, blended_law, blends, roulette_keep_moments, zk16_variance_ratio
 from .exact import binomial, poisson
+from .extremes import extremes_summary, extremes_table, invalid_inputs_table, write_extremes_report
 from .grid import error_table, standard_grid
 from .laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
 from .metrics import METRICS, chi2_test, distance, sidak_alpha
@@ -40,6 +41,7 @@ __all__ = [
     "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
     "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
     "chi2_test", "footprint_for_area", "ground_truth", "joint_counts",
-    "custom_law", "distance", "error_table", "get_num_threads", "law", "law_summaries", "laws", "poisson",
+    "custom_law", "distance", "error_table", "extremes_summary", "extremes_table", "invalid_inputs_table",
+    "write_extremes_report", "get_num_threads", "law", "law_summaries", "laws", "poisson",
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
 ]

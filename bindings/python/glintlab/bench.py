@@ -24,7 +24,8 @@ DEFAULT_LAWS = [("binomial", {}), ("gaussian", {"rounding": "floor"}), ("gaussia
                 ("threshold", {}), ("head_cf", {})]
 
 
-def _best(fn, repeats):
+def best_time(fn, repeats: int) -> float:
+    """Seconds of the fastest of `repeats` calls of fn, after one warm-up call."""
     fn()  # warm-up: page in code and tables
     times = []
     for _ in range(repeats):
@@ -71,11 +72,11 @@ def speed_accuracy(laws=None, samples: int = 10**6, seed: int = 1, repeats: int 
         agg["tv_noise"] = ("tv_noise", "max")
     summary = errors.groupby("law", sort=False).agg(**agg).reset_index()
     rng = np.random.default_rng(seed)
-    numpy_ns = [_best(lambda: rng.binomial(int(n), p, size=samples), repeats) / samples * 1e9
+    numpy_ns = [best_time(lambda: rng.binomial(int(n), p, size=samples), repeats) / samples * 1e9
                 for n, p in timing_points]
     speed = {}
     for lw in laws:
-        times = [_best(lambda: lw.sample(n, p, size=samples, seed=seed), repeats) / samples * 1e9
+        times = [best_time(lambda: lw.sample(n, p, size=samples, seed=seed), repeats) / samples * 1e9
                  for n, p in timing_points]
         speed[_label(lw)] = (float(np.mean(times)), times[-1] / times[0],
                              float(np.mean(np.array(numpy_ns) / np.array(times))))

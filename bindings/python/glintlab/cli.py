@@ -177,7 +177,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("laws", help="list the registered counting laws")
     p.set_defaults(func=_cmd_laws)
 
-    def common(p, out_default=None, plugins=True):
+    def common(p, out_default=None, plugins=True, store=False):
+        if store:
+            p.add_argument("--store", help="resumable store (JSON lines): finished rows are kept across interruptions")
         p.add_argument("--out", default=out_default, help=f"output directory (default: {out_default or 'see above'})")
         p.add_argument("--quiet", action="store_true", help="no tables on stdout, no progress bar")
         if plugins:
@@ -188,8 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Runs an experiment file (data/schema/experiment.schema.json), or re-runs a "
                                    "results.json exactly. Writes results.csv, results.json and one PNG per metric.")
     p.add_argument("experiment", help="experiment JSON, or a results.json written by an earlier run")
-    p.add_argument("--store", help="resumable store (JSON lines): finished rows are kept across interruptions")
-    common(p, None)
+    common(p, None, store=True)
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("sweep", help="sweep laws over an (n, p) grid from flags",
@@ -204,8 +205,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--samples", type=int, help="draws per grid point (default: exact distributions)")
     p.add_argument("--seed", type=int, default=1, help="seed (default: 1)")
     p.add_argument("--name", default="sweep", help="experiment name (default: sweep)")
-    p.add_argument("--store", help="resumable store (JSON lines): finished rows are kept across interruptions")
-    common(p, None)
+    common(p, None, store=True)
     p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("check", help="check error bounds; exit 1 on any violation",
