@@ -40,6 +40,7 @@ bench: build
 	@$(VENV)/bin/python validation/bench/bench_binomial.py --cpp build/validation/glintlab_bench_binomial
 	@$(VENV)/bin/python validation/bench/bench_laws.py
 	@$(VENV)/bin/python validation/bench/bench_ground_truth.py
+	@$(VENV)/bin/glintlab bench --out out/bench
 
 # C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module in this build).
 sanitize: deps
