@@ -24,7 +24,8 @@ venv:
 	@test -x $(VENV)/bin/python || $(PYTHON) -m venv --system-site-packages $(VENV)
 	@site=$$($(VENV)/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])'); \
 	  echo "$(CURDIR)/bindings/python" > $$site/glintlab.pth
-	@printf '#!%s\nimport sys\nfrom glintlab.cli import main\nsys.exit(main())\n' "$(CURDIR)/$(VENV)/bin/python" > $(VENV)/bin/glintlab
+	@# The __main__ guard: Dask's LocalCluster starts workers by spawn, which re-imports this script.
+	@printf '#!%s\nimport sys\nfrom glintlab.cli import main\nif __name__ == "__main__":\n    sys.exit(main())\n' "$(CURDIR)/$(VENV)/bin/python" > $(VENV)/bin/glintlab
 	@chmod +x $(VENV)/bin/glintlab
 	@# A "python3" Jupyter kernel inside the venv, so notebooks run with the installed package.
 	@test -f $(VENV)/share/jupyter/kernels/python3/kernel.json || \
@@ -41,6 +42,7 @@ bench: build
 	@$(VENV)/bin/python validation/bench/bench_laws.py
 	@$(VENV)/bin/python validation/bench/bench_ground_truth.py
 	@$(VENV)/bin/glintlab bench --out out/bench
+	@$(VENV)/bin/python validation/bench/bench_dask.py
 
 # C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module in this build).
 sanitize: deps

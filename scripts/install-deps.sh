@@ -8,7 +8,7 @@ PACKAGES=(
   libeigen3-dev libboost-dev nlohmann-json3-dev catch2 librandom123-dev
   pybind11-dev python3-dev python3-venv python3-pybind11
   python3-numpy python3-scipy python3-matplotlib python3-pandas python3-pytest python3-tqdm
-  python3-rich python3-mpmath python3-nbclient python3-nbformat python3-ipykernel
+  python3-rich python3-mpmath python3-dask python3-distributed python3-nbclient python3-nbformat python3-ipykernel
   python3-jsonschema
   # make fuzz: clang with libFuzzer (libclang_rt.fuzzer-x86_64.a is in libclang-rt-14-dev) and
   # clang's OpenMP, which the top-level CMakeLists needs when configured with clang

@@ -125,6 +125,9 @@ class PerturbedLaw(Law):
         if not (self._scale > 0 and math.isfinite(self._scale)):
             v.fail("p_scale", p_scale, "a finite number > 0")
 
+    def __reduce__(self):
+        return (PerturbedLaw, (self._base, self._scale, self._shift))
+
     def _p(self, p):
         return np.minimum(1.0, np.asarray(p, dtype=float) * self._scale)
 

@@ -51,7 +51,10 @@ def _run_experiment(source, args) -> int:
     from .experiment import run_experiment
     _load_plugins(args.plugin)
     out = Path(args.out) if args.out else None
-    result = run_experiment(source, out=out, store=args.store, progress=None if not args.quiet else False)
+    engine = {}
+    if args.scheduler is not None or args.workers is not None:
+        engine = dict(engine="dask", scheduler=args.scheduler, workers=args.workers, timeout=args.timeout)
+    result = run_experiment(source, out=out, store=args.store, progress=None if not args.quiet else False, **engine)
     name = result.config["name"]
     if not args.quiet:
         _print_table(result.table, args.quiet)
@@ -180,6 +183,12 @@ def build_parser() -> argparse.ArgumentParser:
     def common(p, out_default=None, plugins=True, store=False):
         if store:
             p.add_argument("--store", help="resumable store (JSON lines): finished rows are kept across interruptions")
+            p.add_argument("--scheduler", metavar="ADDRESS",
+                           help="run on the Dask scheduler at ADDRESS (tcp://host:8786); same table as a local run")
+            p.add_argument("--workers", type=int, metavar="K",
+                           help="run on a Dask LocalCluster of K worker processes on this machine")
+            p.add_argument("--timeout", type=float, default=10.0,
+                           help="seconds to wait for the scheduler to answer (default: 10)")
         p.add_argument("--out", default=out_default, help=f"output directory (default: {out_default or 'see above'})")
         p.add_argument("--quiet", action="store_true", help="no tables on stdout, no progress bar")
         if plugins:

@@ -79,9 +79,10 @@ class ExperimentResult:
     files: list = field(default_factory=list)
 
 
-def run_experiment(source, out=None, store=None, progress=None, threads=None) -> ExperimentResult:
+def run_experiment(source, out=None, store=None, progress=None, threads=None, **engine) -> ExperimentResult:
     """Runs an experiment (a path, JSON text or dict; or a results.json to re-run). With ``out``,
-    writes results.csv, results.json and one PNG per metric there (as the document's outputs say)."""
+    writes results.csv, results.json and one PNG per metric there (as the document's outputs say).
+    ``engine``: sweep's engine, scheduler, workers, chunk and timeout (e.g. engine="dask")."""
     from .sweep import resolve_law, sweep
     doc, name, base = parse_document("experiment", source)
     laws = []
@@ -101,7 +102,7 @@ def run_experiment(source, out=None, store=None, progress=None, threads=None) ->
     t0 = time.perf_counter()
     try:
         table = sweep(laws, n=n, p=p, metrics=doc["metrics"], reference=reference, samples=doc["samples"],
-                      seed=doc["seed"], store=store, progress=progress, threads=threads)
+                      seed=doc["seed"], store=store, progress=progress, threads=threads, **engine)
     except ValueError as exc:
         raise ValueError(f"{name}: {exc}") from None
     result = ExperimentResult(table, doc, name, round(time.perf_counter() - t0, 3))

@@ -60,6 +60,12 @@ class Law:
         args = "".join(f", {k}={val!r}" for k, val in self.params.items())
         return f"glintlab.law({self.name!r}{args})"
 
+    def __reduce__(self):
+        # Pickled as what rebuilds it (name, parameters, and the plugin library a plugin law came
+        # from), so laws travel to Dask workers and other processes.
+        plugin = next((path for path, names in _core.loaded_plugins() if self.name in names), None)
+        return (_rebuild_law, (self.name, self.params, plugin))
+
     def pmf(self, n, p, max_support: int = 50_000_000) -> Distribution:
         """Exact distribution of K for scalar (n, p), trimmed to all but 1e-14 of its mass.
 
@@ -126,6 +132,9 @@ class CustomLaw(Law):
     precisions = property(lambda self: PRECISIONS)
     binning = property(lambda self: "none")
 
+    def __reduce__(self):  # the function travels by value (cloudpickle, as Dask sends it)
+        return (CustomLaw, (self._fn, self._k, self._name))
+
     def pmf(self, n, p, max_support: int = 50_000_000):
         raise NotImplementedError(
             f"custom law {self._name!r} has no exact distribution; use "
@@ -178,6 +187,13 @@ class CustomLaw(Law):
             out[i0:i1] = self._call(nf if nf.size == 1 else nf[i0:i1],
                                     pf if pf.size == 1 else pf[i0:i1], u, precision)
         return out
+
+
+def _rebuild_law(name, params, plugin):
+    if plugin is not None:
+        from .plugins import load_plugin
+        load_plugin(plugin)
+    return law(name, **params)
 
 
 def law(name: str, **params) -> Law:

@@ -28,7 +28,6 @@ import math
 import os
 import sys
 import time
-from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +38,7 @@ from . import _validate as v
 from ._core import Distribution
 from .grid import _label, standard_grid
 from .laws import Law, law as get_law
+from .dask_engine import ThreadEngine
 from .metrics import METRICS, chi2_test, distance
 
 MOMENT_METRICS = ("mean_rel_err", "var_rel_err")
@@ -248,6 +248,19 @@ def compute_row(lw: Law, label: str, reference, n: float, p: float, metrics, sam
     return row
 
 
+def compute_chunk(laws, labels, reference, metrics, samples, seed, items) -> list:
+    """Rows of (law index, n, p) items, each through the store's JSON round trip (so fresh, stored
+    and remote rows agree bit for bit). Module-level and pure: Dask ships it to workers."""
+    rows = []
+    for i, n, p in items:
+        try:
+            row = compute_row(laws[i], labels[i], reference, n, p, metrics, samples, seed)
+        except (ValueError, NotImplementedError) as exc:
+            raise ValueError(f"sweep: law {labels[i]!r} at n = {n!r}, p = {p!r}: {exc}") from exc
+        rows.append(json.loads(json.dumps(row)))
+    return rows
+
+
 # ---------------------------------------------------------------------------------------------
 # The store: JSON lines, header first.
 
@@ -358,7 +371,8 @@ def _metric_list(metrics, samples):
 
 
 def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", samples=None, seed=1,
-          store=None, progress=None, threads=None, points=None) -> pd.DataFrame:
+          store=None, progress=None, threads=None, points=None, engine="threads", scheduler=None, workers=None,
+          chunk=None, timeout=10.0) -> pd.DataFrame:
     """Evaluates every law at every grid point; one row per law and point, in law, n, p order.
 
     laws       names, Law objects or experiment law specs (a single one is allowed)
@@ -372,7 +386,11 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
     seed       the sweep's seed (rows draw with row_seed(seed, law, n, p))
     store      a path: finished rows are written there as they finish and skipped on a rerun
     progress   True/False, or None: a progress bar when stderr is a terminal
-    threads    rows computed at once (default: the number of cores)
+    threads    rows computed at once by the "threads" engine (default: the number of cores)
+    engine     "threads" (this process) or "dask" (glintlab.dask_engine): ``scheduler`` the address of a
+               running Dask scheduler, or None for a LocalCluster of ``workers`` processes here;
+               ``chunk`` rows per task (default: about four tasks per worker); ``timeout`` seconds
+               to wait for the scheduler. The table is the same, bit for bit, with any engine.
 
     Columns: law, n, p, the metrics, then for sampled sweeps tv_noise (with tv), mean_rel_err_se
     (with mean_rel_err), samples and the row's seed. ``df.attrs`` holds the configuration and, for
@@ -422,46 +440,56 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
         threads = os.cpu_count() or 2
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
         v.fail("threads", threads, "an integer >= 1")
+    if engine not in ("threads", "dask"):
+        v.fail("engine", engine, "'threads' or 'dask'")
+    if engine == "threads" and (scheduler is not None or workers is not None):
+        v.fail("engine", engine, "'dask' when a scheduler or workers are given")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        v.fail("workers", workers, "an integer >= 1")
+    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1):
+        v.fail("chunk", chunk, "an integer >= 1")
+    timeout = v.real("timeout", timeout)
+    if not timeout > 0:
+        v.fail("timeout", timeout, "a number of seconds > 0")
 
-    def run(task):
-        i, _, a, b = task
-        try:
-            row = compute_row(laws[i], labels[i], ref, a, b, metrics, samples, seed)
-        except (ValueError, NotImplementedError) as exc:
-            raise ValueError(f"sweep: law {labels[i]!r} at n = {a!r}, p = {b!r}: {exc}") from exc
-        return json.loads(json.dumps(row))  # the store's round trip, so fresh and stored rows agree
-
+    if engine == "dask":
+        from .dask_engine import DaskEngine
+        eng = DaskEngine(scheduler, workers, timeout)
+    else:
+        eng = ThreadEngine(threads)
+    if chunk is None:  # a few chunks per worker: balance, and little lost work on an interruption
+        chunk = 1 if engine == "threads" else max(1, min(256, -(-len(todo) // (4 * eng.slots))))
+    chunks = [[(t[0], t[2], t[3]) for t in todo[k:k + chunk]] for k in range(0, len(todo), chunk)]
     bar = _bar(progress, len(tasks), resumed)
-    pool = ThreadPoolExecutor(max_workers=threads)
     try:
         pending = set()
-        it = iter(todo)
-        # A bounded window of submitted rows: an interruption leaves little half-done work behind.
-        for task in it:
-            pending.add(pool.submit(run, task))
-            if len(pending) >= 2 * threads:
-                break
-        while pending:
-            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in finished:
-                row = fut.result()
-                results[_row_key(row)] = row
-                if st is not None:
-                    st.add(row)
-                bar.update(1)
-            for task in it:
-                pending.add(pool.submit(run, task))
-                if len(pending) >= 2 * threads:
+        it = iter(chunks)
+        window = 2 * eng.slots  # chunks in flight at once
+
+        def refill():
+            for ch in it:
+                pending.add(eng.submit(compute_chunk, laws, labels, ref, metrics, samples, seed, ch))
+                if len(pending) >= window:
                     break
+        refill()
+        while pending:
+            finished, pending = eng.wait_first(pending)
+            for fut in finished:
+                for row in fut.result():
+                    results[_row_key(row)] = row
+                    if st is not None:
+                        st.add(row)
+                    bar.update(1)
+            refill()
     except BaseException:
-        pool.shutdown(wait=False, cancel_futures=True)
+        eng.close(cancel=True)
         if st is not None:
             st.close()
             print(f"sweep interrupted: {len(st.rows)} of {len(tasks)} rows are in {st.path}; "
                   "run the same sweep again to finish it", file=sys.stderr)
         bar.close()
         raise
-    pool.shutdown()
+    eng.close()
     bar.close()
     if st is not None:
         st.close()
