@@ -7,13 +7,13 @@ import subprocess
 import time
 from pathlib import Path
 
+import distributed  # python3-distributed: scripts/install-deps.sh installs it, so no skip here
 import pandas as pd
 import pytest
 
 import glintlab as gl
 from glintlab.sweep import resolve_law
 
-distributed = pytest.importorskip("distributed")
 ROOT = Path(__file__).resolve().parents[2]
 PYTHON = str(ROOT / ".venv" / "bin" / "python")
 
