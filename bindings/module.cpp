@@ -7,7 +7,9 @@
 #include <pybind11/stl.h>
 
 #include <cstring>
+#include <optional>
 
+#include "glintlab/aniso.hpp"
 #include "glintlab/binomial.hpp"
 #include "glintlab/blend.hpp"
 #include "glintlab/chi2.hpp"
@@ -61,6 +63,30 @@ py::dict from_params(const LawParams& params) {
     else d[py::str(k)] = std::get<std::string>(v);
   }
   return d;
+}
+
+// An inner law written in Python: fn(n, p, u) -> counts, called on the calling thread with the GIL.
+InnerLaw python_inner(py::function fn, int n_uniforms, const std::string& inner_name) {
+    InnerLaw inner;
+    inner.name = inner_name;
+    inner.n_uniforms = n_uniforms;
+    inner.integer_output = false;  // unknown: samples are binned, no exact pmf
+    inner.thread_safe = false;
+    const auto k = static_cast<py::ssize_t>(n_uniforms);
+    inner.evaluate = [fn, k](const double* n, const double* p, const double* u, std::size_t rows_count, double* out) {
+      py::gil_scoped_acquire acquire;
+      const auto rows = static_cast<py::ssize_t>(rows_count);
+      py::array_t<double> na(rows), pa(rows), ua({rows, k});
+      std::memcpy(na.mutable_data(), n, rows_count * sizeof(double));
+      std::memcpy(pa.mutable_data(), p, rows_count * sizeof(double));
+      if (k > 0) std::memcpy(ua.mutable_data(), u, rows_count * static_cast<std::size_t>(k) * sizeof(double));
+      const auto result = fn(na, pa, ua).cast<Array>();
+      if (result.size() != rows)
+        throw std::invalid_argument("custom inner law returned " + std::to_string(result.size()) + " values; expected " +
+                                    std::to_string(rows_count));
+      std::memcpy(out, result.data(), rows_count * sizeof(double));
+    };
+    return inner;
 }
 
 }  // namespace
@@ -317,25 +343,7 @@ PYBIND11_MODULE(_core, m) {
   // An inner law written in Python: fn(n, p, u) -> counts, called on the calling thread with the GIL.
   m.def("make_blended_law_custom", [](const std::string& name, const py::dict& kwargs, py::function fn,
                                       int n_uniforms, const std::string& inner_name, double ratio, double base_area) {
-    InnerLaw inner;
-    inner.name = inner_name;
-    inner.n_uniforms = n_uniforms;
-    inner.integer_output = false;  // unknown: samples are binned, no exact pmf
-    inner.thread_safe = false;
-    const auto k = static_cast<py::ssize_t>(n_uniforms);
-    inner.evaluate = [fn, k](const double* n, const double* p, const double* u, std::size_t rows_count, double* out) {
-      py::gil_scoped_acquire acquire;
-      const auto rows = static_cast<py::ssize_t>(rows_count);
-      py::array_t<double> na(rows), pa(rows), ua({rows, k});
-      std::memcpy(na.mutable_data(), n, rows_count * sizeof(double));
-      std::memcpy(pa.mutable_data(), p, rows_count * sizeof(double));
-      if (k > 0) std::memcpy(ua.mutable_data(), u, rows_count * static_cast<std::size_t>(k) * sizeof(double));
-      const auto result = fn(na, pa, ua).cast<Array>();
-      if (result.size() != rows)
-        throw std::invalid_argument("custom inner law returned " + std::to_string(result.size()) + " values; expected " +
-                                    std::to_string(rows_count));
-      std::memcpy(out, result.data(), rows_count * sizeof(double));
-    };
+    InnerLaw inner = python_inner(fn, n_uniforms, inner_name);
     return std::make_shared<BlendedLaw>(make_blend(name, to_params(kwargs)), std::move(inner),
                                         LevelLadder(ratio, base_area));
   }, py::arg("name"), py::arg("params"), py::arg("fn"), py::arg("n_uniforms"), py::arg("inner_name"),
@@ -346,4 +354,112 @@ PYBIND11_MODULE(_core, m) {
     return out;
   });
   m.def("roulette_moments", &blend_detail::roulette_moments, py::arg("weight"), py::arg("epsilon"));
+
+  // Anisotropic grids (aniso.hpp).
+  m.def("grid_scheme_infos", [] {
+    std::vector<std::pair<std::string, std::string>> out;
+    for (const auto& info : aniso::registered_grid_schemes()) out.emplace_back(info.name, info.summary);
+    return out;
+  });
+  m.def("footprint_shapes", [](const Array& jac) {
+    // jac: (m, 4) rows (du/dx, dv/dx, du/dy, dv/dy) -> (m, 5) rows (P, a, b, r, phi) and status codes.
+    const auto m_rows = static_cast<std::size_t>(jac.size() / 4);
+    py::array_t<double> shapes({static_cast<py::ssize_t>(m_rows), static_cast<py::ssize_t>(5)});
+    py::array_t<std::uint8_t> status(static_cast<py::ssize_t>(m_rows));
+    const double* j = jac.data();
+    double* o = shapes.mutable_data();
+    std::uint8_t* st = status.mutable_data();
+    for (std::size_t i = 0; i < m_rows; ++i) {
+      const aniso::Shape s = aniso::shape_from_jacobian(j[4 * i], j[4 * i + 1], j[4 * i + 2], j[4 * i + 3]);
+      o[5 * i] = s.area, o[5 * i + 1] = s.major, o[5 * i + 2] = s.minor, o[5 * i + 3] = s.ratio, o[5 * i + 4] = s.angle;
+      st[i] = static_cast<std::uint8_t>(s.status);
+    }
+    return py::make_tuple(shapes, status);
+  }, py::arg("jac"));
+  py::class_<aniso::AnisoCounter, std::shared_ptr<aniso::AnisoCounter>>(m, "AnisoCounter")
+      .def_property_readonly("scheme_name", [](const aniso::AnisoCounter& c) { return c.scheme().name(); })
+      .def_property_readonly("scheme_params", [](const aniso::AnisoCounter& c) { return from_params(c.scheme().params()); })
+      .def_property_readonly("evaluations_per_term", &aniso::AnisoCounter::evaluations_per_term)
+      .def_property_readonly("integer_output", &aniso::AnisoCounter::integer_output)
+      .def_property_readonly("has_pmf", &aniso::AnisoCounter::has_pmf)
+      .def("terms", [](const aniso::AnisoCounter& c, double density, double area, double ratio, double angle) {
+             bool clamped = false;
+             const auto ts = c.terms(density, aniso::shape_from_params(area, ratio, angle), &clamped);
+             py::list rows;
+             for (const auto& t : ts) {
+               py::dict d;
+               d["scale_level"] = t.grid.scale;
+               d["ratio_level"] = t.grid.ratio;
+               d["orientation"] = t.grid.orientation;
+               d["angle"] = t.angle;
+               d["cell_minor"] = t.cell_minor;
+               d["cell_major"] = t.cell_major;
+               d["cell_area"] = t.cell_area;
+               d["dx"] = t.dx;
+               d["dy"] = t.dy;
+               d["weight"] = t.weight;
+               d["trials"] = t.trials;
+               d["scale"] = t.scale;
+               rows.append(d);
+             }
+             return py::make_tuple(rows, clamped);
+           }, py::arg("N"), py::arg("P"), py::arg("r"), py::arg("phi"))
+      .def("pmf", [](const aniso::AnisoCounter& c, double density, double area, double ratio, double angle, double p,
+                     std::size_t max_support) {
+             const auto shape = aniso::shape_from_params(area, ratio, angle);
+             py::gil_scoped_release release;
+             return c.pmf(density, p, shape, max_support);
+           }, py::arg("N"), py::arg("P"), py::arg("r"), py::arg("phi"), py::arg("p"), py::arg("max_support") = kDefaultMaxSupport)
+      .def("sample", [](const aniso::AnisoCounter& c, double density, double area, double ratio, double angle, double p,
+                        std::size_t count, std::uint64_t seed) {
+             const auto shape = aniso::shape_from_params(area, ratio, angle);
+             py::array_t<double> out(static_cast<py::ssize_t>(count));
+             double* o = out.mutable_data();
+             {
+               py::gil_scoped_release release;
+               c.sample(density, p, shape, count, seed, o);
+             }
+             return out;
+           }, py::arg("N"), py::arg("P"), py::arg("r"), py::arg("phi"), py::arg("p"), py::arg("count"), py::arg("seed"))
+      .def("count_pixels", [](const aniso::AnisoCounter& c, double density, const Array& p, const Array& uv,
+                              const Array& jac, std::optional<Array> slope, std::uint64_t seed) {
+             const auto m_rows = static_cast<std::size_t>(uv.size() / 2);
+             if (static_cast<std::size_t>(jac.size()) != 4 * m_rows)
+               throw std::invalid_argument("J has " + std::to_string(jac.size() / 4) + " pixels; uv has " +
+                                           std::to_string(m_rows));
+             if (slope && static_cast<std::size_t>(slope->size()) != 2 * m_rows)
+               throw std::invalid_argument("slope has " + std::to_string(slope->size() / 2) + " pixels; uv has " +
+                                           std::to_string(m_rows));
+             const auto rows = static_cast<py::ssize_t>(m_rows);
+             py::array_t<double> k(rows);
+             py::array_t<std::int32_t> evals(rows);
+             py::array_t<std::uint8_t> status(rows);
+             aniso::PixelOutput out{k.mutable_data(), evals.mutable_data(), status.mutable_data()};
+             const double* sl = slope ? slope->data() : nullptr;
+             {
+               py::gil_scoped_release release;
+               c.count_pixels(density, param(p), uv.data(), jac.data(), sl, m_rows, seed, out);
+             }
+             return py::make_tuple(k, evals, status);
+           }, py::arg("N"), py::arg("p"), py::arg("uv"), py::arg("jac"), py::arg("slope"), py::arg("seed"));
+  auto options = [](const std::string& spatial, const std::string& angular, const std::string& realization) {
+    return aniso::CounterOptions{aniso::spatial_from_name(spatial), aniso::angular_from_name(angular),
+                                 aniso::realization_from_name(realization)};
+  };
+  m.def("make_aniso_counter", [options](const std::string& scheme, const py::dict& kwargs,
+                                        std::shared_ptr<CountingLaw> inner, const std::string& spatial,
+                                        const std::string& angular, const std::string& realization) {
+    std::shared_ptr<const aniso::GridScheme> s = aniso::make_grid_scheme(scheme, to_params(kwargs));
+    return std::make_shared<aniso::AnisoCounter>(s, InnerLaw::from_law(std::move(inner)),
+                                                 options(spatial, angular, realization));
+  }, py::arg("scheme"), py::arg("params"), py::arg("inner"), py::arg("spatial"), py::arg("angular"),
+     py::arg("realization"));
+  m.def("make_aniso_counter_custom", [options](const std::string& scheme, const py::dict& kwargs, py::function fn,
+                                               int n_uniforms, const std::string& inner_name, const std::string& spatial,
+                                               const std::string& angular, const std::string& realization) {
+    std::shared_ptr<const aniso::GridScheme> s = aniso::make_grid_scheme(scheme, to_params(kwargs));
+    return std::make_shared<aniso::AnisoCounter>(s, python_inner(fn, n_uniforms, inner_name),
+                                                 options(spatial, angular, realization));
+  }, py::arg("scheme"), py::arg("params"), py::arg("fn"), py::arg("n_uniforms"), py::arg("inner_name"),
+     py::arg("spatial"), py::arg("angular"), py::arg("realization"));
 }

@@ -53,6 +53,12 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
     return T(1) + c.gaussian_count(u[1]);
   }
 
+  void evaluate_rows(double n, double p, const double* u, std::size_t rows, double* out) const override {
+    const GatedConstants<double> c(n, p);
+    for (std::size_t r = 0; r < rows; ++r)
+      out[r] = u[2 * r] < c.p1 ? 1 + c.gaussian_count(u[2 * r + 1]) : 0.0;
+  }
+
   // A batch at one (n, p): constants once, and the Gaussian count by table inversion.
   std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
     const GatedConstants<double> c(n, p);

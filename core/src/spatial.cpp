@@ -1,4 +1,5 @@
 #include "glintlab/spatial.hpp"
+#include "glintlab/aniso.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -158,18 +159,11 @@ Footprint Footprint::ellipse(double a, double b, double angle) {
 Footprint Footprint::from_uv_derivatives(double dudx, double dvdx, double dudy, double dvdy) {
   for (auto [name, v] : {std::pair{"dudx", dudx}, {"dvdx", dvdx}, {"dudy", dudy}, {"dvdy", dvdy}})
     if (!std::isfinite(v)) throw_invalid("Ellipse.from_uv_derivatives", name, v, "a finite number");
-  // SVD of J = [[dudx, dudy], [dvdx, dvdy]]: singular values from J J^T.
-  const double p = dudx * dudx + dudy * dudy, q = dudx * dvdx + dudy * dvdy, r = dvdx * dvdx + dvdy * dvdy;
-  const double mean = 0.5 * (p + r), diff = std::hypot(0.5 * (p - r), q);
-  const double s1 = std::sqrt(mean + diff), s2 = std::sqrt(std::max(0.0, mean - diff));
-  const double det = std::abs(dudx * dvdy - dudy * dvdx);
-  if (!(det > 0) || !(s2 > 0))
-    throw_invalid("Ellipse.from_uv_derivatives", "det(J)", det,
-                  "a non-degenerate Jacobian (the derivatives span a parallelogram of area > 0)");
-  const double angle = 0.5 * std::atan2(2 * q, p - r);  // direction of the major axis in (u, v)
-  const double k = 1.0 / std::sqrt(std::numbers::pi);
-  // s1 * s2 = |det J| exactly in exact arithmetic; use det for the minor axis so the area is exact.
-  return ellipse(k * s1, k * det / s1, angle);
+  const aniso::Shape s = aniso::shape_from_jacobian(dudx, dvdx, dudy, dvdy);
+  if (s.status != aniso::ShapeStatus::kOk)
+    throw_invalid("Ellipse.from_uv_derivatives", "det(J)", std::abs(dudx * dvdy - dudy * dvdx),
+                  "a non-degenerate Jacobian (the derivatives span a parallelogram of area > 0, ratio <= 1e12)");
+  return ellipse(s.major, s.minor, s.angle);
 }
 
 double Footprint::area() const {

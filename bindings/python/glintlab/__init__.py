@@ -8,6 +8,7 @@
 """
 from . import _core
 from ._core import Chi2Result, Distribution
+from .aniso import AnisoCounter, aniso_counter, footprint_shapes, grid_schemes
 from .blending import BlendedLaw, blend_summaries, blended_law, blends, roulette_keep_moments, zk16_variance_ratio
 from .exact import binomial, poisson
 from .extremes import extremes_summary, extremes_table, invalid_inputs_table, write_extremes_report
@@ -37,6 +38,7 @@ def get_num_threads() -> int:
 
 
 __all__ = [
+    "AnisoCounter", "aniso_counter", "footprint_shapes", "grid_schemes",
     "sweep", "check", "perturbed_law", "run_experiment",
     "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
     "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",

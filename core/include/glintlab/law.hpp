@@ -53,6 +53,13 @@ class CountingLaw {
   virtual double evaluate(double n, double p, const double* u) const = 0;
   // The same in float32 (see Precision); laws that support it say so in supports().
   virtual double evaluate_f32(double n, double p, const double* u) const;
+  // `rows` evaluations at one (n, p) on rows of uniforms u[r * n_uniforms ...]: what a shader does
+  // when it interpolates realizations of one grid (spatial and angular texels share n and p). The
+  // default loops over evaluate(); laws with costly per-(n, p) constants hoist them. Same results.
+  virtual void evaluate_rows(double n, double p, const double* u, std::size_t rows, double* out) const {
+    const auto k = static_cast<std::size_t>(n_uniforms());
+    for (std::size_t r = 0; r < rows; ++r) out[r] = evaluate(n, p, u + r * k);
+  }
   virtual bool supports(Precision precision) const { return precision == Precision::kFloat64; }
 
   // Samples i0 .. i1-1 of a batch with fixed (n, p): sample i uses CounterRng::for_index(seed, i,

@@ -26,6 +26,11 @@ enum Stream : std::uint16_t {
   // decisions (Russian roulette) of the same cell.
   kStreamLevelCount = 3,
   kStreamLevelFacets = 4,
+  // Anisotropic grids (aniso.hpp): the inner law's uniforms of a grid cell and angular texel, the
+  // per-pixel choice of one interpolation vertex, and the random positions of sample().
+  kStreamAnisoCell = 5,
+  kStreamAnisoSelect = 6,
+  kStreamAnisoPosition = 7,
 };
 
 class CounterRng {

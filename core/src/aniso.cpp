@@ -1,0 +1,479 @@
+#include "glintlab/aniso.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <numbers>
+#include <stdexcept>
+
+#include "glintlab/errors.hpp"
+#include "glintlab/rng.hpp"
+#include "parallel.hpp"
+
+namespace glintlab::aniso {
+
+const char* status_name(ShapeStatus status) {
+  switch (status) {
+    case ShapeStatus::kOk: return "ok";
+    case ShapeStatus::kDegenerate: return "degenerate";
+    case ShapeStatus::kNonFinite: return "non_finite";
+    case ShapeStatus::kClamped: return "clamped";
+  }
+  return "unknown";
+}
+
+namespace {
+double wrap_angle(double angle) {
+  double a = std::fmod(angle, std::numbers::pi);
+  if (a < 0) a += std::numbers::pi;
+  if (a >= std::numbers::pi) a = 0;  // fmod can round up to π
+  return a;
+}
+}  // namespace
+
+Shape shape_from_jacobian(double dudx, double dvdx, double dudy, double dvdy) {
+  Shape s;
+  if (!std::isfinite(dudx) || !std::isfinite(dvdx) || !std::isfinite(dudy) || !std::isfinite(dvdy)) {
+    s.status = ShapeStatus::kNonFinite;
+    return s;
+  }
+  // Singular values of J from J J^T; the minor one from |det J| / s1, which keeps the area exact
+  // when the ellipse is thin (mean - diff cancels).
+  const double p = dudx * dudx + dudy * dudy, q = dudx * dvdx + dudy * dvdy, r = dvdx * dvdx + dvdy * dvdy;
+  const double mean = 0.5 * (p + r), diff = std::hypot(0.5 * (p - r), q);
+  const double s1 = std::sqrt(mean + diff);
+  const double det = std::abs(dudx * dvdy - dudy * dvdx);
+  if (!(s1 > 0) || !(det > 0) || !std::isfinite(s1) || !std::isfinite(det)) {
+    s.status = ShapeStatus::kDegenerate;
+    return s;
+  }
+  const double s2 = det / s1;
+  if (!(s2 > 0) || s1 / s2 > kMaxRatio) {
+    s.status = ShapeStatus::kDegenerate;
+    return s;
+  }
+  const double k = 1.0 / std::sqrt(std::numbers::pi);
+  s.major = k * s1;
+  s.minor = k * s2;
+  s.area = det;
+  s.ratio = std::max(1.0, s1 / s2);
+  s.angle = wrap_angle(0.5 * std::atan2(2 * q, p - r));
+  return s;
+}
+
+Shape shape_from_params(double area, double ratio, double angle) {
+  const char* where = "footprint shape";
+  if (!(area > 0) || !std::isfinite(area)) throw_invalid(where, "P", area, "a finite footprint area > 0");
+  if (!(ratio >= 1) || !(ratio <= kMaxRatio)) throw_invalid(where, "r", ratio, "an anisotropy ratio in [1, 1e12]");
+  if (!std::isfinite(angle)) throw_invalid(where, "phi", angle, "a finite angle (radians)");
+  Shape s;
+  s.area = area;
+  s.ratio = ratio;
+  s.major = std::sqrt(area * ratio / std::numbers::pi);
+  s.minor = std::sqrt(area / (ratio * std::numbers::pi));
+  s.angle = wrap_angle(angle);
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Registry
+
+namespace {
+std::map<std::string, GridSchemeInfo>& scheme_registry() {
+  static std::map<std::string, GridSchemeInfo> schemes;
+  return schemes;
+}
+std::mutex& scheme_mutex() {
+  static std::mutex m;
+  return m;
+}
+}  // namespace
+
+bool register_grid_scheme(GridSchemeInfo info) {
+  std::lock_guard<std::mutex> lock(scheme_mutex());
+  auto& schemes = scheme_registry();
+  if (schemes.count(info.name)) throw std::logic_error("grid scheme registered twice: " + info.name);
+  const std::string name = info.name;
+  schemes.emplace(name, std::move(info));
+  return true;
+}
+
+std::vector<GridSchemeInfo> registered_grid_schemes() {
+  std::lock_guard<std::mutex> lock(scheme_mutex());
+  std::vector<GridSchemeInfo> out;
+  for (const auto& [name, info] : scheme_registry()) out.push_back(info);
+  return out;
+}
+
+std::unique_ptr<GridScheme> make_grid_scheme(const std::string& name, const LawParams& params) {
+  GridSchemeFactory make;
+  std::string known;
+  {
+    std::lock_guard<std::mutex> lock(scheme_mutex());
+    const auto& schemes = scheme_registry();
+    const auto it = schemes.find(name);
+    if (it != schemes.end()) make = it->second.make;
+    for (const auto& [n, info] : schemes) known += (known.empty() ? "" : ", ") + n;
+  }
+  if (!make) throw std::invalid_argument("scheme = '" + name + "': unknown grid scheme (known: " + known + ")");
+  return make(params);
+}
+
+namespace {
+template <class E>
+E from_name(const std::string& what, const std::string& name, const std::vector<std::pair<std::string, E>>& table) {
+  std::string known;
+  for (const auto& [n, e] : table) {
+    if (n == name) return e;
+    known += (known.empty() ? "" : ", ") + n;
+  }
+  throw std::invalid_argument(what + " = '" + name + "': expected one of " + known);
+}
+const std::vector<std::pair<std::string, Spatial>> kSpatial = {
+    {"none", Spatial::kNone}, {"square", Spatial::kSquare}, {"simplex", Spatial::kSimplex}};
+const std::vector<std::pair<std::string, Angular>> kAngular = {{"none", Angular::kNone}, {"bilinear", Angular::kBilinear}};
+const std::vector<std::pair<std::string, Realization>> kRealization = {{"blend", Realization::kBlend},
+                                                                       {"select", Realization::kSelect}};
+template <class E>
+std::string to_name(E e, const std::vector<std::pair<std::string, E>>& table) {
+  for (const auto& [n, v] : table)
+    if (v == e) return n;
+  return "?";
+}
+}  // namespace
+
+Spatial spatial_from_name(const std::string& name) { return from_name("spatial", name, kSpatial); }
+Angular angular_from_name(const std::string& name) { return from_name("angular", name, kAngular); }
+Realization realization_from_name(const std::string& name) { return from_name("realization", name, kRealization); }
+std::string spatial_name(Spatial s) { return to_name(s, kSpatial); }
+std::string angular_name(Angular a) { return to_name(a, kAngular); }
+std::string realization_name(Realization r) { return to_name(r, kRealization); }
+
+// ---------------------------------------------------------------------------------------------
+// Interpolation weights
+
+namespace weights {
+
+std::array<double, 4> barycentric(const std::array<double, 3>& q, const std::array<std::array<double, 3>, 4>& t) {
+  // Solve [t0 - t3, t1 - t3, t2 - t3] λ = q - t3 by Cramer's rule.
+  double m[3][3], b[3];
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) m[i][j] = t[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)] - t[3][static_cast<std::size_t>(i)];
+    b[i] = q[static_cast<std::size_t>(i)] - t[3][static_cast<std::size_t>(i)];
+  }
+  auto det3 = [](const double a[3][3]) {
+    return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+           a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+  };
+  const double d = det3(m);
+  std::array<double, 4> w{};
+  for (int c = 0; c < 3; ++c) {
+    double mc[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) mc[i][j] = j == c ? b[i] : m[i][j];
+    w[static_cast<std::size_t>(c)] = det3(mc) / d;
+  }
+  w[3] = 1.0 - w[0] - w[1] - w[2];
+  return w;
+}
+
+int spatial_vertices(Spatial spatial, double X, double Y, Vertex2* out) {
+  const double fx0 = std::floor(X), fy0 = std::floor(Y);
+  const auto i = static_cast<std::int64_t>(fx0), j = static_cast<std::int64_t>(fy0);
+  switch (spatial) {
+    case Spatial::kNone:
+      out[0] = {i, j, 1.0};
+      return 1;
+    case Spatial::kSquare: {
+      const double fx = X - fx0, fy = Y - fy0;
+      out[0] = {i, j, (1 - fx) * (1 - fy)};
+      out[1] = {i + 1, j, fx * (1 - fy)};
+      out[2] = {i, j + 1, (1 - fx) * fy};
+      out[3] = {i + 1, j + 1, fx * fy};
+      return 4;
+    }
+    case Spatial::kSimplex: {
+      // Skew the square lattice onto a lattice of equilateral triangles of unit side: lattice point
+      // (s, t) sits at (s + t/2, t sqrt(3)/2). Each skewed unit square holds two triangles.
+      const double t = Y * (2.0 / std::sqrt(3.0));
+      const double s = X - 0.5 * t;
+      const double fs0 = std::floor(s), ft0 = std::floor(t);
+      const auto si = static_cast<std::int64_t>(fs0), ti = static_cast<std::int64_t>(ft0);
+      const double fs = s - fs0, ft = t - ft0;
+      if (fs + ft < 1) {
+        out[0] = {si, ti, 1 - fs - ft};
+        out[1] = {si + 1, ti, fs};
+        out[2] = {si, ti + 1, ft};
+      } else {
+        out[0] = {si + 1, ti + 1, fs + ft - 1};
+        out[1] = {si, ti + 1, 1 - fs};
+        out[2] = {si + 1, ti, 1 - ft};
+      }
+      return 3;
+    }
+  }
+  return 0;
+}
+
+}  // namespace weights
+
+// ---------------------------------------------------------------------------------------------
+// The counter
+
+namespace {
+std::uint64_t mix64(std::uint64_t x) {  // splitmix64's finalizer (Steele, Lea & Flood 2014)
+  x += 0x9E3779B97F4A7C15ULL;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+  return x ^ (x >> 31);
+}
+std::uint64_t hash_combine(std::uint64_t h, std::uint64_t v) { return mix64(h ^ mix64(v)); }
+// The key of one grid (scale, ratio, orientation level) under a seed, then of one of its angular
+// texels.
+std::uint64_t grid_key(std::uint64_t seed, const GridId& g) {
+  std::uint64_t h = hash_combine(seed, static_cast<std::uint64_t>(static_cast<std::int64_t>(g.scale)));
+  h = hash_combine(h, static_cast<std::uint64_t>(g.ratio));
+  return hash_combine(h, static_cast<std::uint64_t>(g.orientation));
+}
+std::uint64_t texel_key(std::uint64_t grid, std::int64_t ax, std::int64_t ay) {
+  return mix64(grid + static_cast<std::uint64_t>(ax) * 0xE7037ED1A0B428DBULL +
+               static_cast<std::uint64_t>(ay) * 0x8EBC6AF09C88C6E3ULL);
+}
+// Cell (cx, cy) of a keyed grid: its uniforms, a pure function of (key, cx, cy, d). A shader reads
+// these from a hash or a noise texture; splitmix64 outputs (which pass BigCrush as a counter-based
+// generator) cost a few ns each, where a Philox block per cell would dominate an image's cost.
+struct CellUniforms {
+  std::uint64_t h;
+  CellUniforms(std::uint64_t key, std::int64_t cx, std::int64_t cy)
+      : h(mix64(key + static_cast<std::uint64_t>(cx) * 0xD1B54A32D192ED03ULL +
+                static_cast<std::uint64_t>(cy) * 0xABC98388FB8FAC03ULL)) {}
+  double operator()(std::size_t d) const {
+    const std::uint64_t x = d == 0 ? h : mix64(h + d * 0x8CB92BA72F3D8DD7ULL);
+    return (static_cast<double>(x >> 11) + 0.5) * 0x1.0p-53;  // open (0, 1), as CounterRng
+  }
+};
+constexpr std::size_t kChunk = 256;
+constexpr std::size_t kMaxRows = 16;  // 4 spatial x 4 angular
+}  // namespace
+
+AnisoCounter::AnisoCounter(std::shared_ptr<const GridScheme> scheme, InnerLaw inner, CounterOptions options)
+    : scheme_(std::move(scheme)), inner_(std::move(inner)), options_(options) {
+  if (!scheme_) throw std::invalid_argument("scheme: missing");
+  if (inner_.n_uniforms < 0 || inner_.n_uniforms > 16)
+    throw std::invalid_argument("inner law: n_uniforms = " + std::to_string(inner_.n_uniforms) + ", expected 0 to 16");
+}
+
+int AnisoCounter::evaluations_per_term() const {
+  if (options_.realization == Realization::kSelect) return 1;
+  const int spatial = options_.spatial == Spatial::kNone ? 1 : options_.spatial == Spatial::kSquare ? 4 : 3;
+  const int angular = options_.angular == Angular::kNone ? 1 : 4;
+  return spatial * angular;
+}
+
+bool AnisoCounter::integer_output() const {
+  return inner_.integer_output && scheme_->independent_terms() && evaluations_per_term() == 1;
+}
+
+bool AnisoCounter::has_pmf() const {
+  return integer_output() && inner_.law && inner_.law->has_pmf();
+}
+
+std::vector<Term> AnisoCounter::terms(double density, const Shape& shape, bool* clamped) const {
+  const std::string where = "aniso_counter('" + scheme_->name() + "')";
+  check_n(where, density, "N");
+  if (shape.status == ShapeStatus::kDegenerate || shape.status == ShapeStatus::kNonFinite)
+    throw std::invalid_argument(where + ": the footprint is " + status_name(shape.status));
+  std::vector<Term> out;
+  const bool c = scheme_->terms(shape, density, out);
+  if (clamped) *clamped = c;
+  return out;
+}
+
+template <class Source>
+void AnisoCounter::run(double density, std::size_t m, Source source, double* k_out, std::int32_t* evals_out,
+                       std::uint8_t* status_out) const {
+  const std::string where = "aniso_counter('" + scheme_->name() + "', inner='" + inner_.name + "')";
+  const std::size_t nu = static_cast<std::size_t>(inner_.n_uniforms);
+  const bool select = options_.realization == Realization::kSelect;
+  const CountingLaw* law = inner_.law && inner_.thread_safe ? inner_.law.get() : nullptr;
+  const Spatial angular_lattice = options_.angular == Angular::kNone ? Spatial::kNone : Spatial::kSquare;
+  auto refuse = [&](double trials, double p) {
+    throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(trials) +
+                                " at p = " + format_value(p));
+  };
+  auto chunk_body = [&](std::size_t i0, std::size_t i1) {
+    std::vector<Term> terms;
+    terms.reserve(scheme_->max_terms());
+    // Gathered requests (laws that are not thread safe or not built in: one call per chunk).
+    std::vector<double> n, pp, u, coef, kk;
+    std::vector<std::size_t> owner;
+    double urow[kMaxRows * 16], krow[kMaxRows], wrow[kMaxRows];
+    for (std::size_t i = i0; i < i1; ++i) {
+      Pixel px;
+      Shape shape;
+      source(i, px, shape);
+      k_out[i] = 0.0;
+      if (evals_out) evals_out[i] = 0;
+      if (shape.status == ShapeStatus::kDegenerate || shape.status == ShapeStatus::kNonFinite) {
+        if (status_out) status_out[i] = static_cast<std::uint8_t>(shape.status);
+        continue;
+      }
+      terms.clear();
+      const bool clamped = scheme_->terms(shape, density, terms);
+      if (status_out) status_out[i] = static_cast<std::uint8_t>(clamped ? ShapeStatus::kClamped : shape.status);
+      std::int32_t evaluations = 0;
+      double k = 0.0;
+      for (std::size_t ti = 0; ti < terms.size(); ++ti) {
+        const Term& t = terms[ti];
+        if (inner_.law && t.trials > 0 && !inner_.law->accepts(t.trials, px.p)) refuse(t.trials, px.p);
+        const double x = px.u + t.dx, y = px.v + t.dy;
+        const double c = std::cos(t.angle), s = std::sin(t.angle);
+        // Grid coordinates: across the long side (X) and along it (Y), in cells.
+        const double X = (-x * s + y * c) / t.cell_minor, Y = (x * c + y * s) / t.cell_major;
+        weights::Vertex2 sv[4], av[4];
+        int ns = weights::spatial_vertices(options_.spatial, X, Y, sv);
+        int na = weights::spatial_vertices(angular_lattice, px.su, px.sv, av);
+        if (select) {
+          // One vertex with probability v_j (inversion of the running sum), for each lattice.
+          const CellUniforms pick_u(px.select_seed, static_cast<std::int64_t>(i), static_cast<std::int64_t>(ti));
+          auto pick = [](weights::Vertex2* v, int count, double r) {
+            double acc = 0;
+            int q = 0;
+            for (; q < count - 1; ++q) {
+              acc += v[q].w;
+              if (r < acc) break;
+            }
+            v[0] = {v[q].i, v[q].j, 1.0};
+          };
+          pick(sv, ns, pick_u(0));
+          pick(av, na, pick_u(1));
+          ns = na = 1;
+        }
+        std::size_t rows = 0;
+        const std::uint64_t gkey = grid_key(px.grid_seed, t.grid);
+        for (int b = 0; b < na; ++b) {
+          const std::uint64_t key = texel_key(gkey, av[b].i, av[b].j);
+          for (int a = 0; a < ns; ++a, ++rows) {
+            const CellUniforms cell(key, sv[a].i, sv[a].j);
+            for (std::size_t d = 0; d < nu; ++d) urow[rows * nu + d] = cell(d);
+            wrow[rows] = t.scale * sv[a].w * av[b].w;
+          }
+        }
+        evaluations += static_cast<std::int32_t>(rows);
+        if (law) {
+          law->evaluate_rows(t.trials, px.p, urow, rows, krow);
+          for (std::size_t q = 0; q < rows; ++q) {
+            if (!std::isfinite(krow[q]))
+              throw std::invalid_argument(where + ": the inner law returned " + format_value(krow[q]) + " at n = " +
+                                          format_value(t.trials) + ", p = " + format_value(px.p));
+            k += wrow[q] * krow[q];
+          }
+        } else {
+          for (std::size_t q = 0; q < rows; ++q) {
+            n.push_back(t.trials);
+            pp.push_back(px.p);
+            u.insert(u.end(), urow + q * nu, urow + (q + 1) * nu);
+            coef.push_back(wrow[q]);
+            owner.push_back(i);
+          }
+        }
+      }
+      k_out[i] = k;
+      if (evals_out) evals_out[i] = evaluations;
+    }
+    if (law || n.empty()) return;
+    kk.resize(n.size());
+    inner_.evaluate(n.data(), pp.data(), u.data(), n.size(), kk.data());
+    for (std::size_t q = 0; q < n.size(); ++q) {
+      if (!std::isfinite(kk[q]))
+        throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
+                                    format_value(n[q]) + ", p = " + format_value(pp[q]));
+      if (coef[q] != 0.0) k_out[owner[q]] += coef[q] * kk[q];
+    }
+  };
+  if (inner_.thread_safe) {
+    detail::parallel_chunks(m, kChunk, kChunk, chunk_body);
+  } else {
+    for (std::size_t i0 = 0; i0 < m; i0 += kChunk) chunk_body(i0, std::min(m, i0 + kChunk));
+  }
+}
+
+namespace {
+void check_trials(const std::string& where, const InnerLaw& inner, const std::vector<Term>& terms, double p) {
+  if (!inner.law) return;
+  for (const Term& t : terms)
+    if (t.trials > 0 && !inner.law->accepts(t.trials, p))
+      throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(t.trials) +
+                                  " at p = " + format_value(p));
+}
+}  // namespace
+
+void AnisoCounter::count_pixels(double density, ParamArray p, const double* uv, const double* jac,
+                                const double* slope, std::size_t m, std::uint64_t seed, PixelOutput out) const {
+  const std::string where = "aniso_counter('" + scheme_->name() + "').count_image";
+  check_n(where, density, "N");
+  if (p.size != 1 && p.size != m)
+    throw std::invalid_argument(where + ": p has " + std::to_string(p.size) + " values; expected 1 or " +
+                                std::to_string(m));
+  for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
+  for (std::size_t i = 0; i < 2 * m; ++i) {
+    if (!std::isfinite(uv[i]) || std::abs(uv[i]) > 1e9)
+      throw_invalid(where, indexed_name("uv", i, true), uv[i], "a finite texture coordinate, |uv| <= 1e9");
+    if (slope && (!std::isfinite(slope[i]) || std::abs(slope[i]) > 1e9))
+      throw_invalid(where, indexed_name("slope", i, true), slope[i], "a finite angular coordinate, |slope| <= 1e9");
+  }
+  const std::uint64_t select_seed = hash_combine(seed, 0x5E1EC7ULL);
+  run(density, m,
+      [&](std::size_t i, Pixel& px, Shape& shape) {
+        shape = shape_from_jacobian(jac[4 * i], jac[4 * i + 1], jac[4 * i + 2], jac[4 * i + 3]);
+        px = {uv[2 * i], uv[2 * i + 1], slope ? slope[2 * i] : 0.0, slope ? slope[2 * i + 1] : 0.0, p[i], seed,
+              select_seed};
+      },
+      out.count, out.evaluations, out.status);
+}
+
+void AnisoCounter::sample(double density, double p, const Shape& shape, std::size_t count, std::uint64_t seed,
+                          double* out) const {
+  const std::string where = "aniso_counter('" + scheme_->name() + "').sample";
+  check_p(where, p);
+  const std::vector<Term> ts = terms(density, shape);
+  check_trials(where, inner_, ts, p);
+  // Positions uniform over a square many cells wide in every grid, so each grid's phase is uniform
+  // within 1e-6; fresh grids per realization make the absolute position irrelevant otherwise.
+  double extent = 0;
+  for (const Term& t : ts) extent = std::max({extent, t.cell_major, t.cell_minor});
+  const double width = 1e6 * (extent > 0 ? extent : 1.0);
+  run(density, count,
+      [&](std::size_t r, Pixel& px, Shape& s) {
+        CounterRng rng(seed, static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(r >> 32), 0,
+                       kStreamAnisoPosition);
+        const double u = rng.uniform() * width, v = rng.uniform() * width;
+        const double su = rng.uniform() * 65536.0, sv = rng.uniform() * 65536.0;
+        px = {u, v, su, sv, p, hash_combine(seed, r), hash_combine(seed ^ 0x5E1EC7ULL, r)};
+        s = shape;
+      },
+      out, nullptr, nullptr);
+}
+
+Distribution AnisoCounter::pmf(double density, double p, const Shape& shape, std::size_t max_support) const {
+  const std::string where = "aniso_counter('" + scheme_->name() + "', inner='" + inner_.name + "').pmf";
+  if (!has_pmf()) {
+    std::string why = !inner_.law || !inner_.law->has_pmf() ? "the inner law has no exact distribution"
+                      : !inner_.integer_output              ? "the inner law's counts are not integers"
+                      : !scheme_->independent_terms()       ? "the scheme's terms share cells or are rescaled"
+                                                            : "blended realizations are not integers (use realization='select')";
+    throw not_implemented(where + ": no exact distribution: " + why);
+  }
+  check_p(where, p);
+  const std::vector<Term> ts = terms(density, shape);
+  check_trials(where, inner_, ts, p);
+  Distribution total({0.0}, {1.0});
+  for (const Term& t : ts) {
+    if (!(t.trials > 0)) continue;
+    total = convolve(total, inner_.law->pmf(t.trials, p, max_support), max_support, where);
+  }
+  return total;
+}
+
+}  // namespace glintlab::aniso
