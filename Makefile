@@ -43,6 +43,7 @@ bench: build
 	@$(VENV)/bin/python validation/bench/bench_ground_truth.py
 	@$(VENV)/bin/glintlab bench --out out/bench
 	@$(VENV)/bin/python validation/bench/bench_dask.py
+	@$(VENV)/bin/glintlab aniso --out out/bench/aniso
 
 # C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module in this build).
 sanitize: deps

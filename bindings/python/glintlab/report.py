@@ -278,8 +278,15 @@ def run(out: Path, quick: bool = False, seed: int = 1, quiet: bool = False) -> d
         out, 256 if quick else 1024, seed)
     lod_paths, lod_tables = _lod(out, quick, seed)
     tables.update(lod_tables)
+    # Anisotropic grids (LAWS.md §6): the study's summary, its maps and the image timing.
+    from .aniso_study import write_report as aniso_report
+    aniso_paths, aniso_tables = aniso_report(out, full=False, samples=4_000 if quick else 10_000, seed=seed,
+                                             image=not quick)
+    tables["aniso_summary"] = aniso_tables["aniso_summary"]
+    if "aniso_image" in aniso_tables:
+        tables["aniso_image"] = aniso_tables["aniso_image"]
     figures = (_figures(out, samples, seed) + _trade_figures(out, trade, errors) + fig9_paths + lod_paths
-               + precision_paths)
+               + precision_paths + aniso_paths)
     errors.to_csv(out / "error_table_standard_grid.csv", index=False)
     for name, df in tables.items():
         df.to_csv(out / f"{name}.csv", index=False)
@@ -338,6 +345,13 @@ def print_summary(summary) -> None:
     show("speed / accuracy over the standard grid (exact errors vs the binomial)", t["speed_accuracy"],
          ["law", "tv_max", "tv_median", "hellinger_max", "w1_max", "mean_rel_err_max", "ns_per_sample",
           "ns_ratio_1e9_vs_16"])
+    show("anisotropic grids against stratified facets in the ellipse (glintlab aniso for maps and --full)",
+         t["aniso_summary"], ["config", "law", "max_abs_mean_bias", "max_weight_bias", "var_ratio_min",
+                              "var_ratio_max", "tv_max", "chi2_reject_1pct", "evaluations_min", "evaluations_max"])
+    if "aniso_image" in t:
+        show("1920 x 1080 image per grid scheme (both cores)", t["aniso_image"],
+             ["config", "law", "seconds", "ns_per_pixel", "evaluations_mean", "evaluations_max", "degenerate",
+              "clamped"])
     show("float32 vs float64 on the same uniforms (mismatch >= TV; breaks: non-finite, < 0, > n)",
          t["float32_vs_float64"], ["law", "mismatch_max", "at_n", "at_p", "max_abs_diff",
                                    "share_points_over_1pct", "points_broken_f32", "points_broken_f64"])
