@@ -15,6 +15,7 @@ from .extremes import extremes_summary, extremes_table, invalid_inputs_table, wr
 from .grid import error_table, standard_grid
 from .laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
 from .metrics import METRICS, chi2_test, distance, sidak_alpha
+from .ndf import NDF, ndf
 from .plugins import load_plugin, loaded_plugins
 from .spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 
@@ -38,7 +39,7 @@ def get_num_threads() -> int:
 
 
 __all__ = [
-    "AnisoCounter", "aniso_counter", "footprint_shapes", "grid_schemes",
+    "AnisoCounter", "aniso_counter", "NDF", "ndf", "footprint_shapes", "grid_schemes",
     "sweep", "check", "perturbed_law", "run_experiment",
     "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
     "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
