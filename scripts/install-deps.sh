@@ -10,6 +10,8 @@ PACKAGES=(
   python3-numpy python3-scipy python3-matplotlib python3-pandas python3-pytest python3-tqdm
   python3-rich python3-mpmath python3-dask python3-distributed python3-nbclient python3-nbformat python3-ipykernel
   python3-jsonschema
+  # the report test renders index.html headless (tests/python/test_report.py)
+  chromium
   # make fuzz: clang with libFuzzer (libclang_rt.fuzzer-x86_64.a is in libclang-rt-14-dev) and
   # clang's OpenMP, which the top-level CMakeLists needs when configured with clang
   clang libclang-rt-14-dev libomp-dev

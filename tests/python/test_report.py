@@ -1,25 +1,154 @@
-"""`glintlab report` (the job behind `make run`) runs end to end and writes what it announces."""
-import json
+"""`glintlab report` (the job behind `make run`): every section runs, the page shows every figure.
 
+One quick report is built per test session (about 40 s) and checked as data (report.json, CSVs) and as
+a user sees it: rendered by Debian's headless chromium, each figure must be decoded by the browser and
+visible (not blank) in a screenshot of the whole page.
+"""
+import json
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from glintlab import report
 from glintlab.cli import main
 
+CHROMIUM = shutil.which("chromium")
+BROWSER_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--allow-file-access-from-files"]
 
-def test_quick_report_writes_tables_and_figures(tmp_path):
-    out = tmp_path / "report"
+
+@pytest.fixture(scope="module")
+def quick_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
     assert main(["report", "--quick", "--quiet", "--out", str(out)]) == 0
-    summary = json.loads((out / "report.json").read_text())
-    for table in ("exact_laws", "sampler_checks", "binomial_vs_poisson", "speed_accuracy"):
-        assert summary["tables"][table], table
-        assert (out / f"{table}.csv").stat().st_size > 0
+    return out, json.loads((out / "report.json").read_text())
+
+
+def test_every_configured_section_ran_and_wrote_its_figures(quick_report):
+    out, summary = quick_report
+    doc, _ = report.load_config(None)
+    assert summary["ran"] == [e["name"] for e in doc["sections"]]
+    for name, sec in summary["sections"].items():
+        assert f"--only {name}" in sec["command"] and "--quick" in sec["command"]
+        assert sec["params"] == report.section_params(next(e for e in doc["sections"] if e["name"] == name), True)
+    expected = {"sampler_vs_exact.png", "db23_figure9.png", "db23_figure4.png", "lod_strip.png",
+                "roulette_vs_linear.png", "wwh18_threshold.png", "db23_figure13.png", "trade_pareto.png",
+                "error_maps_tv.png", "extremes.png", "aniso_maps.png"}
+    assert expected <= set(summary["figures"])
     for fig in summary["figures"]:
         assert (out / fig).stat().st_size > 10_000, fig  # a real plot, not an empty canvas
-    html = (out / "index.html").read_text()
-    assert all(fig in html for fig in summary["figures"])
+    for table in ("exact_laws", "sampler_checks", "speed_accuracy", "wwh18_threshold", "db23_figure13_summary",
+                  "roulette_vs_linear", "extremes_summary", "bounds_check"):
+        assert summary["tables"][table] and (out / f"{table}.csv").stat().st_size > 0, table
     trade = {row["law"]: row for row in summary["tables"]["speed_accuracy"]}
     assert trade["binomial"]["tv_max"] < 1e-12 and trade["head_cf"]["tv_max"] < 0.01
+    assert all(row["ok"] for row in summary["tables"]["bounds_check"])
+    assert summary["failures"] == []
 
 
-def test_bad_arguments_exit_2(capsys):
-    assert main(["report", "--seed", "-1", "--quiet", "--out", "/tmp/never"]) == 2
+def test_figures_carry_their_findings(quick_report):
+    _, summary = quick_report
+    t = summary["tables"]
+    mid = {r["blend"]: r for r in t["roulette_vs_linear"] if abs(r["w"] - 0.5) < 1e-9}
+    # Linear blending: about twice the lit pixels at half the intensity; distributed: the truth.
+    assert mid["linear (zk16_linear)"]["lit_share_vs_truth"] > 1.6
+    assert mid["linear (zk16_linear)"]["lit_intensity_vs_truth"] < 0.65
+    assert abs(mid["distributed"]["lit_share_vs_truth"] - 1) < 0.1
+    # Convergence: slope -1/2 of the spread of D_P / D(h) for both NDFs.
+    assert all(abs(r["slope"] + 0.5) < 0.03 for r in t["db23_figure13_summary"])
+    # The threshold trade: the worst error falls as T grows.
+    worst = [r["rel_intensity_err_max"] for r in t["wwh18_threshold"] if not r["explicit"]]
+    assert all(a >= b for a, b in zip(worst, worst[1:]))
+
+
+def test_only_reruns_one_section_and_keeps_the_page_whole(quick_report, tmp_path):
+    out, summary = quick_report
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    assert main(["report", "--quick", "--quiet", "--out", str(copy), "--only", "wwh18_threshold"]) == 0
+    again = json.loads((copy / "report.json").read_text())
+    assert again["ran"] == ["wwh18_threshold"] and set(again["figures"]) == set(summary["figures"])
+    assert again["tables"]["wwh18_threshold"][0]["T"] == summary["tables"]["wwh18_threshold"][0]["T"]
+
+
+def _render(page, tmp_path):
+    """(DOM after load, screenshot as an array, scale): chromium renders the page as a user would."""
+    assert CHROMIUM, "chromium is missing: make build installs it (scripts/install-deps.sh)"
+    # The same window width in both runs: the layout (and so every figure's rectangle) depends on it.
+    dom = subprocess.run([CHROMIUM, *BROWSER_FLAGS, "--window-size=1200,2000", "--dump-dom", page.as_uri()],
+                         capture_output=True, text=True, timeout=120).stdout
+    height = int(re.search(r'data-height="(\d+)"', dom).group(1))
+    scale = min(1.0, 16000 / height)  # chromium's screenshot limit
+    shot = tmp_path / "page.png"
+    subprocess.run([CHROMIUM, *BROWSER_FLAGS, f"--force-device-scale-factor={scale}", f"--screenshot={shot}",
+                    f"--window-size=1200,{height}", page.as_uri()], capture_output=True, timeout=120, check=True)
+    from matplotlib.image import imread
+    return dom, imread(shot), scale
+
+
+def _figures_on_screen(dom, image, scale):
+    """Per <img src>: whether the browser decoded it and its screenshot region is not blank."""
+    found = {}
+    for tag in re.findall(r"<img [^>]*>", dom):
+        src = re.search(r'src="([^"]+)"', tag).group(1)
+        rect = re.search(r'data-rect="([\d,.-]+)"', tag)
+        if not rect:
+            found[src] = False
+            continue
+        x, y, w, h = (float(v) * scale for v in rect.group(1).split(","))
+        crop = image[int(y):int(y + h), int(x):int(x + w), :3]
+        found[src] = crop.size > 0 and w > 100 and float(crop.std()) > 0.02 and float((crop < 0.9).mean()) > 0.01
+    return found
+
+
+def test_headless_browser_shows_every_figure(quick_report, tmp_path):
+    out, summary = quick_report
+    dom, image, scale = _render(out / "index.html", tmp_path)
+    shown = _figures_on_screen(dom, image, scale)
+    assert set(shown) == set(summary["figures"])
+    assert all(shown.values()), [k for k, v in shown.items() if not v]
+    assert f'data-images-loaded="{len(summary["figures"])}"' in dom
+    for sec in summary["sections"].values():
+        assert sec["title"].split(":")[0].replace("&", "&amp;") in dom
+
+
+def test_headless_check_fails_on_a_missing_or_blank_figure(quick_report, tmp_path):
+    out, summary = quick_report
+    broken = tmp_path / "broken"
+    shutil.copytree(out, broken)
+    missing, blank = summary["figures"][0], summary["figures"][1]
+    (broken / missing).unlink()
+    from matplotlib.image import imread, imsave
+    imsave(broken / blank, np.ones_like(imread(out / blank)))
+    dom, image, scale = _render(broken / "index.html", tmp_path)
+    shown = _figures_on_screen(dom, image, scale)
+    assert shown[missing] is False and shown[blank] is False
+    assert sum(shown.values()) == len(summary["figures"]) - 2
+
+
+def test_bad_arguments_and_configs_exit_2(tmp_path, capsys):
+    assert main(["report", "--seed", "-1", "--quiet", "--out", str(tmp_path / "x")]) == 2
     assert "seed = -1" in capsys.readouterr().err
+    assert main(["report", "--only", "nope", "--quiet", "--out", str(tmp_path / "x")]) == 2
+    assert "only = 'nope'" in capsys.readouterr().err
     assert main(["no-such-command"]) == 2
+    cases = [
+        ("{", "at /: expected valid JSON"),
+        ('{"kind": "report"}', "at /: 'sections' is a required property"),
+        ('{"kind": "report", "sections": [{"name": "nope"}]}', "at /sections/0/name: expected one of"),
+        ('{"kind": "report", "sections": [{"name": "exact_laws", "params": {"samples": 0}}]}',
+         "at /sections/0/params/samples: expected an integer >= 1"),
+        ('{"kind": "report", "sections": [{"name": "exact_laws", "quick": {"sample": 5}}]}',
+         "at /sections/0/quick/sample: expected a parameter of exact_laws"),
+        ('{"kind": "report", "sections": [{"name": "wwh18_threshold", "params": {"thresholds": [1, -2]}}]}',
+         "at /sections/0/params/thresholds: expected a non-empty list of finite numbers > 0"),
+        ('{"kind": "report", "seed": -3, "sections": [{"name": "exact_laws"}]}', "at /seed:"),
+    ]
+    for text, message in cases:
+        path = tmp_path / "config.json"
+        path.write_text(text)
+        assert main(["report", "--config", str(path), "--quiet", "--out", str(tmp_path / "y")]) == 2, text
+        err = capsys.readouterr().err
+        assert str(path) in err and message in err, (text, err)

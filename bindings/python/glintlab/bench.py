@@ -9,6 +9,7 @@ the same points, timed in the same run.
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -172,3 +173,88 @@ def write_bench(out, summary: pd.DataFrame, errors: pd.DataFrame) -> list:
         files.append(grid_maps(out / "bench_error_maps_tv.png", errors, exact, "tv", 1e-6, "magma",
                                "TV to the binomial", "Exact TV over the standard grid: n (log, x) by p (y)"))
     return files
+
+
+THRESHOLDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0, 256.0, 1024.0)
+# Above every n p of the standard grid (at most 1e6 - 1e-6... times p < 1): the explicit count everywhere.
+EXPLICIT_T = 1e7
+
+
+def threshold_trade(thresholds=THRESHOLDS, n=None, p=None, draws_per_point: int = 8, repeats: int = 3,
+                    seed: int = 1) -> pd.DataFrame:
+    """WWH18's threshold trade (their Fig. 15 idea): the filtered model ``threshold`` (K = n p when
+    n p > T, an explicit count below) as T varies, over the (n, p) points of a grid (default: standard).
+
+    Error, exact per point against the binomial: TV, and ``rel_intensity_err`` = W1 / (n p), the mean
+    absolute error of a pixel's D_P relative to D(h) when the filtered value replaces the count (W1 is
+    the optimal coupling, so no renderer can do better with that law). Summaries over the points:
+    median, 90th percentile and maximum. WWH18 measure PSNR of a whole rendering against the
+    unfiltered one; this is the per-pixel version over a stated population of pixels.
+
+    Cost, measured in this run: ns per draw of ``law.sample`` on the whole population (each point
+    ``draws_per_point`` times, both cores, best of ``repeats``), and ``cost_ratio`` to the explicit
+    count everywhere (T = EXPLICIT_T): the explicit count is an inversion whose loop grows with n p,
+    which is why a threshold pays.
+    """
+    from .laws import law as get_law
+    from .grid import error_table
+    seed = v.seed(seed)
+    if n is None or p is None:
+        gn, gp = standard_grid()
+        n = gn if n is None else np.atleast_1d(np.asarray(n, float))
+        p = gp[gp <= 0.5] if p is None else np.atleast_1d(np.asarray(p, float))
+    for T in thresholds:
+        if not (isinstance(T, (int, float)) and math.isfinite(T) and T > 0):
+            v.fail("thresholds", T, "finite numbers > 0")
+    laws = [get_law("threshold", T=float(T)) for T in thresholds] + [get_law("threshold", T=EXPLICIT_T)]
+    errors = error_table(laws, n=n, p=p, metrics=("tv", "w1"))
+    errors["rel_intensity_err"] = errors.w1 / (errors.n * errors.p)
+    errors["filtered"] = errors.n * errors.p > errors.law.map({_label(lw): lw.params["T"] for lw in laws})
+    nn, pp = np.meshgrid(np.asarray(n, float), np.asarray(p, float), indexing="ij")
+    pop_n, pop_p = np.repeat(nn.ravel(), draws_per_point), np.repeat(pp.ravel(), draws_per_point)
+    rows = []
+    for lw in laws:
+        g = errors[errors.law == _label(lw)]
+        seconds = best_time(lambda: lw.sample(pop_n, pop_p, seed=seed), repeats)
+        ri = g.rel_intensity_err
+        rows.append({"T": lw.params["T"], "law": _label(lw), "points": len(g), "filtered_share": g.filtered.mean(),
+                     "tv_median": g.tv.median(), "tv_p90": g.tv.quantile(0.9), "tv_max": g.tv.max(),
+                     "rel_intensity_err_median": ri.median(), "rel_intensity_err_p90": ri.quantile(0.9),
+                     "rel_intensity_err_max": ri.max(), "ns_per_draw": seconds / pop_n.size * 1e9})
+    table = pd.DataFrame(rows)
+    table["cost_ratio"] = table.ns_per_draw / table.ns_per_draw.iloc[-1]
+    table["explicit"] = table["T"] == EXPLICIT_T
+    return table
+
+
+def threshold_figure(table: pd.DataFrame, paper_T: float = 16.0):
+    """Error (left axis) and cost relative to the explicit count (right axis) against the threshold T."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = table[~table.explicit]
+    fig, ax = plt.subplots(figsize=(6.8, 3.9))
+    ax.loglog(t["T"], t.rel_intensity_err_max, "o-", color="#b2182b", label="W1 / (n p): worst point")
+    ax.loglog(t["T"], t.rel_intensity_err_p90, "s--", color="#b2182b", alpha=0.6, label="W1 / (n p): 90th percentile")
+    # Just above T the lost spread is E|K - n p| / (n p) ~ sqrt(2 (1 - p) / (pi n p)) <= sqrt(2 / (pi T)).
+    ax.loglog(t["T"], np.sqrt(2 / (math.pi * t["T"])), ":", color="k", lw=1, label="sqrt(2 / (pi T))")
+    ax.set_xlabel("threshold T (filter when n p > T)")
+    ax.set_ylabel("error against the explicit count", color="#b2182b")
+    ax.axvline(paper_T, color="grey", lw=0.8, ls=":")
+    ax.annotate(f"WWH18: T = {paper_T:g}", (paper_T, ax.get_ylim()[0]), fontsize=7, xytext=(3, 4),
+                textcoords="offset points")
+    ax.grid(True, which="both", alpha=0.3)
+    ax2 = ax.twinx()
+    ax2.loglog(t["T"], t.ns_per_draw, "D-", color="#2166ac", label="cost: ns / draw over the population")
+    ax2.axhline(table.ns_per_draw.iloc[-1], color="#2166ac", lw=0.8, ls="--")
+    ax2.annotate(f"explicit count everywhere: {table.ns_per_draw.iloc[-1]:.3g} ns", (t["T"].iloc[0],
+                 table.ns_per_draw.iloc[-1]), fontsize=7, color="#2166ac", xytext=(2, -10), textcoords="offset points")
+    ax2.set_ylabel("ns / draw (both cores)", color="#2166ac")
+    lines = ax.get_legend_handles_labels()[0] + ax2.get_legend_handles_labels()[0]
+    labels = ax.get_legend_handles_labels()[1] + ax2.get_legend_handles_labels()[1]
+    ax.legend(lines, labels, fontsize=7, loc="lower left")
+    ax.set_title(f"WWH18 Fig. 15 idea: the filtered model's threshold over the standard grid "
+                 f"({t.points.iloc[0]} (n, p) points)", fontsize=8)
+    fig.tight_layout()
+    return fig

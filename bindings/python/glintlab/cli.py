@@ -23,15 +23,20 @@ def _cmd_laws(args) -> int:
 
 def _cmd_report(args) -> int:
     from . import report
-    summary = report.run(Path(args.out), quick=args.quick, seed=args.seed, quiet=args.quiet)
+    if args.list:
+        doc, source = report.load_config(args.config)
+        for entry in doc["sections"]:
+            sec = report.SECTIONS[entry["name"]]
+            print(f"{sec.name:20s} {sec.title}")
+        return 0
+    summary = report.run(Path(args.out), quick=args.quick, seed=args.seed, quiet=args.quiet, only=args.only,
+                         config=args.config)
     if not args.quiet:
         report.print_summary(summary)
         print(f"\nwrote {args.out}/index.html, report.json, *.csv, *.png in {summary['seconds']} s")
-    failed = [r for r in summary["tables"]["sampler_checks"] if r["pvalue"] < 1e-4]
-    if failed:
-        print(f"glintlab report: {len(failed)} sampler check(s) below p = 1e-4", file=sys.stderr)
-        return 1
-    return 0
+    for failure in summary["failures"]:
+        print(f"glintlab report: FAILED {failure}", file=sys.stderr)
+    return 1 if summary["failures"] else 0
 
 
 def _load_plugins(paths):
@@ -182,6 +187,77 @@ def _cmd_aniso(args) -> int:
     return 0
 
 
+def _scene_costs(path):
+    if path is None:
+        return None
+    import pandas as pd
+    try:
+        table = pd.read_csv(path)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"--costs = {path!r} is invalid; expected a CSV with columns law, ns_per_eval "
+                         f"[, ns_per_trial] ({exc})") from None
+    if not {"law", "ns_per_eval"} <= set(table.columns):
+        raise ValueError(f"--costs = {path!r} is invalid; expected columns law, ns_per_eval [, ns_per_trial]")
+    return table[[c for c in ("law", "ns_per_eval", "ns_per_trial") if c in table]].drop_duplicates("law")
+
+
+def _cmd_profile(args) -> int:
+    import time
+    from .advisor import advice_table, profile_scene, write_profiles
+    from .scene import load_scene
+    scenes = [load_scene(path) for path in args.scenes]  # all validated before any work
+    costs = _scene_costs(args.costs)
+    profiles = []
+    for sc in scenes:
+        t0 = time.perf_counter()
+        profiles.append(profile_scene(sc, seed=args.seed, scale=args.scale, costs=costs))
+        if not args.quiet:
+            prof = profiles[-1]
+            print(f"{sc.name}: {prof.summary['width']} x {prof.summary['height']} profiled in "
+                  f"{time.perf_counter() - t0:.2f} s ({', '.join(f'{k} {v:.2f}' for k, v in prof.seconds.items())})")
+    note = f" (scale {args.scale:g}, density x {args.scale ** 2:g} to keep n)" if args.scale != 1 else ""
+    paths, tables = write_profiles(profiles, args.out, advice=advice_table(profiles, max_tv=args.max_tv),
+                                   title_note=note)
+    if not args.quiet:
+        _print_table(tables["scene_table1"][["scene", "method", "mean_pixel", "mean_group", "worst_group",
+                                             "simd_efficiency", "zk16_over_this_worst_group", "paper_ms"]], args.quiet)
+        _print_table(tables["scene_advice"][["scene", "max_tv", "law", "cost_mean_group", "tv_worst"]], args.quiet)
+        print(f"\nwrote {len(paths)} figures and {len(tables)} CSV tables in {args.out}")
+    return 0
+
+
+def _cmd_advise(args) -> int:
+    from .advisor import advise, profile_scene
+    from .scene import load_scene
+    for flag, value in (("--max-tv", args.max_tv), ("--max-rel-error", args.max_rel_error)):
+        if value is not None and not value >= 0:
+            raise ValueError(f"{flag} = {value!r} is invalid; expected a number >= 0 (inf for no limit)")
+    if args.max_tv is None and args.max_rel_error is None:
+        raise ValueError("no budget given; expected --max-tv and/or --max-rel-error")
+    scene = load_scene(args.scene)
+    prof = profile_scene(scene, seed=args.seed, scale=args.scale, costs=_scene_costs(args.costs),
+                         schemes=sorted({args.scheme, "zk16_aniso", "db23_tetrahedral"}))
+    advice = advise(prof, max_tv=args.max_tv, max_rel_error=args.max_rel_error, coverage=args.coverage,
+                    per_regime=args.per_regime, scheme=args.scheme)
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "advice.json").write_text(json.dumps(advice.to_dict(), indent=2, default=float) + "\n")
+        advice.candidates.to_csv(out / "advice_candidates.csv", index=False)
+    if args.json:
+        print(json.dumps(advice.to_dict(), indent=2, default=float))
+        return 0
+    if not args.quiet:
+        print(advice)
+        _print_table(advice.candidates, args.quiet)
+        if advice.per_regime is not None:
+            a = advice.per_regime.attrs
+            print(f"\nper regime (n bands), combined cost {a['cost_mean_group']:.4g} per group "
+                  f"(worst {a['cost_worst_group']:.4g}; divergent groups pay each law's worst lane):")
+            _print_table(advice.per_regime, args.quiet)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="glintlab",
@@ -273,12 +349,51 @@ def build_parser() -> argparse.ArgumentParser:
     common(p, "out/aniso", plugins=False)
     p.set_defaults(func=_cmd_aniso)
 
-    p = sub.add_parser("report", help="the main job: a report of the exact laws, samplers and metrics",
-                       description="Writes index.html, report.json, CSV tables and PNG figures. "
-                                   "Exit 1 if a sampler check fails (p < 1e-4).")
+    p = sub.add_parser("profile", help="profile scenes: regime map, law errors, SIMD cost of grid schemes",
+                       description="Per scene (data/schema/scene.schema.json): the (n, p, r) regime map, exact "
+                                   "pixel-weighted law errors, evaluations and weight bias per grid scheme, a SIMD "
+                                   "cost model (8 x 4 groups cost their worst pixel) and ZK16 / DB23 cost ratios. "
+                                   "Writes CSV tables and PNG figures.")
+    p.add_argument("scenes", nargs="+", metavar="SCENE.json", help="scene files (e.g. data/scenes/*.json)")
+    p.add_argument("--scale", type=float, default=1.0,
+                   help="resolution factor per side; the density follows so n per pixel is kept (default: 1)")
+    p.add_argument("--max-tv", type=float, default=0.05, help="budget of the advisor table (default: 0.05)")
+    p.add_argument("--costs", metavar="COSTS.csv",
+                   help="law costs (law, ns_per_eval, ns_per_trial), e.g. a scene_cost_units.csv, instead of "
+                        "measuring them: reproducible costs")
+    p.add_argument("--seed", type=int, default=1)
+    common(p, "out/scenes", plugins=False)
+    p.set_defaults(func=_cmd_profile)
+
+    p = sub.add_parser("advise", help="the cheapest counting law meeting an error budget on a scene",
+                       description="Profiles the scene and picks the law of least mean SIMD group cost whose "
+                                   "per-pixel error meets the budget on --coverage of the pixels.")
+    p.add_argument("scene", metavar="SCENE.json")
+    p.add_argument("--max-tv", type=float, help="largest TV to the binomial per pixel")
+    p.add_argument("--max-rel-error", type=float, help="largest relative intensity error |E[K]/(n p) - 1| per pixel")
+    p.add_argument("--coverage", type=float, default=1.0, help="share of pixels that must meet it (default: 1)")
+    p.add_argument("--per-regime", action="store_true", help="one law per n band, combined SIMD cost")
+    p.add_argument("--scheme", default="db23_tetrahedral", help="grid scheme the cost is modelled on "
+                                                                  "(default: db23_tetrahedral)")
+    p.add_argument("--scale", type=float, default=1.0, help="resolution factor per side (default: 1)")
+    p.add_argument("--costs", metavar="COSTS.csv", help="law costs instead of measuring them")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--json", action="store_true", help="print the recommendation as JSON")
+    common(p, None, plugins=False)
+    p.set_defaults(func=_cmd_advise)
+
+    p = sub.add_parser("report", help="the main job: every figure family, as out/report/index.html",
+                       description="Runs the sections of a report configuration (default: "
+                                   "data/experiments/default.json) and writes index.html, report.json, CSV tables "
+                                   "and PNG figures. --only re-runs some sections and rebuilds the page from the "
+                                   "section records already in --out. Exit 1 if a check fails (a sampler's "
+                                   "chi-square p < 1e-4, a violated error bound), 2 on bad input.")
     p.add_argument("--out", default="out/report", help="output directory (default: out/report)")
-    p.add_argument("--quick", action="store_true", help="1e5 instead of 1e6 samples per check")
-    p.add_argument("--seed", type=int, default=1, help="seed of every sampler check (default: 1)")
+    p.add_argument("--config", help="report configuration JSON (default: data/experiments/default.json)")
+    p.add_argument("--only", nargs="+", metavar="SECTION", help="run only these sections (see --list)")
+    p.add_argument("--list", action="store_true", help="list the configured sections and exit")
+    p.add_argument("--quick", action="store_true", help="the configuration's quick sizes (make run QUICK=1)")
+    p.add_argument("--seed", type=int, help="seed of every section (default: the configuration's, 1)")
     p.add_argument("--quiet", action="store_true", help="no tables on stdout, no progress bar")
     p.set_defaults(func=_cmd_report)
     return parser

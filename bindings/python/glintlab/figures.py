@@ -164,3 +164,93 @@ def strip_figure(images, exponents, vmax: float = 4.0):
                  "pixel intensity K / (N P p), sqrt scale", fontsize=9)
     fig.tight_layout()
     return fig
+
+
+def roulette_figure(insets, table, vmax: float = 8.0):
+    """KPT25 Fig. 6 idea: image insets per blend at each LOD weight (rows: truth and blends, columns: w),
+    then lit share and lit intensity against w relative to the truth (``lod.blend_appearance``)."""
+    import matplotlib.pyplot as plt
+
+    ws = list(insets)
+    labels = list(next(iter(insets.values())))
+    fig = plt.figure(figsize=(11, 2.2 * len(labels) * 0.62 + 3.2))
+    grid = fig.add_gridspec(len(labels), len(ws) + 2, width_ratios=[1] * len(ws) + [1.6, 1.6])
+    for j, w in enumerate(ws):
+        for i, label in enumerate(labels):
+            ax = fig.add_subplot(grid[i, j])
+            img = insets[w][label]
+            ax.imshow(np.sqrt(np.clip(img, 0, vmax) / vmax), cmap="magma", vmin=0, vmax=1, interpolation="nearest")
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if i == 0:
+                ax.set_title(f"w = {w:g}", fontsize=8)
+            if j == 0:
+                ax.set_ylabel(label, fontsize=7)
+    colors = {"truth": "k", "linear": "#d6604d", "roulette": "#4393c3", "distributed": "#5aae61"}
+    for k, (column, ylabel) in enumerate([("lit_share_vs_truth", "lit pixels / truth"),
+                                          ("lit_intensity_vs_truth", "intensity of lit pixels / truth")]):
+        ax = fig.add_subplot(grid[:, len(ws) + k])
+        for label, g in table.groupby("blend", sort=False):
+            color = next(c for key, c in colors.items() if label.startswith(key))
+            ax.plot(g.w, g[column], "o-" if not label.startswith("truth") else "-", ms=3, color=color, label=label)
+        ax.set_xlabel("LOD weight w (0: level lo, 1: level hi)", fontsize=8)
+        ax.set_title(ylabel, fontsize=8)
+        ax.grid(True, alpha=0.3)
+        if k == 0:
+            ax.legend(fontsize=6)
+    fig.suptitle("KPT25 Fig. 6 idea: blending two MIP levels; pixel intensity K / (N P p), sqrt scale "
+                 "(linear at w = 1/2: twice the glints at half the intensity)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def convergence_figure(table, images):
+    """DB23 Fig. 13 idea: relative spread of D_P / D(h) against n p (both NDFs, each law), the mean's
+    error, and D_P over the disk of half vectors at increasing density next to the target NDF."""
+    import matplotlib.pyplot as plt
+
+    rows = len(images)
+    cols = len(next(iter(images.values())))
+    fig = plt.figure(figsize=(12, 3.3 + 2.0 * rows))
+    grid = fig.add_gridspec(1 + rows, max(cols, 2), height_ratios=[1.6] + [1] * rows)
+    ax = fig.add_subplot(grid[0, : max(cols, 2) // 2])
+    markers = {"beckmann": "o", "ggx": "s"}
+    colors = ["#d6604d", "#4393c3", "#5aae61", "#9970ab"]
+    laws = list(dict.fromkeys(table.law))
+    for (lw, name, th), g in table.groupby(["law", "ndf", "theta_deg"], sort=False):
+        color = colors[laws.index(lw) % len(colors)]
+        ax.loglog(g.np, g.rel_spread, markers.get(name, "o"), ms=3, color=color, alpha=0.7,
+                  label=f"{lw}, {name}" if th == table.theta_deg.iloc[0] else None)
+    x = np.logspace(np.log10(table.np.min()), np.log10(table.np.max()), 50)
+    ax.loglog(x, 1 / np.sqrt(x), "k-", lw=1, label="1 / sqrt(n p)")
+    ax.set_xlabel("n p (expected reflecting facets per footprint)")
+    ax.set_ylabel("std of D_P / D(h)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=6)
+    ax.set_title("Relative spread (markers: every angle theta_h; the binomial's is sqrt((1 - p) / (n p)))", fontsize=8)
+    ax = fig.add_subplot(grid[0, max(cols, 2) // 2:])
+    for (lw, name, th), g in table.groupby(["law", "ndf", "theta_deg"], sort=False):
+        color = colors[laws.index(lw) % len(colors)]
+        ax.errorbar(g.np, g["mean"] - 1, yerr=2 * g.mean_se, fmt=markers.get(name, "o") + "-", ms=3, lw=0.6,
+                    color=color, alpha=0.7)
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xscale("log")
+    ax.set_xlabel("n p")
+    ax.set_ylabel("E[D_P / D(h)] - 1 (bars: 2 SE)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.set_title("Mean error: " + ", ".join(f"{lw} ({c})" for lw, c in
+                                           zip(laws, ["red", "blue", "green", "purple"])), fontsize=8)
+    for i, (label, panels) in enumerate(images.items()):
+        vmax = np.nanmax(panels[-1][1])
+        for j, (title, img) in enumerate(panels):
+            ax = fig.add_subplot(grid[1 + i, j])
+            ax.imshow(np.clip(img, 0, 2 * vmax), cmap="inferno", vmin=0, vmax=vmax, interpolation="nearest")
+            ax.set_xticks([])
+            ax.set_yticks([])
+            ax.set_title(title, fontsize=8)
+            if j == 0:
+                ax.set_ylabel(label, fontsize=8)
+    fig.suptitle("DB23 Fig. 13 idea: the glinty NDF D_P converges to its target (Beckmann, GGX) as facet density "
+                 "grows; disks: D_P / D(n) over half vectors", fontsize=9)
+    fig.tight_layout()
+    return fig

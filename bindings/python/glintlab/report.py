@@ -1,16 +1,17 @@
-"""The `make run` report: what glintlab knows of the exact laws and the metrics.
+"""The `make run` report: what glintlab knows of glint counting laws, as a page of figures.
 
-Three parts, each a table (CSV + JSON) and, where it helps, a figure (PNG), gathered in a small
-self-contained ``index.html``:
+The report is a list of *sections* (one figure family each), configured by a JSON document
+(``data/experiments/default.json``, schema ``data/schema/report.schema.json``): each section has its
+parameters and, for ``--quick``, overrides. A section writes its figures (PNG) and tables (CSV) into the
+output directory and a record ``sections/NAME.json`` (title, meaning, parameters, seed, seconds,
+headline numbers, the command that regenerates it alone); ``index.html`` is assembled from the records
+present, so ``glintlab report --only NAME`` re-runs one section and rebuilds the page.
 
-1. exact laws: support size after trimming, mean/variance against the formulas, tail masses, at
-   ordinary and extreme (n, p), including non-integer n (the stratified rule);
-2. sampler checks: the binomial and Poisson samplers against their exact laws (chi-square p-value,
-   exact TV of the sample histogram, ns/sample);
-3. metrics: the distance between the uniform layout's law (binomial) and the Poisson layout's law
-   for the same mean, over n and p: when the two ground truths differ visibly, and by how much;
-4. LOD blending (glintlab.lod): DB23 Fig. 4 quantified against the stratified ground truth, the
-   effect of non-integer trial counts, coherence along zoom and pan paths, the receding strip.
+Sections (in the default order): exact laws and samplers, DB23 Fig. 9, DB23 Fig. 4, the ghosting strip
+(DB23 Fig. 2), roulette vs linear blending (KPT25 Fig. 6), coherence along camera paths, WWH18's
+threshold trade (Fig. 15), convergence to the target NDF (DB23 Fig. 13), the speed/accuracy trade
+(Pareto plot, error maps), float32, anisotropic grids, scene profiles (DB23 Table 1), numerical
+extremes and the error-bounds check.
 """
 from __future__ import annotations
 
@@ -20,18 +21,22 @@ import math
 import platform
 import sys
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import pandas as pd
 
 from . import __version__
-from .exact import binomial as binom_fn
 from . import _validate as V
-from .bench import grid_maps, pareto_figure, speed_accuracy
-from .grid import error_table, standard_grid
+from .exact import binomial as binom_fn
 from .laws import law
 from .metrics import METRICS, chi2_test, distance
+
+ROOT = Path(__file__).resolve().parents[3]
+DEFAULT_CONFIG = ROOT / "data" / "experiments" / "default.json"
+SCHEMA = ROOT / "data" / "schema" / "report.schema.json"
 
 EXACT_POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6), (1e15, 1e-13), (1e12, 1 - 1e-7),
                 (10.5, 0.3), (0.25, 0.8), (1e6, 1e-300)]
@@ -40,34 +45,71 @@ SAMPLER_POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6), (60, 0.9), (1
 TRADE_LAWS = [("binomial", {}), ("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"}),
               ("zk16", {}), ("gated", {}), ("gated_shader", {}), ("gated_continuous", {}), ("dual_gated", {}),
               ("threshold", {}), ("head_cf", {})]
+# A sampler check fails below this p-value (Sidak-style: about 1e-3 false alarms per report run).
+SAMPLER_ALPHA = 1e-4
 
 
-def _progress(total, quiet):
-    """A rich progress bar on a terminal, nothing otherwise."""
-    if quiet or not sys.stderr.isatty():
-        class _Null:
-            def __enter__(self): return self
-            def __exit__(self, *a): return False
-            def step(self, label): pass
-        return _Null()
-    from rich.progress import Progress
-
-    class _Bar:
-        def __enter__(self):
-            self.p = Progress(transient=True)
-            self.p.__enter__()
-            self.task = self.p.add_task("report", total=total)
-            return self
-
-        def __exit__(self, *a):
-            return self.p.__exit__(*a)
-
-        def step(self, label):
-            self.p.update(self.task, advance=1, description=label)
-    return _Bar()
+# ---------------------------------------------------------------------------------------------------
+# Sections
 
 
-def exact_table() -> pd.DataFrame:
+@dataclass
+class Context:
+    """What a section sees: where to write, the seed, quick mode, and a progress callback."""
+    out: Path
+    seed: int
+    quick: bool
+    progress: Callable[[str], None] = lambda label: None
+
+    def save(self, fig, name: str, dpi: int = 100) -> Path:
+        import matplotlib.pyplot as plt
+        path = self.out / name
+        fig.savefig(path, dpi=dpi)
+        plt.close(fig)
+        return path
+
+
+@dataclass
+class Result:
+    figures: list = field(default_factory=list)
+    tables: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)     # headline numbers shown under the title
+    failures: list = field(default_factory=list)  # checks that failed (exit status 1)
+
+
+@dataclass
+class Section:
+    name: str
+    title: str
+    meaning: str  # one sentence: what the figure says
+    defaults: dict
+    run: Callable[[Context, dict], Result]
+    notebook: str = ""
+    show: dict = field(default_factory=dict)  # table -> columns printed on the terminal
+
+
+SECTIONS: dict[str, Section] = {}
+
+
+def section(name, title, meaning, defaults, notebook="", show=None):
+    def register(fn):
+        SECTIONS[name] = Section(name, title, meaning, dict(defaults), fn, notebook, show or {})
+        return fn
+    return register
+
+
+def _rel(a, b):
+    return abs(a - b) / abs(b) if b else abs(a - b)
+
+
+@section("exact_laws", "Exact laws and their samplers",
+         "The binomial and Poisson samplers reproduce their exact laws (chi-square p-values), and the uniform "
+         "and Poisson facet layouts differ visibly only when p is not small.",
+         {"samples": 1_000_000}, "exact_laws.ipynb",
+         {"sampler_checks": ["law", "n", "p", "pvalue", "tv_hist", "ns_per_sample"]})
+def _exact_laws(ctx: Context, prm: dict) -> Result:
+    import matplotlib.pyplot as plt
+    samples, seed = prm["samples"], ctx.seed
     rows = []
     b = law("binomial")
     for n, p in EXACT_POINTS:
@@ -84,15 +126,12 @@ def exact_table() -> pd.DataFrame:
         row["P(K=0)"] = float(binom_fn.pmf(0, n, p))
         row["P(K>mean+5sd)"] = float(binom_fn.sf(math.floor(n * p + 5 * math.sqrt(var)), n, p))
         rows.append(row)
-    return pd.DataFrame(rows)
-
-
-def sampler_table(samples: int, seed: int, progress) -> pd.DataFrame:
+    exact = pd.DataFrame(rows)
     rows = []
     for name in ("binomial", "poisson"):
         lw = law(name)
         for n, p in SAMPLER_POINTS:
-            progress.step(f"sampling {name} n={n:g} p={p:g}")
+            ctx.progress(f"sampling {name} n={n:g} p={p:g}")
             t0 = time.perf_counter()
             x = lw.sample(n, p, size=samples, seed=seed)
             dt = time.perf_counter() - t0
@@ -101,12 +140,9 @@ def sampler_table(samples: int, seed: int, progress) -> pd.DataFrame:
             rows.append(dict(law=name, n=n, p=p, samples=samples, seed=seed, chi2=r.statistic, dof=r.dof,
                              pvalue=r.pvalue, tv_hist=distance(x, d, "tv"),
                              mean_rel_err=_rel(x.mean(), d.mean), ns_per_sample=dt / samples * 1e9))
-    return pd.DataFrame(rows)
-
-
-def metrics_table() -> pd.DataFrame:
+    checks = pd.DataFrame(rows)
     rows = []
-    b, po = law("binomial"), law("poisson")
+    po = law("poisson")
     for n in (10, 100, 1e4, 1e6):
         for p in (1e-3, 1e-2, 0.1, 0.3, 0.5, 0.9):
             if n * p < 0.05:
@@ -115,99 +151,203 @@ def metrics_table() -> pd.DataFrame:
             row = dict(n=n, p=p, mean=n * p)
             row.update({m: distance(db, dp, m) for m in METRICS})
             rows.append(row)
-    return pd.DataFrame(rows)
+    layouts = pd.DataFrame(rows)
 
-
-def trade_table(samples: int, seed: int, progress):
-    """Errors over the standard grid (worst and median) and ns/sample timed in this run (glintlab.bench)."""
-    progress.step("speed / accuracy of every law")
-    return speed_accuracy([law(name, **params) for name, params in TRADE_LAWS], samples=samples, seed=seed)
-
-
-def _rel(a, b):
-    return abs(a - b) / abs(b) if b else abs(a - b)
-
-
-def _trade_figures(out: Path, trade: pd.DataFrame, errors: pd.DataFrame):
-    import matplotlib.pyplot as plt
-
-    fig = pareto_figure(trade)
-    paths = [out / "trade_pareto.png"]
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
-    paths.append(grid_maps(out / "error_maps_tv.png", errors, list(trade.law), "tv", 1e-6, "magma",
-                           "TV to the binomial", "Exact TV over the standard grid: n (log, x) by p (y)"))
-    return paths
-
-
-def _figure9(out: Path, samples: int, seed: int):
-    import matplotlib.pyplot as plt
-
-    from .blending import blended_law
-    from .figures import figure9
-    # DB23 Fig. 9a: the gated Gaussian inside the distributed binomial (N = 4^8: n = 8 sits mid-level).
-    lod = blended_law("distributed", inner="gated").at_density(4.0**8)
-    fig, rows = figure9(laws=("gated", "head_cf", lod), samples=samples, seed=seed)
-    path = out / "db23_figure9.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return [path], pd.DataFrame(rows)
-
-
-def _figures(out: Path, samples: int, seed: int):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    paths = []
+    res = Result(tables={"exact_laws": exact, "sampler_checks": checks, "binomial_vs_poisson": layouts})
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.4))
     for ax, (n, p) in zip(axes, [(16, 0.1), (1e3, 1e-2), (10.5, 0.3)]):
-        b = law("binomial")
         d = b.pmf(n, p)
         x = b.sample(n, p, size=samples, seed=seed)
         emp = pd.Series(x).value_counts(normalize=True).sort_index()
         ax.bar(d.support, d.probs, width=0.8, color="#9ecae1", label="exact pmf")
         ax.plot(emp.index, emp.values, "o", ms=3.5, color="#08519c", label=f"{samples:.0e} samples")
-        r = chi2_test(x, d)
-        ax.set_title(f"Binomial(n={n:g}, p={p:g})\nchi-square p = {r.pvalue:.3f}", fontsize=9)
+        ax.set_title(f"Binomial(n={n:g}, p={p:g})\nchi-square p = {chi2_test(x, d).pvalue:.3f}", fontsize=9)
         ax.set_xlabel("K")
     axes[0].set_ylabel("probability")
     axes[0].legend(fontsize=8)
     fig.tight_layout()
-    paths.append(out / "sampler_vs_exact.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
-
+    res.figures.append(ctx.save(fig, "sampler_vs_exact.png", 110))
     fig, ax = plt.subplots(figsize=(6, 3.6))
     ps = np.logspace(-4, math.log10(0.95), 40)
-    b, po = law("binomial"), law("poisson")
     for n in (10, 100, 1e4, 1e6):
-        tv = [distance(b.pmf(n, p), po.pmf(n, p), "tv") for p in ps]
-        ax.loglog(ps, tv, label=f"n = {n:g}")
+        ax.loglog(ps, [distance(b.pmf(n, p), po.pmf(n, p), "tv") for p in ps], label=f"n = {n:g}")
     ax.set_xlabel("p")
     ax.set_ylabel("TV(Binomial(n, p), Poisson(np))")
     ax.set_title("Uniform vs Poisson facet layouts: exact TV", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    paths.append(out / "binomial_vs_poisson_tv.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
-    return paths
+    res.figures.append(ctx.save(fig, "binomial_vs_poisson_tv.png", 110))
+    res.stats = {"sampler checks": len(checks), "smallest p-value": float(checks.pvalue.min()),
+                 "largest support relative mean error": float(exact.mean_rel_err.max())}
+    res.failures = [f"{r.law} at n = {r.n:g}, p = {r.p:g}: chi-square p = {r.pvalue:.2g} < {SAMPLER_ALPHA:g}"
+                    for r in checks.itertuples() if r.pvalue < SAMPLER_ALPHA]
+    return res
 
 
-def _precision(out: Path, samples: int, seed: int):
-    """float32 against float64 over the standard grid (coupled draws), and (1 - p)^n four ways."""
+@section("db23_figure9", "DB23 Fig. 9: approximations of the binomial",
+         "The gated Gaussian is close to the binomial at large n but not at n = 8, p = 1/2, and inside the "
+         "distributed LOD law it stays as close; the samples agree with each law's exact pmf.",
+         {"samples": 1_000_000, "density": 65536.0}, "db23_figure9.ipynb",
+         {"db23_figure9": ["law", "n", "p", "tv", "pvalue"]})
+def _figure9(ctx: Context, prm: dict) -> Result:
+    from .blending import blended_law
+    from .figures import figure9
+    # DB23 Fig. 9a: the gated Gaussian inside the distributed binomial (N = 4^8: n = 8 sits mid-level).
+    lod = blended_law("distributed", inner="gated").at_density(prm["density"])
+    fig, rows = figure9(laws=("gated", "head_cf", lod), samples=prm["samples"], seed=ctx.seed)
+    t = pd.DataFrame(rows)
+    return Result([ctx.save(fig, "db23_figure9.png", 110)], {"db23_figure9": t},
+                  {"largest TV, gated": float(t[t.law == "gated"].tv.max()),
+                   "largest TV, head_cf": float(t[t.law == "head_cf"].tv.max())})
+
+
+@section("db23_figure4", "DB23 Fig. 4: blending two LOD levels against spatialized Bernoulli trials",
+         "Blending outputs (ZK16) has the wrong variance and a lattice of values; distributing the trials "
+         "(DB23 eq. 10) reproduces the stratified ground truth exactly.",
+         {"samples": 200_000}, "db23_figure4_lod.ipynb",
+         {"db23_figure4": ["N", "p", "n", "w_area", "source", "pvalue", "var_ratio", "tv_vs_square"]})
+def _figure4(ctx: Context, prm: dict) -> Result:
+    from . import lod
+    from .figures import figure4
+    table, panels = lod.figure4_table(samples=prm["samples"], seed=ctx.seed)
+    dist = table[table.source.str.startswith("distributed")]
+    zk = table[table.source.str.startswith("zk16")]
+    return Result([ctx.save(figure4(table, panels), "db23_figure4.png")], {"db23_figure4": table},
+                  {"smallest chi-square p, distributed": float(dist.pvalue.min()),
+                   "variance ratio range, zk16_linear": f"{zk.var_ratio.min():.3f} to {zk.var_ratio.max():.3f}"})
+
+
+@section("ghosting_strip", "Ghosting along a receding plane (DB23 Fig. 2 idea)",
+         "Across one LOD transition, output blending (zk16_linear) shows twice the glints at half the "
+         "intensity mid-way, nearest pops, and the distributed law looks like the ground truth throughout.",
+         {"N": 1e8, "p": 0.01, "width": 256, "height": 64, "level": -10}, "lod_blending.ipynb")
+def _strip(ctx: Context, prm: dict) -> Result:
+    from . import lod
+    from .figures import strip_figure
+    images, exponents = lod.strip_images(N=prm["N"], p=prm["p"], width=prm["width"], height=prm["height"],
+                                         level=prm["level"], seed=ctx.seed)
+    mid = (exponents > 0.4) & (exponents < 0.6)
+    lit = {k: float((v[:, mid] > 0).mean()) for k, v in images.items()}
+    table = pd.DataFrame([{"image": k, "lit_share_mid": lit[k], "lit_share_vs_truth": lit[k] / lit["ground truth"],
+                           "mean_intensity": float(v.mean())} for k, v in images.items()])
+    return Result([ctx.save(strip_figure(images, exponents), "lod_strip.png", 110)], {"lod_strip": table},
+                  {"lit pixels mid-way, zk16_linear / truth": lit.get("zk16_linear", math.nan) / lit["ground truth"]})
+
+
+@section("roulette_vs_linear", "Roulette versus linear blending (KPT25 Fig. 6 idea)",
+         "Between two MIP levels linear blending lights about twice the pixels at half the intensity; "
+         "KPT25's roulette halves that error, and only the distributed law matches the truth at every weight.",
+         {"facets_lo": 4.0, "p": 0.05, "samples": 50_000, "inset_size": 64}, "lod_blending.ipynb",
+         {"roulette_vs_linear": ["blend", "w", "lit_share", "lit_intensity", "lit_share_vs_truth",
+                                 "lit_intensity_vs_truth"]})
+def _roulette(ctx: Context, prm: dict) -> Result:
+    from . import lod
+    from .figures import roulette_figure
+    table = lod.blend_appearance(facets_lo=prm["facets_lo"], p=prm["p"], samples=prm["samples"], seed=ctx.seed)
+    insets = lod.blend_insets(facets_lo=prm["facets_lo"], p=prm["p"], size=prm["inset_size"], seed=ctx.seed)
+    mid = table[np.isclose(table.w, 0.5)].set_index("blend")
+    stats = {f"w = 1/2, {k}": f"lit x{r.lit_share_vs_truth:.2f}, intensity x{r.lit_intensity_vs_truth:.2f}"
+             for k, r in mid.iterrows() if not k.startswith("truth")}
+    return Result([ctx.save(roulette_figure(insets, table), "roulette_vs_linear.png")],
+                  {"roulette_vs_linear": table}, stats)
+
+
+@section("lod_coherence", "Coherence along zoom and pan paths; non-integer trial counts",
+         "Along a zoom or pan, the distributed law changes counts as rarely as the ground truth does; "
+         "non-integer trial counts (eq. 10) cost at most a small, bounded TV.",
+         {"paths": 1000}, "lod_blending.ipynb",
+         {"lod_coherence": ["path", "law", "inner", "mean_abs_step", "pop_rate", "corr_lag1", "corr_ends"]})
+def _coherence(ctx: Context, prm: dict) -> Result:
+    from . import lod
+    from .figures import coherence_figure
+    trials = lod.non_integer_trials_table()
+    zoom, zoom_K = lod.zoom_study(paths=prm["paths"], seed=ctx.seed)
+    pan, pan_K = lod.pan_study(paths=prm["paths"], seed=ctx.seed)
+    coh = pd.concat([zoom, pan], ignore_index=True)
+    return Result([ctx.save(coherence_figure(zoom_K, pan_K, zoom, pan), "lod_coherence.png")],
+                  {"lod_coherence": coh, "lod_non_integer_trials": trials},
+                  {"largest TV from non-integer trials": float(trials.max_tv.max())})
+
+
+@section("wwh18_threshold", "WWH18's threshold trade (their Fig. 15 idea)",
+         "Raising the filtering threshold T lowers the intensity error of the filtered model like "
+         "sqrt(2 / (pi T)) while the explicit counting it keeps costs more.",
+         {"thresholds": [0.25, 0.5, 1, 2, 4, 8, 16, 32, 64, 128, 256, 1024], "draws_per_point": 16},
+         "wwh18_threshold.ipynb",
+         {"wwh18_threshold": ["T", "filtered_share", "rel_intensity_err_p90", "rel_intensity_err_max",
+                              "ns_per_draw", "cost_ratio"]})
+def _threshold(ctx: Context, prm: dict) -> Result:
+    from .bench import threshold_figure, threshold_trade
+    table = threshold_trade(thresholds=tuple(float(t) for t in prm["thresholds"]),
+                            draws_per_point=prm["draws_per_point"], seed=ctx.seed)
+    at16 = table[table["T"] == 16.0]
+    stats = {}
+    if len(at16):
+        r = at16.iloc[0]
+        stats = {"T = 16: worst W1 / (n p)": float(r.rel_intensity_err_max),
+                 "T = 16: cost vs explicit everywhere": float(r.cost_ratio)}
+    return Result([ctx.save(threshold_figure(table), "wwh18_threshold.png")], {"wwh18_threshold": table}, stats)
+
+
+@section("db23_figure13", "Convergence to the target NDF (DB23 Fig. 13 idea)",
+         "The spread of D_P / D(h) falls like 1 / sqrt(n p) for Beckmann and GGX alike; the exact pipeline's "
+         "mean is right at every density, DB23's gated law is biased by up to ~10 % near n p = 10.",
+         {"pixels": 20_000, "R": 0.5, "alpha": 0.5, "image_resolution": 96}, "db23_figure13.ipynb",
+         {"db23_figure13_summary": ["law", "ndf", "theta_deg", "p", "slope", "spread_ratio_min", "spread_ratio_max",
+                                    "max_abs_z_mean", "max_abs_mean_err"]})
+def _convergence(ctx: Context, prm: dict) -> Result:
+    from .convergence import convergence_summary, convergence_table, ndf_images
+    from .figures import convergence_figure
+    ndfs = (("beckmann", prm["alpha"]), ("ggx", prm["alpha"]))
+    table = convergence_table(ndfs=ndfs, R=prm["R"], pixels=prm["pixels"], seed=ctx.seed)
+    images = ndf_images(ndfs=ndfs, R=prm["R"], resolution=prm["image_resolution"], seed=ctx.seed)
+    summ = convergence_summary(table)
+    gated = summ[summ.law.str.contains("gated")]
+    exact = summ[~summ.law.str.contains("gated")]
+    return Result([ctx.save(convergence_figure(table, images), "db23_figure13.png")],
+                  {"db23_figure13": table, "db23_figure13_summary": summ},
+                  {"slopes (n p >= 10)": f"{summ.slope.min():.3f} to {summ.slope.max():.3f}",
+                   "largest |z| of the mean, exact pipeline": float(exact.max_abs_z_mean.max()),
+                   "largest mean error, gated pipeline": float(gated.max_abs_mean_err.max())})
+
+
+@section("speed_accuracy", "Speed against accuracy: Pareto plot, table and error maps",
+         "Over the standard grid, gaussian(round), head_cf and the exact binomial are the Pareto front of "
+         "ns per sample against worst TV; the maps show where each law errs.",
+         {"samples": 1_000_000}, "speed_accuracy.ipynb",
+         {"speed_accuracy": ["law", "tv_max", "tv_median", "mean_rel_err_max", "ns_per_sample", "speedup_vs_numpy",
+                             "pareto"]})
+def _trade(ctx: Context, prm: dict) -> Result:
+    from .bench import grid_maps, pareto_figure, speed_accuracy
+    ctx.progress("speed / accuracy of every law")
+    trade, errors = speed_accuracy([law(name, **params) for name, params in TRADE_LAWS], samples=prm["samples"],
+                                   seed=ctx.seed)
+    errors.to_csv(ctx.out / "error_table_standard_grid.csv", index=False)
+    figs = [ctx.save(pareto_figure(trade), "trade_pareto.png", 110),
+            grid_maps(ctx.out / "error_maps_tv.png", errors, list(trade.law), "tv", 1e-6, "magma",
+                      "TV to the binomial", "Exact TV over the standard grid: n (log, x) by p (y)")]
+    return Result(figs, {"speed_accuracy": trade},
+                  {"Pareto front": ", ".join(trade[trade.pareto].law),
+                   "numpy binomial ns/sample": float(trade.numpy_ns.iloc[0])})
+
+
+@section("float32", "float32 against float64, and (1 - p)^n four ways",
+         "Evaluated in float32 on the same uniforms, most laws differ from float64 on a small share of draws; "
+         "pow(1 - p, n) in float32 loses the gate probability for small p, exp(n log1p(-p)) does not.",
+         {"samples": 1024}, "speed_accuracy.ipynb",
+         {"float32_vs_float64": ["law", "mismatch_max", "at_n", "at_p", "points_broken_f32"]})
+def _precision(ctx: Context, prm: dict) -> Result:
     import matplotlib.pyplot as plt
-
+    from .bench import grid_maps
     from .precision import float32_summary, float32_table, one_minus_p_pow_n
+    samples = prm["samples"]
     laws = [law(name, **params) for name, params in TRADE_LAWS if name != "binomial"]
-    table = float32_table(laws, samples=samples, seed=seed)
+    table = float32_table(laws, samples=samples, seed=ctx.seed)
     summary = float32_summary(table)
-    paths = [grid_maps(out / "float32_mismatch_maps.png", table, list(summary.law), "mismatch",
-                        1.0 / samples / 2, "viridis", "P(K_f32 != K_f64) >= TV",
-                        f"float32 vs float64 on the same uniforms ({samples} draws per point): n (x) by p (y)")]
-
+    figs = [grid_maps(ctx.out / "float32_mismatch_maps.png", table, list(summary.law), "mismatch",
+                      1.0 / samples / 2, "viridis", "P(K_f32 != K_f64) >= TV",
+                      f"float32 vs float64 on the same uniforms ({samples} draws per point): n (x) by p (y)")]
     pow_table = one_minus_p_pow_n()
     fig, ax = plt.subplots(figsize=(6.4, 3.8))
     styles = {("float32", "pow(1-p, n)"): "-", ("float32", "exp(n log1p(-p))"): "--",
@@ -220,138 +360,327 @@ def _precision(out: Path, samples: int, seed: int):
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    paths.append(out / "one_minus_p_pow_n.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
-    table.to_csv(out / "float32_vs_float64_standard_grid.csv", index=False)
-    return paths, summary, pow_table
+    figs.append(ctx.save(fig, "one_minus_p_pow_n.png", 110))
+    table.to_csv(ctx.out / "float32_vs_float64_standard_grid.csv", index=False)
+    return Result(figs, {"float32_vs_float64": summary, "one_minus_p_pow_n": pow_table},
+                  {"largest float32 mismatch": float(summary.mismatch_max.max())})
 
 
-def _lod(out: Path, quick: bool, seed: int):
-    """DB23 Fig. 4 quantified, the non-integer trial rule, coherence along zoom/pan paths, the strip."""
-    import matplotlib.pyplot as plt
-
-    from . import lod
-    from .figures import coherence_figure, figure4, strip_figure
-    paths = []
-    table, panels = lod.figure4_table(samples=20_000 if quick else 200_000, seed=seed)
-    fig = figure4(table, panels)
-    paths.append(out / "db23_figure4.png")
-    fig.savefig(paths[-1], dpi=100)
-    plt.close(fig)
-    trials = lod.non_integer_trials_table()
-    n_paths = 200 if quick else 1000
-    zoom, zoom_K = lod.zoom_study(paths=n_paths, seed=seed)
-    pan, pan_K = lod.pan_study(paths=n_paths, seed=seed)
-    fig = coherence_figure(zoom_K, pan_K, zoom, pan)
-    paths.append(out / "lod_coherence.png")
-    fig.savefig(paths[-1], dpi=100)
-    plt.close(fig)
-    # Quick: a coarser level at a quarter of the density keeps n = N P (and the look) unchanged.
-    images, exponents = lod.strip_images(N=2.5e7 if quick else 1e8, width=128 if quick else 256,
-                                         height=32 if quick else 64, level=-9 if quick else -10, seed=seed)
-    fig = strip_figure(images, exponents)
-    paths.append(out / "lod_strip.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
-    tables = {"db23_figure4": table, "lod_non_integer_trials": trials,
-              "lod_coherence": pd.concat([zoom, pan], ignore_index=True)}
-    return paths, tables
-
-
-def run(out: Path, quick: bool = False, seed: int = 1, quiet: bool = False) -> dict:
-    seed = V.seed(seed)  # before any work: a bad seed is refused by name, not deep inside numpy
-    out.mkdir(parents=True, exist_ok=True)
-    samples = 10**5 if quick else 10**6
-    t0 = time.perf_counter()
-    with _progress(len(SAMPLER_POINTS) * 2 + 1, quiet) as progress:
-        trade, errors = trade_table(samples, seed, progress)
-        tables = {
-            "exact_laws": exact_table(),
-            "sampler_checks": sampler_table(samples, seed, progress),
-            "binomial_vs_poisson": metrics_table(),
-            "speed_accuracy": trade,
-        }
-    fig9_paths, fig9 = _figure9(out, samples, seed)
-    tables["db23_figure9"] = fig9
-    precision_paths, tables["float32_vs_float64"], tables["one_minus_p_pow_n"] = _precision(
-        out, 256 if quick else 1024, seed)
-    lod_paths, lod_tables = _lod(out, quick, seed)
-    tables.update(lod_tables)
-    # Anisotropic grids (LAWS.md §6): the study's summary, its maps and the image timing.
+@section("aniso", "Anisotropic grids against stratified facets in the ellipse (DB23 §5–6)",
+         "DB23's trilinear grid conserves the count exactly, the tetrahedral one over-counts by up to 26 %, "
+         "the shader's 48-evaluation blend shrinks the variance to a fifth, and ZK16 widens beyond r = 16.",
+         {"samples": 10_000, "image": True}, "aniso_grids.ipynb",
+         {"aniso_summary": ["config", "law", "max_abs_mean_bias", "max_weight_bias", "var_ratio_min", "var_ratio_max",
+                            "tv_max", "evaluations_max"],
+          "aniso_image": ["config", "law", "seconds", "evaluations_mean", "evaluations_max"]})
+def _aniso(ctx: Context, prm: dict) -> Result:
     from .aniso_study import write_report as aniso_report
-    aniso_paths, aniso_tables = aniso_report(out, full=False, samples=4_000 if quick else 10_000, seed=seed,
-                                             image=not quick)
-    tables["aniso_summary"] = aniso_tables["aniso_summary"]
-    if "aniso_image" in aniso_tables:
-        tables["aniso_image"] = aniso_tables["aniso_image"]
-    figures = (_figures(out, samples, seed) + _trade_figures(out, trade, errors) + fig9_paths + lod_paths
-               + precision_paths + aniso_paths)
-    errors.to_csv(out / "error_table_standard_grid.csv", index=False)
-    for name, df in tables.items():
-        df.to_csv(out / f"{name}.csv", index=False)
+    paths, tables = aniso_report(ctx.out, full=False, samples=prm["samples"], seed=ctx.seed, image=prm["image"])
+    keep = {k: tables[k] for k in ("aniso_summary", "aniso_image") if k in tables}
+    s = tables["aniso_summary"]
+    return Result(paths, keep, {"largest weight bias": float(s.max_weight_bias.max()),
+                                "smallest variance ratio": float(s.var_ratio_min.min())})
+
+
+@section("extremes", "Numerical extremes (LAWS.md §8)",
+         "Every law gives a finite K in [0, n] at extreme n, p and uniforms in both precisions, except the "
+         "shader's gated law, which returns n + 1 as the shader does; every invalid input is refused by name.",
+         {"samples": 4096}, "speed_accuracy.ipynb",
+         {"extremes_summary": ["law", "precision", "points", "failures", "failed_checks"]})
+def _extremes(ctx: Context, prm: dict) -> Result:
+    from .extremes import extremes_summary, extremes_table, invalid_inputs_table, write_extremes_report
+    table = extremes_table(samples=prm["samples"], seed=ctx.seed)
+    invalid = invalid_inputs_table()
+    summary = extremes_summary(table)
+    write_extremes_report(ctx.out / "extremes", table, invalid, summary)
+    import shutil
+    shutil.copy(ctx.out / "extremes" / "extremes.png", ctx.out / "extremes.png")
+    failing = summary[summary.failures > 0]
+    return Result([ctx.out / "extremes.png"], {"extremes_summary": summary},
+                  {"laws x precisions": len(summary), "with failing rows": ", ".join(
+                      f"{r.law} ({r.precision})" for r in failing.itertuples()) or "none",
+                   "invalid inputs refused by name": f"{int(invalid.ok.sum())} of {len(invalid)}",
+                   "details": "extremes/extremes.html"})
+
+
+@section("bounds_check", "Error bounds (data/bounds/default.json)",
+         "The error bounds a renderer's CI can gate on: every built-in law keeps its recorded worst case.",
+         {"bounds": "data/bounds/default.json"}, "speed_accuracy.ipynb",
+         {"bounds_check": ["id", "law", "metric", "limit", "bound", "worst", "ok"]})
+def _bounds(ctx: Context, prm: dict) -> Result:
+    from .bounds import check
+    path = Path(prm["bounds"])
+    table = check(path if path.is_absolute() else ROOT / path, progress=False)
+    bad = table[~table.ok]
+    return Result([], {"bounds_check": table}, {"bounds holding": f"{int(table.ok.sum())} of {len(table)}"},
+                  [f"bound {r.id} violated: {r.metric} = {r.worst:.6g} (bound {r.bound:.6g})" for r in bad.itertuples()])
+
+
+# ---------------------------------------------------------------------------------------------------
+# Configuration
+
+
+def load_config(source=None) -> tuple[dict, str]:
+    """(document, source name) of a report configuration: a path, or a dict; default
+    ``data/experiments/default.json``. Validated against ``data/schema/report.schema.json`` and against
+    the sections' parameters; a bad document raises ValueError naming the source, the JSON pointer of
+    the bad field and what was expected."""
+    import jsonschema
+    if source is None:
+        source = DEFAULT_CONFIG
+    if isinstance(source, dict):
+        doc, name = source, "<report config>"
+    else:
+        path = Path(source)
+        name = str(path)
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise ValueError(f"{name}: no such file") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{name}: cannot read ({exc})") from None
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{name}: at /: expected valid JSON ({exc})") from None
+    schema = json.loads(SCHEMA.read_text())
+    errors = sorted(jsonschema.Draft202012Validator(schema).iter_errors(doc), key=lambda e: list(e.absolute_path))
+    if errors:
+        e = errors[0]
+        raise ValueError(f"{name}: at {_pointer(e.absolute_path)}: {e.message}")
+    seen = set()
+    for i, entry in enumerate(doc["sections"]):
+        sec = SECTIONS.get(entry["name"])
+        if sec is None:
+            raise ValueError(f"{name}: at /sections/{i}/name: expected one of {', '.join(SECTIONS)}, "
+                             f"got {entry['name']!r}")
+        if entry["name"] in seen:
+            raise ValueError(f"{name}: at /sections/{i}/name: section {entry['name']!r} appears twice")
+        seen.add(entry["name"])
+        for part in ("params", "quick"):
+            for key, value in entry.get(part, {}).items():
+                where = f"{name}: at /sections/{i}/{part}/{key}"
+                if key not in sec.defaults:
+                    raise ValueError(f"{where}: expected a parameter of {entry['name']} "
+                                     f"({', '.join(sec.defaults)}), got {key!r}")
+                _check_type(where, value, sec.defaults[key])
+    return doc, name
+
+
+def _pointer(path) -> str:
+    return "/" + "/".join(str(p).replace("~", "~0").replace("/", "~1") for p in path) if path else "/"
+
+
+def _check_type(where, value, default):
+    """A parameter has its default's type: bool, int, number (finite), string or list of numbers > 0."""
+    if isinstance(default, bool):
+        ok, what = isinstance(value, bool), "true or false"
+    elif isinstance(default, int):  # counts (positive defaults) must be >= 1; other integers (a level) any sign
+        ok = isinstance(value, int) and not isinstance(value, bool) and (value >= 1 or default <= 0)
+        what = "an integer >= 1" if default > 0 else "an integer"
+    elif isinstance(default, float):
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        what = "a finite number"
+    elif isinstance(default, str):
+        ok, what = isinstance(value, str) and value != "", "a non-empty string"
+    else:
+        ok = (isinstance(value, list) and len(value) > 0 and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x > 0 for x in value))
+        what = "a non-empty list of finite numbers > 0"
+    if not ok:
+        raise ValueError(f"{where}: expected {what}, got {value!r}")
+
+
+def section_params(entry: dict, quick: bool) -> dict:
+    prm = {**SECTIONS[entry["name"]].defaults, **entry.get("params", {})}
+    if quick:
+        prm.update(entry.get("quick", {}))
+    return prm
+
+
+# ---------------------------------------------------------------------------------------------------
+# Running
+
+
+class _Progress:
+    """A rich progress bar over sections on a terminal (elapsed time, current step); nothing otherwise."""
+
+    def __init__(self, total: int, quiet: bool):
+        self.enabled = not quiet and sys.stderr.isatty()
+        self.total = total
+
+    def __enter__(self):
+        if self.enabled:
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+            self.p = Progress(TextColumn("[bold]report[/bold] {task.completed}/{task.total}"), BarColumn(),
+                              TimeElapsedColumn(), TextColumn("{task.description}"), transient=True)
+            self.p.__enter__()
+            self.task = self.p.add_task("", total=self.total)
+        return self
+
+    def __exit__(self, *a):
+        return self.p.__exit__(*a) if self.enabled else False
+
+    def label(self, text: str):
+        if self.enabled:
+            self.p.update(self.task, description=text)
+
+    def advance(self):
+        if self.enabled:
+            self.p.update(self.task, advance=1)
+
+
+def _command(out: Path, name: str | None, quick: bool, seed: int, config: str | None) -> str:
+    parts = ["glintlab report", f"--out {out}"]
+    if name:
+        parts.append(f"--only {name}")
+    if quick:
+        parts.append("--quick")
+    parts.append(f"--seed {seed}")
+    if config:
+        parts.append(f"--config {config}")
+    return " ".join(parts)
+
+
+def run(out: Path, quick: bool = False, seed: int | None = None, quiet: bool = False, only=None,
+        config=None) -> dict:
+    """Runs the configured sections (or those named in ``only``) into ``out``, rebuilds index.html and
+    report.json from every section record present, and returns the summary (report.json's content)."""
+    doc, source = load_config(config)
+    seed = V.seed(doc.get("seed", 1) if seed is None else seed)
+    entries = doc["sections"]
+    if only:
+        names = [e["name"] for e in entries]
+        for name in only:
+            if name not in names:
+                raise ValueError(f"only = {name!r} is invalid; expected a section of {source}: {', '.join(names)}")
+        entries = [e for e in entries if e["name"] in only]
+    out = Path(out)
+    (out / "sections").mkdir(parents=True, exist_ok=True)
+    import matplotlib
+    matplotlib.use("Agg")
+    config_arg = None if config is None else str(config)
+    t0 = time.perf_counter()
+    with _Progress(len(entries), quiet) as progress:
+        for entry in entries:
+            sec = SECTIONS[entry["name"]]
+            prm = section_params(entry, quick)
+            progress.label(sec.title)
+            ctx = Context(out, seed, quick, lambda label, s=sec: progress.label(f"{s.title}: {label}"))
+            t1 = time.perf_counter()
+            res = sec.run(ctx, prm)
+            seconds = time.perf_counter() - t1
+            for name, df in res.tables.items():
+                df.to_csv(out / f"{name}.csv", index=False)
+            record = {"name": sec.name, "title": sec.title, "meaning": sec.meaning, "params": prm, "seed": seed,
+                      "quick": quick, "seconds": round(seconds, 2), "notebook": sec.notebook,
+                      "command": _command(out, sec.name, quick, seed, config_arg),
+                      "figures": [Path(f).name for f in res.figures], "stats": _jsonable(res.stats),
+                      "failures": res.failures,
+                      "tables": {k: json.loads(v.to_json(orient="records")) for k, v in res.tables.items()},
+                      "glintlab_version": __version__}
+            (out / "sections" / f"{sec.name}.json").write_text(json.dumps(record, indent=1))
+            progress.advance()
+    order = [e["name"] for e in doc["sections"]]
+    records = [json.loads(p.read_text()) for p in sorted((out / "sections").glob("*.json"))]
+    records = sorted((r for r in records if r["name"] in order), key=lambda r: order.index(r["name"]))
     summary = {
         "glintlab_version": __version__,
-        "command": f"glintlab report --out {out}" + (" --quick" if quick else "") + f" --seed {seed}",
+        "config": source,
+        "command": _command(out, None, quick, seed, config_arg),
         "seed": seed,
-        "samples": samples,
+        "quick": quick,
         "python": platform.python_version(),
         "seconds": round(time.perf_counter() - t0, 2),
-        "tables": {k: json.loads(v.to_json(orient="records")) for k, v in tables.items()},
-        "figures": [p.name for p in figures],
+        "ran": [e["name"] for e in entries],
+        "sections": {r["name"]: {k: r[k] for k in ("title", "seconds", "command", "stats", "failures", "params")}
+                     for r in records},
+        "tables": {k: v for r in records for k, v in r["tables"].items()},
+        "figures": [f for r in records for f in r["figures"]],
+        "failures": [f for r in records for f in r["failures"]],
     }
     (out / "report.json").write_text(json.dumps(summary, indent=1))
-    _write_html(out, summary, tables, figures)
+    _write_html(out, summary, records)
     return summary
 
 
-def _write_html(out: Path, summary, tables, figures):
-    parts = [f"<h1>glintlab {html.escape(summary['glintlab_version'])}: exact laws and metrics</h1>",
-             f"<p>Regenerate: <code>{html.escape(summary['command'])}</code> "
-             f"(seed {summary['seed']}, {summary['samples']} samples per check, {summary['seconds']} s).</p>"]
-    for fig in figures:
-        parts.append(f'<p><img src="{fig.name}" alt="{fig.stem}" style="max-width:100%"></p>')
-    for name, df in tables.items():
-        parts.append(f"<h2>{html.escape(name.replace('_', ' '))}</h2>")
-        parts.append(df.to_html(index=False, float_format=lambda v: f"{v:.6g}", border=0))
+def _jsonable(stats: dict) -> dict:
+    return {k: (float(v) if isinstance(v, (np.floating, np.integer)) else v) for k, v in stats.items()}
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)
+
+
+def _png_size(path: Path):
+    """(width, height) from a PNG's IHDR chunk, so the page reserves each figure's box before it loads."""
+    try:
+        head = path.read_bytes()[:24]
+    except OSError:
+        return None
+    if head[:8] != b"\x89PNG\r\n\x1a\n":
+        return None
+    return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+
+
+def _write_html(out: Path, summary: dict, records: list):
+    e = html.escape
+    toc = "".join(f'<li><a href="#{r["name"]}">{e(r["title"])}</a></li>' for r in records)
+    parts = [f"<h1>glintlab {e(summary['glintlab_version'])}: what is known about glint counting laws</h1>",
+             f"<p>Regenerate the whole page: <code>{e(summary['command'])}</code> (configuration "
+             f"<code>{e(summary['config'])}</code>, seed {summary['seed']}"
+             f"{', quick sizes' if summary['quick'] else ''}). Each section says how to regenerate it alone. "
+             f"Tables are the CSV files beside this page.</p>"]
+    if summary["failures"]:
+        parts.append('<p class="fail"><b>Failed checks:</b> ' + "; ".join(e(f) for f in summary["failures"]) + "</p>")
+    parts.append(f"<ol class='toc'>{toc}</ol>")
+    for r in records:
+        parts.append(f'<section id="{r["name"]}"><h2>{e(r["title"])}</h2><p class="meaning">{e(r["meaning"])}</p>')
+        if r["stats"]:
+            parts.append("<ul class='stats'>" + "".join(f"<li>{e(k)}: <b>{e(_fmt(v))}</b></li>"
+                                                        for k, v in r["stats"].items()) + "</ul>")
+        for f in r["failures"]:
+            parts.append(f'<p class="fail">FAILED: {e(f)}</p>')
+        for fig in r["figures"]:
+            size = _png_size(out / fig)
+            dims = f' width="{size[0]}" height="{size[1]}"' if size else ""
+            parts.append(f'<figure><img src="{e(fig)}" alt="{e(Path(fig).stem)}"{dims}></figure>')
+        params = ", ".join(f"{k} = {json.dumps(v)}" for k, v in r["params"].items())
+        nb = f"; notebook <code>notebooks/{e(r['notebook'])}</code>" if r["notebook"] else ""
+        parts.append(f"<p class='how'>Parameters: {e(params)}; seed {r['seed']}; {r['seconds']} s. "
+                     f"Regenerate alone: <code>{e(r['command'])}</code>{nb}.</p>")
+        for name, rows in r["tables"].items():
+            df = pd.DataFrame(rows)
+            parts.append(f"<details><summary>table {e(name)} ({len(df)} rows, <a href='{e(name)}.csv'>{e(name)}.csv</a>)"
+                         f"</summary>{df.head(200).to_html(index=False, float_format=lambda v: f'{v:.6g}', border=0)}"
+                         "</details>")
+        parts.append("</section>")
+    # Marks every image that decoded with its page rectangle, and the page height, so a headless browser
+    # test (tests/python/test_report.py) can find each figure in a screenshot and check it is not blank.
+    script = ("<script>window.addEventListener('load',function(){var n=0;for(var i of document.images)"
+              "{if(i.complete&&i.naturalWidth>0){n++;var r=i.getBoundingClientRect();i.setAttribute('data-rect',"
+              "[r.left+scrollX,r.top+scrollY,r.width,r.height].map(Math.round).join(','));}}"
+              "document.body.setAttribute('data-images-loaded',String(n));document.body.setAttribute("
+              "'data-height',String(document.documentElement.scrollHeight));});</script>")
     (out / "index.html").write_text(
-        "<!doctype html><meta charset='utf-8'><title>glintlab report</title>"
-        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
-        "table{border-collapse:collapse;font-size:12px}td,th{padding:2px 6px;border-bottom:1px solid #ddd}</style>"
-        + "\n".join(parts))
+        "<!doctype html><html lang='en'><meta charset='utf-8'><title>glintlab report</title>"
+        "<style>body{font-family:sans-serif;max-width:1150px;margin:auto;padding:0 12px;color:#222}"
+        "img{max-width:100%;height:auto}figure{margin:8px 0}.meaning{font-size:15px}.how{font-size:12px;color:#555}"
+        ".stats{font-size:13px}.fail{color:#b2182b}section{border-top:1px solid #ccc;margin-top:18px}"
+        "table{border-collapse:collapse;font-size:11px}td,th{padding:2px 6px;border-bottom:1px solid #ddd}"
+        "code{background:#f4f4f4;padding:1px 3px}</style><body>" + "\n".join(parts) + script + "</body></html>")
 
 
 def print_summary(summary) -> None:
-    def show(title, df, cols):
-        print(f"\n== {title}")
-        print(df[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-
-    t = {k: pd.DataFrame(v) for k, v in summary["tables"].items()}
-    show("exact laws (trimmed to all but 1e-14 of the mass)", t["exact_laws"],
-         ["n", "p", "support", "mass", "mean_rel_err", "var_rel_err", "P(K=0)", "P(K>mean+5sd)"])
-    show(f"samplers against exact laws ({summary['samples']} samples, seed {summary['seed']})",
-         t["sampler_checks"], ["law", "n", "p", "pvalue", "tv_hist", "mean_rel_err", "ns_per_sample"])
-    show("uniform vs Poisson layout (exact distances)", t["binomial_vs_poisson"],
-         ["n", "p", "tv", "hellinger", "js", "w1", "ks"])
-    show("DB23 Figure 9 idea: exact TV to the binomial, chi-square p of the samples", t["db23_figure9"],
-         ["law", "n", "p", "tv", "pvalue"])
-    show("DB23 Figure 4: blending two LOD levels against the stratified ground truth (chi-square p, variance ratio)",
-         t["db23_figure4"], ["N", "p", "n", "w_area", "source", "pvalue", "var_ratio", "var_ratio_se",
-                             "var_ratio_analytic", "tv_vs_square"])
-    show("distributed with non-integer trial counts vs Binomial(N P, p)", t["lod_non_integer_trials"],
-         ["N", "cells_lo", "p", "max_tv", "mean_tv", "max_var_excess", "bound"])
-    show("coherence along zoom and pan paths", t["lod_coherence"],
-         ["path", "law", "inner", "mean_abs_step", "pop_rate", "corr_lag1", "corr_lag16", "corr_ends", "mean_K"])
-    show("speed / accuracy over the standard grid (exact errors vs the binomial)", t["speed_accuracy"],
-         ["law", "tv_max", "tv_median", "hellinger_max", "w1_max", "mean_rel_err_max", "ns_per_sample",
-          "ns_ratio_1e9_vs_16"])
-    show("anisotropic grids against stratified facets in the ellipse (glintlab aniso for maps and --full)",
-         t["aniso_summary"], ["config", "law", "max_abs_mean_bias", "max_weight_bias", "var_ratio_min",
-                              "var_ratio_max", "tv_max", "chi2_reject_1pct", "evaluations_min", "evaluations_max"])
-    if "aniso_image" in t:
-        show("1920 x 1080 image per grid scheme (both cores)", t["aniso_image"],
-             ["config", "law", "seconds", "ns_per_pixel", "evaluations_mean", "evaluations_max", "degenerate",
-              "clamped"])
-    show("float32 vs float64 on the same uniforms (mismatch >= TV; breaks: non-finite, < 0, > n)",
-         t["float32_vs_float64"], ["law", "mismatch_max", "at_n", "at_p", "max_abs_diff",
-                                   "share_points_over_1pct", "points_broken_f32", "points_broken_f64"])
+    tables = summary["tables"]
+    for name in summary["ran"]:
+        sec, rec = SECTIONS[name], summary["sections"][name]
+        print(f"\n== {sec.title} ({rec['seconds']} s)")
+        for k, v in rec["stats"].items():
+            print(f"   {k}: {_fmt(v)}")
+        for table, cols in sec.show.items():
+            if table in tables and tables[table]:
+                df = pd.DataFrame(tables[table])
+                print(df[[c for c in cols if c in df]].head(40).to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+        for f in rec["failures"]:
+            print(f"   FAILED: {f}")
