@@ -16,6 +16,7 @@ from .grid import error_table, standard_grid
 from .laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
 from .metrics import METRICS, chi2_test, distance, sidak_alpha
 from .ndf import NDF, ndf
+from .scene import Advice, Scene, SceneProfile, advise, load_scene, profile_scene
 from .plugins import load_plugin, loaded_plugins
 from .spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 
@@ -39,7 +40,8 @@ def get_num_threads() -> int:
 
 
 __all__ = [
-    "AnisoCounter", "aniso_counter", "NDF", "ndf", "footprint_shapes", "grid_schemes",
+    "AnisoCounter", "aniso_counter", "NDF", "ndf", "Scene", "load_scene", "Advice", "SceneProfile", "advise",
+    "profile_scene", "footprint_shapes", "grid_schemes",
     "sweep", "check", "perturbed_law", "run_experiment",
     "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
     "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",

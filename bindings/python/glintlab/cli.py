@@ -201,16 +201,22 @@ def _scene_costs(path):
     return table[[c for c in ("law", "ns_per_eval", "ns_per_trial") if c in table]].drop_duplicates("law")
 
 
+def _split_law_label(label):
+    from .advisor import _split_label
+    return _split_label(label)
+
+
 def _cmd_profile(args) -> int:
     import time
     from .advisor import advice_table, profile_scene, write_profiles
     from .scene import load_scene
     scenes = [load_scene(path) for path in args.scenes]  # all validated before any work
     costs = _scene_costs(args.costs)
+    laws = None if costs is None else [_split_law_label(x) for x in costs.law]
     profiles = []
     for sc in scenes:
         t0 = time.perf_counter()
-        profiles.append(profile_scene(sc, seed=args.seed, scale=args.scale, costs=costs))
+        profiles.append(profile_scene(sc, laws=laws, seed=args.seed, scale=args.scale, costs=costs))
         if not args.quiet:
             prof = profiles[-1]
             print(f"{sc.name}: {prof.summary['width']} x {prof.summary['height']} profiled in "
@@ -235,7 +241,9 @@ def _cmd_advise(args) -> int:
     if args.max_tv is None and args.max_rel_error is None:
         raise ValueError("no budget given; expected --max-tv and/or --max-rel-error")
     scene = load_scene(args.scene)
-    prof = profile_scene(scene, seed=args.seed, scale=args.scale, costs=_scene_costs(args.costs),
+    costs = _scene_costs(args.costs)
+    laws = None if costs is None else [_split_law_label(x) for x in costs.law]
+    prof = profile_scene(scene, laws=laws, seed=args.seed, scale=args.scale, costs=costs,
                          schemes=sorted({args.scheme, "zk16_aniso", "db23_tetrahedral"}))
     advice = advise(prof, max_tv=args.max_tv, max_rel_error=args.max_rel_error, coverage=args.coverage,
                     per_regime=args.per_regime, scheme=args.scheme)

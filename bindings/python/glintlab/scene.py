@@ -464,3 +464,7 @@ def write_report(out, quick: bool, seed: int):
     note = " (quick: 1/4 resolution per side, density x 1/16 to keep n)" if quick else ""
     profiles = [profile_scene(sc, seed=seed, scale=scale) for sc in table1_scenes()]
     return write_profiles(profiles, out, advice=advice_table(profiles), title_note=note)
+
+
+# The profile and the advisor live in advisor.py; re-exported here (glintlab.scene is the entry point).
+from .advisor import Advice, SceneProfile, advise, profile_scene  # noqa: E402,F401
