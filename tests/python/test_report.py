@@ -152,3 +152,13 @@ def test_bad_arguments_and_configs_exit_2(tmp_path, capsys):
         assert main(["report", "--config", str(path), "--quiet", "--out", str(tmp_path / "y")]) == 2, text
         err = capsys.readouterr().err
         assert str(path) in err and message in err, (text, err)
+
+
+def test_readme_says_what_each_figure_means():
+    # The README's table of sections carries each section's one-sentence meaning verbatim (kept in sync).
+    readme = (report.ROOT / "README.md").read_text()
+    doc, _ = report.load_config(None)
+    for entry in doc["sections"]:
+        sec = report.SECTIONS[entry["name"]]
+        assert f"| `{sec.name}` | {sec.title} | {sec.meaning} |" in readme, sec.name
+    assert (report.ROOT / "data" / "figures" / "report_thumbnail.png").stat().st_size > 50_000

@@ -102,8 +102,6 @@ def pareto_front(cost, error) -> np.ndarray:
 
 def pareto_figure(summary: pd.DataFrame, floor: float = 1e-6):
     """Worst (red) and median (blue) TV against ns/sample, the Pareto front joined by a line."""
-    import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 4))
@@ -131,8 +129,6 @@ def pareto_figure(summary: pd.DataFrame, floor: float = 1e-6):
 
 def grid_maps(path, table: pd.DataFrame, names, column: str, floor: float, cmap: str, label: str, title: str):
     """One log-scaled map of `column` over the standard grid (n by p) per law, four to a row."""
-    import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
 
@@ -229,8 +225,6 @@ def threshold_trade(thresholds=THRESHOLDS, n=None, p=None, draws_per_point: int 
 
 def threshold_figure(table: pd.DataFrame, paper_T: float = 16.0):
     """Error (left axis) and cost relative to the explicit count (right axis) against the threshold T."""
-    import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     t = table[~table.explicit]
@@ -254,7 +248,7 @@ def threshold_figure(table: pd.DataFrame, paper_T: float = 16.0):
     lines = ax.get_legend_handles_labels()[0] + ax2.get_legend_handles_labels()[0]
     labels = ax.get_legend_handles_labels()[1] + ax2.get_legend_handles_labels()[1]
     ax.legend(lines, labels, fontsize=7, loc="lower left")
-    ax.set_title(f"WWH18 Fig. 15 idea: the filtered model's threshold over the standard grid "
+    ax.set_title(f"WWH18 Fig. 15 idea: the filtered model's threshold over the standard grid, p <= 1/2 "
                  f"({t.points.iloc[0]} (n, p) points)", fontsize=8)
     fig.tight_layout()
     return fig

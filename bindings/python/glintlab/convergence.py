@@ -39,7 +39,8 @@ def convergence_table(ndfs=DEFAULT_NDFS, theta_deg=DEFAULT_THETA_DEG, n_values=D
     of area P at density N = n / P, counted by each (blend, inner law) of ``pipelines``; D_P / D(h) =
     K / (n p) per pixel. R = 1/2 by default: with R = 1, p = 1 at the normal and the count is certain.
 
-    Columns: ndf, alpha, theta_deg, D_h, p, N, n, np, mean (of D_P / D(h)) with mean_se, rel_spread
+    Columns: ndf, alpha, theta_deg, D_h, p (clamped to 1), p_raw (R D(h) / D(n)), N, n, np, mean (of
+    K / (n p), the law's own bias) with mean_se, mean_vs_target (of D_P / D(h); below 1 where p_raw > 1), rel_spread
     (its standard deviation) with rel_spread_se (delta method on the sample variance, from the fourth
     moment), binomial_spread sqrt((1 - p) / (n p)), inv_sqrt_np 1 / sqrt(n p), and z_mean (mean - 1) / se.
     """
@@ -54,6 +55,8 @@ def convergence_table(ndfs=DEFAULT_NDFS, theta_deg=DEFAULT_THETA_DEG, n_values=D
         rows += _rows(_pipeline(inner, blend), f"{blend}[{inner}]", ndfs, theta_deg, n_values, R, P, pixels, seed)
     t = pd.DataFrame(rows)
     t["z_mean"] = (t["mean"] - 1) / t.mean_se.where(t.mean_se > 0)
+    # D_P / D(h) = K / (n p_raw): equal to `mean` unless p was clamped, where it shows the energy eq. 4 loses.
+    t["mean_vs_target"] = t["mean"] * t.p / t.p_raw
     t["spread_ratio"] = t.rel_spread / t.binomial_spread
     t["z_spread"] = (t.rel_spread - t.binomial_spread) / t.rel_spread_se.where(t.rel_spread_se > 0)
     return t
@@ -67,6 +70,7 @@ def _rows(bl, label, ndfs, theta_deg, n_values, R, P, pixels, seed):
             D_h = float(d.D(math.cos(math.radians(th))))
             p, clamped = d.success_probability(math.cos(math.radians(th)), R)
             p = float(p)
+            p_raw = R * D_h / d.D_normal  # > p where eq. 4 clamps: then E[D_P] < D(h) whatever the law
             for i, n in enumerate(n_values):
                 N = n / P
                 # One seed per (ndf, angle, density): rows are independent and reproducible one by one.
@@ -76,7 +80,7 @@ def _rows(bl, label, ndfs, theta_deg, n_values, R, P, pixels, seed):
                 m4 = float(((x - m) ** 4).mean())
                 var_s2 = max(m4 - s2 * s2 * (pixels - 3) / (pixels - 1), 0.0) / pixels
                 spread = math.sqrt(s2)
-                rows.append({"ndf": name, "alpha": alpha, "theta_deg": th, "D_h": D_h, "p": p,
+                rows.append({"ndf": name, "alpha": alpha, "theta_deg": th, "D_h": D_h, "p": p, "p_raw": p_raw,
                              "p_clamped": bool(clamped), "N": N, "n": n, "np": n * p, "pixels": pixels,
                              "mean": m, "mean_se": spread / math.sqrt(pixels),
                              "rel_spread": spread,

@@ -87,6 +87,11 @@ class Section:
     notebook: str = ""
     show: dict = field(default_factory=dict)  # table -> columns printed on the terminal
 
+    @property
+    def short(self) -> str:
+        """The title up to its first colon or parenthesis (figure captions, the thumbnail)."""
+        return self.title.split(":")[0].split(" (")[0].split(",")[0]
+
 
 SECTIONS: dict[str, Section] = {}
 
@@ -186,8 +191,8 @@ def _exact_laws(ctx: Context, prm: dict) -> Result:
 
 
 @section("db23_figure9", "DB23 Fig. 9: approximations of the binomial",
-         "The gated Gaussian is close to the binomial at large n but not at n = 8, p = 1/2, and inside the "
-         "distributed LOD law it stays as close; the samples agree with each law's exact pmf.",
+         "The gated Gaussian is close to the binomial except when the mean n p is small (TV 0.11 at n = 1000, "
+         "p = 0.002), head_cf is close everywhere, and each sampler agrees with its law's exact pmf.",
          {"samples": 1_000_000, "density": 65536.0}, "db23_figure9.ipynb",
          {"db23_figure9": ["law", "n", "p", "tv", "pvalue"]})
 def _figure9(ctx: Context, prm: dict) -> Result:
@@ -219,8 +224,8 @@ def _figure4(ctx: Context, prm: dict) -> Result:
 
 
 @section("ghosting_strip", "Ghosting along a receding plane (DB23 Fig. 2 idea)",
-         "Across one LOD transition, output blending (zk16_linear) shows twice the glints at half the "
-         "intensity mid-way, nearest pops, and the distributed law looks like the ground truth throughout.",
+         "Across one LOD transition, output blending (zk16_linear) shows a denser, dimmer band of ghost glints "
+         "mid-way, nearest jumps at the level change, and the distributed law looks like the ground truth.",
          {"N": 1e8, "p": 0.01, "width": 256, "height": 64, "level": -10}, "lod_blending.ipynb")
 def _strip(ctx: Context, prm: dict) -> Result:
     from . import lod
@@ -237,7 +242,7 @@ def _strip(ctx: Context, prm: dict) -> Result:
 
 @section("roulette_vs_linear", "Roulette versus linear blending (KPT25 Fig. 6 idea)",
          "Between two MIP levels linear blending lights about twice the pixels at half the intensity; "
-         "KPT25's roulette halves that error, and only the distributed law matches the truth at every weight.",
+         "KPT25's roulette reduces that error without removing it, and the distributed law matches the truth.",
          {"facets_lo": 4.0, "p": 0.05, "samples": 50_000, "inset_size": 64}, "lod_blending.ipynb",
          {"roulette_vs_linear": ["blend", "w", "lit_share", "lit_intensity", "lit_share_vs_truth",
                                  "lit_intensity_vs_truth"]})
@@ -254,8 +259,8 @@ def _roulette(ctx: Context, prm: dict) -> Result:
 
 
 @section("lod_coherence", "Coherence along zoom and pan paths; non-integer trial counts",
-         "Along a zoom or pan, the distributed law changes counts as rarely as the ground truth does; "
-         "non-integer trial counts (eq. 10) cost at most a small, bounded TV.",
+         "Along zoom and pan paths every blend is temporally coherent (consecutive counts strongly correlated, "
+         "as the ground truth's are); non-integer trial counts (eq. 10) cost at most a small, bounded TV.",
          {"paths": 1000}, "lod_blending.ipynb",
          {"lod_coherence": ["path", "law", "inner", "mean_abs_step", "pop_rate", "corr_lag1", "corr_ends"]})
 def _coherence(ctx: Context, prm: dict) -> Result:
@@ -291,8 +296,8 @@ def _threshold(ctx: Context, prm: dict) -> Result:
 
 
 @section("db23_figure13", "Convergence to the target NDF (DB23 Fig. 13 idea)",
-         "The spread of D_P / D(h) falls like 1 / sqrt(n p) for Beckmann and GGX alike; the exact pipeline's "
-         "mean is right at every density, DB23's gated law is biased by up to ~10 % near n p = 10.",
+         "The spread of D_P / D(h) falls like 1 / sqrt(n p) for Beckmann and GGX alike; with exact counts the "
+         "mean is right at every density, with DB23's gated law it is off by several percent until n p ~ 100.",
          {"pixels": 20_000, "R": 0.5, "alpha": 0.5, "image_resolution": 96}, "db23_figure13.ipynb",
          {"db23_figure13_summary": ["law", "ndf", "theta_deg", "p", "slope", "spread_ratio_min", "spread_ratio_max",
                                     "max_abs_z_mean", "max_abs_mean_err"]})
@@ -313,8 +318,8 @@ def _convergence(ctx: Context, prm: dict) -> Result:
 
 
 @section("speed_accuracy", "Speed against accuracy: Pareto plot, table and error maps",
-         "Over the standard grid, gaussian(round), head_cf and the exact binomial are the Pareto front of "
-         "ns per sample against worst TV; the maps show where each law errs.",
+         "Each law's cost (ns per sample, this run) against its worst TV to the binomial over the standard grid: "
+         "the Pareto front shows which laws are worth their cost, the maps show where each law errs.",
          {"samples": 1_000_000}, "speed_accuracy.ipynb",
          {"speed_accuracy": ["law", "tv_max", "tv_median", "mean_rel_err_max", "ns_per_sample", "speedup_vs_numpy",
                              "pareto"]})
@@ -333,8 +338,8 @@ def _trade(ctx: Context, prm: dict) -> Result:
 
 
 @section("float32", "float32 against float64, and (1 - p)^n four ways",
-         "Evaluated in float32 on the same uniforms, most laws differ from float64 on a small share of draws; "
-         "pow(1 - p, n) in float32 loses the gate probability for small p, exp(n log1p(-p)) does not.",
+         "float32 evaluation agrees with float64 over most of the grid and breaks in identifiable corners; "
+         "the gate probability 1 - (1 - p)^n is lost by pow in float32, not by exp(n log1p(-p)).",
          {"samples": 1024}, "speed_accuracy.ipynb",
          {"float32_vs_float64": ["law", "mismatch_max", "at_n", "at_p", "points_broken_f32"]})
 def _precision(ctx: Context, prm: dict) -> Result:
@@ -368,18 +373,49 @@ def _precision(ctx: Context, prm: dict) -> Result:
 
 @section("aniso", "Anisotropic grids against stratified facets in the ellipse (DB23 §5–6)",
          "DB23's trilinear grid conserves the count exactly, the tetrahedral one over-counts by up to 26 %, "
-         "the shader's 48-evaluation blend shrinks the variance to a fifth, and ZK16 widens beyond r = 16.",
-         {"samples": 10_000, "image": True}, "aniso_grids.ipynb",
+         "the shader's 48-evaluation blend cuts the variance to 1/5-1/3, and ZK16 widens beyond r = 16.",
+         {"samples": 10_000, "image": True, "grid": "quick"}, "aniso_grids.ipynb",
          {"aniso_summary": ["config", "law", "max_abs_mean_bias", "max_weight_bias", "var_ratio_min", "var_ratio_max",
                             "tv_max", "evaluations_max"],
           "aniso_image": ["config", "law", "seconds", "evaluations_mean", "evaluations_max"]})
 def _aniso(ctx: Context, prm: dict) -> Result:
+    from .aniso_study import FULL_GRID, QUICK_GRID, SMALL_GRID
     from .aniso_study import write_report as aniso_report
-    paths, tables = aniso_report(ctx.out, full=False, samples=prm["samples"], seed=ctx.seed, image=prm["image"])
+    grids = {"small": SMALL_GRID, "quick": QUICK_GRID, "full": FULL_GRID}
+    if prm["grid"] not in grids:
+        raise ValueError(f"grid = {prm['grid']!r} is invalid; expected one of {', '.join(grids)}")
+    paths, tables = aniso_report(ctx.out, samples=prm["samples"], seed=ctx.seed, image=prm["image"],
+                                 grid=grids[prm["grid"]])
     keep = {k: tables[k] for k in ("aniso_summary", "aniso_image") if k in tables}
     s = tables["aniso_summary"]
-    return Result(paths, keep, {"largest weight bias": float(s.max_weight_bias.max()),
-                                "smallest variance ratio": float(s.var_ratio_min.min())})
+    by = s.groupby("config")
+    stats = {f"largest count bias, {c}": float(by.max_weight_bias.max()[c])
+             for c in ("db23_trilinear", "db23_tetrahedral", "zk16_aniso") if c in by.groups}
+    if "db23_shader_48" in by.groups:
+        stats["variance ratio, db23_shader_48"] = (f"{by.var_ratio_min.min()['db23_shader_48']:.2f} to "
+                                                   f"{by.var_ratio_max.max()['db23_shader_48']:.2f}")
+    return Result(paths, keep, stats)
+
+
+@section("scenes", "Scene profiles: DB23 Table 1 scenes, modelled cost and the advisor",
+         "On DB23's Table 1 scenes DB23's grid has the same cost on every pixel while ZK16's cost spreads and grows "
+         "at grazing angles (worst 8 x 4 group tens of times DB23's), and the advisor names the cheapest law "
+         "within TV 0.05 on every pixel.",
+         {"scenes": "data/scenes"}, "scene_profiles.ipynb",
+         {"scene_table1": ["scene", "method", "mean_group", "worst_group", "simd_efficiency",
+                           "zk16_over_this_worst_group", "paper_ms"],
+          "scene_advice": ["scene", "max_tv", "law", "cost_mean_group", "tv_worst"]})
+def _scenes(ctx: Context, prm: dict) -> Result:
+    from .scene import write_report as scene_report
+    # A directory holding the five Table 1 files (plane_90, plane_25, sphere, heightfield_90, heightfield_25).
+    directory = Path(prm["scenes"])
+    paths, tables = scene_report(ctx.out, ctx.quick, ctx.seed, directory if directory.is_absolute() else ROOT / directory)
+    t1 = tables["scene_table1"]
+    tet = t1[t1.scheme == "db23_tetrahedral"].set_index("scene")
+    stats = {f"{sc}: worst group ZK16 / DB23": float(r.zk16_over_this_worst_group) for sc, r in tet.iterrows()}
+    adv = tables["scene_advice"].set_index("scene")
+    stats["advisor at TV 0.05"] = ", ".join(f"{sc} {r.law}" for sc, r in adv.iterrows())
+    return Result(paths, tables, stats)
 
 
 @section("extremes", "Numerical extremes (LAWS.md §8)",
@@ -684,3 +720,32 @@ def print_summary(summary) -> None:
                 print(df[[c for c in cols if c in df]].head(40).to_string(index=False, float_format=lambda v: f"{v:.4g}"))
         for f in rec["failures"]:
             print(f"   FAILED: {f}")
+
+
+def thumbnail(out, path, columns: int = 4, width_px: int = 1400) -> Path:
+    """A contact sheet of a report's figures (the first figure of each section, titled), e.g. the
+    README's picture: ``thumbnail("out/report", "data/figures/report_thumbnail.png")``."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.image import imread
+    out = Path(out)
+    summary = json.loads((out / "report.json").read_text())
+    picks = [(SECTIONS[k].short, next(iter(json.loads((out / "sections" / f"{k}.json").read_text())["figures"]), None))
+             for k in summary["sections"]]
+    picks = [(title, fig) for title, fig in picks if fig]
+    rows = math.ceil(len(picks) / columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(width_px / 100, width_px / 100 * 0.62 * rows / columns * 1.6),
+                             squeeze=False)
+    for ax, (title, name) in zip(axes.ravel(), picks):
+        ax.imshow(imread(out / name))
+        ax.set_title(title, fontsize=9)
+    for ax in axes.ravel():
+        ax.axis("off")
+    fig.suptitle(f"glintlab report{' (quick)' if summary['quick'] else ''}: the first figure of each section", fontsize=10)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

@@ -455,14 +455,14 @@ def table1_scenes(directory=None) -> list[Scene]:
     return [load_scene(d / f"{stem}.json") for stem in TABLE1_SCENES]
 
 
-def write_report(out, quick: bool, seed: int):
-    """Profiles the five DB23 Table 1 scenes of ``data/scenes/`` (at 1/4 resolution per side when
-    ``quick``) and writes their figures into ``out``. Returns (figure paths, {"scene_*": table})."""
+def write_report(out, quick: bool, seed: int, directory=None):
+    """Profiles the five DB23 Table 1 scenes of ``directory`` (default ``data/scenes/``; at 1/4 resolution
+    per side when ``quick``) and writes their figures into ``out``. Returns (figure paths, {"scene_*": table})."""
     from .advisor import advice_table, profile_scene, write_profiles
     out = Path(out)
     scale = 0.25 if quick else 1.0
     note = " (quick: 1/4 resolution per side, density x 1/16 to keep n)" if quick else ""
-    profiles = [profile_scene(sc, seed=seed, scale=scale) for sc in table1_scenes()]
+    profiles = [profile_scene(sc, seed=seed, scale=scale) for sc in table1_scenes(directory)]
     return write_profiles(profiles, out, advice=advice_table(profiles), title_note=note)
 
 
