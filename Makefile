@@ -44,6 +44,8 @@ bench: build
 	@$(VENV)/bin/glintlab bench --out out/bench
 	@$(VENV)/bin/python validation/bench/bench_dask.py
 	@$(VENV)/bin/glintlab aniso --out out/bench/aniso
+	@# Issue 8's target: a 1920 x 1080 profile with every law and grid scheme in under 20 s (times per scene).
+	@$(VENV)/bin/glintlab profile data/scenes/*.json --out out/bench/scenes
 
 # C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module in this build).
 sanitize: deps

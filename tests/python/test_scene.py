@@ -260,3 +260,13 @@ def test_table1_scene_files_load():
     assert [s.name for s in scenes] == list(gl.scene.TABLE1_SCENES)
     assert all((s.width, s.height) == (1920, 1080) for s in scenes)
     assert all(s.ndf.name == "beckmann" and s.ndf.alpha == 1.0 for s in scenes)
+
+
+def test_a_scene_that_sees_no_surface_is_refused_by_name(tmp_path, capsys):
+    doc = base("plane", 25, res=(32, 18))
+    doc["camera"]["look_at"] = [doc["camera"]["position"][0], doc["camera"]["position"][1] + 10,
+                                doc["camera"]["position"][2] + 8]  # looking up at the sky
+    path = tmp_path / "sky.json"
+    path.write_text(json.dumps(doc))
+    assert main(["advise", str(path), "--max-tv", "0.05"]) == 2
+    assert "no pixel sees the plane" in capsys.readouterr().err

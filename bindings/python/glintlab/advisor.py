@@ -404,6 +404,9 @@ def profile_scene(scene, laws=None, schemes=DEFAULT_SCHEMES, seed: int = 1, scal
     geo = scene.geometry()
     seconds["geometry"] = time.perf_counter() - t0
     valid = geo.valid
+    if not valid.any():  # nothing to profile: say so rather than fail on empty tables
+        raise ValueError(f"scene {scene.name!r}: no pixel sees the {scene.kind} (all {geo.width} x "
+                         f"{geo.height} pixels are sky or degenerate); expected a camera that sees the primitive")
     n, p, r, phi = geo.n[valid], geo.p[valid], geo.r[valid], geo.phi[valid]
     N = scene.density
 

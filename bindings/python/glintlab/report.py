@@ -599,8 +599,8 @@ def run(out: Path, quick: bool = False, seed: int | None = None, quiet: bool = F
         for entry in entries:
             sec = SECTIONS[entry["name"]]
             prm = section_params(entry, quick)
-            progress.label(sec.title)
-            ctx = Context(out, seed, quick, lambda label, s=sec: progress.label(f"{s.title}: {label}"))
+            progress.label(sec.short)
+            ctx = Context(out, seed, quick, lambda label, s=sec: progress.label(f"{s.short}: {label}"))
             t1 = time.perf_counter()
             res = sec.run(ctx, prm)
             seconds = time.perf_counter() - t1
