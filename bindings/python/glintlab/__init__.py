@@ -16,7 +16,6 @@ from .grid import error_table, standard_grid
 from .laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
 from .metrics import METRICS, chi2_test, distance, sidak_alpha
 from .ndf import NDF, ndf
-from .scene import Advice, Scene, SceneProfile, advise, load_scene, profile_scene
 from .plugins import load_plugin, loaded_plugins
 from .spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 
@@ -26,6 +25,7 @@ __version__ = _core.__version__
 from .sweep import sweep  # noqa: E402
 from .bounds import check, perturbed_law  # noqa: E402
 from .experiment import run_experiment  # noqa: E402
+from .scene import Advice, Scene, SceneProfile, advise, load_scene, profile_scene  # noqa: E402  (the advisor uses bench, which records __version__)
 
 
 def set_num_threads(threads: int) -> None:

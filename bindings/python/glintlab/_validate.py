@@ -11,6 +11,12 @@ def fail(name, value, expected):
     raise ValueError(f"{name} = {value!r} is invalid; expected {expected}")
 
 
+def json_pointer(path) -> str:
+    """RFC 6901 pointer of a path of keys and indices (e.g. jsonschema's ``absolute_path``); "/" for the root."""
+    path = list(path)
+    return "/" + "/".join(str(p).replace("~", "~0").replace("/", "~1") for p in path) if path else "/"
+
+
 def real(name, value):
     """`value` as a Python float (bools, strings and other objects rejected by name)."""
     if isinstance(value, bool):

@@ -30,13 +30,10 @@ import pandas as pd
 
 from . import _validate as V
 from .aniso_study import _counter
+from .bench import DEFAULT_LAWS  # the laws of the report's trade study, labelled by name and given parameters
 from .laws import law as get_law
 from .metrics import distance
 
-# Laws of the report's trade study (bench.DEFAULT_LAWS), labelled by name and the parameters given.
-DEFAULT_LAWS = [("binomial", {}), ("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"}),
-                ("zk16", {}), ("gated", {}), ("gated_shader", {}), ("gated_continuous", {}), ("dual_gated", {}),
-                ("threshold", {}), ("head_cf", {})]
 # Grid scheme configurations (labels of aniso_study.CONFIGS) and the inner law each one is counted with.
 DEFAULT_SCHEMES = ("db23_trilinear", "db23_tetrahedral", "db23_shader_48", "zk16_aniso")
 SCHEME_LAW = {"zk16_aniso": "zk16"}

@@ -30,6 +30,7 @@ import pandas as pd
 
 from . import __version__
 from . import _validate as V
+from .bench import DEFAULT_LAWS as TRADE_LAWS  # the speed/accuracy trade: the laws of glintlab bench
 from .exact import binomial as binom_fn
 from .laws import law
 from .metrics import METRICS, chi2_test, distance
@@ -41,10 +42,6 @@ SCHEMA = ROOT / "data" / "schema" / "report.schema.json"
 EXACT_POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6), (1e15, 1e-13), (1e12, 1 - 1e-7),
                 (10.5, 0.3), (0.25, 0.8), (1e6, 1e-300)]
 SAMPLER_POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6), (60, 0.9), (10.5, 0.3)]
-# The speed/accuracy trade: every law with an exact pmf, over the standard grid.
-TRADE_LAWS = [("binomial", {}), ("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"}),
-              ("zk16", {}), ("gated", {}), ("gated_shader", {}), ("gated_continuous", {}), ("dual_gated", {}),
-              ("threshold", {}), ("head_cf", {})]
 # A sampler check fails below this p-value (Sidak-style: about 1e-3 false alarms per report run).
 SAMPLER_ALPHA = 1e-4
 
@@ -481,7 +478,7 @@ def load_config(source=None) -> tuple[dict, str]:
     errors = sorted(jsonschema.Draft202012Validator(schema).iter_errors(doc), key=lambda e: list(e.absolute_path))
     if errors:
         e = errors[0]
-        raise ValueError(f"{name}: at {_pointer(e.absolute_path)}: {e.message}")
+        raise ValueError(f"{name}: at {V.json_pointer(e.absolute_path)}: {e.message}")
     seen = set()
     for i, entry in enumerate(doc["sections"]):
         sec = SECTIONS.get(entry["name"])
@@ -499,10 +496,6 @@ def load_config(source=None) -> tuple[dict, str]:
                                      f"({', '.join(sec.defaults)}), got {key!r}")
                 _check_type(where, value, sec.defaults[key])
     return doc, name
-
-
-def _pointer(path) -> str:
-    return "/" + "/".join(str(p).replace("~", "~0").replace("/", "~1") for p in path) if path else "/"
 
 
 def _check_type(where, value, default):

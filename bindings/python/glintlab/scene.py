@@ -43,10 +43,6 @@ def _schema() -> dict:
     return json.loads(SCHEMA_PATH.read_text())
 
 
-def _pointer(path) -> str:
-    return "/" + "/".join(str(x) for x in path) if len(path) else "/"
-
-
 def _fill_defaults(schema: dict, inst, root: dict):
     """Writes the schema's "default" values into ``inst`` (objects only; the branches of allOf/if-then
     whose ``type`` const matches are followed, as the validator does)."""
@@ -135,7 +131,7 @@ def load_scene(source, name: str | None = None) -> "Scene":
         err = jsonschema.exceptions.best_match(errors)
         # best_match prefers shallow errors; inside an if/then branch the deepest one names the field.
         err = max(errors, key=lambda e: (len(e.absolute_path), e is err))
-        ptr = _pointer(list(err.absolute_path))
+        ptr = V.json_pointer(err.absolute_path)
         if err.validator == "required":
             missing = [k for k in err.validator_value if k not in (err.instance or {})]
             raise ValueError(f"{label}: {ptr.rstrip('/')}/{missing[0]} is missing; expected a required field "
