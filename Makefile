@@ -19,13 +19,13 @@ build: deps
 	@$(MAKE) --no-print-directory venv
 
 # A venv over Debian's interpreter (numpy, scipy, matplotlib come from --system-site-packages) that
-# sees the in-tree package bindings/python/glintlab and has the `glintlab` command.
+# sees the in-tree package python/glintlab and has the `glintlab` command.
 venv:
 	@test -x $(VENV)/bin/python || $(PYTHON) -m venv --system-site-packages $(VENV)
 	@site=$$($(VENV)/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])'); \
-	  echo "$(CURDIR)/bindings/python" > $$site/glintlab.pth
+	  echo "$(CURDIR)/python" > $$site/glintlab.pth
 	@# The __main__ guard: Dask's LocalCluster starts workers by spawn, which re-imports this script.
-	@printf '#!%s\nimport sys\nfrom glintlab.cli import main\nif __name__ == "__main__":\n    sys.exit(main())\n' "$(CURDIR)/$(VENV)/bin/python" > $(VENV)/bin/glintlab
+	@printf '#!%s\nimport sys\nfrom glintlab.cli.main import main\nif __name__ == "__main__":\n    sys.exit(main())\n' "$(CURDIR)/$(VENV)/bin/python" > $(VENV)/bin/glintlab
 	@chmod +x $(VENV)/bin/glintlab
 	@# A "python3" Jupyter kernel inside the venv, so notebooks run with the installed package.
 	@test -f $(VENV)/share/jupyter/kernels/python3/kernel.json || \
@@ -38,14 +38,14 @@ test: build
 	@cd build && ctest --output-on-failure -j $(JOBS)
 
 bench: build
-	@$(VENV)/bin/python validation/bench/bench_binomial.py --cpp build/validation/glintlab_bench_binomial
-	@$(VENV)/bin/python validation/bench/bench_laws.py
-	@$(VENV)/bin/python validation/bench/bench_ground_truth.py
+	@$(VENV)/bin/python bench/bench_binomial.py --cpp build/bench/glintlab_bench_binomial
+	@$(VENV)/bin/python bench/bench_laws.py
+	@$(VENV)/bin/python bench/bench_ground_truth.py
 	@$(VENV)/bin/glintlab bench --out out/bench
-	@$(VENV)/bin/python validation/bench/bench_dask.py
+	@$(VENV)/bin/python bench/bench_dask.py
 	@$(VENV)/bin/glintlab aniso --out out/bench/aniso
 	@# Issue 8's target: a 1920 x 1080 profile with every law and grid scheme in under 20 s (times per scene).
-	@$(VENV)/bin/glintlab profile data/scenes/*.json --out out/bench/scenes
+	@$(VENV)/bin/glintlab profile python/glintlab/data/scenes/*.json --out out/bench/scenes
 
 # C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module in this build).
 sanitize: deps
@@ -67,7 +67,7 @@ fuzz: deps
 	  || { tail -60 build-fuzz.log; echo "make fuzz: build failed (build-fuzz.log)"; exit 1; }
 	@rm -rf build-fuzz/corpus && mkdir -p build-fuzz/corpus
 	@shopt -s nullglob globstar; \
-	  for f in data/experiments/*.json data/bounds/*.json tests/data/documents/**/*.json; do \
+	  for f in examples/*.json python/glintlab/data/report/*.json python/glintlab/data/bounds/*.json tests/data/documents/**/*.json; do \
 	    cp "$$f" "build-fuzz/corpus/$$(echo "$$f" | tr / _)"; done
 	@cd build-fuzz && ./validation/glintlab_fuzz_documents corpus -dict=../validation/fuzz/json.dict \
 	  -max_total_time=$(FUZZ_SECONDS) -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 > fuzz.log 2>&1 \

@@ -85,7 +85,7 @@ TEST_CASE("documents: ground truth references and bounds get their defaults", "[
   CHECK(bound["measured"].is_null());
   CHECK(bound["note"] == "");
   CHECK(bound["law"] == "gated");
-  const json all = parse_bounds(read_file("data/bounds/default.json"), "default.json");
+  const json all = parse_bounds(read_file("python/glintlab/data/bounds/default.json"), "default.json");
   CHECK(all["bounds"].size() > 10);
 }
 
@@ -444,10 +444,10 @@ TEST_CASE("documents: a schema set resolves references across files by name", "[
 
 TEST_CASE("documents: embedded schemas and the standard grid match the data files", "[documents]") {
   using glintlab::validation::schema_text;
-  CHECK(json::parse(schema_text("experiment")) == json::parse(read_file("data/schema/experiment.schema.json")));
-  CHECK(json::parse(schema_text("bounds")) == json::parse(read_file("data/schema/bounds.schema.json")));
+  CHECK(json::parse(schema_text("experiment")) == json::parse(read_file("python/glintlab/data/schema/experiment.schema.json")));
+  CHECK(json::parse(schema_text("bounds")) == json::parse(read_file("python/glintlab/data/schema/bounds.schema.json")));
   CHECK_THROWS_AS(schema_text("nope"), std::invalid_argument);
-  const json grid = json::parse(read_file("data/grids/standard.json"));
+  const json grid = json::parse(read_file("python/glintlab/data/grids/standard.json"));
   CHECK(grid["n"].size() == glintlab::validation::standard_n_count);
   CHECK(grid["p"].size() == glintlab::validation::standard_p_count);
 }

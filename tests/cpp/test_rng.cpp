@@ -42,8 +42,8 @@ double pair_pvalue(const std::function<std::pair<double, double>(std::uint32_t)>
 }  // namespace
 
 TEST_CASE("Philox4x32-10 reproduces the Random123 known-answer vectors", "[rng]") {
-  // data/reference/philox4x32_10_kat.txt: counter[4] key[2] -> output[4], from Random123's kat_vectors.
-  std::ifstream in(GLINTLAB_SOURCE_DIR "/data/reference/philox4x32_10_kat.txt");
+  // tests/data/reference/philox4x32_10_kat.txt: counter[4] key[2] -> output[4], from Random123's kat_vectors.
+  std::ifstream in(GLINTLAB_SOURCE_DIR "/tests/data/reference/philox4x32_10_kat.txt");
   REQUIRE(in.good());
   std::string line;
   int checked = 0;

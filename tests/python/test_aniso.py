@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import glintlab as gl
-from glintlab import aniso_study
+from glintlab.studies import aniso as aniso_study
 
 N = 1024.0**2
 A0 = 1.0 / N

@@ -7,10 +7,10 @@ from pathlib import Path
 import pytest
 
 import glintlab as gl
-from glintlab.bounds import DEFAULT_BOUNDS, check, perturbed_law
-from glintlab.cli import main
-from glintlab.grid import _label
-from glintlab.sweep import resolve_law
+from glintlab.validation.bounds import DEFAULT_BOUNDS, check, perturbed_law
+from glintlab.cli.main import main
+from glintlab.validation.grid import _label
+from glintlab.validation.sweep import resolve_law
 
 DOC = json.loads(DEFAULT_BOUNDS.read_text())
 

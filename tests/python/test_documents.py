@@ -17,7 +17,7 @@ from glintlab import _core
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "tests" / "data" / "documents"
-SCHEMAS = {kind: json.loads((ROOT / "data" / "schema" / f"{kind}.schema.json").read_text())
+SCHEMAS = {kind: json.loads((ROOT / "python" / "glintlab" / "data" / "schema" / f"{kind}.schema.json").read_text())
            for kind in ("experiment", "bounds")}
 EXPECTED = json.loads((DOCS / "bad" / "expected.json").read_text())
 GOOD = sorted(p.name for p in (DOCS / "good").glob("*.json"))
@@ -142,10 +142,10 @@ def _is_report_config(path):
     return json.loads(path.read_text()).get("kind") == "report"  # glintlab report's sections (test_report.py)
 
 
-@pytest.mark.parametrize("path", [p for p in sorted((ROOT / "data").glob("experiments/*.json")) if not _is_report_config(p)] +
-                         sorted((ROOT / "data").glob("bounds/*.json")), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", [p for p in sorted((ROOT / "examples").glob("*.json")) if not _is_report_config(p)] +
+                         sorted((ROOT / "python" / "glintlab" / "data").glob("bounds/*.json")), ids=lambda p: p.name)
 def test_shipped_documents(path):
-    kind = "experiment" if path.parent.name == "experiments" else "bounds"
+    kind = "experiment" if path.parent.name == "examples" else "bounds"
     validator(kind).validate(json.loads(path.read_text()))
     _core.parse_document(kind, path.read_text(), path.name)
 

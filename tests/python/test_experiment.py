@@ -6,11 +6,11 @@ import pandas as pd
 import pytest
 
 import glintlab as gl
-from glintlab.cli import main
-from glintlab.experiment import parse_document, run_experiment
+from glintlab.cli.main import main
+from glintlab.validation.experiment import parse_document, run_experiment
 
 ROOT = Path(__file__).resolve().parents[2]
-EXPERIMENTS = ROOT / "data" / "experiments"
+EXPERIMENTS = ROOT / "examples"
 
 
 def test_defaults_are_filled_in():

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 import glintlab as gl
-from glintlab import extremes as ex
+from glintlab.validation import extremes as ex
 
 SAMPLES = 256
 

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from glintlab import lod
+from glintlab.studies import lod
 
 
 def test_coherence_metrics_on_hand_built_paths():

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import glintlab as gl
-from glintlab.bench import threshold_trade
-from glintlab.convergence import convergence_summary, convergence_table
-from glintlab.lod import blend_appearance
+from glintlab.validation.bench import threshold_trade
+from glintlab.studies.convergence import convergence_summary, convergence_table
+from glintlab.studies.lod import blend_appearance
 
 Z = 5.0
 SMALL_N = (30.0, 300.0, 3000.0, 30000.0)

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import glintlab as gl
-from glintlab.precision import float32_summary, float32_table, one_minus_p_pow_n
+from glintlab.studies.float32 import float32_summary, float32_table, one_minus_p_pow_n
 
 
 def test_float32_changes_counts_only_where_float_cannot_resolve_them():

@@ -8,12 +8,15 @@ import json
 import re
 import shutil
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from glintlab import report
-from glintlab.cli import main
+ROOT = Path(__file__).resolve().parents[2]
+
+from glintlab.report import sections as report
+from glintlab.cli.main import main
 
 CHROMIUM = shutil.which("chromium")
 BROWSER_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--allow-file-access-from-files"]
@@ -156,9 +159,9 @@ def test_bad_arguments_and_configs_exit_2(tmp_path, capsys):
 
 def test_readme_says_what_each_figure_means():
     # The README's table of sections carries each section's one-sentence meaning verbatim (kept in sync).
-    readme = (report.ROOT / "README.md").read_text()
+    readme = (ROOT / "README.md").read_text()
     doc, _ = report.load_config(None)
     for entry in doc["sections"]:
         sec = report.SECTIONS[entry["name"]]
         assert f"| `{sec.name}` | {sec.title} | {sec.meaning} |" in readme, sec.name
-    assert (report.ROOT / "data" / "figures" / "report_thumbnail.png").stat().st_size > 50_000
+    assert (ROOT / "docs" / "figures" / "report_thumbnail.png").stat().st_size > 50_000

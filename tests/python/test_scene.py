@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 import glintlab as gl
-from glintlab import advisor as A
-from glintlab.cli import main
-from glintlab.scene import load_scene
+from glintlab.validation import advisor as A
+from glintlab.cli.main import main
+from glintlab.validation import scene as scene_module
+from glintlab.validation.scene import load_scene
 
 LAWS = ["binomial", ("gaussian", {"rounding": "round"}), "zk16", "gated", "head_cf"]
 # Fixed costs (ns per evaluation; ZK16: base and per trial) keep the tests independent of timing.
@@ -256,8 +257,8 @@ def test_defaults_are_filled_and_documented():
 
 
 def test_table1_scene_files_load():
-    scenes = gl.scene.table1_scenes()
-    assert [s.name for s in scenes] == list(gl.scene.TABLE1_SCENES)
+    scenes = scene_module.table1_scenes()
+    assert [s.name for s in scenes] == list(scene_module.TABLE1_SCENES)
     assert all((s.width, s.height) == (1920, 1080) for s in scenes)
     assert all(s.ndf.name == "beckmann" and s.ndf.alpha == 1.0 for s in scenes)
 

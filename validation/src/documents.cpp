@@ -8,7 +8,7 @@
 namespace glintlab::validation {
 
 namespace detail {
-extern const char experiment_schema_text[];  // generated from data/schema/ (schemas.cpp.in)
+extern const char experiment_schema_text[];  // generated from python/glintlab/data/schema/ (schemas.cpp.in)
 extern const char bounds_schema_text[];
 }  // namespace detail
 

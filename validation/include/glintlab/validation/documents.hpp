@@ -1,6 +1,6 @@
 // glintlab's input documents: experiments (laws over an (n, p) grid, compared by metrics) and error
 // bounds (limits a renderer's CI gates on). Each is JSON checked against its schema
-// (data/schema/*.schema.json, embedded at build time) and then by the rules a schema cannot state.
+// (python/glintlab/data/schema/*.schema.json, embedded at build time) and then by the rules a schema cannot state.
 #pragma once
 
 #include <cstddef>
@@ -12,7 +12,7 @@
 
 namespace glintlab::validation {
 
-// Sizes of the axes of data/grids/standard.json ("standard" in a grid).
+// Sizes of the axes of python/glintlab/data/grids/standard.json ("standard" in a grid).
 inline constexpr std::size_t standard_n_count = 51;
 inline constexpr std::size_t standard_p_count = 47;
 // Largest experiment: laws x n values x p values.

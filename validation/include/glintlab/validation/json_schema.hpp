@@ -1,5 +1,5 @@
 // A JSON Schema (draft-07) validator for exactly the keywords glintlab's own schemas use
-// (data/schema/*.schema.json). Debian packages no C++ validator, and a small one lets the error
+// (python/glintlab/data/schema/*.schema.json). Debian packages no C++ validator, and a small one lets the error
 // messages name the JSON pointer and what was expected in the user's terms. A schema that uses any
 // other keyword is rejected when loaded (std::logic_error), so it can never be silently ignored.
 #pragma once

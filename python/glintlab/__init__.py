@@ -1,0 +1,52 @@
+"""glintlab: exact laws, samplers and metrics for the counting laws of glint rendering.
+
+>>> import glintlab as gl
+>>> law = gl.law("binomial")
+>>> d = law.pmf(100, 0.1)                 # exact distribution
+>>> x = law.sample(100, 0.1, size=10**6, seed=1)
+>>> gl.chi2_test(x, d).pvalue
+"""
+from . import _core
+from ._core import Chi2Result, Distribution
+from .api.grids import AnisoCounter, aniso_counter, footprint_shapes, grid_schemes
+from .api.blends import BlendedLaw, blend_summaries, blended_law, blends, roulette_keep_moments, zk16_variance_ratio
+from .api.exact import binomial, poisson
+from .validation.extremes import extremes_summary, extremes_table, invalid_inputs_table, write_extremes_report
+from .validation.grid import error_table, standard_grid
+from .api.laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
+from .api.metrics import METRICS, chi2_test, distance, sidak_alpha
+from .api.ndf import NDF, ndf
+from .api.plugins import load_plugin, loaded_plugins
+from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
+
+__version__ = _core.__version__
+
+# After __version__: sweeps, results and stores record it.
+from .validation.sweep import sweep  # noqa: E402
+from .validation.bounds import check, perturbed_law  # noqa: E402
+from .validation.experiment import run_experiment  # noqa: E402
+from .validation.scene import Advice, Scene, SceneProfile, advise, load_scene, profile_scene  # noqa: E402  (the advisor uses bench, which records __version__)
+
+
+def set_num_threads(threads: int) -> None:
+    """Threads used by sampling and evaluation (default: all cores, or $GLINTLAB_NUM_THREADS)."""
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"threads = {threads!r} is invalid; expected an integer >= 1")
+    _core.set_num_threads(threads)
+
+
+def get_num_threads() -> int:
+    return _core.num_threads()
+
+
+__all__ = [
+    "AnisoCounter", "aniso_counter", "NDF", "ndf", "Scene", "load_scene", "Advice", "SceneProfile", "advise",
+    "profile_scene", "footprint_shapes", "grid_schemes",
+    "sweep", "check", "perturbed_law", "run_experiment",
+    "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
+    "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
+    "chi2_test", "footprint_for_area", "ground_truth", "joint_counts",
+    "custom_law", "distance", "error_table", "extremes_summary", "extremes_table", "invalid_inputs_table",
+    "write_extremes_report", "get_num_threads", "law", "law_summaries", "laws", "poisson",
+    "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
+]

@@ -1,0 +1,274 @@
+"""Counting laws by name, and custom laws written in Python.
+
+A law maps (n, p) and a few uniform random numbers to a count K. Built-in laws live in C++
+(core/laws/); ``custom_law`` wraps a vectorized Python function so that it gets the same sampling,
+comparison and reporting machinery.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import _core
+from . import checks as v
+from .._core import Distribution
+
+PRECISIONS = ("float64", "float32")
+_CHUNK = 1 << 20  # rows of uniforms materialized at once for custom laws (8 MB per uniform)
+_custom_laws: dict[str, "CustomLaw"] = {}
+
+
+class Law:
+    """A counting law. Obtain one with ``glintlab.law(name, **params)``."""
+
+    def __init__(self, core):
+        self._core = core
+
+    @property
+    def name(self) -> str:
+        return self._core.name
+
+    @property
+    def params(self) -> dict:
+        return dict(self._core.params)
+
+    @property
+    def n_uniforms(self) -> int:
+        """Random numbers one ``evaluate`` row consumes."""
+        return self._core.n_uniforms
+
+    @property
+    def has_pmf(self) -> bool:
+        return self._core.has_pmf
+
+    @property
+    def binning(self) -> str:
+        """How outputs are binned for ``pmf`` and comparisons: "none" (integer counts) or "round"
+        (round half up, unit bins [k - 1/2, k + 1/2)); apply it to samples with ``bin``."""
+        return self._core.binning
+
+    def bin(self, samples) -> np.ndarray:
+        """Samples binned as ``pmf`` is (identity for integer-valued laws)."""
+        x = np.asarray(samples, dtype=np.float64)
+        return np.floor(x + 0.5) if self.binning == "round" else x
+
+    @property
+    def precisions(self) -> tuple:
+        """Arithmetic the law can be evaluated in: ("float64",) or ("float64", "float32")."""
+        return tuple(x for x in PRECISIONS if self._core.supports(x))
+
+    def __repr__(self):
+        args = "".join(f", {k}={val!r}" for k, val in self.params.items())
+        return f"glintlab.law({self.name!r}{args})"
+
+    def __reduce__(self):
+        # Pickled as what rebuilds it (name, parameters, and the plugin library a plugin law came
+        # from), so laws travel to Dask workers and other processes.
+        plugin = next((path for path, names in _core.loaded_plugins() if self.name in names), None)
+        return (_rebuild_law, (self.name, self.params, plugin))
+
+    def pmf(self, n, p, max_support: int = 50_000_000) -> Distribution:
+        """Exact distribution of K for scalar (n, p), trimmed to all but 1e-14 of its mass.
+
+        Raises NotImplementedError when the law has no exact distribution, and ValueError when the
+        support would exceed ``max_support`` points (use the cdf/sf functions then).
+        """
+        n, p = _scalar("n", n), _scalar("p", p)
+        if isinstance(max_support, bool) or not isinstance(max_support, (int, np.integer)) or max_support < 1:
+            v.fail("max_support", max_support, "an integer >= 1")
+        return self._core.pmf(n, p, int(max_support))
+
+    def sample(self, n, p, size=None, seed=None, precision: str = "float64") -> np.ndarray:
+        """Draws counts (float64). n, p: scalars or arrays broadcast numpy-style with ``size``.
+
+        Sample i uses random numbers keyed by (seed, i) only, so the output is the same whatever the
+        number of threads; ``seed=None`` draws a fresh seed from the operating system.
+        ``precision="float32"`` evaluates the law in single precision (see ``precisions``).
+        """
+        shape = v.size(size)
+        seed = v.seed(seed)
+        precision = _precision(precision)
+        nf, pf, shape = v.broadcast_params(n, p, shape)
+        count = int(np.prod(shape, dtype=np.int64))
+        return self._sample_flat(nf, pf, count, seed, precision).reshape(shape)
+
+    def _sample_flat(self, nf, pf, count, seed, precision):
+        return self._core.sample(nf, pf, count, seed, precision)
+
+    def evaluate(self, n, p, u, precision: str = "float64") -> np.ndarray:
+        """Deterministic counts from explicit uniforms u of shape (m, n_uniforms); n, p broadcast to (m,)."""
+        precision = _precision(precision)
+        u = _uniform_rows(u, self.n_uniforms)
+        nf, pf, _ = v.broadcast_params(n, p, (u.shape[0],))
+        return self._core.evaluate(nf, pf, u, precision)
+
+    def estimate_pmf(self, n, p, samples: int = 10**6, seed=0, precision: str = "float64") -> Distribution:
+        """Empirical distribution of ``samples`` draws at scalar (n, p).
+
+        Each probability has Monte Carlo standard error sqrt(q (1 - q) / samples).
+        """
+        n, p = _scalar("n", n), _scalar("p", p)
+        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+            v.fail("samples", samples, "an integer >= 1")
+        return Distribution.empirical(self.sample(n, p, size=int(samples), seed=seed, precision=precision))
+
+
+class CustomLaw(Law):
+    """A law defined by a vectorized Python function ``fn(n, p, u) -> counts``.
+
+    ``fn`` receives float64 arrays n and p of shape (m,) and u of shape (m, n_uniforms) and returns
+    m counts. ``sample`` feeds it the same counter-based uniforms a built-in law would use, so a
+    custom re-implementation of a built-in law reproduces its samples seed for seed.
+    """
+
+    def __init__(self, fn, n_uniforms: int, name: str):
+        self._fn = fn
+        self._k = n_uniforms
+        self._name = name
+
+    name = property(lambda self: self._name)
+    params = property(lambda self: {})
+    n_uniforms = property(lambda self: self._k)
+    has_pmf = property(lambda self: False)
+    precisions = property(lambda self: PRECISIONS)
+    binning = property(lambda self: "none")
+
+    def __reduce__(self):  # the function travels by value (cloudpickle, as Dask sends it)
+        return (CustomLaw, (self._fn, self._k, self._name))
+
+    def pmf(self, n, p, max_support: int = 50_000_000):
+        raise NotImplementedError(
+            f"custom law {self._name!r} has no exact distribution; use "
+            f"law.estimate_pmf(n, p, samples=..., seed=...) for a Monte Carlo estimate")
+
+    def _call(self, nf, pf, u, precision="float64"):
+        m = u.shape[0]
+        n_rows = np.broadcast_to(nf, (m,)) if nf.size == 1 else nf
+        p_rows = np.broadcast_to(pf, (m,)) if pf.size == 1 else pf
+        if precision == "float32":  # the function sees float32 inputs, as a shader would
+            n_rows, p_rows, u = n_rows.astype(np.float32), p_rows.astype(np.float32), u.astype(np.float32)
+        try:
+            out = np.asarray(self._fn(n_rows, p_rows, u), dtype=np.float64)
+        except Exception as exc:
+            raise ValueError(f"custom law {self._name!r}: the function raised {exc!r}") from exc
+        if out.shape != (m,):
+            out = out.reshape(-1) if out.size == m else out
+        if out.shape != (m,):
+            raise ValueError(f"custom law {self._name!r} returned shape {out.shape}; expected ({m},)")
+        bad = ~np.isfinite(out)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(f"custom law {self._name!r} returned {out[i]} at row {i} "
+                             f"(n = {n_rows[i]}, p = {p_rows[i]}); counts must be finite")
+        return out
+
+    def _check_np(self, nf, pf):
+        for name, arr, ok, expected in (
+                ("n", nf, lambda a: np.isfinite(a) & (a >= 0), "a finite number >= 0"),
+                ("p", pf, lambda a: (a >= 0) & (a <= 1), "a probability in [0, 1]")):
+            bad = ~ok(arr)
+            if bad.any():
+                i = int(np.argmax(bad))
+                label = name if arr.size == 1 else f"{name}[{i}]"
+                raise ValueError(f"{self._name}: {label} = {arr[i]!r} is invalid; expected {expected}")
+
+    def evaluate(self, n, p, u, precision: str = "float64"):
+        precision = _precision(precision)
+        u = _uniform_rows(u, self._k)
+        nf, pf, _ = v.broadcast_params(n, p, (u.shape[0],))
+        self._check_np(nf, pf)
+        return self._call(nf, pf, u, precision)
+
+    def _sample_flat(self, nf, pf, count, seed, precision):
+        self._check_np(nf, pf)
+        out = np.empty(count)
+        for i0 in range(0, count, _CHUNK):
+            i1 = min(count, i0 + _CHUNK)
+            u = _core.uniforms(i0, i1 - i0, self._k, seed, 0)
+            out[i0:i1] = self._call(nf if nf.size == 1 else nf[i0:i1],
+                                    pf if pf.size == 1 else pf[i0:i1], u, precision)
+        return out
+
+
+def _rebuild_law(name, params, plugin):
+    if plugin is not None:
+        from .plugins import load_plugin
+        load_plugin(plugin)
+    return law(name, **params)
+
+
+def law(name: str, **params) -> Law:
+    """The counting law registered as ``name``, with keyword parameters (e.g. ``law("zk16", cap=16)``)."""
+    if not isinstance(name, str):
+        v.fail("name", name, "a law name (str)")
+    if name in _custom_laws:
+        if params:
+            raise ValueError(f"custom law {name!r} takes no parameters; got {sorted(params)}")
+        return _custom_laws[name]
+    return Law(_core.make_law(name, params))
+
+
+def laws() -> list[str]:
+    """Names of every registered law (built-in and custom), sorted."""
+    return sorted({name for name, _ in _core.law_infos()} | set(_custom_laws))
+
+
+def law_summaries() -> dict[str, str]:
+    out = {name: summary for name, summary in _core.law_infos()}
+    out.update({name: "custom law (Python)" for name in _custom_laws})
+    return dict(sorted(out.items()))
+
+
+def custom_law(fn, n_uniforms: int = 2, name: str = "custom") -> CustomLaw:
+    """Registers a vectorized ``fn(n, p, u) -> counts`` as a law named ``name`` and returns it.
+
+    Registering a name again replaces the earlier custom law; built-in names are refused.
+    """
+    if not callable(fn):
+        v.fail("fn", fn, "a callable fn(n, p, u)")
+    if isinstance(n_uniforms, bool) or not isinstance(n_uniforms, (int, np.integer)) or n_uniforms < 0:
+        v.fail("n_uniforms", n_uniforms, "an integer >= 0")
+    if not isinstance(name, str) or not name:
+        v.fail("name", name, "a non-empty string")
+    if name in {n for n, _ in _core.law_infos()}:
+        v.fail("name", name, "a name that no built-in law uses")
+    law_ = CustomLaw(fn, int(n_uniforms), name)
+    _custom_laws[name] = law_
+    return law_
+
+
+def uniforms(size: int, n_uniforms: int, seed=0, start: int = 0) -> np.ndarray:
+    """The (size, n_uniforms) uniforms in (0, 1) that ``sample`` hands to ``evaluate``, rows start..start+size-1."""
+    shape = v.size(size)
+    if shape is None or len(shape) != 1:
+        v.fail("size", size, "an integer >= 0")
+    if isinstance(n_uniforms, bool) or not isinstance(n_uniforms, (int, np.integer)) or n_uniforms < 0:
+        v.fail("n_uniforms", n_uniforms, "an integer >= 0")
+    if isinstance(start, bool) or not isinstance(start, (int, np.integer)) or start < 0:
+        v.fail("start", start, "an integer >= 0")
+    return _core.uniforms(int(start), shape[0], int(n_uniforms), v.seed(seed), 0)
+
+
+def _precision(value):
+    if value not in PRECISIONS:
+        v.fail("precision", value, "'float64' or 'float32'")
+    return value
+
+
+def _scalar(name, value):
+    arr = v.as_float_array(name, value)
+    if arr.size != 1:
+        v.fail(name, value, "a scalar")
+    return float(arr.reshape(-1)[0])
+
+
+def _uniform_rows(u, k):
+    u = v.as_float_array("u", u)
+    if u.ndim == 1 and k == 1:
+        u = u.reshape(-1, 1)
+    if u.ndim != 2 or u.shape[1] != k:
+        raise ValueError(f"u has shape {u.shape}; expected (m, {k}) for a law with n_uniforms = {k}")
+    bad = ~((u >= 0) & (u <= 1))
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        raise ValueError(f"u[{i}, {j}] = {u[i, j]!r} is invalid; expected a uniform number in [0, 1]")
+    return np.ascontiguousarray(u)

@@ -1,0 +1,1 @@
+"""The ``glintlab`` command line (entry point: :func:`glintlab.cli.main.main`)."""

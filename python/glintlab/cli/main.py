@@ -1,0 +1,433 @@
+"""The `glintlab` command line. Exit status: 0 success, 1 a check failed, 2 bad input.
+
+Subcommands: laws, run (one experiment), sweep (an experiment from flags), check (error bounds),
+bench (speed against accuracy), extremes (numerical extremes of every law), aniso (anisotropic grids
+against the ground truth), report (the main job).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from .._core import __version__
+
+
+def _cmd_laws(args) -> int:
+    from ..api.laws import law_summaries
+    for name, summary in law_summaries().items():
+        print(f"{name:12s} {summary}")
+    return 0
+
+
+def _cmd_report(args) -> int:
+    from ..report import sections as report
+    if args.list:
+        doc, source = report.load_config(args.config)
+        for entry in doc["sections"]:
+            sec = report.SECTIONS[entry["name"]]
+            print(f"{sec.name:20s} {sec.title}")
+        return 0
+    summary = report.run(Path(args.out), quick=args.quick, seed=args.seed, quiet=args.quiet, only=args.only,
+                         config=args.config)
+    if not args.quiet:
+        report.print_summary(summary)
+        print(f"\nwrote {args.out}/index.html, report.json, *.csv, *.png in {summary['seconds']} s")
+    for failure in summary["failures"]:
+        print(f"glintlab report: FAILED {failure}", file=sys.stderr)
+    return 1 if summary["failures"] else 0
+
+
+def _load_plugins(paths):
+    from ..api.plugins import load_plugin
+    for path in paths or []:
+        load_plugin(path)
+
+
+def _print_table(df, quiet, max_rows=60):
+    if quiet:
+        return
+    import pandas as pd
+    with pd.option_context("display.width", 200, "display.max_columns", 30, "display.max_rows", max_rows):
+        print(df.to_string(index=False, float_format=lambda x: f"{x:.4g}", max_rows=max_rows))
+
+
+def _run_experiment(source, args) -> int:
+    from ..validation.experiment import run_experiment
+    _load_plugins(args.plugin)
+    out = Path(args.out) if args.out else None
+    engine = {}
+    if args.scheduler is not None or args.workers is not None:
+        engine = dict(engine="dask", scheduler=args.scheduler, workers=args.workers, timeout=args.timeout)
+    result = run_experiment(source, out=out, store=args.store, progress=None if not args.quiet else False, **engine)
+    name = result.config["name"]
+    if not args.quiet:
+        _print_table(result.table, args.quiet)
+        where = f"; wrote {', '.join(str(f) for f in result.files)}" if result.files else ""
+        print(f"\n{name}: {len(result.table)} rows in {result.seconds} s{where}")
+    return 0
+
+
+def _cmd_run(args) -> int:
+    if args.out is None:
+        args.out = "out/experiments/" + Path(args.experiment).stem
+    return _run_experiment(args.experiment, args)
+
+
+def _axis_arg(values, flag):
+    """--n 16 1000 | --n logspace:0:6:13 | --n linspace:0:1:5 | --n standard"""
+    if values is None:
+        return "standard"
+    if len(values) == 1 and values[0] == "standard":
+        return "standard"
+    if len(values) == 1 and ":" in values[0]:
+        kind, *rest = values[0].split(":")
+        if kind not in ("logspace", "linspace") or len(rest) != 3:
+            raise ValueError(f"{flag} = {values[0]!r} is invalid; expected numbers, 'standard', "
+                             "'logspace:LO:HI:COUNT' or 'linspace:LO:HI:COUNT'")
+        try:
+            return {kind: [float(rest[0]), float(rest[1]), int(rest[2])]}
+        except ValueError:
+            raise ValueError(f"{flag} = {values[0]!r} is invalid; expected LO and HI numbers and an integer COUNT") from None
+    try:
+        return [float(x) for x in values]
+    except ValueError:
+        raise ValueError(f"{flag} = {' '.join(values)!r} is invalid; expected numbers") from None
+
+
+def _law_arg(text):
+    """name, or name:key=value,key=value (built-in parameters)."""
+    name, _, rest = text.partition(":")
+    if not rest:
+        return name
+    params = {}
+    for item in rest.split(","):
+        key, eq, value = item.partition("=")
+        if not eq:
+            raise ValueError(f"--laws {text!r} is invalid; expected NAME or NAME:KEY=VALUE,...")
+        try:
+            params[key] = float(value)
+        except ValueError:
+            params[key] = value
+    return {"name": name, "params": params}
+
+
+def _cmd_sweep(args) -> int:
+    doc = {"name": args.name, "laws": [_law_arg(x) for x in args.laws],
+           "grid": {"n": _axis_arg(args.n, "--n"), "p": _axis_arg(args.p, "--p")},
+           "metrics": args.metrics, "reference": _law_arg(args.reference) if args.reference else "binomial",
+           "samples": args.samples, "seed": args.seed}
+    if isinstance(doc["reference"], dict):
+        doc["reference"] = {"law": doc["reference"]}
+    if args.out is None:
+        args.out = "out/sweeps/" + args.name
+    return _run_experiment(json.dumps(doc), args)
+
+
+def _cmd_check(args) -> int:
+    from ..validation.bounds import check, format_table, write_junit
+    _load_plugins(args.plugin)
+    table = check(args.bounds, progress=None if not args.quiet else False)
+    if args.junit:
+        write_junit(table, args.junit)
+    bad = table[~table.ok]
+    if not args.quiet:
+        print(format_table(table))
+        print(f"\n{len(table) - len(bad)} of {len(table)} bounds hold ({args.bounds})")
+    for r in bad.itertuples():
+        rel = "<=" if r.limit == "max" else ">="
+        print(f"glintlab check: VIOLATED {r.id}: {r.metric} = {r.worst:.6g} at n = {r.at_n:g}, p = {r.at_p:g} "
+              f"(bound {rel} {r.bound:.6g})", file=sys.stderr)
+    return 1 if len(bad) else 0
+
+
+def _cmd_bench(args) -> int:
+    from ..validation.bench import speed_accuracy, write_bench
+    _load_plugins(args.plugin)
+    laws = [_law_arg(x) for x in args.laws] if args.laws else None
+    summary, errors = speed_accuracy(laws, samples=args.samples, seed=args.seed, repeats=args.repeats,
+                                     progress=None if not args.quiet else False)
+    files = write_bench(args.out, summary, errors)
+    if not args.quiet:
+        _print_table(summary[["law", "accuracy", "tv_max", "tv_median", "mean_rel_err_max", "ns_per_sample",
+                              "speedup_vs_numpy", "ns_ratio_1e9_vs_16", "pareto"]], args.quiet)
+        print(f"\nnumpy binomial: {summary.numpy_ns.iloc[0]:.1f} ns/sample (mean of the timing points); "
+              f"wrote {', '.join(str(f) for f in files)}")
+    return 0
+
+
+def _cmd_extremes(args) -> int:
+    from ..validation.extremes import extremes_summary, extremes_table, invalid_inputs_table, write_extremes_report
+    _load_plugins(args.plugin)
+    laws = [_law_arg(x) for x in args.laws] if args.laws else None
+    if laws is not None:
+        from ..validation.sweep import resolve_law
+        laws = [resolve_law(x) for x in laws]
+    table = extremes_table(laws, samples=args.samples, seed=args.seed)
+    invalid = invalid_inputs_table(laws)
+    summary = extremes_summary(table)
+    path = write_extremes_report(args.out, table, invalid, summary)
+    failures = int((~table.ok).sum()) + int((~invalid.ok).sum())
+    if not args.quiet:
+        _print_table(summary, args.quiet)
+        print(f"\n{failures} failing rows; wrote {path}")
+    return 1 if (failures and args.strict) else 0
+
+
+def _cmd_aniso(args) -> int:
+    from ..studies.aniso import write_report
+    paths, tables = write_report(args.out, full=args.full, samples=args.samples, seed=args.seed,
+                                 image=not args.no_image)
+    if not args.quiet:
+        _print_table(tables["aniso_summary"], args.quiet)
+        if "aniso_image" in tables:
+            _print_table(tables["aniso_image"], args.quiet)
+        print(f"\nwrote {', '.join(str(p) for p in paths)} and CSV tables in {args.out}")
+    return 0
+
+
+def _scene_costs(path):
+    if path is None:
+        return None
+    import pandas as pd
+    try:
+        table = pd.read_csv(path)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"--costs = {path!r} is invalid; expected a CSV with columns law, ns_per_eval "
+                         f"[, ns_per_trial] ({exc})") from None
+    if not {"law", "ns_per_eval"} <= set(table.columns):
+        raise ValueError(f"--costs = {path!r} is invalid; expected columns law, ns_per_eval [, ns_per_trial]")
+    return table[[c for c in ("law", "ns_per_eval", "ns_per_trial") if c in table]].drop_duplicates("law")
+
+
+def _split_law_label(label):
+    from ..validation.advisor import _split_label
+    return _split_label(label)
+
+
+def _cmd_profile(args) -> int:
+    import time
+    from ..validation.advisor import advice_table, profile_scene, write_profiles
+    from ..validation.scene import load_scene
+    scenes = [load_scene(path) for path in args.scenes]  # all validated before any work
+    costs = _scene_costs(args.costs)
+    laws = None if costs is None else [_split_law_label(x) for x in costs.law]
+    profiles = []
+    for sc in scenes:
+        t0 = time.perf_counter()
+        profiles.append(profile_scene(sc, laws=laws, seed=args.seed, scale=args.scale, costs=costs))
+        if not args.quiet:
+            prof = profiles[-1]
+            print(f"{sc.name}: {prof.summary['width']} x {prof.summary['height']} profiled in "
+                  f"{time.perf_counter() - t0:.2f} s ({', '.join(f'{k} {v:.2f}' for k, v in prof.seconds.items())})")
+    note = f" (scale {args.scale:g}, density x {args.scale ** 2:g} to keep n)" if args.scale != 1 else ""
+    paths, tables = write_profiles(profiles, args.out, advice=advice_table(profiles, max_tv=args.max_tv),
+                                   title_note=note)
+    if not args.quiet:
+        _print_table(tables["scene_table1"][["scene", "method", "mean_pixel", "mean_group", "worst_group",
+                                             "simd_efficiency", "zk16_over_this_worst_group", "paper_ms"]], args.quiet)
+        _print_table(tables["scene_advice"][["scene", "max_tv", "law", "cost_mean_group", "tv_worst"]], args.quiet)
+        print(f"\nwrote {len(paths)} figures and {len(tables)} CSV tables in {args.out}")
+    return 0
+
+
+def _cmd_advise(args) -> int:
+    from ..validation.advisor import advise, profile_scene
+    from ..validation.scene import load_scene
+    for flag, value in (("--max-tv", args.max_tv), ("--max-rel-error", args.max_rel_error)):
+        if value is not None and not value >= 0:
+            raise ValueError(f"{flag} = {value!r} is invalid; expected a number >= 0 (inf for no limit)")
+    if args.max_tv is None and args.max_rel_error is None:
+        raise ValueError("no budget given; expected --max-tv and/or --max-rel-error")
+    scene = load_scene(args.scene)
+    costs = _scene_costs(args.costs)
+    laws = None if costs is None else [_split_law_label(x) for x in costs.law]
+    prof = profile_scene(scene, laws=laws, seed=args.seed, scale=args.scale, costs=costs,
+                         schemes=sorted({args.scheme, "zk16_aniso", "db23_tetrahedral"}))
+    advice = advise(prof, max_tv=args.max_tv, max_rel_error=args.max_rel_error, coverage=args.coverage,
+                    per_regime=args.per_regime, scheme=args.scheme)
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "advice.json").write_text(json.dumps(advice.to_dict(), indent=2, default=float) + "\n")
+        advice.candidates.to_csv(out / "advice_candidates.csv", index=False)
+    if args.json:
+        print(json.dumps(advice.to_dict(), indent=2, default=float))
+        return 0
+    if not args.quiet:
+        print(advice)
+        _print_table(advice.candidates, args.quiet)
+        if advice.per_regime is not None:
+            a = advice.per_regime.attrs
+            print(f"\nper regime (n bands), combined cost {a['cost_mean_group']:.4g} per group "
+                  f"(worst {a['cost_worst_group']:.4g}; divergent groups pay each law's worst lane):")
+            _print_table(advice.per_regime, args.quiet)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="glintlab",
+        description="Exact laws, samplers and metrics for the counting laws of glint rendering. "
+                    "Exit status: 0 success, 1 a check failed, 2 bad input.")
+    parser.add_argument("--version", action="version", version=f"glintlab {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("laws", help="list the registered counting laws")
+    p.set_defaults(func=_cmd_laws)
+
+    def common(p, out_default=None, plugins=True, store=False):
+        if store:
+            p.add_argument("--store", help="resumable store (JSON lines): finished rows are kept across interruptions")
+            p.add_argument("--scheduler", metavar="ADDRESS",
+                           help="run on the Dask scheduler at ADDRESS (tcp://host:8786); same table as a local run")
+            p.add_argument("--workers", type=int, metavar="K",
+                           help="run on a Dask LocalCluster of K worker processes on this machine")
+            p.add_argument("--timeout", type=float, default=10.0,
+                           help="seconds to wait for the scheduler to answer (default: 10)")
+        p.add_argument("--out", default=out_default, help=f"output directory (default: {out_default or 'see above'})")
+        p.add_argument("--quiet", action="store_true", help="no tables on stdout, no progress bar")
+        if plugins:
+            p.add_argument("--plugin", action="append", metavar="LIB.so",
+                           help="load a C++ plugin's laws first (repeatable)")
+
+    p = sub.add_parser("run", help="run one experiment (JSON) to CSV, JSON and plots",
+                       description="Runs an experiment file (data/schema/experiment.schema.json), or re-runs a "
+                                   "results.json exactly. Writes results.csv, results.json and one PNG per metric.")
+    p.add_argument("experiment", help="experiment JSON, or a results.json written by an earlier run")
+    common(p, None, store=True)
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("sweep", help="sweep laws over an (n, p) grid from flags",
+                       description="An experiment given by flags. Axes: numbers, 'standard', 'logspace:LO:HI:COUNT' "
+                                   "(exponents of 10) or 'linspace:LO:HI:COUNT'. Laws: NAME or NAME:KEY=VALUE,...")
+    p.add_argument("--laws", nargs="+", required=True, help="laws (e.g. gated head_cf gaussian:rounding=round)")
+    p.add_argument("--n", nargs="+", help="values of n (default: standard)")
+    p.add_argument("--p", nargs="+", help="values of p (default: standard)")
+    p.add_argument("--metrics", nargs="+", default=["tv", "mean_rel_err", "var_rel_err"],
+                   help="tv chi2_distance hellinger kl js w1 ks mean_rel_err var_rel_err chi2_pvalue")
+    p.add_argument("--reference", help="reference law (default: binomial)")
+    p.add_argument("--samples", type=int, help="draws per grid point (default: exact distributions)")
+    p.add_argument("--seed", type=int, default=1, help="seed (default: 1)")
+    p.add_argument("--name", default="sweep", help="experiment name (default: sweep)")
+    common(p, None, store=True)
+    p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser("check", help="check error bounds; exit 1 on any violation",
+                       description="Evaluates each bound of BOUNDS.json (law, regime, metric, maximum or minimum), "
+                                   "prints a table and exits 1 if any bound is violated.")
+    p.add_argument("bounds", nargs="?", default="data/bounds/default.json",
+                   help="bounds file (default: data/bounds/default.json)")
+    p.add_argument("--junit", metavar="FILE.xml", help="also write JUnit XML (one testcase per bound)")
+    p.add_argument("--quiet", action="store_true", help="print only violations")
+    p.add_argument("--plugin", action="append", metavar="LIB.so", help="load a C++ plugin's laws first")
+    p.set_defaults(func=_cmd_check)
+
+    p = sub.add_parser("bench", help="ns/sample and accuracy per law: table and Pareto plot",
+                       description="Times every law (or --laws) against numpy's binomial and measures its error "
+                                   "against the exact binomial over the standard grid, in one run.")
+    p.add_argument("--laws", nargs="+", help="laws (default: every built-in approximate law and the binomial)")
+    p.add_argument("--samples", type=int, default=10**6, help="draws per timed call (default: 1e6)")
+    p.add_argument("--repeats", type=int, default=2, help="timed calls per point, best kept (default: 2)")
+    p.add_argument("--seed", type=int, default=1)
+    common(p, "out/bench")
+    p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("extremes", help="the numerical-extremes suite (LAWS.md §8) for every law",
+                       description="Evaluates every law in float32 and float64 at extreme n, p and uniforms: finite, "
+                                   "in [0, n], mean error, pmf mass; invalid inputs must raise clear errors. Writes "
+                                   "extremes.html with failures highlighted.")
+    p.add_argument("--laws", nargs="+", help="laws (default: every registered law and blend)")
+    p.add_argument("--samples", type=int, default=4096, help="ordinary draws per point (default: 4096)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--strict", action="store_true", help="exit 1 if any check fails")
+    common(p, "out/extremes")
+    p.set_defaults(func=_cmd_extremes)
+
+    p = sub.add_parser("aniso", help="anisotropic grid schemes against stratified facets in the ellipse",
+                       description="DB23's trilinear and tetrahedral grids (area or log LOD weights, the shader's "
+                                   "48-evaluation interpolation) and the ZK16 baseline against the exact ground "
+                                   "truth over (n, r, phi, p): mean bias, variance ratio, TV, chi-square p; weight "
+                                   "maps; a 1920 x 1080 image timed per scheme with its evaluation histogram.")
+    p.add_argument("--full", action="store_true", help="the full grid (5 n, 14 r, 16 phi, p 0.1 and 0.5)")
+    p.add_argument("--samples", type=int, help="draws per point (default: 10000, 40000 with --full)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--no-image", action="store_true", help="skip the image timing")
+    common(p, "out/aniso", plugins=False)
+    p.set_defaults(func=_cmd_aniso)
+
+    p = sub.add_parser("profile", help="profile scenes: regime map, law errors, SIMD cost of grid schemes",
+                       description="Per scene (data/schema/scene.schema.json): the (n, p, r) regime map, exact "
+                                   "pixel-weighted law errors, evaluations and weight bias per grid scheme, a SIMD "
+                                   "cost model (8 x 4 groups cost their worst pixel) and ZK16 / DB23 cost ratios. "
+                                   "Writes CSV tables and PNG figures.")
+    p.add_argument("scenes", nargs="+", metavar="SCENE.json", help="scene files (e.g. data/scenes/*.json)")
+    p.add_argument("--scale", type=float, default=1.0,
+                   help="resolution factor per side; the density follows so n per pixel is kept (default: 1)")
+    p.add_argument("--max-tv", type=float, default=0.05, help="budget of the advisor table (default: 0.05)")
+    p.add_argument("--costs", metavar="COSTS.csv",
+                   help="law costs (law, ns_per_eval, ns_per_trial), e.g. a scene_cost_units.csv, instead of "
+                        "measuring them: reproducible costs")
+    p.add_argument("--seed", type=int, default=1)
+    common(p, "out/scenes", plugins=False)
+    p.set_defaults(func=_cmd_profile)
+
+    p = sub.add_parser("advise", help="the cheapest counting law meeting an error budget on a scene",
+                       description="Profiles the scene and picks the law of least mean SIMD group cost whose "
+                                   "per-pixel error meets the budget on --coverage of the pixels.")
+    p.add_argument("scene", metavar="SCENE.json")
+    p.add_argument("--max-tv", type=float, help="largest TV to the binomial per pixel")
+    p.add_argument("--max-rel-error", type=float, help="largest relative intensity error |E[K]/(n p) - 1| per pixel")
+    p.add_argument("--coverage", type=float, default=1.0, help="share of pixels that must meet it (default: 1)")
+    p.add_argument("--per-regime", action="store_true", help="one law per n band, combined SIMD cost")
+    p.add_argument("--scheme", default="db23_tetrahedral", help="grid scheme the cost is modelled on "
+                                                                  "(default: db23_tetrahedral)")
+    p.add_argument("--scale", type=float, default=1.0, help="resolution factor per side (default: 1)")
+    p.add_argument("--costs", metavar="COSTS.csv", help="law costs instead of measuring them")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--json", action="store_true", help="print the recommendation as JSON")
+    common(p, None, plugins=False)
+    p.set_defaults(func=_cmd_advise)
+
+    p = sub.add_parser("report", help="the main job: every figure family, as out/report/index.html",
+                       description="Runs the sections of a report configuration (default: "
+                                   "glintlab/data/report/default.json) and writes index.html, report.json, CSV tables "
+                                   "and PNG figures. --only re-runs some sections and rebuilds the page from the "
+                                   "section records already in --out. Exit 1 if a check fails (a sampler's "
+                                   "chi-square p < 1e-4, a violated error bound), 2 on bad input.")
+    p.add_argument("--out", default="out/report", help="output directory (default: out/report)")
+    p.add_argument("--config", help="report configuration JSON (default: glintlab/data/report/default.json)")
+    p.add_argument("--only", nargs="+", metavar="SECTION", help="run only these sections (see --list)")
+    p.add_argument("--list", action="store_true", help="list the configured sections and exit")
+    p.add_argument("--quick", action="store_true", help="the configuration's quick sizes (make run QUICK=1)")
+    p.add_argument("--seed", type=int, help="seed of every section (default: the configuration's, 1)")
+    p.add_argument("--quiet", action="store_true", help="no tables on stdout, no progress bar")
+    p.set_defaults(func=_cmd_report)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse exits 2 on bad usage, 0 on --help
+        return int(exc.code or 0)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        return args.func(args)
+    except ValueError as exc:
+        print(f"glintlab {args.command}: {exc}", file=sys.stderr)
+        return 2
+    except NotImplementedError as exc:
+        print(f"glintlab {args.command}: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"glintlab {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

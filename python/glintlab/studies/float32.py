@@ -1,0 +1,116 @@
+"""float32 against float64: where a shader's single precision changes a law, and where it breaks.
+
+Both precisions evaluate the law on the *same* uniforms (those `sample` uses), which couples the two
+outputs. The coupling gives a rigorous bound: TV(law_f32, law_f64) <= P(K_f32 != K_f64), and the
+mismatch rate estimates that probability (with a Clopper-Pearson 95% upper bound), free of the
+upward bias of a TV between two histograms. Breaks are counted per precision: non-finite K,
+K < 0, and K > ceil(n) (a count above the facets there are).
+
+`one_minus_p_pow_n` tabulates the other float32 trap of LAWS.md §8: (1 - p)^n computed directly
+(pow(1 - p, n), what the public shaders do) versus exp(n log1p(-p)), against an mpmath reference.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..validation.grid import _label, standard_grid
+from ..api.laws import law as get_law, uniforms
+
+
+def float32_table(laws, n=None, p=None, samples: int = 1024, seed: int = 1) -> pd.DataFrame:
+    """One row per law and grid point (default: the standard grid): law, n, p, mismatch (share of
+    draws whose binned K differs between float32 and float64), mismatch_upper95, max_abs_diff (largest
+    |K_f32 - K_f64| before binning), mean_f32 and
+    mean_f64 (sample means), and per precision the shares of non-finite, negative and above-n K."""
+    if samples < 1:
+        raise ValueError(f"float32_table: samples = {samples} is invalid; expected an integer >= 1")
+    if n is None or p is None:
+        gn, gp = standard_grid()
+        n = gn if n is None else np.atleast_1d(np.asarray(n, dtype=float))
+        p = gp if p is None else np.atleast_1d(np.asarray(p, dtype=float))
+    laws = [get_law(x) if isinstance(x, str) else x for x in laws]
+    nn, pp = (a.ravel() for a in np.meshgrid(n, p, indexing="ij"))
+    rows = []
+    from scipy.stats import beta
+    for lw in laws:
+        if "float32" not in lw.precisions:
+            continue
+        u = uniforms(samples, lw.n_uniforms, seed=seed)
+        # Every grid point sees the same uniforms: rows grid-major, samples inner.
+        big_n, big_p = np.repeat(nn, samples), np.repeat(pp, samples)
+        big_u = np.tile(u, (nn.size, 1))
+        k64 = lw.evaluate(big_n, big_p, big_u).reshape(nn.size, samples)
+        k32 = lw.evaluate(big_n, big_p, big_u, precision="float32").reshape(nn.size, samples)
+        top = np.ceil(nn)[:, None]
+        with np.errstate(invalid="ignore"):
+            b64, b32 = _bin(lw, k64), _bin(lw, k32)
+            mismatch = np.mean(b64 != b32, axis=1)
+            diff = np.where(np.isfinite(k32) & np.isfinite(k64), np.abs(k32 - k64), np.inf)
+            max_diff = np.max(diff, axis=1)
+        hits = np.rint(mismatch * samples)
+        upper = np.where(hits >= samples, 1.0, beta.ppf(0.95, hits + 1, samples - hits))
+        for prec, k in (("f32", k32), ("f64", k64)):
+            finite = np.isfinite(k)
+            rows_prec = dict(nonfinite=np.mean(~finite, axis=1),
+                             negative=np.mean(finite & (k < 0), axis=1),
+                             above_n=np.mean(finite & (k > top), axis=1),
+                             mean=np.where(finite.all(axis=1), np.mean(np.where(finite, k, 0), axis=1), np.nan))
+            if prec == "f32":
+                f32 = rows_prec
+            else:
+                f64 = rows_prec
+        label = _label(lw)
+        for i in range(nn.size):
+            rows.append(dict(law=label, n=nn[i], p=pp[i], mismatch=mismatch[i], mismatch_upper95=upper[i],
+                             max_abs_diff=max_diff[i],
+                             mean_f32=f32["mean"][i], mean_f64=f64["mean"][i],
+                             nonfinite_f32=f32["nonfinite"][i], negative_f32=f32["negative"][i],
+                             above_n_f32=f32["above_n"][i], nonfinite_f64=f64["nonfinite"][i],
+                             negative_f64=f64["negative"][i], above_n_f64=f64["above_n"][i]))
+    return pd.DataFrame(rows)
+
+
+def _bin(lw, k):
+    return np.floor(k + 0.5) if lw.binning == "round" else k
+
+
+def float32_summary(table: pd.DataFrame) -> pd.DataFrame:
+    """Per law: worst and median mismatch, the share of grid points where float32 changes more than
+    1% of the draws, the (n, p) of the worst point, and the grid points with breaks per precision."""
+    out = []
+    for name, g in table.groupby("law", sort=False):
+        worst = g.loc[g.mismatch.idxmax()]
+        broken = lambda s: int(((g[f"nonfinite_{s}"] + g[f"negative_{s}"] + g[f"above_n_{s}"]) > 0).sum())
+        out.append(dict(law=name, mismatch_max=worst.mismatch, at_n=worst.n, at_p=worst.p,
+                        max_abs_diff=g.max_abs_diff.max(),
+                        mismatch_median=g.mismatch.median(), share_points_over_1pct=float((g.mismatch > 0.01).mean()),
+                        points_broken_f32=broken("f32"), points_broken_f64=broken("f64")))
+    return pd.DataFrame(out)
+
+
+def one_minus_p_pow_n(n_values=(16, 1e3, 1e6), p_values=None) -> pd.DataFrame:
+    """Relative error of q = (1 - p)^n and of P1 = 1 - q, four ways: pow(1 - p, n) and
+    exp(n log1p(-p)) (P1 as -expm1(n log1p(-p))), each in float32 and float64, against mpmath."""
+    import mpmath
+    if p_values is None:
+        p_values = np.logspace(-9, -1, 17)
+    rows = []
+    for n in n_values:
+        for p in p_values:
+            with mpmath.workdps(40):
+                q_ref = mpmath.power(1 - mpmath.mpf(float(p)), mpmath.mpf(float(n)))
+                q_ref, p1_ref = float(q_ref), float(1 - q_ref)
+            for dtype in (np.float32, np.float64):
+                nf, pf = dtype(n), dtype(p)
+                with np.errstate(all="ignore"):
+                    q_direct = np.power(dtype(1) - pf, nf)
+                    lg = nf * np.log1p(-pf)
+                    q_log = np.exp(lg)
+                    p1_log = -np.expm1(lg)
+                for method, q, p1 in (("pow(1-p, n)", q_direct, dtype(1) - q_direct),
+                                      ("exp(n log1p(-p))", q_log, p1_log)):
+                    rows.append(dict(n=n, p=p, precision=np.dtype(dtype).name, method=method,
+                                     q_rel_err=abs(float(q) - q_ref) / q_ref if q_ref else abs(float(q)),
+                                     p1_rel_err=abs(float(p1) - p1_ref) / p1_ref if p1_ref else abs(float(p1))))
+    return pd.DataFrame(rows)

@@ -1,0 +1,804 @@
+"""Scene profiles (regime map, pixel-weighted law errors, grid-scheme evaluations, a SIMD cost model)
+and the advisor that picks the cheapest law meeting an error budget on a scene.
+
+Law errors. A law's error at a pixel is its exact error against the binomial at the pixel's (n, p)
+(the single-footprint law, LAWS.md §3; the grid scheme's own error is reported separately as its
+weight bias). Pixels are binned in (log10 n, log10 p) with ``bins_per_decade`` bins per decade;
+each occupied bin is evaluated once, at the pixel-weighted mean (n, p) of its pixels, and its
+errors are given to all its pixels. ``binning_check`` compares with a binning twice as fine.
+Pixels with p = 0 (unlit, or D(h) = 0) have K = 0 under every law: error 0.
+
+Cost model (modelled cost units = ns of one CPU evaluation, not GPU milliseconds). The cost of a
+pixel under (grid scheme, law) is evaluations x c_law, the evaluations counted per pixel by
+``count_image``, c_law the law's ns per evaluation measured in-process (mean over fixed (n, p)
+points: a constant, which flatters laws whose cost grows with n p, e.g. the binomial's inversion
+below its switch). ZK16's law gets its loop on top (DB23 §7.1): each term with n_t p <= 5 runs
+min(ceil n_t, cap) Bernoulli trials at c_trial each, n_t the term's trial count from the scheme's
+``terms`` (evaluated per (n, r, phi) bin and scaled by n / n_bin). A SIMD group of 8 x 4 pixels
+costs its most expensive lane (branches diverge: every lane waits for the worst); pixels that miss
+the primitive are inactive lanes of cost 0.
+"""
+from __future__ import annotations
+
+import math
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ..api import checks as V
+from ..studies.aniso import _counter
+from .bench import DEFAULT_LAWS  # the laws of the report's trade study, labelled by name and given parameters
+from ..api.laws import law as get_law
+from ..api.metrics import distance
+
+# Grid scheme configurations (labels of aniso_study.CONFIGS) and the inner law each one is counted with.
+DEFAULT_SCHEMES = ("db23_trilinear", "db23_tetrahedral", "db23_shader_48", "zk16_aniso")
+SCHEME_LAW = {"zk16_aniso": "zk16"}
+# Expected counts below this are "dark": K = 0 with probability > 1 - 1e-9 under every law, and the
+# pmfs (trimmed at 1e-14 of mass) cannot resolve relative errors there. They count as exact.
+DARK_NP = 1e-9
+# ZK16's Gaussian switch (DB23 eq. 15) and loop cap.
+ZK16_SWITCH, ZK16_CAP = 5.0, 16
+TILE = (4, 8)  # SIMD group: 4 rows x 8 columns = 32 lanes
+N_BANDS = (0.0, 1.0, 10.0, 100.0, 1e3, 1e4, 1e5, 1e6, math.inf)
+P_BANDS = ("p = 0", "p < 1e-6", "1e-6 <= p < 1e-2", "1e-2 <= p < 0.5", "0.5 <= p <= 1-1e-6", "p > 1-1e-6")
+R_BANDS = (1.0, 2.0, 16.0, math.inf)
+# The comparison of DB23 Table 1: (label, scheme, law) and the paper's ms (min, max over densities).
+TABLE1_METHODS = (("ZK16", "zk16_aniso", "zk16"), ("DB23 tetrahedral", "db23_tetrahedral", "gated"),
+                  ("DB23 shader (48)", "db23_shader_48", "gated"))
+TABLE1_MS = {"sphere": ((0.79, 0.82), (1.15, 1.41)), "plane_90": ((1.15, 1.25), (1.40, 1.83)),
+             "plane_25": ((1.15, 1.26), (2.50, 3.18)), "heightfield_90": ((1.52, 1.63), (1.93, 2.48)),
+             "heightfield_25": ((1.44, 1.54), (3.29, 4.15))}
+
+
+def law_label(name: str, params: dict) -> str:
+    return name + "".join(f"[{k}={v}]" for k, v in sorted(params.items()))
+
+
+def _resolve_laws(laws):
+    out = {}
+    for item in DEFAULT_LAWS if laws is None else laws:
+        if isinstance(item, str):
+            item = (item, {})
+        name, params = item
+        lw = get_law(name, **params)
+        if not lw.has_pmf:
+            V.fail("laws", name, "laws with an exact pmf (the errors are exact)")
+        out[law_label(name, params)] = lw
+    if "binomial" not in out:
+        out = {"binomial": get_law("binomial"), **out}
+    return out
+
+
+# --------------------------------------------------------------------------------------------------
+# Cost table
+
+_COST_CACHE: dict = {}
+COST_POINTS = ((3.5, 0.5), (16.0, 0.1), (1e3, 1e-2), (1e6, 0.3))
+
+
+def measure_costs(laws=None, size: int = 100_000, repeats: int = 5) -> pd.DataFrame:
+    """ns per evaluation of each law, measured in this process (``law.sample`` on one core, best of
+    ``repeats``, mean over COST_POINTS), and for ZK16 the Gaussian-branch cost (n p = 500) and the
+    cost per Bernoulli trial ((t(16 trials) - t(1 trial)) / 15 at p = 0.05). Cached per process."""
+    laws = _resolve_laws(laws)
+    todo = {label: lw for label, lw in laws.items() if (label, size, repeats) not in _COST_CACHE}
+    if todo:
+        # Round robin over the laws, best of `repeats` rounds per (law, point): a machine shared with
+        # other jobs slows whole stretches of time, and interleaving spreads that over every law.
+        best = {}
+
+        def points(lw):
+            if lw.name == "zk16":
+                return ((16.0, 0.05), (1.0, 0.05), (1e3, 0.5))
+            return COST_POINTS
+
+        from .. import _core
+        threads = _core.num_threads()
+        _core.set_num_threads(1)  # one core: no dispatch overhead, and less exposed to a busy second core
+        try:
+            u = _ns_per_uniform()
+            rounds(todo, points, best, repeats, size)
+        finally:
+            _core.set_num_threads(threads)
+        for label, lw in todo.items():
+            if lw.name == "zk16":
+                # The C++ law draws its cap uniforms whatever the branch; a shader draws one per trial.
+                # So: trial = loop body ((t(16) - t(1)) / 15) + one uniform; the Gaussian branch keeps
+                # one of the cap uniforms it was charged for.
+                cap = int(lw.params.get("cap", ZK16_CAP))
+                loop16, loop1, gauss = best[label, 16.0, 0.05], best[label, 1.0, 0.05], best[label, 1e3, 0.5]
+                _COST_CACHE[label, size, repeats] = {"ns_per_eval": max(gauss - (cap - 1) * u, u),
+                                                     "ns_per_trial": max(loop16 - loop1, 0.0) / 15 + u}
+            else:
+                _COST_CACHE[label, size, repeats] = {
+                    "ns_per_eval": float(np.mean([best[label, n, p] for n, p in COST_POINTS])), "ns_per_trial": 0.0}
+    return pd.DataFrame([{"law": label, **_COST_CACHE[label, size, repeats]} for label in laws])
+
+
+def rounds(todo, points, best, repeats, size):
+    for _ in range(repeats):
+        for label, lw in todo.items():
+            for n, p in points(lw):
+                t0 = time.perf_counter()
+                lw.sample(n, p, size=size, seed=1)
+                dt = (time.perf_counter() - t0) / size * 1e9
+                best[label, n, p] = min(best.get((label, n, p), math.inf), dt)
+
+
+def _ns_per_uniform(size: int = 200_000, k: int = 16) -> float:
+    """ns per counter-based uniform (``gl.uniforms``, the generator every law's sample uses)."""
+    from .bench import best_time
+    from ..api.laws import uniforms
+    if "uniform" not in _COST_CACHE:
+        _COST_CACHE["uniform"] = best_time(lambda: uniforms(size, k, seed=1), 5) / (size * k) * 1e9
+    return _COST_CACHE["uniform"]
+
+
+def _cost_table(costs, labels):
+    if costs is None:
+        costs = measure_costs([_split_label(x) for x in labels])
+    if isinstance(costs, dict):
+        costs = pd.DataFrame([{"law": k, "ns_per_eval": v if not isinstance(v, (tuple, list)) else v[0],
+                               "ns_per_trial": 0.0 if not isinstance(v, (tuple, list)) else v[1]}
+                              for k, v in costs.items()])
+    missing = [x for x in labels if x not in set(costs.law)]
+    if missing:
+        V.fail("costs", f"a table without {missing}", "a cost (ns per evaluation) for every law")
+    costs = costs.set_index("law").loc[list(labels)].reset_index()
+    if "ns_per_trial" not in costs:
+        costs["ns_per_trial"] = 0.0
+    for row in costs.itertuples():
+        if not (math.isfinite(row.ns_per_eval) and row.ns_per_eval >= 0):
+            V.fail(f"costs[{row.law!r}]", row.ns_per_eval, "a finite number >= 0")
+    return costs
+
+
+def _split_label(label):
+    name, _, rest = label.partition("[")
+    params = {}
+    for item in ("[" + rest).split("[")[1:] if rest else []:
+        k, _, v = item.rstrip("]").partition("=")
+        try:
+            params[k] = float(v)
+        except ValueError:
+            params[k] = v
+    return (name, params)
+
+
+# --------------------------------------------------------------------------------------------------
+# SIMD groups
+
+def group_max(cost: np.ndarray, active: np.ndarray | None = None, tile=TILE):
+    """(group cost, active lanes) per tile of ``tile`` = (rows, columns) pixels: the maximum over the
+    tile's active pixels (0 when none). Edge tiles are padded with inactive lanes."""
+    cost = np.asarray(cost, dtype=np.float64)
+    active = np.ones(cost.shape, bool) if active is None else np.asarray(active, bool)
+    th, tw = tile
+    H, W = cost.shape
+    Hp, Wp = -(-H // th) * th, -(-W // tw) * tw
+    c = np.zeros((Hp, Wp))
+    a = np.zeros((Hp, Wp), bool)
+    c[:H, :W] = np.where(active, cost, 0.0)
+    a[:H, :W] = active
+    c = c.reshape(Hp // th, th, Wp // tw, tw)
+    a = a.reshape(Hp // th, th, Wp // tw, tw)
+    return c.max(axis=(1, 3)), a.sum(axis=(1, 3))
+
+
+def simd_stats(cost: np.ndarray, active: np.ndarray, tile=TILE) -> dict:
+    g, lanes = group_max(cost, active, tile)
+    used = lanes > 0
+    mean_px = float(cost[active].mean()) if active.any() else 0.0
+    mean_g = float(g[used].mean()) if used.any() else 0.0
+    return {"mean_pixel": mean_px, "mean_group": mean_g, "p95_group": float(np.percentile(g[used], 95)) if used.any() else 0.0,
+            "worst_group": float(g.max()) if used.any() else 0.0,
+            "simd_efficiency": mean_px / mean_g if mean_g > 0 else 1.0}
+
+
+# --------------------------------------------------------------------------------------------------
+# Binning and exact errors
+
+def _log_bins(x, per_decade):
+    return np.floor(np.log10(x) * per_decade).astype(np.int64)
+
+
+def _bin_pixels(n, p, per_decade):
+    """Bin index per pixel over occupied (log10 n, log10 p) bins, with the pixel-weighted mean (n, p)
+    of each bin; p = 0 and dark pixels (n p < DARK_NP) go to a bin of their own (evaluated as exact)."""
+    pos = n * p >= DARK_NP
+    key = np.full(n.shape, -1, np.int64)
+    i, j = _log_bins(n[pos], per_decade), _log_bins(p[pos], per_decade)
+    key[pos] = (i - i.min() + 1) * 10_000_000 + (j - j.min() + 1) if pos.any() else 0
+    uniq, inv = np.unique(key, return_inverse=True)
+    counts = np.bincount(inv)
+    rep_n = np.bincount(inv, weights=n) / counts
+    rep_p = np.bincount(inv, weights=p) / counts
+    zero = uniq == -1
+    rep_p[zero] = 0.0
+    rep_n[zero] = 0.0
+    return inv, counts, rep_n, rep_p
+
+
+def law_errors(laws: dict, n_points, p_points, threads: int | None = None) -> pd.DataFrame:
+    """Exact errors of each law against the binomial at points (n_k, p_k): tv, mean_rel_err =
+    |E[K] / (n p) - 1| (the intensity error of D_P, LAWS.md §1) and rel_rms = sqrt(E[(K - n p)^2]) / (n p)
+    (the per-pixel noise of D_P against D(h)). Like ``gl.error_table`` but on a list of points and
+    with the second moment; pmfs release the GIL, so threads run points in parallel."""
+    ref = get_law("binomial")
+
+    def one(k):
+        nn, pp = float(n_points[k]), float(p_points[k])
+        if pp <= 0 or nn * pp < DARK_NP:
+            return [{"law": lab, "point": k, "tv": 0.0, "mean_rel_err": 0.0, "rel_rms": 0.0} for lab in laws]
+        d_ref = ref.pmf(nn, pp)
+        mu = nn * pp
+        rows = []
+        for lab, lw in laws.items():
+            d = d_ref if lab == "binomial" else lw.pmf(nn, pp)
+            rows.append({"law": lab, "point": k, "tv": 0.0 if d is d_ref else distance(d, d_ref, "tv"),
+                         # The reference's mean is n p exactly (floor(n) p + frac(n) p); its pmf's mean
+                         # differs by round-off and the 1e-14 trimming, which is no error of the law.
+                         "mean_rel_err": 0.0 if d is d_ref else abs(d.mean / mu - 1.0),
+                         "rel_rms": math.sqrt(max(d.var + (d.mean - mu) ** 2, 0.0)) / mu})
+        return rows
+
+    with ThreadPoolExecutor(max_workers=threads or 2) as pool:
+        rows = [r for chunk in pool.map(one, range(len(n_points))) for r in chunk]
+    return pd.DataFrame(rows)
+
+
+# --------------------------------------------------------------------------------------------------
+# Regimes
+
+def _n_band(n):
+    idx = np.searchsorted(N_BANDS, n, side="right") - 1
+    labels = ["n < 1"] + [f"{N_BANDS[k]:g} <= n < {N_BANDS[k + 1]:g}" for k in range(1, len(N_BANDS) - 2)] + \
+             [f"n >= {N_BANDS[-2]:g}"]
+    return idx, labels
+
+
+def _p_band(p):
+    idx = np.select([p == 0, p < 1e-6, p < 1e-2, p < 0.5, p <= 1 - 1e-6], [0, 1, 2, 3, 4], 5)
+    return idx, list(P_BANDS)
+
+
+def _r_band(r):
+    idx = np.searchsorted(R_BANDS, r, side="right") - 1
+    return np.clip(idx, 0, 2), ["1 <= r < 2", "2 <= r < 16", "r >= 16"]
+
+
+def regime_table(n, p, r) -> pd.DataFrame:
+    """Pixels and share per (n band, p band, r band), occupied cells only; ``in_standard_grid`` marks
+    the cells inside the standard grid's range (n in [1, 1e6], p in [1e-6, 1 - 1e-6])."""
+    (ni, nl), (pi, pl), (ri, rl) = _n_band(n), _p_band(p), _r_band(r)
+    key = (ni * 10 + pi) * 10 + ri
+    uniq, counts = np.unique(key, return_counts=True)
+    rows = []
+    for k, c in zip(uniq, counts):
+        a, b, c3 = k // 100, (k // 10) % 10, k % 10
+        rows.append({"n_band": nl[a], "p_band": pl[b], "r_band": rl[c3], "pixels": int(c),
+                     "share": c / n.size, "in_standard_grid": bool(1 <= a <= 6 and b in (2, 3, 4))})
+    return pd.DataFrame(rows)
+
+
+HIST_EDGES = (np.arange(-3.0, 7.01, 0.25), np.arange(-7.0, 0.01, 0.25), np.arange(0.0, 10.01, 0.25))
+
+
+def regime_histogram(n, p, r):
+    """3-D histogram of (log10 n, log10 p, log2 r) over pixels (edges HIST_EDGES; values outside are
+    put in the edge bins; p = 0 pixels are left out)."""
+    pos = p > 0
+    x = np.stack([np.clip(np.log10(n[pos]), -3, 7 - 1e-9), np.clip(np.log10(p[pos]), -7, -1e-12),
+                  np.clip(np.log2(r[pos]), 0, 10 - 1e-9)], axis=1)
+    h, _ = np.histogramdd(x, bins=HIST_EDGES)
+    return h
+
+
+# --------------------------------------------------------------------------------------------------
+# Profile
+
+@dataclass
+class SceneProfile:
+    """What ``profile_scene`` returns: tables (DataFrames), per-pixel maps and the data the advisor needs."""
+    name: str
+    summary: dict
+    tables: dict
+    maps: dict                      # (H, W) arrays: n, p, r, cost maps
+    valid: np.ndarray
+    law_bin: np.ndarray             # bin index per valid pixel
+    law_bin_errors: pd.DataFrame    # law, point (bin), tv, mean_rel_err, rel_rms
+    bin_n: np.ndarray
+    evaluations: dict               # scheme -> (H, W) evaluations per pixel
+    loops: dict                     # scheme -> (H, W) ZK16 Bernoulli trials per pixel (its law on that scheme)
+    costs: pd.DataFrame
+    histogram: np.ndarray
+    seconds: dict = field(default_factory=dict)
+
+    def pixel_cost(self, scheme: str, law: str) -> np.ndarray:
+        c = self.costs.set_index("law").loc[law]
+        out = self.evaluations[scheme] * c.ns_per_eval
+        if _split_label(law)[0] == "zk16":
+            out = out + self.loops[scheme] * c.ns_per_trial
+        return np.where(self.valid, out, 0.0)
+
+    def pixel_error(self, law: str, metric: str = "tv") -> np.ndarray:
+        """Per valid pixel (flattened in row-major order of ``valid``)."""
+        e = self.law_bin_errors[self.law_bin_errors.law == law].sort_values("point")[metric].to_numpy()
+        return e[self.law_bin]
+
+
+def _terms_tables(counter, N, n, r, phi, bins_per_octave=4, phi_bins=16):
+    """Per (log2 n, log2 r, phi) bin of the pixels: the terms' distinct trial counts with their
+    multiplicity (padded), and the weight bias sum(scale x trials) / (N P), at the bin's pixel mean."""
+    i = np.floor(np.log2(n) * bins_per_octave).astype(np.int64)
+    j = np.floor(np.log2(np.maximum(r, 1.0)) * bins_per_octave).astype(np.int64)
+    k = np.floor(phi / math.pi * phi_bins).astype(np.int64) % phi_bins
+    key = ((i - i.min()) * 10_000 + j) * 100 + k
+    uniq, inv = np.unique(key, return_inverse=True)
+    cnt = np.bincount(inv)
+    rep_n = np.exp(np.bincount(inv, weights=np.log(n)) / cnt)
+    rep_r = np.exp(np.bincount(inv, weights=np.log(np.maximum(r, 1.0))) / cnt)
+    rep_phi = np.bincount(inv, weights=phi) / cnt
+    trials, mult, bias = [], [], np.empty(uniq.size)
+    for b in range(uniq.size):
+        P = rep_n[b] / N
+        rows, _ = counter._core.terms(float(N), float(P), float(rep_r[b]), float(rep_phi[b]))
+        t = np.array([x["trials"] for x in rows])
+        s = np.array([x["scale"] for x in rows])
+        bias[b] = float((s * t).sum() / (N * P)) if len(rows) else 0.0
+        u, c = np.unique(t, return_counts=True)
+        trials.append(u)
+        mult.append(c)
+    width = max(len(u) for u in trials)
+    T = np.zeros((uniq.size, width))
+    M = np.zeros((uniq.size, width))
+    for b, (u, c) in enumerate(zip(trials, mult)):
+        T[b, :len(u)], M[b, :len(c)] = u, c
+    return inv, rep_n, T, M, bias
+
+
+def _zk16_loops(inv, rep_n, T, M, n, p, per_term):
+    """Bernoulli trials ZK16's law runs per pixel: terms with n_t p <= 5 loop min(ceil n_t, 16) times."""
+    out = np.zeros(n.size)
+    for c0 in range(0, n.size, 1 << 18):
+        sl = slice(c0, c0 + (1 << 18))
+        t = T[inv[sl]] * (n[sl] / rep_n[inv[sl]])[:, None]
+        loop = (t * p[sl, None] <= ZK16_SWITCH) & (M[inv[sl]] > 0)
+        out[sl] = (M[inv[sl]] * np.where(loop, np.minimum(np.ceil(t - 1e-9), ZK16_CAP), 0.0)).sum(axis=1)
+    return out * per_term
+
+
+def profile_scene(scene, laws=None, schemes=DEFAULT_SCHEMES, seed: int = 1, scale: float = 1.0, costs=None,
+                  bins_per_decade: int = 8) -> SceneProfile:
+    """Profiles ``scene`` (a Scene, a path or a dict): regime map, pixel-weighted exact law errors,
+    per-scheme evaluations and weight bias, and the SIMD cost of every (scheme, law) pair.
+
+    ``costs``: None (measured in this process, see ``measure_costs``), or a table / dict of ns per
+    evaluation per law label (and, for ZK16, a (ns_per_eval, ns_per_trial) pair), for reproducible
+    costs. ``scale`` multiplies the resolution per side. Same seed and costs, same tables."""
+    from .scene import Scene, load_scene
+    t_all = time.perf_counter()
+    scene = scene if isinstance(scene, Scene) else load_scene(scene)
+    if scale != 1.0:
+        scene = scene.scaled(scale, keep_n=True)
+    seed = V.seed(seed)
+    if isinstance(bins_per_decade, bool) or not isinstance(bins_per_decade, int) or not 1 <= bins_per_decade <= 64:
+        V.fail("bins_per_decade", bins_per_decade, "an integer in [1, 64]")
+    schemes = list(schemes)
+    for s in schemes:
+        if s not in _scheme_labels():
+            V.fail("schemes", s, f"labels among {', '.join(_scheme_labels())}")
+    law_objs = _resolve_laws(laws)
+    labels = list(law_objs)
+    cost_table = _cost_table(costs, labels)
+    seconds = {}
+
+    t0 = time.perf_counter()
+    geo = scene.geometry()
+    seconds["geometry"] = time.perf_counter() - t0
+    valid = geo.valid
+    if not valid.any():  # nothing to profile: say so rather than fail on empty tables
+        raise ValueError(f"scene {scene.name!r}: no pixel sees the {scene.kind} (all {geo.width} x "
+                         f"{geo.height} pixels are sky or degenerate); expected a camera that sees the primitive")
+    n, p, r, phi = geo.n[valid], geo.p[valid], geo.r[valid], geo.phi[valid]
+    N = scene.density
+
+    # Regimes
+    regimes = regime_table(n, p, r)
+    hist = regime_histogram(n, p, r)
+
+    # Exact law errors per (n, p) bin
+    t0 = time.perf_counter()
+    inv, counts, rep_n, rep_p = _bin_pixels(n, p, bins_per_decade)
+    errs = law_errors(law_objs, rep_n, rep_p)
+    seconds["law_errors"] = time.perf_counter() - t0
+    w = counts / counts.sum()
+    pos = rep_p > 0
+    vis = rep_n * rep_p >= 1.0  # relative noise is only meaningful where glints are expected
+    law_rows = []
+    for lab in labels:
+        e = errs[errs.law == lab].sort_values("point")
+        tv, mre, rms = e.tv.to_numpy(), e.mean_rel_err.to_numpy(), e.rel_rms.to_numpy()
+        law_rows.append({"law": lab, "tv_mean": float(w @ tv), "tv_worst": float(tv.max()),
+                         "tv_p99": _wquantile(tv, counts, 0.99),
+                         "share_tv_gt_0.05": float(w @ (tv > 0.05)),
+                         "rel_intensity_err_mean": float(w[pos] @ mre[pos] / max(w[pos].sum(), 1e-300)),
+                         "rel_intensity_err_worst": float(mre.max()),
+                         "rel_rms_mean_np_ge_1": float(w[vis] @ rms[vis] / max(w[vis].sum(), 1e-300)),
+                         "rel_rms_worst_np_ge_1": float(rms[vis].max()) if vis.any() else 0.0})
+    laws_table = pd.DataFrame(law_rows)
+
+    # Grid schemes: evaluations per pixel (count_image), terms per bin (weight bias, ZK16 loops)
+    H, W = geo.hit.shape
+    p_img = np.where(valid, geo.p, 0.0)
+    J = np.where(valid[..., None], geo.J, 0.0)
+    evaluations, loops, scheme_rows, kmaps = {}, {}, [], {}
+    for label in schemes:
+        t0 = time.perf_counter()
+        counter = _counter(label, SCHEME_LAW.get(label, "gated"), N)
+        res = counter.count_image(geo.uv, J, N, p_img, seed=seed)
+        ev = np.where(valid, res.evaluations, 0).astype(np.float64)
+        evaluations[label] = ev
+        tinv, trep, T, M, bias = _terms_tables(counter, N, n, r, phi)
+        lp = np.zeros((H, W))
+        lp[valid] = _zk16_loops(tinv, trep, T, M, n, p, counter.evaluations_per_term)
+        loops[label] = lp
+        bias_px = bias[tinv]
+        k_ratio = float(res.K[valid].sum() / max((n * p).sum(), 1e-300))
+        seconds[f"scheme {label}"] = time.perf_counter() - t0
+        hist_ev = np.bincount(ev[valid].astype(np.int64))
+        scheme_rows.append({"scheme": label, "inner_law": SCHEME_LAW.get(label, "gated"),
+                            "evaluations_mean": float(ev[valid].mean()), "evaluations_max": int(ev[valid].max()),
+                            "evaluations_mode": int(np.argmax(hist_ev)),
+                            "weight_bias_mean_abs": float(np.mean(np.abs(bias_px - 1))),
+                            "weight_bias_max": float(bias_px.max()), "weight_bias_min": float(bias_px.min()),
+                            "share_weight_bias_off_1pct": float(np.mean(np.abs(bias_px - 1) > 0.01)),
+                            "image_K_over_np": k_ratio, "clamped_footprints": int((res.status[valid] == 3).sum()),
+                            "seconds": round(seconds[f"scheme {label}"], 3)})
+        kmaps[label] = res.K
+    schemes_table = pd.DataFrame(scheme_rows)
+
+    # Costs per (scheme, law)
+    prof = SceneProfile(scene.name, {}, {}, {}, valid, inv, errs, rep_n, evaluations, loops, cost_table, hist)
+    cost_rows = []
+    for label in schemes:
+        for lab in labels:
+            st = simd_stats(prof.pixel_cost(label, lab), valid)
+            cost_rows.append({"scheme": label, "law": lab, **st})
+    costs_table = pd.DataFrame(cost_rows)
+
+    # DB23 Table 1 comparison
+    t1_rows = []
+    for method, sch, lab in TABLE1_METHODS:
+        if sch in schemes and lab in labels:
+            row = costs_table[(costs_table.scheme == sch) & (costs_table.law == lab)].iloc[0]
+            t1_rows.append({"scene": scene.name, "method": method, "scheme": sch, "law": lab,
+                            **{k: row[k] for k in ("mean_pixel", "mean_group", "p95_group", "worst_group",
+                                                   "simd_efficiency")},
+                            "cost_pixel_std": float(prof.pixel_cost(sch, lab)[valid].std())})
+    table1 = pd.DataFrame(t1_rows)
+    if len(table1):
+        zk = table1[table1.method == "ZK16"]
+        for col in ("worst_group", "mean_group"):
+            table1[f"zk16_over_this_{col}"] = float(zk[col].iloc[0]) / table1[col] if len(zk) else np.nan
+        ms = TABLE1_MS.get(scene.name)
+        if ms:
+            table1["paper_ms"] = [f"{ms[1][0]}-{ms[1][1]}" if m == "ZK16" else f"{ms[0][0]}-{ms[0][1]}"
+                                  for m in table1.method]
+
+    summary = {"scene": scene.name, "primitive": scene.kind, "width": W, "height": H, **geo.summary(),
+               "clamp_intensity_loss_mean": float(np.mean(1 - np.where(geo.p_raw[valid] > 0, p / np.where(
+                   geo.p_raw[valid] > 0, geo.p_raw[valid], 1), 1))),
+               "dark_share": float(np.mean(n * p < DARK_NP)), "n_p_bins": int(len(rep_n)), "bins_per_decade": bins_per_decade,
+               "share_in_standard_grid": float(regimes.loc[regimes.in_standard_grid, "share"].sum())}
+    cost_units = cost_table.assign(scene=scene.name)
+    prof.summary = summary
+    prof.tables = {"summary": pd.DataFrame([summary]), "regimes": regimes.assign(scene=scene.name),
+                   "laws": laws_table.assign(scene=scene.name), "schemes": schemes_table.assign(scene=scene.name),
+                   "costs": costs_table.assign(scene=scene.name), "table1": table1, "cost_units": cost_units}
+    maps = {"n": np.where(valid, geo.n, np.nan), "p": np.where(valid, geo.p, np.nan),
+            "r": np.where(valid, geo.r, np.nan)}
+    for method, sch, lab in TABLE1_METHODS:
+        if sch in schemes and lab in labels:
+            maps[f"group cost {method}"] = group_max(prof.pixel_cost(sch, lab), valid)[0]
+    prof.maps = maps
+    seconds["total"] = time.perf_counter() - t_all
+    prof.seconds = {k: round(v, 3) for k, v in seconds.items()}
+    prof.summary["profile_seconds"] = prof.seconds["total"]
+    prof.tables["summary"] = pd.DataFrame([prof.summary])
+    return prof
+
+
+def _wquantile(x, w, q):
+    o = np.argsort(x)
+    c = np.cumsum(w[o]) / np.sum(w)
+    return float(x[o][min(np.searchsorted(c, q), len(x) - 1)])
+
+
+def _scheme_labels():
+    from ..studies.aniso import IMAGE_CONFIGS
+    return list(IMAGE_CONFIGS)
+
+
+def binning_check(scene, laws=None, bins_per_decade: int = 8) -> pd.DataFrame:
+    """Pixel-weighted mean and worst TV at ``bins_per_decade`` and twice as fine: how much the
+    binning of (n, p) changes the answer (geometry only; no grid scheme is run)."""
+    from .scene import Scene, load_scene
+    scene = scene if isinstance(scene, Scene) else load_scene(scene)
+    geo = scene.geometry()
+    v = geo.valid
+    law_objs = _resolve_laws(laws)
+    rows = []
+    for bpd in (bins_per_decade, 2 * bins_per_decade):
+        inv, counts, rep_n, rep_p = _bin_pixels(geo.n[v], geo.p[v], bpd)
+        errs = law_errors(law_objs, rep_n, rep_p)
+        for lab in law_objs:
+            e = errs[errs.law == lab].sort_values("point")
+            rows.append({"scene": scene.name, "law": lab, "bins_per_decade": bpd, "bins": len(rep_n),
+                         "tv_mean": float(counts @ e.tv.to_numpy() / counts.sum()), "tv_worst": float(e.tv.max())})
+    return pd.DataFrame(rows)
+
+
+# --------------------------------------------------------------------------------------------------
+# Advisor
+
+@dataclass
+class Advice:
+    law: str
+    scheme: str
+    cost: float            # mean SIMD group cost (modelled units)
+    worst_group: float
+    error: dict            # the chosen law's errors on the scene
+    candidates: pd.DataFrame
+    budget: dict
+    per_regime: pd.DataFrame | None = None
+
+    def __str__(self):
+        b = ", ".join(f"{k} <= {v:g}" for k, v in self.budget.items() if k in ("max_tv", "max_rel_error") and v is not None)
+        cov = self.budget.get("coverage", 1.0)
+        head = (f"cheapest law meeting {b or 'no budget'} on {cov:.0%} of the pixels ({self.scheme}): {self.law}\n"
+                f"  expected cost {self.cost:.4g} per SIMD group of 32 (worst group {self.worst_group:.4g}; modelled "
+                f"ns, not GPU ms)\n  error: " + ", ".join(f"{k} {v:.3g}" for k, v in self.error.items()))
+        return head
+
+    def to_dict(self):
+        return {"law": self.law, "scheme": self.scheme, "cost_mean_group": self.cost, "cost_worst_group": self.worst_group,
+                "error": self.error, "budget": self.budget,
+                "candidates": self.candidates.to_dict(orient="records"),
+                "per_regime": None if self.per_regime is None else self.per_regime.to_dict(orient="records")}
+
+
+def _budget(name, value):
+    if value is None:
+        return None
+    value = V.real(name, value)
+    if math.isnan(value) or value < 0:
+        V.fail(name, value, "a number >= 0 (inf for no limit)")
+    return value
+
+
+def advise(scene_or_profile, max_tv=None, max_rel_error=None, coverage: float = 1.0, per_regime: bool = False,
+           scheme: str = "db23_tetrahedral", **profile_kwargs) -> Advice:
+    """The cheapest law (by mean SIMD group cost on ``scheme``) whose per-pixel error meets the budget
+    on at least ``coverage`` of the scene's pixels: TV to the binomial <= ``max_tv`` and/or the
+    relative intensity error |E[K] / (n p) - 1| <= ``max_rel_error``. A budget of 0 leaves the exact
+    law (and laws identical to it on every pixel of this scene); an infinite one the cheapest law.
+    ``per_regime``: one law per n band (the cheapest meeting the budget there); the combined SIMD cost
+    charges a group the worst lane of each law it runs (divergent branches execute one after another)."""
+    max_tv, max_rel_error = _budget("max_tv", max_tv), _budget("max_rel_error", max_rel_error)
+    coverage = V.real("coverage", coverage)
+    if not (0 < coverage <= 1):
+        V.fail("coverage", coverage, "a share in (0, 1]")
+    prof = scene_or_profile if isinstance(scene_or_profile, SceneProfile) else \
+        profile_scene(scene_or_profile, **profile_kwargs)
+    if scheme not in prof.evaluations:
+        V.fail("scheme", scheme, f"one of the profiled schemes ({', '.join(prof.evaluations)})")
+    labels = list(prof.costs.law)
+    valid = prof.valid
+
+    def meets(errs_tv, errs_rel, mask=None):
+        ok = np.ones(errs_tv.shape, bool)
+        if max_tv is not None:
+            ok &= errs_tv <= max_tv
+        if max_rel_error is not None:
+            ok &= errs_rel <= max_rel_error
+        return ok
+
+    rows, err_px, cost_px = [], {}, {}
+    for lab in labels:
+        tv, rel = prof.pixel_error(lab, "tv"), prof.pixel_error(lab, "mean_rel_err")
+        err_px[lab] = (tv, rel)
+        cost = prof.pixel_cost(scheme, lab)
+        cost_px[lab] = cost
+        st = simd_stats(cost, valid)
+        share = float(meets(tv, rel).mean()) if tv.size else 1.0
+        rows.append({"law": lab, "cost_mean_group": st["mean_group"], "cost_worst_group": st["worst_group"],
+                     "cost_mean_pixel": st["mean_pixel"], "tv_worst": float(tv.max()) if tv.size else 0.0,
+                     "tv_at_coverage": float(np.quantile(tv, coverage, method="higher")) if tv.size else 0.0,
+                     "rel_err_worst": float(rel.max()) if rel.size else 0.0,
+                     "share_meeting": share, "meets_budget": share >= coverage - 1e-12})
+    cand = pd.DataFrame(rows).sort_values(["meets_budget", "cost_mean_group"], ascending=[False, True],
+                                          kind="stable").reset_index(drop=True)
+    best = cand.iloc[0]
+    if not best.meets_budget:  # cannot happen: the binomial has error 0 everywhere
+        raise RuntimeError("no law meets the budget; the exact binomial should")
+    budget = {"max_tv": max_tv, "max_rel_error": max_rel_error, "coverage": coverage}
+    error = {"tv_worst": best.tv_worst, "tv_at_coverage": best.tv_at_coverage, "rel_err_worst": best.rel_err_worst,
+             "tv_mean": float(err_px[best.law][0].mean()) if valid.any() else 0.0}
+    advice = Advice(best.law, scheme, float(best.cost_mean_group), float(best.cost_worst_group), error, cand, budget)
+    if per_regime:
+        band, names = _n_band(prof.maps["n"][valid])
+        choice = np.empty(band.size, dtype=object)
+        reg_rows = []
+        for b in np.unique(band):
+            m = band == b
+            options = []
+            for lab in labels:
+                ok = meets(err_px[lab][0][m], err_px[lab][1][m])
+                if ok.mean() >= coverage - 1e-12:
+                    options.append((float(cost_px[lab][valid][m].mean()), lab))
+            best_b = min(options)[1]
+            choice[m] = best_b
+            reg_rows.append({"n_band": names[b], "pixels": int(m.sum()), "law": best_b,
+                             "cost_mean_pixel": float(cost_px[best_b][valid][m].mean()),
+                             "tv_worst": float(err_px[best_b][0][m].max())})
+        # Divergent SIMD: a group pays, for each law it runs, that law's worst lane.
+        total = np.zeros((-(-valid.shape[0] // TILE[0]), -(-valid.shape[1] // TILE[1])))
+        lane_cost = np.zeros(valid.shape)
+        for lab in set(choice):
+            mask = np.zeros(valid.shape, bool)
+            mask[valid] = choice == lab
+            g, _ = group_max(cost_px[lab], mask)
+            total = total + g
+            lane_cost[mask] = cost_px[lab][mask]
+        used = group_max(np.zeros(valid.shape), valid)[1] > 0
+        reg = pd.DataFrame(reg_rows)
+        reg.attrs.update(cost_mean_group=float(total[used].mean()), cost_worst_group=float(total.max()),
+                         cost_mean_pixel=float(lane_cost[valid].mean()))
+        advice.per_regime = reg
+    return advice
+
+
+# --------------------------------------------------------------------------------------------------
+# Figures and files
+
+def regime_figure(prof: SceneProfile, title_note: str = ""):
+    """Regime map: pixel histograms of (log10 n, log10 p) and (log10 n, log2 r), and the n, p, r maps."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+    fig, axes = plt.subplots(2, 3, figsize=(13, 6.6))
+    h = prof.histogram
+    e = HIST_EDGES
+    for ax, data, ex, xl, yl in ((axes[0, 0], h.sum(axis=2).T, (e[0][0], e[0][-1], e[1][0], e[1][-1]), "log10 n", "log10 p"),
+                                 (axes[0, 1], h.sum(axis=1).T, (e[0][0], e[0][-1], e[2][0], e[2][-1]), "log10 n", "log2 r")):
+        im = ax.imshow(np.where(data > 0, data, np.nan), origin="lower", aspect="auto", extent=ex,
+                       norm=LogNorm(vmin=1, vmax=max(data.max(), 2)), cmap="viridis")
+        ax.set_xlabel(xl)
+        ax.set_ylabel(yl)
+        fig.colorbar(im, ax=ax, label="pixels")
+    axes[0, 0].axvline(0, color="w", lw=0.8, ls="--")
+    axes[0, 0].axvline(6, color="w", lw=0.8, ls="--")
+    axes[0, 0].axhline(-6, color="w", lw=0.8, ls="--")
+    axes[0, 0].set_title("(n, p): dashed = standard grid", fontsize=9)
+    axes[0, 1].axhline(4, color="w", lw=0.8, ls="--")
+    axes[0, 1].set_title("(n, r): dashed = r 16 (ZK16 widens beyond)", fontsize=9)
+    reg = prof.tables["regimes"].groupby("r_band")["share"].sum()
+    axes[0, 2].bar(reg.index, reg.values, color="tab:blue")
+    nb = prof.tables["regimes"].groupby("n_band", sort=False)["share"].sum()
+    axes[0, 2].set_title("share of pixels per r band", fontsize=9)
+    axes[0, 2].tick_params(axis="x", labelsize=8)
+    for ax, key, norm, lab in ((axes[1, 0], "n", LogNorm(), "n = N P"), (axes[1, 1], "p", None, "p = R D(h)/D(n)"),
+                               (axes[1, 2], "r", LogNorm(vmin=1), "r (footprint ratio)")):
+        m = prof.maps[key]
+        im = ax.imshow(m, norm=norm, cmap="magma" if key != "p" else "viridis")
+        ax.set_title(lab, fontsize=9)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        fig.colorbar(im, ax=ax, fraction=0.03)
+    s = prof.summary
+    fig.suptitle(f"{prof.name}: regime map, {s['width']} x {s['height']}{title_note}; sky {s['sky']}, p clamped "
+                 f"{s['p_clamped_share']:.1%}, r > 16 {s['r_gt_16_share']:.2%}, in standard grid "
+                 f"{s['share_in_standard_grid']:.1%}", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def cost_maps_figure(prof: SceneProfile, title_note: str = ""):
+    """Cost per 8 x 4 SIMD group (modelled ns), ZK16 against DB23, on a common colour scale."""
+    import matplotlib.pyplot as plt
+    keys = [k for k in prof.maps if k.startswith("group cost")]
+    vmax = max(np.nanmax(prof.maps[k]) for k in keys)
+    fig, axes = plt.subplots(1, len(keys), figsize=(4.6 * len(keys), 3.2), squeeze=False)
+    for ax, k in zip(axes[0], keys):
+        im = ax.imshow(prof.maps[k], cmap="inferno", vmin=0, vmax=vmax)
+        g = prof.maps[k]
+        ax.set_title(f"{k[len('group cost '):]}: mean {g[g > 0].mean():.0f}, worst {g.max():.0f}", fontsize=9)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        fig.colorbar(im, ax=ax, fraction=0.03)
+    fig.suptitle(f"{prof.name}: cost of each 8 x 4 SIMD group = its most expensive pixel (modelled ns){title_note}",
+                 fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def worst_group_figure(table1: pd.DataFrame, title_note: str = ""):
+    """Worst and mean SIMD group cost per scene and method, next to DB23 Table 1's ratio."""
+    import matplotlib.pyplot as plt
+    scenes = list(dict.fromkeys(table1.scene))
+    methods = list(dict.fromkeys(table1.method))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 3.8))
+    width = 0.8 / len(methods)
+    x = np.arange(len(scenes))
+    for i, m in enumerate(methods):
+        d = table1[table1.method == m].set_index("scene").reindex(scenes)
+        axes[0].bar(x + i * width, d.worst_group, width, label=m)
+        axes[0].bar(x + i * width, d.mean_group, width * 0.5, color="k", alpha=0.35)
+    axes[0].set_xticks(x + width * (len(methods) - 1) / 2, scenes, fontsize=8)
+    axes[0].set_yscale("log")
+    axes[0].set_ylabel("group cost (modelled ns)")
+    axes[0].set_title("worst group (bars), mean group (dark inset)", fontsize=9)
+    axes[0].legend(fontsize=8)
+    zk = table1[table1.method == "ZK16"].set_index("scene").reindex(scenes)
+    db = table1[table1.method == "DB23 tetrahedral"].set_index("scene").reindex(scenes)
+    paper = [np.mean(TABLE1_MS[s][1]) / np.mean(TABLE1_MS[s][0]) if s in TABLE1_MS else np.nan for s in scenes]
+    axes[1].bar(x - 0.2, zk.worst_group / db.worst_group, 0.2, label="model: worst group ZK16 / DB23")
+    axes[1].bar(x, zk.mean_group / db.mean_group, 0.2, label="model: mean group ZK16 / DB23")
+    axes[1].bar(x + 0.2, paper, 0.2, label="DB23 Table 1: ms ZK16 / ours (mid-range)")
+    axes[1].set_xticks(x, scenes, fontsize=8)
+    axes[1].set_ylabel("ratio")
+    axes[1].legend(fontsize=7)
+    axes[1].set_title("ZK16 over DB23 per scene", fontsize=9)
+    fig.suptitle(f"DB23 Table 1 scenes: modelled SIMD cost (CPU-measured ns per law evaluation; not GPU ms){title_note}",
+                 fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def combine_tables(profiles) -> dict:
+    names = ("summary", "regimes", "laws", "schemes", "costs", "table1", "cost_units")
+    return {name: pd.concat([p.tables[name] for p in profiles], ignore_index=True) for name in names}
+
+
+def write_profiles(profiles, out, advice=None, title_note: str = "", prefix: str = "scene_"):
+    """CSV tables and PNG figures of profiles into ``out``; returns (figure paths, {name: table})."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from pathlib import Path
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    tables = {prefix + k: v for k, v in combine_tables(profiles).items()}
+    if advice is not None:
+        tables[prefix + "advice"] = advice
+    paths = []
+
+    def save(fig, name):
+        paths.append(out / name)
+        fig.savefig(paths[-1], dpi=90)
+        plt.close(fig)
+
+    for prof in profiles:
+        save(regime_figure(prof, title_note), f"{prefix}{prof.name}_regimes.png")
+        save(cost_maps_figure(prof, title_note), f"{prefix}{prof.name}_cost_maps.png")
+    if len(tables[prefix + "table1"]):
+        save(worst_group_figure(tables[prefix + "table1"], title_note), f"{prefix}worst_group_cost.png")
+    for name, df in tables.items():
+        df.to_csv(out / f"{name}.csv", index=False)
+    return paths, tables
+
+
+def advice_table(profiles, max_tv: float = 0.05, scheme: str = "db23_tetrahedral") -> pd.DataFrame:
+    rows = []
+    for prof in profiles:
+        a = advise(prof, max_tv=max_tv, scheme=scheme)
+        b = advise(prof, max_tv=max_tv, scheme=scheme, per_regime=True)
+        rows.append({"scene": prof.name, "max_tv": max_tv, "scheme": scheme, "law": a.law,
+                     "cost_mean_group": a.cost, "cost_worst_group": a.worst_group, "tv_worst": a.error["tv_worst"],
+                     "per_regime_laws": "; ".join(f"{r.n_band}: {r.law}" for r in b.per_regime.itertuples()),
+                     "per_regime_cost_mean_group": b.per_regime.attrs["cost_mean_group"]})
+    return pd.DataFrame(rows)

@@ -1,0 +1,188 @@
+"""Experiments as data: a JSON file (data/schema/experiment.schema.json) describing laws, an (n, p)
+grid, metrics, a reference, sample counts and a seed; ``run_experiment`` runs it through ``sweep``.
+
+Documents are parsed and validated in C++ (validation/src/documents.cpp, the same code the fuzzer
+exercises): a bad file raises ``InputError`` (a ValueError) whose message names the file, the JSON
+pointer of the bad field and what was expected. Defaults are filled in by the parser, and results
+(results.json) carry the complete configuration and the glintlab version, so
+``glintlab run results.json`` re-runs an experiment exactly.
+"""
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .._core import __version__
+from .. import _core
+from .grid import standard_grid
+
+RESULT_FORMAT = 1
+
+
+def parse_document(kind: str, source) -> tuple[dict, str, Path | None]:
+    """(normalized document, source name, base directory for relative paths) of an experiment or
+    bounds document given as a path, JSON text, or an already-loaded dict."""
+    if isinstance(source, dict):
+        text, name, base = json.dumps(source), f"<{kind}>", None
+    elif isinstance(source, Path) or (isinstance(source, str) and not source.lstrip().startswith("{")):
+        path = Path(source)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise ValueError(f"{path}: no such file") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{path}: cannot read it ({exc})") from None
+        name, base = str(path), path.resolve().parent
+    elif isinstance(source, str):
+        text, name, base = source, f"<{kind}>", None
+    else:
+        raise ValueError(f"{kind} = {source!r} is invalid; expected a path, JSON text or a dict")
+    if kind == "experiment":
+        try:
+            raw = json.loads(text)
+        except ValueError:
+            raw = None
+        if isinstance(raw, dict) and raw.get("glintlab_result") == RESULT_FORMAT and "config" in raw:
+            # A results file: re-run its stored configuration, with paths relative to where it ran.
+            doc = json.loads(_core.parse_document(kind, json.dumps(raw["config"]), name + "#/config"))
+            return doc, name, Path(raw["base_dir"]) if raw.get("base_dir") else base
+    return json.loads(_core.parse_document(kind, text, name)), name, base
+
+
+def axis_values(spec, which: str) -> np.ndarray:
+    """An experiment's grid axis: a list, {"logspace": [lo, hi, count]}, {"linspace": ...} or "standard"."""
+    if isinstance(spec, str):
+        n, p = standard_grid()
+        return n if which == "n" else p
+    if isinstance(spec, dict) and "logspace" in spec:
+        lo, hi, count = spec["logspace"]
+        return np.logspace(lo, hi, int(count))
+    if isinstance(spec, dict) and "linspace" in spec:
+        lo, hi, count = spec["linspace"]
+        return np.linspace(lo, hi, int(count))
+    return np.asarray(spec, dtype=np.float64)
+
+
+@dataclass
+class ExperimentResult:
+    table: pd.DataFrame
+    config: dict
+    source: str
+    seconds: float
+    files: list = field(default_factory=list)
+
+
+def run_experiment(source, out=None, store=None, progress=None, threads=None, **engine) -> ExperimentResult:
+    """Runs an experiment (a path, JSON text or dict; or a results.json to re-run). With ``out``,
+    writes results.csv, results.json and one PNG per metric there (as the document's outputs say).
+    ``engine``: sweep's engine, scheduler, workers, chunk and timeout (e.g. engine="dask")."""
+    from .sweep import resolve_law, sweep
+    doc, name, base = parse_document("experiment", source)
+    laws = []
+    for i, spec in enumerate(doc["laws"]):
+        try:
+            laws.append(resolve_law(spec, base))
+        except ValueError as exc:
+            raise ValueError(f"{name}: at /laws/{i}: {exc}") from None
+    reference = doc["reference"]
+    if isinstance(reference, dict) and "law" in reference:
+        try:
+            reference = resolve_law(reference["law"], base)
+        except ValueError as exc:
+            raise ValueError(f"{name}: at /reference/law: {exc}") from None
+    n = axis_values(doc["grid"]["n"], "n")
+    p = axis_values(doc["grid"]["p"], "p")
+    t0 = time.perf_counter()
+    try:
+        table = sweep(laws, n=n, p=p, metrics=doc["metrics"], reference=reference, samples=doc["samples"],
+                      seed=doc["seed"], store=store, progress=progress, threads=threads, **engine)
+    except ValueError as exc:
+        raise ValueError(f"{name}: {exc}") from None
+    result = ExperimentResult(table, doc, name, round(time.perf_counter() - t0, 3))
+    if out is not None:
+        result.files = write_results(result, Path(out), base)
+    return result
+
+
+def write_results(result: ExperimentResult, out: Path, base: Path | None) -> list:
+    out.mkdir(parents=True, exist_ok=True)
+    doc, files = result.config, []
+    if doc["outputs"]["csv"]:
+        files.append(out / "results.csv")
+        result.table.to_csv(files[-1], index=False)
+    if doc["outputs"]["json"]:
+        files.append(out / "results.json")
+        payload = {"glintlab_result": RESULT_FORMAT, "glintlab_version": __version__, "config": doc,
+                   "source": result.source, "base_dir": str(base) if base else None,
+                   "command": "glintlab run " + shlex.quote(str(out / "results.json")),
+                   "python": sys.version.split()[0], "seconds": result.seconds,
+                   "rows": result.table.to_dict("records")}
+        # numpy scalars as Python numbers: repr of a float round-trips exactly.
+        files[-1].write_text(json.dumps(payload, indent=1, default=lambda x: x.item()))
+    if doc["outputs"]["plots"]:
+        files += plot_results(result.table, doc["metrics"], out)
+    return files
+
+
+def plot_results(table: pd.DataFrame, metrics, out: Path) -> list:
+    """One PNG per metric: a log-scaled map over (n, p) per law when both axes vary, else curves."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+
+    paths = []
+    laws = list(dict.fromkeys(table.law))
+    n_vals, p_vals = np.unique(table.n), np.unique(table.p)
+    for metric in metrics:
+        if n_vals.size > 1 and p_vals.size > 1:
+            cols = min(4, len(laws))
+            rows = (len(laws) + cols - 1) // cols
+            fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 2.9 * rows), squeeze=False)
+            values = table[metric].to_numpy(dtype=float)
+            positive = values[np.isfinite(values) & (values > 0)]
+            lo = max(positive.min(), 1e-16) if positive.size else 1e-16
+            hi = max(positive.max(), lo * 10) if positive.size else 1.0
+            for ax, lw in zip(axes.ravel(), laws):
+                grid = table[table.law == lw].pivot(index="p", columns="n", values=metric)
+                z = np.clip(grid.to_numpy(dtype=float), lo, hi)
+                im = ax.pcolormesh(np.arange(grid.shape[1] + 1), np.arange(grid.shape[0] + 1), z,
+                                   norm=LogNorm(lo, hi), cmap="magma", shading="flat")
+                ax.set_title(lw, fontsize=8)
+                _ticks(ax.set_xticks, grid.columns.to_numpy())
+                _ticks(ax.set_yticks, grid.index.to_numpy())
+                ax.set_xlabel("n", fontsize=7)
+                ax.set_ylabel("p", fontsize=7)
+            for ax in axes.ravel()[len(laws):]:
+                ax.axis("off")
+            fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8, label=metric)
+        else:
+            fig, ax = plt.subplots(figsize=(6, 3.6))
+            x_name = "n" if n_vals.size > 1 else "p"
+            for lw in laws:
+                sub = table[table.law == lw]
+                ax.plot(sub[x_name], sub[metric], "o-", ms=3, label=lw)
+            ax.set_xscale("log")
+            if (table[metric] > 0).any():
+                ax.set_yscale("log")
+            ax.set_xlabel(x_name)
+            ax.set_ylabel(metric)
+            ax.grid(True, which="both", alpha=0.3)
+            ax.legend(fontsize=7)
+            fig.tight_layout()
+        paths.append(out / f"{metric}.png")
+        fig.savefig(paths[-1], dpi=100)
+        plt.close(fig)
+    return paths
+
+
+def _ticks(setter, values):
+    idx = np.unique(np.linspace(0, values.size - 1, min(values.size, 4)).astype(int))
+    setter(idx + 0.5, [f"{values[i]:.3g}" for i in idx], fontsize=6)
