@@ -12,7 +12,7 @@ from .api.grids import AnisoCounter, aniso_counter, footprint_shapes, grid_schem
 from .api.blends import BlendedLaw, blend_summaries, blended_law, blends, roulette_keep_moments, zk16_variance_ratio
 from .api.exact import binomial, poisson
 from .validation.extremes import extremes_summary, extremes_table, invalid_inputs_table, write_extremes_report
-from .validation.grid import error_table, standard_grid
+from .validation.grid import standard_grid
 from .api.laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
 from .api.metrics import METRICS, chi2_test, distance, sidak_alpha
 from .api.ndf import NDF, ndf
@@ -22,7 +22,7 @@ from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_
 __version__ = _core.__version__
 
 # After __version__: sweeps, results and stores record it.
-from .validation.sweep import sweep  # noqa: E402
+from .validation.sweep import error_table, sweep  # noqa: E402
 from .validation.bounds import check, perturbed_law  # noqa: E402
 from .validation.experiment import run_experiment  # noqa: E402
 from .validation.scene import Advice, Scene, SceneProfile, advise, load_scene, profile_scene  # noqa: E402  (the advisor uses bench, which records __version__)

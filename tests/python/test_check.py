@@ -9,8 +9,7 @@ import pytest
 import glintlab as gl
 from glintlab.validation.bounds import DEFAULT_BOUNDS, check, perturbed_law
 from glintlab.cli.main import main
-from glintlab.validation.grid import _label
-from glintlab.validation.sweep import resolve_law
+from glintlab.validation.references import resolve_law
 
 DOC = json.loads(DEFAULT_BOUNDS.read_text())
 
@@ -32,7 +31,7 @@ def test_default_bounds_cover_every_built_in_law_and_hold():
 def test_every_default_bound_fails_for_a_perturbed_law(index):
     bound = DOC["bounds"][index]
     law = resolve_law(bound["law"])
-    table = check(dict(DOC, bounds=[bound]), substitute={_label(law): perturbed_law(law, p_scale=1.5)})
+    table = check(dict(DOC, bounds=[bound]), substitute={law.label: perturbed_law(law, p_scale=1.5)})
     assert not table.ok.iloc[0], f"{bound['id']} held for a law evaluated at 1.5 p: worst {table.worst.iloc[0]}"
 
 

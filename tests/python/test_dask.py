@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 import glintlab as gl
-from glintlab.validation.sweep import resolve_law
+from glintlab.validation.references import resolve_law
 
 ROOT = Path(__file__).resolve().parents[2]
 PYTHON = str(ROOT / ".venv" / "bin" / "python")
@@ -76,7 +76,7 @@ def test_a_killed_client_resumes_from_the_store(cluster, tmp_path):
     store = tmp_path / "store.jsonl"
     script = tmp_path / "client.py"
     script.write_text(
-        "import glintlab as gl\nfrom glintlab.validation.sweep import resolve_law\n"
+        "import glintlab as gl\nfrom glintlab.validation.references import resolve_law\n"
         "if __name__ == '__main__':\n"
         f"    law = resolve_law({{'name': 'slow_dask_law', 'python': '{law_file}:law', 'n_uniforms': 1}})\n"
         f"    gl.sweep([law], n={GRID['n']}, p={GRID['p']}, metrics=['tv'], samples=200, seed=4, engine='dask',\n"

@@ -38,7 +38,7 @@ def test_every_builtin_law_appears_in_each_precision_it_supports(default_table):
     assert {"binomial", "poisson", "gated", "gated_shader"} <= set(builtin)
     for name in builtin:
         law = gl.law(name)
-        label = ex._label(law)
+        label = law.label
         assert label in labels, name
         g = t[t.law == label]
         assert set(g.precision) == set(law.precisions), name

@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 import glintlab as gl
-from glintlab.validation.sweep import row_seed, tv_noise
+from glintlab.validation.rows import row_seed, tv_noise
 
 ROOT = Path(__file__).resolve().parents[2]
 PYTHON = str(ROOT / ".venv" / "bin" / "python")
@@ -137,7 +137,7 @@ def law(n, p, u):
 SWEEP_SCRIPT = '''
 import sys
 import glintlab as gl
-from glintlab.validation.sweep import resolve_law
+from glintlab.validation.references import resolve_law
 law = resolve_law({{"name": "slow_law", "python": "{law}:law", "n_uniforms": 1}})
 gl.sweep([law], n=[1, 2, 4, 8, 16, 32], p=[0.1, 0.2, 0.3, 0.4], metrics=["tv"], samples=100, seed=4,
          store="{store}", threads=2, progress=False)
@@ -174,7 +174,7 @@ def test_interrupted_sweep_loses_nothing_and_recomputes_nothing(tmp_path, how):
         assert "run the same sweep again" in err
     kept = len(store.read_text().splitlines()) - 1
     assert 6 <= kept < 24
-    from glintlab.validation.sweep import resolve_law
+    from glintlab.validation.references import resolve_law
     law = resolve_law({"name": "slow_law", "python": f"{law_file}:law", "n_uniforms": 1})
     resumed = gl.sweep([law], n=[1, 2, 4, 8, 16, 32], p=[0.1, 0.2, 0.3, 0.4], metrics=["tv"], samples=100, seed=4,
                        store=store, threads=2)

@@ -32,6 +32,12 @@ class Law:
         return dict(self._core.params)
 
     @property
+    def label(self) -> str:
+        """The law's name with its parameters, e.g. ``gaussian[rounding=floor]``: how tables, stores and
+        bounds name it (``parse_law_label`` reads it back)."""
+        return law_label(self.name, self.params)
+
+    @property
     def n_uniforms(self) -> int:
         """Random numbers one ``evaluate`` row consumes."""
         return self._core.n_uniforms
@@ -187,6 +193,24 @@ class CustomLaw(Law):
             out[i0:i1] = self._call(nf if nf.size == 1 else nf[i0:i1],
                                     pf if pf.size == 1 else pf[i0:i1], u, precision)
         return out
+
+
+def law_label(name: str, params: dict) -> str:
+    """``name[key=value]...`` with the parameters in key order; just ``name`` without parameters."""
+    return name + "".join(f"[{k}={val}]" for k, val in sorted(params.items()))
+
+
+def parse_law_label(label: str) -> tuple[str, dict]:
+    """(name, params) of a ``law_label``; numeric values come back as floats."""
+    name, _, rest = label.partition("[")
+    params = {}
+    for item in ("[" + rest).split("[")[1:] if rest else []:
+        key, _, value = item.rstrip("]").partition("=")
+        try:
+            params[key] = float(value)
+        except ValueError:
+            params[key] = value
+    return name, params
 
 
 def _rebuild_law(name, params, plugin):

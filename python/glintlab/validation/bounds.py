@@ -23,7 +23,6 @@ import pandas as pd
 
 from ..api import checks as v
 from .._core import Distribution
-from .grid import _label
 from ..api.laws import Law
 from .sweep import sweep
 
@@ -58,7 +57,7 @@ def check(bounds=DEFAULT_BOUNDS, substitute: dict | None = None, progress=None) 
     ``substitute`` maps a bound's law label (e.g. "gated") to a Law object evaluated in its place
     (how the tests show that a wrong law violates a bound).
     """
-    from .sweep import resolve_law
+    from .references import resolve_law
     doc, source, base = load_bounds(bounds)
     substitute = substitute or {}
     rows = []
@@ -68,7 +67,7 @@ def check(bounds=DEFAULT_BOUNDS, substitute: dict | None = None, progress=None) 
             lw = resolve_law(b["law"], base)
         except ValueError as exc:
             raise ValueError(f"{source}: at /bounds/{i}/law: {exc}") from None
-        label = _label(lw)
+        label = lw.label
         lw = substitute.get(label, lw)
         pts = regime_points(b.get("regime", {}))
         limit = "max" if "maximum" in b else "min"
@@ -153,5 +152,5 @@ class PerturbedLaw(Law):
 
 def perturbed_law(law, p_scale: float = 1.5, shift: float = 0.0) -> PerturbedLaw:
     """A deliberately wrong law (see PerturbedLaw) for showing that a bound can fail."""
-    from .sweep import resolve_law
+    from .references import resolve_law
     return PerturbedLaw(resolve_law(law), p_scale, shift)

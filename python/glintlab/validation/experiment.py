@@ -83,7 +83,8 @@ def run_experiment(source, out=None, store=None, progress=None, threads=None, **
     """Runs an experiment (a path, JSON text or dict; or a results.json to re-run). With ``out``,
     writes results.csv, results.json and one PNG per metric there (as the document's outputs say).
     ``engine``: sweep's engine, scheduler, workers, chunk and timeout (e.g. engine="dask")."""
-    from .sweep import resolve_law, sweep
+    from .references import resolve_law
+    from .sweep import sweep
     doc, name, base = parse_document("experiment", source)
     laws = []
     for i, spec in enumerate(doc["laws"]):

@@ -22,324 +22,24 @@ trip, which is exact for floats).
 """
 from __future__ import annotations
 
-import hashlib
-import json
-import math
 import os
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from .._core import __version__ as _version
 from ..api import checks as v
-from .._core import Distribution
-from .grid import _label, standard_grid
-from ..api.laws import Law, law as get_law
-from .engines import ThreadEngine
-from ..api.metrics import METRICS, chi2_test, distance
+from ..api.laws import Law
+from .engines import DaskEngine, ThreadEngine
+from .grid import standard_grid
+from .references import make_reference, resolve_law
+from .rows import MOMENT_METRICS, SAMPLED_ONLY, SWEEP_METRICS, compute_chunk
+from .store import STORE_FORMAT, SweepStore, row_key
 
-MOMENT_METRICS = ("mean_rel_err", "var_rel_err")
-SAMPLED_ONLY = ("chi2_pvalue",)
-SWEEP_METRICS = tuple(METRICS) + MOMENT_METRICS + SAMPLED_ONLY
 DEFAULT_METRICS = ("tv", "mean_rel_err", "var_rel_err")
-STORE_FORMAT = 1
+__all__ = ["sweep", "DEFAULT_METRICS", "SWEEP_METRICS", "MOMENT_METRICS", "SAMPLED_ONLY", "STORE_FORMAT"]
 
-
-# ---------------------------------------------------------------------------------------------
-# References: what a law is compared with.
-
-class LawReference:
-    """Another law (by default the exact binomial) as the reference."""
-
-    def __init__(self, law_: Law):
-        self.law = law_
-        self.spec = _label(law_)
-
-    @property
-    def has_pmf(self) -> bool:
-        return self.law.has_pmf
-
-    def pmf(self, n, p) -> Distribution:
-        return self.law.pmf(n, p)
-
-    def sample(self, n, p, size, seed):
-        return self.law.bin(self.law.sample(n, p, size=size, seed=seed))
-
-
-class GroundTruthReference:
-    """The ground truth of a facet layout (``gl.ground_truth``): at grid point (n, p), the count in a
-    footprint of area n / density (a rectangle or ellipse of the given aspect and angle) placed at a
-    uniformly random position."""
-
-    def __init__(self, layout="stratified", density=None, footprint="rect", aspect=1.0, angle=0.0):
-        from ..api.spatial import LAYOUTS
-        if layout not in LAYOUTS:
-            v.fail("layout", layout, "one of " + ", ".join(LAYOUTS))
-        self.layout, self.density = layout, v.real("density", density)
-        if not (self.density >= 1 and math.isfinite(self.density)):
-            v.fail("density", density, "a number >= 1")
-        if footprint not in ("rect", "ellipse"):
-            v.fail("footprint", footprint, "'rect' or 'ellipse'")
-        self.footprint, self.aspect, self.angle = footprint, v.real("aspect", aspect), v.real("angle", angle)
-        if not self.aspect >= 1:
-            v.fail("aspect", aspect, "a number >= 1")
-        self.spec = {"ground_truth": dict(layout=layout, density=self.density, footprint=footprint,
-                                          aspect=self.aspect, angle=self.angle)}
-
-    has_pmf = True
-
-    def _truth(self, n, p):
-        from ..api.spatial import footprint_for_area, ground_truth
-        area = n / self.density
-        if not 0 < area <= 1:
-            raise ValueError(f"ground truth reference: n = {n!r} gives a footprint of area n / density = {area!r}; "
-                             f"expected an area in (0, 1] (n in (0, {self.density:g}])")
-        fp = footprint_for_area(area, aspect=self.aspect, angle=self.angle, shape=self.footprint)
-        density = int(self.density) if self.layout != "poisson" else self.density
-        return ground_truth(self.layout, density=density, footprint=fp, p=p)
-
-    def pmf(self, n, p) -> Distribution:
-        return self._truth(n, p).pmf()
-
-    def sample(self, n, p, size, seed):
-        return self._truth(n, p).sample(size=size, seed=seed)
-
-
-def make_reference(spec):
-    """A reference from a law name, a Law, {"law": spec}, {"ground_truth": {...}} or a reference object."""
-    if isinstance(spec, (LawReference, GroundTruthReference)):
-        return spec
-    if isinstance(spec, Law):
-        return LawReference(spec)
-    if isinstance(spec, dict) and "ground_truth" in spec:
-        return GroundTruthReference(**spec["ground_truth"])
-    if isinstance(spec, dict) and "law" in spec:
-        return LawReference(resolve_law(spec["law"]))
-    if isinstance(spec, str):
-        return LawReference(resolve_law(spec))
-    v.fail("reference", spec, "a law name, a Law, {'law': ...} or {'ground_truth': {...}}")
-
-
-def resolve_law(spec, base_dir: Path | None = None) -> Law:
-    """A law from a name, a Law, or an experiment's law object ({name, params}, {name, plugin} or
-    {name, python, n_uniforms}); plugin and python file paths are relative to ``base_dir``."""
-    if isinstance(spec, Law):
-        return spec
-    if isinstance(spec, str):
-        return get_law(spec)
-    if not isinstance(spec, dict) or "name" not in spec:
-        v.fail("law", spec, "a law name, a Law or an object with a name")
-    name = spec["name"]
-    if "plugin" in spec:
-        from ..api.plugins import load_plugin
-        path = Path(spec["plugin"])
-        if base_dir is not None and not path.is_absolute():
-            path = base_dir / path
-        names = load_plugin(str(path))
-        if name not in names:
-            raise ValueError(f"plugin {str(path)!r} has no law named {name!r}; it has {names}")
-        return get_law(name)
-    if "python" in spec:
-        from ..api.laws import custom_law
-        fn = _import_function(spec["python"], base_dir)
-        return custom_law(fn, n_uniforms=int(spec.get("n_uniforms", 2)), name=name)
-    return get_law(name, **spec.get("params", {}))
-
-
-def _import_function(target: str, base_dir: Path | None):
-    """'package.module:function' or 'path/to/file.py:function'."""
-    import importlib
-    import importlib.util
-    where, sep, attr = target.rpartition(":")
-    if not sep or not where or not attr:
-        v.fail("python", target, "'module:function' or 'file.py:function'")
-    if where.endswith(".py"):
-        path = Path(where)
-        if base_dir is not None and not path.is_absolute():
-            path = base_dir / path
-        if not path.is_file():
-            v.fail("python", target, f"an existing Python file ({path} does not exist)")
-        module_name = "glintlab_user_" + hashlib.sha1(str(path.resolve()).encode()).hexdigest()[:12]
-        spec = importlib.util.spec_from_file_location(module_name, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    else:
-        try:
-            module = importlib.import_module(where)
-        except ImportError as exc:
-            raise ValueError(f"python = {target!r} is invalid: cannot import {where!r} ({exc})") from None
-    fn = getattr(module, attr, None)
-    if not callable(fn):
-        v.fail("python", target, f"a callable named {attr!r} in {where!r}")
-    return fn
-
-
-# ---------------------------------------------------------------------------------------------
-# Rows.
-
-def row_seed(seed: int, law_label: str, n: float, p: float) -> int:
-    """The seed of one sampled row: a 64-bit hash of (seed, law, n, p), exact in n and p (float.hex)."""
-    key = f"{int(seed)}|{law_label}|{float(n).hex()}|{float(p).hex()}".encode()
-    return int.from_bytes(hashlib.blake2b(key, digest_size=8).digest(), "little")
-
-
-def tv_noise(dist: Distribution, samples: int) -> float:
-    """Exact E[TV(empirical law of m draws, dist)] for m = samples: the TV of pure sampling noise.
-
-    Each cell count X_k is Binomial(m, q_k), and E|X - m q| has de Moivre's closed form
-    2 nu C(m, nu) q^nu (1 - q)^(m - nu + 1) with nu = floor(m q) + 1 (computed in logs), so
-    E[TV] = sum_k E|X_k - m q_k| / (2 m).
-    """
-    from scipy.special import gammaln
-    m = float(samples)
-    q = np.asarray(dist.probs, dtype=np.float64)
-    q = q[(q > 0) & (q < 1)]
-    if q.size == 0:
-        return 0.0
-    nu = np.floor(m * q) + 1
-    log_mad = (np.log(2 * nu) + gammaln(m + 1) - gammaln(nu + 1) - gammaln(m - nu + 1)
-               + nu * np.log(q) + (m - nu + 1) * np.log1p(-q))
-    return float(np.sum(np.exp(log_mad)) / (2 * m))
-
-
-def _rel(a, b):
-    return abs(a - b) / abs(b) if b else abs(a)
-
-
-def _moments(d: Distribution, ref_mean, ref_var):
-    return {"mean_rel_err": _rel(d.mean, ref_mean),
-            "var_rel_err": (abs(d.var - ref_var) / ref_var if ref_var else (0.0 if d.var == 0 else math.inf))}
-
-
-def compute_row(lw: Law, label: str, reference, n: float, p: float, metrics, samples, seed) -> dict:
-    """One row of a sweep (pure: the same arguments give the same row)."""
-    row = {"law": label, "n": float(n), "p": float(p)}
-    want_dist = [m for m in metrics if m in METRICS]
-    if samples is None:
-        d = lw.pmf(n, p)
-        d_ref = reference.pmf(n, p)
-        row.update({m: distance(d, d_ref, m) for m in want_dist})
-        mom = _moments(d, d_ref.mean, d_ref.var)
-        row.update({m: mom[m] for m in metrics if m in MOMENT_METRICS})
-        return row
-    rs = row_seed(seed, label, n, p)
-    x = lw.bin(lw.sample(n, p, size=samples, seed=rs))
-    d = Distribution.empirical(np.ascontiguousarray(x))
-    if reference.has_pmf:
-        d_ref = reference.pmf(n, p)
-    else:  # two samples: the reference draws with a seed of its own
-        d_ref = Distribution.empirical(np.ascontiguousarray(
-            reference.sample(n, p, samples, row_seed(seed, "reference:" + label, n, p))))
-    row.update({m: distance(d, d_ref, m) for m in want_dist})
-    mom = _moments(d, d_ref.mean, d_ref.var)
-    row.update({m: mom[m] for m in metrics if m in MOMENT_METRICS})
-    if "chi2_pvalue" in metrics:
-        row["chi2_pvalue"] = chi2_test(x, d_ref).pvalue if reference.has_pmf else math.nan
-    if "tv" in metrics:
-        row["tv_noise"] = tv_noise(d_ref, samples) if reference.has_pmf else math.nan
-    if "mean_rel_err" in metrics:
-        sd = float(np.std(x, ddof=1)) if samples > 1 else math.nan
-        row["mean_rel_err_se"] = sd / math.sqrt(samples) / abs(d_ref.mean) if d_ref.mean else sd / math.sqrt(samples)
-    row["samples"] = int(samples)
-    row["seed"] = rs
-    return row
-
-
-def compute_chunk(laws, labels, reference, metrics, samples, seed, items) -> list:
-    """Rows of (law index, n, p) items, each through the store's JSON round trip (so fresh, stored
-    and remote rows agree bit for bit). Module-level and pure: Dask ships it to workers."""
-    rows = []
-    for i, n, p in items:
-        try:
-            row = compute_row(laws[i], labels[i], reference, n, p, metrics, samples, seed)
-        except (ValueError, NotImplementedError) as exc:
-            raise ValueError(f"sweep: law {labels[i]!r} at n = {n!r}, p = {p!r}: {exc}") from exc
-        rows.append(json.loads(json.dumps(row)))
-    return rows
-
-
-# ---------------------------------------------------------------------------------------------
-# The store: JSON lines, header first.
-
-class SweepStore:
-    """A resumable store of finished rows (see the module docstring)."""
-
-    def __init__(self, path, config: dict):
-        self.path = Path(path)
-        self.config = config
-        self.key = hashlib.sha256(json.dumps(config, sort_keys=True).encode()).hexdigest()
-        self.rows: dict[tuple, dict] = {}
-        self._last_sync = time.monotonic()
-        if self.path.exists() and self.path.stat().st_size > 0:
-            self._load()
-        else:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            header = {"glintlab_store": STORE_FORMAT, "glintlab_version": _version, "key": self.key,
-                      "config": config}
-            with open(self.path, "w") as f:
-                f.write(json.dumps(header) + "\n")
-                f.flush()
-                os.fsync(f.fileno())
-        self._file = open(self.path, "a")
-
-    def _load(self):
-        raw = self.path.read_bytes()
-        lines = raw.split(b"\n")
-        try:
-            header = json.loads(lines[0])
-        except ValueError:
-            header = None
-        if not isinstance(header, dict) or header.get("glintlab_store") != STORE_FORMAT:
-            raise ValueError(f"store = {str(self.path)!r} is invalid; expected a glintlab sweep store "
-                             "(a JSON-lines file written by sweep(store=...))")
-        if header.get("key") != self.key:
-            old = header.get("config", {})
-            diff = sorted(k for k in set(old) | set(self.config) if old.get(k) != self.config.get(k))
-            raise ValueError(f"store = {str(self.path)!r} holds a different sweep (differs in: {', '.join(diff)}); "
-                             "use another store path, or delete it to start over")
-        # Complete lines end with a newline; what follows the last one was cut by a kill: it is
-        # dropped (cut from the file) and its row recomputed.
-        if len(lines) == 1:  # the header's newline never reached the file
-            with open(self.path, "ab") as f:
-                f.write(b"\n")
-            return
-        good_end = len(lines[0]) + 1
-        for line in lines[1:-1]:
-            if line:
-                try:
-                    row = json.loads(line)
-                except ValueError:
-                    break
-                self.rows[_row_key(row)] = row
-            good_end += len(line) + 1
-        if good_end < len(raw):
-            with open(self.path, "r+b") as f:
-                f.truncate(good_end)
-
-    def add(self, row: dict):
-        self._file.write(json.dumps(row) + "\n")
-        self._file.flush()  # in the kernel's hands: survives kill -9 of this process
-        self.rows[_row_key(row)] = row
-        if time.monotonic() - self._last_sync > 1.0:  # and on disk, about once a second
-            os.fsync(self._file.fileno())
-            self._last_sync = time.monotonic()
-
-    def close(self):
-        if not self._file.closed:
-            self._file.flush()
-            os.fsync(self._file.fileno())
-            self._file.close()
-
-
-def _row_key(row):
-    return (row["law"], float(row["n"]).hex(), float(row["p"]).hex())
-
-
-# ---------------------------------------------------------------------------------------------
-# The sweep.
 
 def _axis(name, values, which):
     if values is None or (isinstance(values, str) and values == "standard"):
@@ -401,7 +101,7 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
     laws = [resolve_law(x) for x in laws]
     if not laws:
         v.fail("laws", laws, "a non-empty list of laws")
-    labels = [_label(lw) for lw in laws]
+    labels = [lw.label for lw in laws]
     if len(set(labels)) != len(labels):
         v.fail("laws", labels, "distinct laws")
     if samples is not None:
@@ -414,8 +114,8 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
     if samples is None:
         for lw in laws:
             if not lw.has_pmf:
-                raise ValueError(f"law {_label(lw)!r} has no exact distribution; an exact sweep needs one "
-                                 "(pass samples=... for a Monte Carlo sweep)")
+                raise ValueError(f"law {lw.label!r} has no exact pmf (no exact distribution); an exact sweep "
+                                 "(samples=None) needs one (pass samples=... for a Monte Carlo sweep)")
         if not ref.has_pmf:
             raise ValueError("the reference has no exact distribution; pass samples=...")
     if points is None:
@@ -453,12 +153,16 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
         v.fail("timeout", timeout, "a number of seconds > 0")
 
     if engine == "dask":
-        from .engines import DaskEngine
         eng = DaskEngine(scheduler, workers, timeout)
     else:
         eng = ThreadEngine(threads)
+    if samples is None:  # exact rows at one point share the reference's pmf: run them point by point
+        todo.sort(key=lambda t: (t[1], t[0]))
     if chunk is None:  # a few chunks per worker: balance, and little lost work on an interruption
-        chunk = 1 if engine == "threads" else max(1, min(256, -(-len(todo) // (4 * eng.slots))))
+        if engine == "threads":
+            chunk = len(laws) if samples is None else 1
+        else:
+            chunk = max(1, min(256, -(-len(todo) // (4 * eng.slots))))
     chunks = [[(t[0], t[2], t[3]) for t in todo[k:k + chunk]] for k in range(0, len(todo), chunk)]
     bar = _bar(progress, len(tasks), resumed)
     try:
@@ -476,7 +180,7 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
             finished, pending = eng.wait_first(pending)
             for fut in finished:
                 for row in fut.result():
-                    results[_row_key(row)] = row
+                    results[row_key(row)] = row
                     if st is not None:
                         st.add(row)
                     bar.update(1)
@@ -497,6 +201,23 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
     df = pd.DataFrame(rows)
     df.attrs.update(config=config, resumed_rows=resumed, computed_rows=len(todo), glintlab_version=_version)
     return df
+
+
+def error_table(laws, n=None, p=None, metrics=("tv", "hellinger", "w1"), reference="binomial",
+                threads=None) -> pd.DataFrame:
+    """Exact errors of each law against ``reference`` at every (n, p) of the grid (default: standard).
+
+    One row per law and grid point, sorted by law, n, p: law, n, p, each metric, mean_rel_err and
+    var_rel_err (of the law's exact distribution against the reference's; var_rel_err is
+    |var - var_ref| / var_ref, inf when only var_ref is 0). Every law needs an exact pmf. This is an
+    exact ``sweep`` (the same engine, on both cores) sorted by law name.
+    """
+    n = None if n is None else np.atleast_1d(n)
+    p = None if p is None else np.atleast_1d(p)
+    metrics = list(dict.fromkeys([*metrics, "mean_rel_err", "var_rel_err"]))
+    df = sweep(laws, n=n, p=p, metrics=metrics, reference=reference, threads=threads, progress=False)
+    df.attrs.clear()
+    return df.sort_values(["law", "n", "p"], kind="stable").reset_index(drop=True)
 
 
 def _bar(progress, total, initial):
