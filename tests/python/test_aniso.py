@@ -1,4 +1,4 @@
-"""Anisotropic grid schemes (LAWS.md §5-6): weights, evaluation counts, exact laws and bad input.
+"""Anisotropic grid schemes (docs/math/grids.md): weights, evaluation counts, exact laws and bad input.
 
 Statistical checks use fixed seeds; each p-value threshold is 1e-4 (a false failure rate of 1e-4 per
 check), and each check is shown to fail on a deliberately wrong law.

@@ -1,5 +1,5 @@
 """Approximate (constant-time) laws: exact pmf against the law itself, samplers against the pmf, the
-extremes of LAWS.md section 8 in float64 and float32, and bad parameters.
+extremes of docs/math/extremes.md in float64 and float32, and bad parameters.
 
 Each law here maps one uniform through a monotone quantile-like function, so its exact pmf can be
 checked deterministically first: P(K = k) is the length of the set of u with evaluate(u) = k, which
@@ -141,7 +141,7 @@ def test_head_cf_beats_gated_on_the_worst_case():
             worst_h = max(worst_h, gl.distance(h.pmf(n, p), ref, "tv"))
             worst_g = max(worst_g, gl.distance(g.pmf(n, p), ref, "tv"))
     assert worst_h < 0.01, worst_h
-    assert worst_g > 0.3, worst_g  # DB23's gate as intended, near p = 1 (LAWS.md: about 0.5)
+    assert worst_g > 0.3, worst_g  # DB23's gate as intended, near p = 1 (docs/math/laws.md#law-gated: above 0.5)
 
 
 def test_gated_shader_measured_defects():

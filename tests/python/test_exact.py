@@ -640,7 +640,7 @@ def test_poisson_ppf_zero_mean():
 
 
 # ----------------------------------------------------------------------------------------------
-# law.evaluate at the numerical extremes of LAWS.md section 8: a finite K in the support
+# law.evaluate at the numerical extremes of docs/math/extremes.md: a finite K in the support
 # ----------------------------------------------------------------------------------------------
 
 EXTREME_NS = [0, 1e-6, 0.5, 1, 2, 16, 17, 1e9, 1e15]

@@ -1,4 +1,4 @@
-"""The numerical-extremes suite (LAWS.md §8): every check is shown to fail on a law built to break
+"""The numerical-extremes suite (docs/math/extremes.md): every check is shown to fail on a law built to break
 it and to pass on the exact binomial; the built-in findings (gated_shader's K = n + 1) are flagged."""
 import math
 import types
@@ -15,7 +15,7 @@ SAMPLES = 256
 
 @pytest.fixture(scope="module")
 def default_table():
-    """Every registered law and blend, the full §8 grid, 256 ordinary draws per point."""
+    """Every registered law and blend, the full extremes grid (docs/math/extremes.md#extremes-grid), 256 ordinary draws per point."""
     return gl.extremes_table(samples=SAMPLES)
 
 

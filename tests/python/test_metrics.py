@@ -1,4 +1,4 @@
-"""Distances (gl.distance) and the chi-square goodness-of-fit test (gl.chi2_test), LAWS.md section 7.
+"""Distances (gl.distance) and the chi-square goodness-of-fit test (gl.chi2_test), docs/math/metrics.md.
 
 Hand-worked cases first (each value derived in a comment), then the general properties (identity,
 disjoint supports, symmetry), then agreement with scipy where scipy has the same quantity.
@@ -247,7 +247,7 @@ def test_distribution_versus_samples():
 
 
 def test_sample_tv_bias_shrinks_with_samples():
-    """TV between samples and their exact law falls roughly like sqrt(#values / M) (LAWS.md 7)."""
+    """TV between samples and their exact law falls roughly like sqrt(#values / M) (docs/math/metrics.md#metric-sampled-bias)."""
     law = gl.law("binomial")
     d = law.pmf(100, 0.3)
     tv = [gl.distance(law.sample(100, 0.3, size=m, seed=41), d, "tv") for m in (10**3, 10**5)]

@@ -217,7 +217,7 @@ def test_wrong_samplers_are_rejected(sampler, n, p):
 
 
 # ----------------------------------------------------------------------------------------------
-# Deterministic cases and numerical extremes (LAWS.md section 8)
+# Deterministic cases and numerical extremes (docs/math/extremes.md)
 # ----------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("n, p, value", [(0, 0.5, 0.0), (16, 0.0, 0.0), (16, 1.0, 16.0), (1e15, 0.0, 0.0),

@@ -1,4 +1,4 @@
-"""Blending a counting law between LOD levels (LAWS.md §4; DB23 §3-4, KPT25 §3.3.3, WB16 §3.2).
+"""Blending a counting law between LOD levels (docs/math/blends.md; DB23 §3-4, KPT25 §3.3.3, WB16 §3.2).
 
 Level l has cells of area ``A_l = base_area * level_ratio**l`` (any integer l; ratio 4 for mip
 levels, the default, or 2 as DB23 eq. 13 prints). A footprint of area P lies between

@@ -1,4 +1,4 @@
-"""Anisotropic pixel footprints and the virtual grids that count glints in them (LAWS.md §5-6).
+"""Anisotropic pixel footprints and the virtual grids that count glints in them (docs/math/grids.md).
 
 A pixel's footprint is the ellipse its UV derivatives span: area ``P``, ratio ``r >= 1`` of its
 semi-axes, orientation ``phi`` (radians, major axis, modulo pi). A grid scheme distributes the count
@@ -14,7 +14,7 @@ frac(lod)), ``ratio_weights`` ("linear", the shader, or "log"), ``orientation_st
 ratio 2, halved per ratio level), ``max_ratio`` (2**20); for ZK16 ``max_aniso`` (16) and ``blend``
 ("zk16_linear" or "distributed").
 
-Realizations may be interpolated (LAWS.md §5): ``spatial`` "none", "square" (4 corners, bilinear) or
+Realizations may be interpolated (docs/math/grids.md#grid-realizations): ``spatial`` "none", "square" (4 corners, bilinear) or
 "simplex" (3 vertices, barycentric; DB23 §6.2), ``angular`` "none" or "bilinear" (4 texels, DB23
 eq. 14), combined by ``realization`` "blend" (weights v_j: mean kept, variance times sum v_j^2, DB23)
 or "select" (one vertex with probability v_j: the marginal law kept exactly).

@@ -1,4 +1,4 @@
-"""Distances between distributions and the chi-square goodness-of-fit test (LAWS.md §7)."""
+"""Distances between distributions and the chi-square goodness-of-fit test (docs/math/metrics.md)."""
 from __future__ import annotations
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""Ground truth: spatialized Bernoulli trials (DB23 §4.1, LAWS.md §2).
+"""Ground truth: spatialized Bernoulli trials (DB23 §4.1, docs/math/ground_truth.md).
 
 Facets are placed on the unit torus; a facet reflects iff its uniform theta < p, and K counts the
 reflecting facets inside a footprint. Layouts:

@@ -6,7 +6,7 @@ mismatch rate estimates that probability (with a Clopper-Pearson 95% upper bound
 upward bias of a TV between two histograms. Breaks are counted per precision: non-finite K,
 K < 0, and K > ceil(n) (a count above the facets there are).
 
-`one_minus_p_pow_n` tabulates the other float32 trap of LAWS.md §8: (1 - p)^n computed directly
+`one_minus_p_pow_n` tabulates the other float32 trap of the numerical extremes (docs/math/extremes.md#extremes-pow): (1 - p)^n computed directly
 (pow(1 - p, n), what the public shaders do) versus exp(n log1p(-p)), against an mpmath reference.
 """
 from __future__ import annotations
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..validation.grid import _label, standard_grid
+from ..validation.grid import standard_grid
 from ..api.laws import law as get_law, uniforms
 
 
@@ -60,7 +60,7 @@ def float32_table(laws, n=None, p=None, samples: int = 1024, seed: int = 1) -> p
                 f32 = rows_prec
             else:
                 f64 = rows_prec
-        label = _label(lw)
+        label = lw.label
         for i in range(nn.size):
             rows.append(dict(law=label, n=nn[i], p=pp[i], mismatch=mismatch[i], mismatch_upper95=upper[i],
                              max_abs_diff=max_diff[i],

@@ -2,7 +2,7 @@
 and the advisor that picks the cheapest law meeting an error budget on a scene.
 
 Law errors. A law's error at a pixel is its exact error against the binomial at the pixel's (n, p)
-(the single-footprint law, LAWS.md §3; the grid scheme's own error is reported separately as its
+(the single-footprint law, docs/math/laws.md; the grid scheme's own error is reported separately as its
 weight bias). Pixels are binned in (log10 n, log10 p) with ``bins_per_decade`` bins per decade;
 each occupied bin is evaluated once, at the pixel-weighted mean (n, p) of its pixels, and its
 errors are given to all its pixels. ``binning_check`` compares with a binning twice as fine.
@@ -225,7 +225,7 @@ def _bin_pixels(n, p, per_decade):
 
 def law_errors(laws: dict, n_points, p_points, threads: int | None = None) -> pd.DataFrame:
     """Exact errors of each law against the binomial at points (n_k, p_k): tv, mean_rel_err =
-    |E[K] / (n p) - 1| (the intensity error of D_P, LAWS.md §1) and rel_rms = sqrt(E[(K - n p)^2]) / (n p)
+    |E[K] / (n p) - 1| (the intensity error of D_P, docs/math/ndf.md#ndf-estimator) and rel_rms = sqrt(E[(K - n p)^2]) / (n p)
     (the per-pixel noise of D_P against D(h)). Like ``gl.error_table`` but on a list of points and
     with the second moment; pmfs release the GIL, so threads run points in parallel."""
     ref = get_law("binomial")

@@ -21,25 +21,24 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..api import checks as v
 from .._core import Distribution
+from ..api import checks as v
 from ..api.laws import Law
-from .sweep import sweep
-
 from ..resources import data_path
+from .experiment import axis_values, parse_document
+from .references import resolve_law
+from .sweep import sweep
 
 DEFAULT_BOUNDS = data_path("bounds", "default.json")
 
 
 def load_bounds(source) -> tuple[dict, str, Path | None]:
     """(normalized document, source name, base directory) from a path, JSON text or a dict."""
-    from .experiment import parse_document
     return parse_document("bounds", source)
 
 
 def regime_points(regime: dict) -> np.ndarray:
     """The (n, p) points of a regime: the grid of its axes, filtered by n_range, p_range, np_range."""
-    from .experiment import axis_values
     nn, pp = axis_values(regime.get("n", "standard"), "n"), axis_values(regime.get("p", "standard"), "p")
     n, p = (a.ravel() for a in np.meshgrid(nn, pp, indexing="ij"))
     keep = np.ones(n.size, dtype=bool)
@@ -57,7 +56,6 @@ def check(bounds=DEFAULT_BOUNDS, substitute: dict | None = None, progress=None) 
     ``substitute`` maps a bound's law label (e.g. "gated") to a Law object evaluated in its place
     (how the tests show that a wrong law violates a bound).
     """
-    from .references import resolve_law
     doc, source, base = load_bounds(bounds)
     substitute = substitute or {}
     rows = []
@@ -152,5 +150,4 @@ class PerturbedLaw(Law):
 
 def perturbed_law(law, p_scale: float = 1.5, shift: float = 0.0) -> PerturbedLaw:
     """A deliberately wrong law (see PerturbedLaw) for showing that a bound can fail."""
-    from .references import resolve_law
     return PerturbedLaw(resolve_law(law), p_scale, shift)

@@ -19,9 +19,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .._core import __version__
 from .. import _core
+from .._core import __version__
 from .grid import standard_grid
+from .references import resolve_law
+from .sweep import sweep
 
 RESULT_FORMAT = 1
 
@@ -83,8 +85,6 @@ def run_experiment(source, out=None, store=None, progress=None, threads=None, **
     """Runs an experiment (a path, JSON text or dict; or a results.json to re-run). With ``out``,
     writes results.csv, results.json and one PNG per metric there (as the document's outputs say).
     ``engine``: sweep's engine, scheduler, workers, chunk and timeout (e.g. engine="dask")."""
-    from .references import resolve_law
-    from .sweep import sweep
     doc, name, base = parse_document("experiment", source)
     laws = []
     for i, spec in enumerate(doc["laws"]):

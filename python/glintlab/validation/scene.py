@@ -7,7 +7,7 @@ directional light and a glinty material (NDF, roughness alpha, DB23's ratio R, f
 safeguarded Newton step) and differentiates the hit point, the texture coordinates and so the
 Jacobian d(uv)/d(pixel) analytically; ``Scene.geometry`` does it for every pixel and derives the
 footprint (P, r, phi) with ``gl.footprint_shapes``, D(h), p = R D(h) / D(n) (DB23 eq. 4, clamped to
-1 and reported) and n = N P (LAWS.md §1). No rasterizer: one primitive, first hit.
+1 and reported) and n = N P (docs/math/index.md#notation). No rasterizer: one primitive, first hit.
 
 Implicit-function derivative used for every primitive: the hit point x = o + t d(q) of the ray through
 pixel q lies on G(x) = 0. Differentiating G(o + t d) = 0 gives dt/dq = -t (g . dd/dq) / (g . d), with
