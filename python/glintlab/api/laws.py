@@ -11,10 +11,10 @@ import numpy as np
 from .. import _core
 from . import checks as v
 from .._core import Distribution
+from .plugins import CUSTOM_LAWS, load_plugin
 
 PRECISIONS = ("float64", "float32")
 _CHUNK = 1 << 20  # rows of uniforms materialized at once for custom laws (8 MB per uniform)
-_custom_laws: dict[str, "CustomLaw"] = {}
 
 
 class Law:
@@ -215,7 +215,6 @@ def parse_law_label(label: str) -> tuple[str, dict]:
 
 def _rebuild_law(name, params, plugin):
     if plugin is not None:
-        from .plugins import load_plugin
         load_plugin(plugin)
     return law(name, **params)
 
@@ -224,21 +223,21 @@ def law(name: str, **params) -> Law:
     """The counting law registered as ``name``, with keyword parameters (e.g. ``law("zk16", cap=16)``)."""
     if not isinstance(name, str):
         v.fail("name", name, "a law name (str)")
-    if name in _custom_laws:
+    if name in CUSTOM_LAWS:
         if params:
             raise ValueError(f"custom law {name!r} takes no parameters; got {sorted(params)}")
-        return _custom_laws[name]
+        return CUSTOM_LAWS.get(name)
     return Law(_core.make_law(name, params))
 
 
 def laws() -> list[str]:
     """Names of every registered law (built-in and custom), sorted."""
-    return sorted({name for name, _ in _core.law_infos()} | set(_custom_laws))
+    return sorted({name for name, _ in _core.law_infos()} | set(CUSTOM_LAWS))
 
 
 def law_summaries() -> dict[str, str]:
     out = {name: summary for name, summary in _core.law_infos()}
-    out.update({name: "custom law (Python)" for name in _custom_laws})
+    out.update({name: "custom law (Python)" for name in CUSTOM_LAWS})
     return dict(sorted(out.items()))
 
 
@@ -256,7 +255,7 @@ def custom_law(fn, n_uniforms: int = 2, name: str = "custom") -> CustomLaw:
     if name in {n for n, _ in _core.law_infos()}:
         v.fail("name", name, "a name that no built-in law uses")
     law_ = CustomLaw(fn, int(n_uniforms), name)
-    _custom_laws[name] = law_
+    CUSTOM_LAWS.register(name, law_, replace=True)
     return law_
 
 

@@ -1,0 +1,52 @@
+"""A registry of named things (report sections, custom laws): one name, one object, in registration order."""
+from __future__ import annotations
+
+
+class Registry:
+    """Objects by name. ``kind`` names what is registered in error messages ("report section", "law").
+
+    >>> r = Registry("colour")
+    >>> r.register("red", 1)
+    1
+    >>> r.get("blue")
+    Traceback (most recent call last):
+    ValueError: unknown colour 'blue'; known: red
+    """
+
+    def __init__(self, kind: str):
+        self.kind = kind
+        self._items: dict = {}
+
+    def register(self, name: str, obj, replace: bool = False):
+        """Adds ``obj`` under ``name`` and returns it. A name registered before is refused (ValueError)
+        unless ``replace`` (then ``obj`` takes the name's place, keeping its position)."""
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"{self.kind} name = {name!r} is invalid; expected a non-empty string")
+        if name in self._items and not replace:
+            raise ValueError(f"{self.kind} {name!r} is already registered")
+        self._items[name] = obj
+        return obj
+
+    def get(self, name: str):
+        try:
+            return self._items[name]
+        except (KeyError, TypeError):
+            raise ValueError(f"unknown {self.kind} {name!r}; known: {', '.join(self._items)}") from None
+
+    def names(self) -> list[str]:
+        return list(self._items)
+
+    def items(self) -> list[tuple]:
+        return list(self._items.items())
+
+    def __contains__(self, name) -> bool:
+        return name in self._items
+
+    def __iter__(self):
+        return iter(list(self._items))
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __repr__(self) -> str:
+        return f"Registry({self.kind!r}: {', '.join(self._items)})"
