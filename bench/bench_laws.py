@@ -31,8 +31,7 @@ import glintlab as gl
 from glintlab.validation.bench import best_time as best
 
 POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6)]
-LAWS = [("binomial", {}), ("gaussian", {"rounding": "round"}), ("zk16", {}), ("threshold", {}),
-        ("gated", {}), ("gated_shader", {}), ("gated_continuous", {}), ("dual_gated", {}), ("head_cf", {})]
+LAWS = gl.law_variants("bench")  # declared by each law in core/laws/*.cpp
 
 
 def label(name, params):

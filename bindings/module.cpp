@@ -89,6 +89,47 @@ InnerLaw python_inner(py::function fn, int n_uniforms, const std::string& inner_
     return inner;
 }
 
+// A law's declared traits (law.hpp LawTraits) as plain Python values, so that the Python side can
+// derive its law lists (studies, benchmarks, bounds, checks) from the registry.
+py::dict traits_dict(const LawInfo& info) {
+  const LawTraits& t = info.traits;
+  const auto variants = [](const std::vector<LawParams>& list) {
+    py::list out;
+    for (const auto& params : list) out.append(from_params(params));
+    return out;
+  };
+  py::list bounds;
+  for (const auto& b : t.bounds) {
+    py::dict regime;  // insertion order = declaration order (it names the bound)
+    for (const auto& [key, range] : b.regime) regime[py::str(key)] = py::make_tuple(range[0], range[1]);
+    py::dict d;
+    d["params"] = from_params(b.params);
+    d["regime"] = regime;
+    d["metrics"] = b.metrics;
+    d["reason"] = b.reason;
+    bounds.append(d);
+  }
+  py::list cost_points;
+  for (const auto& [n, p] : t.cost_points) cost_points.append(py::make_tuple(n, p));
+  py::dict d;
+  d["name"] = info.name;
+  d["summary"] = info.summary;
+  d["declared"] = t.declared();
+  d["output"] = law_output_name(t.output);
+  d["support"] = support_bound_name(t.support);
+  d["support_note"] = t.support_note;
+  d["constant_time"] = t.constant_time;
+  d["reference"] = t.reference;
+  d["regime"] = t.regime;
+  d["cost"] = t.cost;
+  d["study_variants"] = variants(t.study_variants);
+  d["bench_variants"] = variants(t.bench_variants);
+  d["test_variants"] = variants(t.test_variants);
+  d["cost_points"] = cost_points;
+  d["bounds"] = bounds;
+  return d;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
@@ -165,7 +206,23 @@ PYBIND11_MODULE(_core, m) {
                evaluate_many(law, param(n), param(p), u.data(), count, o, prec);
              }
              return out;
-           }, py::arg("n"), py::arg("p"), py::arg("u"), py::arg("precision"));
+           }, py::arg("n"), py::arg("p"), py::arg("u"), py::arg("precision"))
+      // The law's cost model (CountingLaw::work_units), broadcast over n and p like numpy. A few
+      // flops per element: not worth releasing the GIL for.
+      .def("work_units", [](const CountingLaw& law, const Array& n, const Array& p) {
+             return py::vectorize([&law](double nn, double pp) {
+               if (!law.accepts(nn, pp)) law.validate(nn, pp, 0, false);
+               return law.work_units(nn, pp);
+             })(n, p);
+           }, py::arg("n"), py::arg("p"));
+
+  m.def("law_traits", [](const std::string& name) { return traits_dict(law_registry().find(name)); },
+        py::arg("name"));
+  m.def("all_law_traits", [] {
+    py::dict out;  // sorted by name, as the registry
+    for (const auto& info : registered_laws()) out[py::str(info.name)] = traits_dict(info);
+    return out;
+  });
 
   m.def("make_law", [](const std::string& name, const py::dict& kwargs) {
     return std::shared_ptr<CountingLaw>(make_law(name, to_params(kwargs)));
@@ -303,6 +360,11 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("base_area", [](const BlendedLaw& b) { return b.ladder().base_area(); })
       .def_property_readonly("binning", &BlendedLaw::binning)
       .def_property_readonly("has_pmf", &BlendedLaw::has_pmf)
+      // The rule's analytic Var[K] / Var[Binomial(N P, p)] for a binomial inner law (NaN: none),
+      // broadcast over P.
+      .def("variance_ratio", [](const BlendedLaw& b, const Array& area) {
+             return py::vectorize([&b](double a) { return b.variance_ratio(a); })(area);
+           }, py::arg("P"))
       .def("bracket", [](const BlendedLaw& b, double area) {
              const LevelBracket br = b.ladder().bracket(area);
              py::dict d;
@@ -361,6 +423,14 @@ PYBIND11_MODULE(_core, m) {
     for (const auto& info : aniso::registered_grid_schemes()) out.emplace_back(info.name, info.summary);
     return out;
   });
+  m.def("grid_scheme_traits", [](const std::string& name) {
+    const auto info = aniso::grid_scheme_registry().find(name);
+    py::dict d;
+    d["name"] = info.name;
+    d["summary"] = info.summary;
+    d["native_law"] = info.traits.native_law;
+    return d;
+  }, py::arg("name"));
   m.def("footprint_shapes", [](const Array& jac) {
     // jac: (m, 4) rows (du/dx, dv/dx, du/dy, dv/dy) -> (m, 5) rows (P, a, b, r, phi) and status codes.
     const auto m_rows = static_cast<std::size_t>(jac.size() / 4);

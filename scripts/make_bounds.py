@@ -25,31 +25,23 @@ from glintlab.validation.bounds import check
 
 ROOT = Path(__file__).resolve().parents[1]
 MARGIN = 0.25
-P_HALF = {"p_range": [0, 0.5]}
-BULK = {"p_range": [0, 0.5], "np_range": [10, 1e300]}
-
-# (law, regime, metrics, note)
-EXACT = [
-    ("binomial", {}, ("tv", "mean_rel_err"), "the exact law against itself: rounding only"),
-    ("poisson", {"p_range": [0, 1e-3]}, ("tv", "mean_rel_err"), "the Poisson layout is the small-p limit"),
-    ("gaussian", BULK, ("tv", "mean_rel_err"), "floored normal: meant for n p >= 10"),
-    ({"name": "gaussian", "params": {"rounding": "round"}}, BULK, ("tv", "mean_rel_err"), "rounded normal, n p >= 10"),
-    ({"name": "gaussian", "params": {"rounding": "round"}}, P_HALF, ("tv",), "rounded normal, whole lower half"),
-    ("zk16", BULK, ("tv", "mean_rel_err"), "the Gaussian branch (n p > 5)"),
-    ("zk16", {"n_range": [0, 16], "np_range": [0, 5]}, ("tv", "mean_rel_err"),
-     "n p <= 5 and n <= cap: the Bernoulli loop is exact"),
-    ("threshold", {"np_range": [0, 16]}, ("tv",), "n p <= T: the exact binomial"),
-    ("threshold", {}, ("mean_rel_err",), "the mean n p is exact everywhere"),
-    ("gated", P_HALF, ("tv", "mean_rel_err"), "p <= 1/2 (near p = 1 the gate fails by design, TV 0.91)"),
-    ("gated_shader", P_HALF, ("tv", "mean_rel_err"), "the public shader's path, p <= 1/2"),
-    ("gated_continuous", P_HALF, ("tv", "mean_rel_err"), "KK24, p <= 1/2"),
-    ("dual_gated", P_HALF, ("tv", "mean_rel_err"), "KK25, p <= 1/2"),
-    ("dual_gated", {}, ("tv",), "KK25 over the whole grid (fixes the gate's p -> 1 failure)"),
-    ("head_cf", {}, ("tv", "mean_rel_err"), "glintlab's law over the whole standard grid"),
-]
 SAMPLED_REGIME = {"n": [16, 1000, 1e6], "p": [0.01, 0.3]}
-SAMPLED = ["binomial", "poisson", "gaussian", "zk16", "threshold", "gated", "gated_shader", "gated_continuous",
-           "dual_gated", "head_cf"]
+
+
+def exact_bounds():
+    """(law, regime, metrics, note) of every bound the laws declare with their code (core/laws/*.cpp,
+    LawTraits::bounds): the regime where each law is meant to be used, and why."""
+    out = []
+    for name in gl.laws():
+        for b in gl.law_traits(name)["bounds"]:
+            law = {"name": name, "params": b["params"]} if b["params"] else name
+            out.append((law, {k: list(v) for k, v in b["regime"].items()}, tuple(b["metrics"]), b["reason"]))
+    return out
+
+
+def sampled_laws():
+    """Every declared law with an exact pmf: its sampler is checked against it."""
+    return [name for name in gl.laws() if gl.law_traits(name)["declared"] and gl.law(name).has_pmf]
 
 
 def label(law):
@@ -71,11 +63,11 @@ def ceil3(x):
 
 def main():
     bounds = []
-    for law, regime, metrics, note in EXACT:
+    for law, regime, metrics, note in exact_bounds():
         for m in metrics:
             bounds.append({"id": f"{label(law)}/{m}/{regime_label(regime)}", "law": law, "regime": regime,
                            "metric": m, "maximum": 1.0, "note": note})
-    for law in SAMPLED:
+    for law in sampled_laws():
         bounds.append({"id": f"{law}/sampler/chi2", "law": law, "regime": SAMPLED_REGIME, "metric": "chi2_pvalue",
                        "reference": {"law": law}, "samples": 100000, "seed": 1, "minimum": 1e-6,
                        "note": "the sampler against the law's own exact pmf"})

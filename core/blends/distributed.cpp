@@ -24,6 +24,9 @@ class Distributed final : public BlendRule {
                            std::size_t max_support) const override {
     return convolve(lo, hi, max_support, "blended_law('distributed').pmf");
   }
+  // Additivity: Binomial(N P, p) itself with integer trial counts (non-integer ones add at most
+  // p^2 / 2 to the variance, which the ratio does not model).
+  double variance_ratio(double, const LevelBracket&) const override { return 1.0; }
 };
 
 const bool registered = register_parameterless_blend<Distributed>(

@@ -23,6 +23,10 @@ class Nearest final : public BlendRule {
     // The level not drawn is a point mass at 0.
     return scaled_sum(lo, area / b.area_lo, hi, area / b.area_hi, true, max_support, "blended_law('nearest').pmf");
   }
+  // (P / A_l)^2 N A_l p (1 - p) over N P p (1 - p): P / A_l, above 1 below the level and below 1 above it.
+  double variance_ratio(double area, const LevelBracket& b) const override {
+    return area / (upper(b) ? b.area_hi : b.area_lo);
+  }
 };
 
 const bool registered = register_parameterless_blend<Nearest>(

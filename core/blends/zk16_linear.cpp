@@ -24,6 +24,11 @@ class Zk16Linear final : public BlendRule {
     return scaled_sum(lo, area * (1.0 - b.w_lod) / b.area_lo, hi, area * b.w_lod / b.area_hi, true, max_support,
                       "blended_law('zk16_linear').pmf");
   }
+  // The deficit of the file comment: each level's variance N A_l p (1 - p) scaled by (P w_l / A_l)^2.
+  double variance_ratio(double area, const LevelBracket& b) const override {
+    const double w = b.w_lod;
+    return area * ((1.0 - w) * (1.0 - w) / b.area_lo + w * w / b.area_hi);
+  }
 };
 
 const bool registered = register_parameterless_blend<Zk16Linear>(

@@ -197,10 +197,12 @@ class Db23Grids final : public GridScheme {
 
 const bool registered_trilinear = register_grid_scheme(
     {"db23_trilinear", "DB23 §5.2: count distributed over the 8 grids of the (scale, ratio, orientation) cell, trilinear weights",
-     [](const LawParams& params) { return std::make_unique<Db23Grids>(false, params); }});
+     [](const LawParams& params) { return std::make_unique<Db23Grids>(false, params); },
+     {.native_law = "gated"}});  // DB23 count with their gated Gaussian (eq. 16-18)
 const bool registered_tetrahedral = register_grid_scheme(
     {"db23_tetrahedral", "DB23 §6.1: the (scale, ratio, orientation) cell cut into 9 tetrahedra; 4 grids, barycentric weights",
-     [](const LawParams& params) { return std::make_unique<Db23Grids>(true, params); }});
+     [](const LawParams& params) { return std::make_unique<Db23Grids>(true, params); },
+     {.native_law = "gated"}});  // DB23 count with their gated Gaussian (eq. 16-18)
 
 }  // namespace
 }  // namespace glintlab::aniso

@@ -32,7 +32,18 @@ class BinomialLaw final : public CountingLaw {
 };
 
 const bool registered = register_parameterless_law<BinomialLaw>(
-    "binomial", "exact Binomial(n, p); non-integer n = Binomial(floor n, p) + Bernoulli(frac(n) p)");
+    "binomial", "exact Binomial(n, p); non-integer n = Binomial(floor n, p) + Bernoulli(frac(n) p)",
+    {.output = LawOutput::kInteger,
+     .support = SupportBound::kBoundedByN,
+     .constant_time = false,
+     .reference = true,
+     .regime = "everywhere: the exact reference every approximation is measured against",
+     .cost = "evaluate() searches the exact CDF (grows slowly with the spread); sample() has bounded "
+             "expected cost; work_units does not model either (0)",
+     .study_variants = {LawParams{}},
+     .bench_variants = {LawParams{}},
+     .test_variants = {LawParams{}},
+     .bounds = {{.metrics = {"tv", "mean_rel_err"}, .reason = "the exact law against itself: rounding only"}}});
 
 }  // namespace
 }  // namespace glintlab

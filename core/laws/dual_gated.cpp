@@ -131,7 +131,17 @@ class DualGatedLaw final : public TemplatedLaw<DualGatedLaw> {
 };
 
 const bool registered = register_parameterless_law<DualGatedLaw>(
-    "dual_gated", "KK25 dual-gated Gaussian: one uniform gates K = 0 and K = n, Gaussian on the n-2 others");
+    "dual_gated", "KK25 dual-gated Gaussian: one uniform gates K = 0 and K = n, Gaussian on the n-2 others",
+    {.output = LawOutput::kReal,  // the central Gaussian is not floored
+     .support = SupportBound::kBoundedByN,
+     .constant_time = true,
+     .regime = "the whole (n, p) plane: the second gate fixes the gated Gaussian's p -> 1 failure",
+     .cost = "constant: two exp/log pairs, sqrt and one Phi^-1",
+     .study_variants = {LawParams{}},
+     .bench_variants = {LawParams{}},
+     .test_variants = {LawParams{}},
+     .bounds = {{.regime = {{"p_range", {0, 0.5}}}, .metrics = {"tv", "mean_rel_err"}, .reason = "KK25, p <= 1/2"},
+                {.metrics = {"tv"}, .reason = "KK25 over the whole grid (fixes the gate's p -> 1 failure)"}}});
 
 }  // namespace
 }  // namespace glintlab

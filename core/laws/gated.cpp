@@ -3,7 +3,7 @@
 //   mu = (n - 1) p, sigma = sqrt((n - 1) p (1 - p))   (eq. 17: the Gaussian of Binomial(n - 1, p))
 //   K = [theta0 < P1] (1 + floor(mu + sigma Phi^-1(theta1)))   (eq. 18)
 // The paper prints H(theta0 - P1), which gates with probability 1 - P1; the intent is theta0 < P1
-// (so that P(K = 0) = (1 - p)^n, as for the binomial). LAWS.md §3.
+// (so that P(K = 0) = (1 - p)^n, as for the binomial). See docs/math/laws.md#law-gated.
 //
 // Policy where the paper is silent: floor(G) is clamped to [0, ceil(n) - 1], so that a gated count
 // is at least 1 and K never exceeds ceil(n) (the stratified binomial's top). For n < 1, n - 1 is
@@ -108,7 +108,18 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
 };
 
 const bool registered = register_parameterless_law<GatedLaw>(
-    "gated", "DB23 gated Gaussian (eq. 16-18, gate theta0 < P1), floor(G) clamped to [0, ceil(n)-1]");
+    "gated", "DB23 gated Gaussian (eq. 16-18, gate theta0 < P1), floor(G) clamped to [0, ceil(n)-1]",
+    {.output = LawOutput::kInteger,
+     .support = SupportBound::kBoundedByN,
+     .constant_time = true,
+     .regime = "p <= 1/2 (DB23's renderer); near p = 1 the gate fails by design",
+     .cost = "constant: exp, log1p, sqrt and one Phi^-1",
+     .study_variants = {LawParams{}},
+     .bench_variants = {LawParams{}},
+     .test_variants = {LawParams{}},
+     .bounds = {{.regime = {{"p_range", {0, 0.5}}},
+                 .metrics = {"tv", "mean_rel_err"},
+                 .reason = "p <= 1/2 (near p = 1 the gate fails by design, TV 0.91)"}}});
 
 }  // namespace
 }  // namespace glintlab

@@ -1,10 +1,10 @@
-// Law "gated_continuous": Kneiphof & Klein's continuous gated Gaussian (KK24, LAWS.md §3), the form
+// Law "gated_continuous": Kneiphof & Klein's continuous gated Gaussian (KK24; docs/math/laws.md#law-gated-continuous), the form
 // DB23's gate takes in their area-light renderer:
 //   m = max(n, 1);  P1 = 1 - (1 - p)^n for n >= 1 (as -expm1(n log1p(-p))), P1 = n p for n < 1
 //   (a gate that stays continuous at n = 1 and keeps E[K] = n p for a sub-facet footprint);
 //   G = 1 + (m - 1) p + sqrt((m - 1) p (1 - p)) Phi^-1(theta1)   (no floor: the output is real)
 //   K = [theta0 < P1] clamp(G, 1, m).
-// The gate is hard (theta0 < P1), as LAWS.md defines it; the soft ramp of the public shaders is
+// The gate is hard (theta0 < P1), a policy stated in docs/math/laws.md#law-gated-continuous; the soft ramp of the public shaders is
 // measured on "gated_shader".
 //
 // Binning: pmf() and law.bin() use round-half-up, unit bins [k - 1/2, k + 1/2). Since rounding is
@@ -87,7 +87,16 @@ class GatedContinuousLaw final : public TemplatedLaw<GatedContinuousLaw> {
 };
 
 const bool registered = register_parameterless_law<GatedContinuousLaw>(
-    "gated_continuous", "KK24 continuous gated Gaussian: K = [theta0 < P1] clamp(1 + (m-1)p + sd z, 1, max(n,1))");
+    "gated_continuous", "KK24 continuous gated Gaussian: K = [theta0 < P1] clamp(1 + (m-1)p + sd z, 1, max(n,1))",
+    {.output = LawOutput::kReal,  // no floor: G is real
+     .support = SupportBound::kBoundedByN,
+     .constant_time = true,
+     .regime = "p <= 1/2 (KK24's area-light renderer); continuous in n, also below one facet",
+     .cost = "constant: exp, log1p, sqrt and one Phi^-1",
+     .study_variants = {LawParams{}},
+     .bench_variants = {LawParams{}},
+     .test_variants = {LawParams{}},
+     .bounds = {{.regime = {{"p_range", {0, 0.5}}}, .metrics = {"tv", "mean_rel_err"}, .reason = "KK24, p <= 1/2"}}});
 
 }  // namespace
 }  // namespace glintlab

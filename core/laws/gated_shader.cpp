@@ -1,4 +1,4 @@
-// Law "gated_shader": DB23's gated Gaussian as the public HLSL implementation runs it (LAWS.md §3),
+// Law "gated_shader": DB23's gated Gaussian as the public HLSL implementation runs it (docs/math/laws.md#law-gated-shader),
 // always in float32, including its departures from the paper:
 //   - P1 = 1 - pow(|1 - p|, n) directly (not through expm1/log1p);
 //   - n is continuous, with n >= 1 in the Gaussian's parameters: m = max(n, 1) - 1,
@@ -190,7 +190,19 @@ class GatedShaderLaw final : public TemplatedLaw<GatedShaderLaw> {
 };
 
 const bool registered = register_parameterless_law<GatedShaderLaw>(
-    "gated_shader", "DB23 gated Gaussian as the public shader runs it: float32, soft gate, half-float randoms");
+    "gated_shader", "DB23 gated Gaussian as the public shader runs it: float32, soft gate, half-float randoms",
+    {.output = LawOutput::kReal,  // the soft gate's ramp
+     .support = SupportBound::kNPlusOne,
+     .support_note = "K = gate (1 + clamp(floor(G), 0, n)) reaches n + 1, as the public shader does",
+     .constant_time = true,
+     .regime = "the public shader's path, p <= 1/2 (an emulation: its defects are measured, not fixed)",
+     .cost = "constant: pow, sqrt, a log and Giles' erfinv polynomial",
+     .study_variants = {LawParams{}},
+     .bench_variants = {LawParams{}},
+     .test_variants = {LawParams{}},
+     .bounds = {{.regime = {{"p_range", {0, 0.5}}},
+                 .metrics = {"tv", "mean_rel_err"},
+                 .reason = "the public shader's path, p <= 1/2"}}});
 
 }  // namespace
 }  // namespace glintlab

@@ -1,4 +1,4 @@
-// Law "gaussian": the moment-matched normal approximation of the binomial (LAWS.md §3),
+// Law "gaussian": the moment-matched normal approximation of the binomial (docs/math/laws.md#law-gaussian),
 //   G = n p + sqrt(n p (1 - p)) Phi^-1(u),   K = clamp(floor(G) or round(G), 0, top),
 // with top = ceil(n), the largest count of the stratified binomial (binomial.hpp) it approximates.
 // Rounding "round" is floor(G + 1/2). Parameters: rounding = "floor" (default) | "round".
@@ -67,7 +67,28 @@ const bool registered = register_law(
        const bool round = reader.text("rounding", "floor", {"floor", "round"}) == "round";
        reader.finish();
        return std::make_unique<GaussianLaw>(round);
-     }});
+     },
+     {.output = LawOutput::kInteger,
+      .support = SupportBound::kBoundedByN,
+      .constant_time = true,
+      .regime = "the bulk: n p >= 10, p <= 1/2 (a normal cannot give the skewed small counts)",
+      .cost = "constant: one Phi^-1",
+      // Both roundings in the study (floor is the paper's, round the better one); the benchmark
+      // times one, as both cost the same.
+      .study_variants = {LawParams{{"rounding", std::string("floor")}}, LawParams{{"rounding", std::string("round")}}},
+      .bench_variants = {LawParams{{"rounding", std::string("round")}}},
+      .test_variants = {LawParams{{"rounding", std::string("floor")}}, LawParams{{"rounding", std::string("round")}}},
+      .bounds = {{.regime = {{"p_range", {0, 0.5}}, {"np_range", {10, 1e300}}},
+                  .metrics = {"tv", "mean_rel_err"},
+                  .reason = "floored normal: meant for n p >= 10"},
+                 {.params = {{"rounding", std::string("round")}},
+                  .regime = {{"p_range", {0, 0.5}}, {"np_range", {10, 1e300}}},
+                  .metrics = {"tv", "mean_rel_err"},
+                  .reason = "rounded normal, n p >= 10"},
+                 {.params = {{"rounding", std::string("round")}},
+                  .regime = {{"p_range", {0, 0.5}}},
+                  .metrics = {"tv"},
+                  .reason = "rounded normal, whole lower half"}}}});
 
 }  // namespace
 }  // namespace glintlab

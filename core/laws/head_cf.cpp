@@ -194,7 +194,16 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
 };
 
 const bool registered = register_parameterless_law<HeadCfLaw>(
-    "head_cf", "glintlab: exact head (K <= 2) + Cornish-Fisher tail of the rarer outcome; constant time");
+    "head_cf", "glintlab: exact head (K <= 2) + Cornish-Fisher tail of the rarer outcome; constant time",
+    {.output = LawOutput::kInteger,
+     .support = SupportBound::kBoundedByN,
+     .constant_time = true,
+     .regime = "the whole (n, p) plane: exact where the count is small and skewed, Cornish-Fisher in the bulk",
+     .cost = "constant: exp, log1p, sqrt and one Phi^-1",
+     .study_variants = {LawParams{}},
+     .bench_variants = {LawParams{}},
+     .test_variants = {LawParams{}},
+     .bounds = {{.metrics = {"tv", "mean_rel_err"}, .reason = "glintlab's law over the whole standard grid"}}});
 
 }  // namespace
 }  // namespace glintlab

@@ -1,5 +1,5 @@
 // Law "poisson": the count of a Poisson facet layout of intensity N in a footprint holding n = N P
-// facets on average, K ~ Poisson(n p) (LAWS.md §2). Any real n >= 0 is natural here.
+// facets on average, K ~ Poisson(n p) (docs/math/ground_truth.md#gt-poisson). Any real n >= 0 is natural here.
 #include "glintlab/binomial.hpp"
 #include "glintlab/law.hpp"
 
@@ -29,7 +29,20 @@ class PoissonLaw final : public CountingLaw {
 };
 
 const bool registered = register_parameterless_law<PoissonLaw>(
-    "poisson", "exact Poisson(n p): the count of a Poisson facet layout");
+    "poisson", "exact Poisson(n p): the count of a Poisson facet layout",
+    {.output = LawOutput::kInteger,
+     .support = SupportBound::kUnbounded,
+     .support_note = "the Poisson layout: K ~ Poisson(n p) counts a Poisson number of facets",
+     .constant_time = false,
+     .reference = true,
+     .regime = "a Poisson facet layout; as an approximation of the binomial, small p (its limit)",
+     .cost = "evaluate() searches the exact CDF (grows slowly with n p); work_units does not model it (0)",
+     // Another facet model, not an approximation of the binomial: not in the trade study or the
+     // benchmark (both compare approximations with the binomial).
+     .test_variants = {LawParams{}},
+     .bounds = {{.regime = {{"p_range", {0, 1e-3}}},
+                 .metrics = {"tv", "mean_rel_err"},
+                 .reason = "the Poisson layout is the small-p limit"}}});
 
 }  // namespace
 }  // namespace glintlab

@@ -16,6 +16,9 @@
 namespace glintlab {
 namespace {
 
+// WWH18's threshold, shared by the factory's default and the declared bound domain.
+constexpr double kDefaultThreshold = 16.0;
+
 class ThresholdLaw final : public TemplatedLaw<ThresholdLaw> {
  public:
   explicit ThresholdLaw(double t) : t_(t) {}
@@ -44,6 +47,15 @@ class ThresholdLaw final : public TemplatedLaw<ThresholdLaw> {
     return bound;
   }
 
+  // Expected steps of eval's CDF walk below T: it stops at k = K after K + 1 steps, and E[K] = n p
+  // (the walk's cap at mean + 15 sd + 30 is almost never reached). Above T, and where eval returns
+  // before the walk (p in {0, 1}, n = 0), no steps.
+  double work_units(double n, double p) const override {
+    const double mean = n * p;
+    if (mean > t_ || p <= 0 || p >= 1 || n <= 0) return 0.0;
+    return mean + 1;
+  }
+
   bool has_pmf() const override { return true; }
   Distribution pmf(double n, double p, std::size_t max_support) const override {
     if (n * p > t_) return Distribution({n * p}, {1.0});
@@ -58,11 +70,26 @@ const bool registered = register_law(
     {"threshold", "WWH18 filtered model: the mean n p above T=16, the exact binomial below",
      [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
        ParamReader reader("threshold", params);
-       const double t = reader.number("T", 16);
+       const double t = reader.number("T", kDefaultThreshold);
        reader.finish();
        if (!(t > 0)) throw_invalid("law 'threshold'", "T", t, "a number > 0");
        return std::make_unique<ThresholdLaw>(t);
-     }});
+     },
+     {.output = LawOutput::kReal,  // the mean n p above T
+      .support = SupportBound::kBoundedByN,
+      .constant_time = false,
+      .regime = "n p <= T (the exact binomial); above T only the mean is right (no variance: a filtered look)",
+      .cost = "constant above T; below, work_units = n p + 1 expected steps of the CDF walk",
+      .study_variants = {LawParams{}},
+      .bench_variants = {LawParams{}},
+      // T = 2.5: a threshold that the test points cross on both sides.
+      .test_variants = {LawParams{}, LawParams{{"T", 2.5}}},
+      // Below and above T: the walk's cost, then none.
+      .cost_points = {{100.0, 0.1}, {16.0, 0.1}, {1e3, 0.5}},
+      .bounds = {{.regime = {{"np_range", {0, kDefaultThreshold}}},
+                  .metrics = {"tv"},
+                  .reason = "n p <= T: the exact binomial"},
+                 {.metrics = {"mean_rel_err"}, .reason = "the mean n p is exact everywhere"}}}});
 
 }  // namespace
 }  // namespace glintlab

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <mutex>
 #include <numbers>
 #include <stdexcept>
 
@@ -79,45 +78,17 @@ Shape shape_from_params(double area, double ratio, double angle) {
 // ---------------------------------------------------------------------------------------------
 // Registry
 
-namespace {
-std::map<std::string, GridSchemeInfo>& scheme_registry() {
-  static std::map<std::string, GridSchemeInfo> schemes;
+Registry<GridSchemeInfo>& grid_scheme_registry() {
+  static Registry<GridSchemeInfo> schemes("grid scheme");
   return schemes;
 }
-std::mutex& scheme_mutex() {
-  static std::mutex m;
-  return m;
-}
-}  // namespace
 
-bool register_grid_scheme(GridSchemeInfo info) {
-  std::lock_guard<std::mutex> lock(scheme_mutex());
-  auto& schemes = scheme_registry();
-  if (schemes.count(info.name)) throw std::logic_error("grid scheme registered twice: " + info.name);
-  const std::string name = info.name;
-  schemes.emplace(name, std::move(info));
-  return true;
-}
+bool register_grid_scheme(GridSchemeInfo info) { return grid_scheme_registry().add(std::move(info)); }
 
-std::vector<GridSchemeInfo> registered_grid_schemes() {
-  std::lock_guard<std::mutex> lock(scheme_mutex());
-  std::vector<GridSchemeInfo> out;
-  for (const auto& [name, info] : scheme_registry()) out.push_back(info);
-  return out;
-}
+std::vector<GridSchemeInfo> registered_grid_schemes() { return grid_scheme_registry().all(); }
 
 std::unique_ptr<GridScheme> make_grid_scheme(const std::string& name, const LawParams& params) {
-  GridSchemeFactory make;
-  std::string known;
-  {
-    std::lock_guard<std::mutex> lock(scheme_mutex());
-    const auto& schemes = scheme_registry();
-    const auto it = schemes.find(name);
-    if (it != schemes.end()) make = it->second.make;
-    for (const auto& [n, info] : schemes) known += (known.empty() ? "" : ", ") + n;
-  }
-  if (!make) throw std::invalid_argument("scheme = '" + name + "': unknown grid scheme (known: " + known + ")");
-  return make(params);
+  return grid_scheme_registry().make(name, params);
 }
 
 namespace {

@@ -13,11 +13,6 @@ namespace glintlab {
 
 namespace {
 
-std::map<std::string, BlendInfo>& blend_registry() {
-  static std::map<std::string, BlendInfo> blends;
-  return blends;
-}
-
 // Level l's 16-bit key in the counter (two's complement, so negative levels are distinct).
 std::uint16_t level_key(int level) { return static_cast<std::uint16_t>(static_cast<std::int16_t>(level)); }
 
@@ -82,29 +77,17 @@ InnerLaw InnerLaw::from_law(std::shared_ptr<const CountingLaw> law) {
   return inner;
 }
 
-bool register_blend(BlendInfo info) {
-  auto& blends = blend_registry();
-  if (blends.count(info.name)) throw std::logic_error("blend registered twice: " + info.name);
-  const std::string name = info.name;
-  blends.emplace(name, std::move(info));
-  return true;
+Registry<BlendInfo>& blend_registry() {
+  static Registry<BlendInfo> blends("blend");
+  return blends;
 }
 
-std::vector<BlendInfo> registered_blends() {
-  std::vector<BlendInfo> out;
-  for (const auto& [name, info] : blend_registry()) out.push_back(info);
-  return out;
-}
+bool register_blend(BlendInfo info) { return blend_registry().add(std::move(info)); }
+
+std::vector<BlendInfo> registered_blends() { return blend_registry().all(); }
 
 std::unique_ptr<BlendRule> make_blend(const std::string& name, const LawParams& params) {
-  const auto& blends = blend_registry();
-  const auto it = blends.find(name);
-  if (it == blends.end()) {
-    std::string known;
-    for (const auto& [key, info] : blends) known += (known.empty() ? "" : ", ") + key;
-    throw_invalid("blended_law", "name", "'" + name + "'", "one of: " + known);
-  }
-  return it->second.make(params);
+  return blend_registry().make(name, params);
 }
 
 BlendedLaw::BlendedLaw(std::unique_ptr<BlendRule> rule, InnerLaw inner, LevelLadder ladder)
@@ -120,6 +103,10 @@ std::string BlendedLaw::binning() const {
 
 bool BlendedLaw::has_pmf() const {
   return rule_->has_pmf() && inner_.law && inner_.law->has_pmf() && inner_.integer_output;
+}
+
+double BlendedLaw::variance_ratio(double area) const {
+  return rule_->variance_ratio(area, ladder_.bracket(area));
 }
 
 Distribution BlendedLaw::pmf(double density, double area, double p, std::size_t max_support) const {

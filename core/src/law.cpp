@@ -3,9 +3,10 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <exception>
-#include <mutex>
 #include <stdexcept>
 
 #include "glintlab/errors.hpp"
@@ -14,17 +15,6 @@
 namespace glintlab {
 
 namespace {
-
-std::map<std::string, LawInfo>& registry() {
-  static std::map<std::string, LawInfo> laws;
-  return laws;
-}
-// Laws also register after static initialization (plugins, validation/src/plugin_loader.cpp), possibly
-// while other threads look laws up: every registry access holds this lock.
-std::mutex& registry_mutex() {
-  static std::mutex m;
-  return m;
-}
 
 int& thread_setting() {
   static int threads = [] {
@@ -126,36 +116,41 @@ void CountingLaw::validate(double n, double p, std::size_t index, bool is_array)
                               ") is outside the law's domain");
 }
 
-bool register_law(LawInfo info) {
-  std::lock_guard lock(registry_mutex());
-  auto& laws = registry();
-  if (laws.count(info.name)) throw std::logic_error("law registered twice: " + info.name);
-  const std::string key = info.name;
-  laws.emplace(key, std::move(info));
-  return true;
+Registry<LawInfo>& law_registry() {
+  static Registry<LawInfo> laws("law");
+  return laws;
 }
+
+bool register_law(LawInfo info) { return law_registry().add(std::move(info)); }
 
 std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params) {
-  LawFactory make;
-  {
-    std::lock_guard lock(registry_mutex());
-    const auto& laws = registry();
-    auto it = laws.find(name);
-    if (it == laws.end()) {
-      std::string names;
-      for (const auto& [k, v] : laws) names += (names.empty() ? "" : ", ") + k;
-      throw_invalid("law", "name", "'" + name + "'", "one of: " + names);
-    }
-    make = it->second.make;
-  }
-  return make(params);  // outside the lock: a factory may look up other laws
+  return law_registry().make(name, params);
 }
 
-std::vector<LawInfo> registered_laws() {
-  std::lock_guard lock(registry_mutex());
-  std::vector<LawInfo> out;
-  for (const auto& [k, v] : registry()) out.push_back(v);
-  return out;
+std::vector<LawInfo> registered_laws() { return law_registry().all(); }
+
+LawTraits law_traits(const std::string& name) { return law_registry().find(name).traits; }
+
+std::string law_output_name(LawOutput output) {
+  return output == LawOutput::kInteger ? "integer" : "real";
+}
+
+std::string support_bound_name(SupportBound bound) {
+  switch (bound) {
+    case SupportBound::kBoundedByN: return "bounded_by_n";
+    case SupportBound::kNPlusOne: return "n_plus_one";
+    case SupportBound::kUnbounded: break;
+  }
+  return "unbounded";
+}
+
+double LawTraits::max_count(double n) const {
+  switch (support) {
+    case SupportBound::kBoundedByN: return std::ceil(n);
+    case SupportBound::kNPlusOne: return std::ceil(n) + 1;
+    case SupportBound::kUnbounded: break;
+  }
+  return std::numeric_limits<double>::infinity();
 }
 
 double ParamReader::number(const std::string& key, double fallback) {

@@ -4,16 +4,19 @@
 >>> law = gl.law("binomial")
 >>> d = law.pmf(100, 0.1)                 # exact distribution
 >>> x = law.sample(100, 0.1, size=10**6, seed=1)
->>> gl.chi2_test(x, d).pvalue
+>>> gl.chi2_test(x, d).pvalue                # samples against their own law: no rejection
+0.171
 """
 from . import _core
 from ._core import Chi2Result, Distribution
 from .api.grids import AnisoCounter, aniso_counter, footprint_shapes, grid_schemes
 from .api.blends import BlendedLaw, blend_summaries, blended_law, blends, roulette_keep_moments, zk16_variance_ratio
 from .api.exact import binomial, poisson
-from .validation.extremes import extremes_summary, extremes_table, invalid_inputs_table, write_extremes_report
+from .validation.extremes import extremes_summary, extremes_table, invalid_inputs_table
+from .studies.extremes import write_extremes_report
 from .validation.grid import standard_grid
-from .api.laws import CustomLaw, Law, custom_law, law, law_summaries, laws, uniforms
+from .api.laws import (CustomLaw, Law, custom_law, law, law_label, law_summaries, law_traits, law_variants, laws,
+                       parse_law_label, uniforms)
 from .api.metrics import METRICS, chi2_test, distance, sidak_alpha
 from .api.ndf import NDF, ndf
 from .api.plugins import load_plugin, loaded_plugins
@@ -46,7 +49,7 @@ __all__ = [
     "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
     "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
     "chi2_test", "footprint_for_area", "ground_truth", "joint_counts",
-    "custom_law", "distance", "error_table", "extremes_summary", "extremes_table", "invalid_inputs_table",
+    "custom_law", "law_label", "law_traits", "law_variants", "parse_law_label", "distance", "error_table", "extremes_summary", "extremes_table", "invalid_inputs_table",
     "write_extremes_report", "get_num_threads", "law", "law_summaries", "laws", "poisson",
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
 ]

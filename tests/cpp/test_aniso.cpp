@@ -44,7 +44,7 @@ TEST_CASE("every grid scheme's weights are a non-negative partition of unity", "
 }
 
 TEST_CASE("unknown grid schemes and parameters are refused by name", "[aniso]") {
-  CHECK_THROWS_WITH(make_grid_scheme("db99"), Catch::Contains("scheme = 'db99'"));
+  CHECK_THROWS_WITH(make_grid_scheme("db99"), Catch::Contains("unknown grid scheme 'db99'"));
   CHECK_THROWS_WITH(make_grid_scheme("db23_trilinear", {{"orientation_step", 50.0}}),
                     Catch::Contains("orientation_step = 50"));
   CHECK_THROWS_WITH(spatial_from_name("hex"), Catch::Contains("spatial = 'hex'"));

@@ -258,7 +258,7 @@ TEST_CASE("bad input is refused, naming the parameter", "[blend]") {
   CHECK_THROWS_WITH(law.sample(10, {&P, 1}, {&bad_p, 1}, 1, 1, out), Catch::Contains("p = 1.5"));
   CHECK_THROWS_WITH(law.sample_at(10, {&P, 1}, {&p, 1}, {&nan, 1}, {&P, 1}, 1, 1, out), Catch::Contains("x = nan"));
   CHECK_THROWS_WITH(law.pmf(NAN, P, p), Catch::Contains("N = nan"));
-  CHECK_THROWS_WITH(make_blend("linear"), Catch::Contains("one of: distributed"));
+  CHECK_THROWS_WITH(make_blend("linear"), Catch::Contains("unknown blend 'linear'; known: distributed"));
   CHECK_THROWS_WITH(make_blend("roulette", {{"epsilon", 0.75}}), Catch::Contains("epsilon = 0.75"));
   CHECK_THROWS_WITH(make_blend("nearest", {{"epsilon", 0.1}}), Catch::Contains("epsilon"));
   CHECK_THROWS_AS(blended("roulette", "binomial", 4, 1, {{"epsilon", 0.1}}).pmf(100, 0.3, 0.1), not_implemented);

@@ -14,7 +14,7 @@ TEST_CASE("laws are registered by name", "[law]") {
   for (const auto& info : registered_laws()) names.push_back(info.name);
   CHECK(std::find(names.begin(), names.end(), "binomial") != names.end());
   CHECK(std::find(names.begin(), names.end(), "poisson") != names.end());
-  CHECK_THROWS_WITH(make_law("nope"), Contains("name = 'nope'") && Contains("binomial"));
+  CHECK_THROWS_WITH(make_law("nope"), Contains("unknown law 'nope'") && Contains("binomial"));
   CHECK_THROWS_WITH(make_law("binomial", {{"cap", 3.0}}), Contains("unknown parameter 'cap'"));
   auto law = make_law("binomial");
   CHECK(law->has_pmf());

@@ -13,9 +13,8 @@ import pytest
 
 import glintlab as gl
 
-APPROX = [("gaussian", {"rounding": "floor"}), ("gaussian", {"rounding": "round"}), ("gated", {}),
-          ("zk16", {}), ("zk16", {"cap": 4}), ("threshold", {}), ("threshold", {"T": 2.5}),
-          ("head_cf", {}), ("gated_shader", {}), ("gated_continuous", {}), ("dual_gated", {})]
+# Every approximation's declared test variants (core/laws/*.cpp): a new law is tested here unedited.
+APPROX = gl.law_variants("test", reference=False)
 POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (10.5, 0.3), (1, 0.5), (1e6, 1e-6), (40, 0.97), (3.7, 0.6),
           (40, 0.1), (0.4, 0.9)]
 ALPHA = gl.sidak_alpha(1e-3, len(APPROX) * len(POINTS))
@@ -91,18 +90,23 @@ def test_extremes_give_finite_counts_in_range(case, precision):
     cols = (shift[:, None] + np.arange(law.n_uniforms)[None, :]) % len(EXTREME_U)
     u = np.sort(EXTREME_U)[cols]
     k = law.evaluate(nn.ravel(), pp.ravel(), u, precision=precision)
-    top = np.ceil(nn.ravel())
-    if name == "gated_shader":  # the shader's K = gate (1 + clamp(floor(G), 0, n)) reaches n + 1
-        top = top + 1
-    # Counts are integers, except the threshold law's mean n p above T and the shader's soft gate.
-    # (gated_continuous and dual_gated have real outputs by definition.)
-    integer = (k == np.floor(k)) | (name in ("threshold", "gated_shader", "gated_continuous", "dual_gated"))
+    # The bounds each law declares with its code: K <= ceil(n), or ceil(n) + 1 for the public shader's
+    # gate (1 + clamp(floor(G), 0, n)); integer counts unless its output is declared real (a mean, a
+    # soft gate, a continuous law).
+    traits = law.traits
+    top = np.ceil(nn.ravel()) + (1 if traits["support"] == "n_plus_one" else 0)
+    integer = (k == np.floor(k)) | (traits["output"] == "real")
     bad = ~(np.isfinite(k) & (k >= 0) & (k <= top) & integer)
     assert not bad.any(), [(n, p, tuple(row), kk) for n, p, row, kk in
                            zip(nn.ravel()[bad], pp.ravel()[bad], u[bad], k[bad])][:5]
 
 
-@pytest.mark.parametrize("case", APPROX[:2], ids=ids)
+# Integer laws of one uniform with a float32 path: the same uniform goes through the same quantile.
+ONE_UNIFORM_F32 = [c for c in APPROX if gl.law(c[0], **c[1]).n_uniforms == 1
+                   and "float32" in gl.law(c[0], **c[1]).precisions and gl.law_traits(c[0])["output"] == "integer"]
+
+
+@pytest.mark.parametrize("case", ONE_UNIFORM_F32, ids=ids)
 def test_float32_is_the_same_law_where_float_resolves_it(case):
     # At moderate n the float32 evaluation of the same uniforms gives the same counts (almost
     # always); at n p ~ 3e5 float spacing (0.03) moves a measurable share of the floor boundaries.

@@ -64,7 +64,7 @@ def test_a_failing_custom_inner_law_is_reported():
 
 
 @pytest.mark.parametrize("call, match", [
-    (lambda: gl.blended_law("linear"), "one of: distributed"),
+    (lambda: gl.blended_law("linear"), "known: distributed"),
     (lambda: gl.blended_law("distributed", level_ratio=1), "level_ratio = 1"),
     (lambda: gl.blended_law("distributed", base_area=-2), "base_area = -2"),
     (lambda: gl.blended_law("distributed", inner=3), "inner = 3"),

@@ -1,4 +1,4 @@
-// Anisotropic pixel footprints and the virtual grids that count glints in them (LAWS.md §5-6;
+// Anisotropic pixel footprints and the virtual grids that count glints in them (docs/math/grids.md;
 // DB23 §5-6 and the ZK16 baseline of DB23 §7 / Fig. 11).
 //
 // A pixel's footprint in texture space is the ellipse spanned by its UV derivatives: area P,
@@ -32,7 +32,7 @@
 // An AnisoCounter evaluates a scheme with an inner law on cells: term t's grid is keyed by its
 // (scale, ratio, orientation) level, the cell containing the pixel position in that grid's rotated and
 // stretched coordinates, and an angular texel, so a realization is coherent across pixels. Realizations
-// may be interpolated (LAWS.md §5): spatially over the 4 corners of a square cell or the 3 vertices of
+// may be interpolated (docs/math/grids.md#grid-realizations): spatially over the 4 corners of a square cell or the 3 vertices of
 // a simplex (triangle) cell, angularly over 4 texels (DB23 eq. 14), either blended with the
 // interpolation weights v_j (mean kept, variance scaled by Σ v_j^2) or by selecting one vertex with
 // probability v_j (the marginal law kept exactly).
@@ -49,6 +49,7 @@
 #include "glintlab/blend.hpp"
 #include "glintlab/distribution.hpp"
 #include "glintlab/law.hpp"
+#include "glintlab/registry.hpp"
 
 namespace glintlab::aniso {
 
@@ -111,11 +112,20 @@ class GridScheme {
 };
 
 using GridSchemeFactory = std::function<std::unique_ptr<GridScheme>(const LawParams&)>;
+// What a scheme declares with its code (studies derive their pairings from it, not from name lists).
+struct GridSchemeTraits {
+  // The counting law the scheme's authors evaluate on its grids (zk16_aniso: "zk16"; DB23's grids:
+  // "gated"), used when a study pairs each scheme with its own law. Empty: none declared.
+  std::string native_law{};
+};
 struct GridSchemeInfo {
   std::string name;
   std::string summary;
   GridSchemeFactory make;
+  GridSchemeTraits traits{};
 };
+// All grid schemes (a function-local static: schemes register from static initializers).
+Registry<GridSchemeInfo>& grid_scheme_registry();
 bool register_grid_scheme(GridSchemeInfo info);
 std::vector<GridSchemeInfo> registered_grid_schemes();
 std::unique_ptr<GridScheme> make_grid_scheme(const std::string& name, const LawParams& params = {});

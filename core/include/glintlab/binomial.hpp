@@ -1,7 +1,7 @@
 // The exact binomial law of the count K of reflecting facets among n, each reflecting with
 // probability p, and the Poisson law of a Poisson layout (K ~ Poisson(n p)).
 //
-// Non-integer n (the "stratified" rule, LAWS.md §2): n = m + f with m = floor(n), f in [0, 1) means
+// Non-integer n (the "stratified" rule, docs/math/ground_truth.md#gt-non-integer): n = m + f with m = floor(n), f in [0, 1) means
 // m facets fully inside the footprint plus one facet covered by the fraction f, so
 //   K = Binomial(m, p) + Bernoulli(f p),   E[K] = n p exactly,   Var[K] = m p q + f p (1 - f p).
 // For integer n it is the ordinary binomial. This is the law of counting stratified facets in a

@@ -1,4 +1,4 @@
-// Blending a counting law between two LOD levels (LAWS.md §4; DB23 §3-4, KPT25 §3.3.3, WB16 §3.2).
+// Blending a counting law between two LOD levels (docs/math/blends.md; DB23 §3-4, KPT25 §3.3.3, WB16 §3.2).
 //
 // Level l of the ladder has cells of area A_l = base_area · ratio^l (any integer l; ratio 4 for mip
 // levels, whose texel side doubles, and 2 as DB23 eq. 13 prints). A footprint of area P sits
@@ -22,12 +22,14 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "glintlab/distribution.hpp"
 #include "glintlab/law.hpp"
+#include "glintlab/registry.hpp"
 #include "glintlab/rng.hpp"
 
 namespace glintlab {
@@ -90,6 +92,13 @@ class BlendRule {
   // integer bins (round half up) when !integer_output(). Throws not_implemented when underivable.
   virtual Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo,
                                    const Distribution& hi, std::size_t max_support) const = 0;
+  // Var[K] / Var[Binomial(N P, p)] for an exact binomial inner law at footprint area P = `area`,
+  // derived analytically by the rule (it does not depend on N or p); NaN when the rule has no
+  // closed form. Declared with the rule so that studies comparing measured variance with the
+  // analytic one need no per-rule branches of their own.
+  virtual double variance_ratio(double /*area*/, const LevelBracket& /*b*/) const {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
 };
 
 using BlendFactory = std::function<std::unique_ptr<BlendRule>(const LawParams&)>;
@@ -98,6 +107,8 @@ struct BlendInfo {
   std::string summary;
   BlendFactory make;
 };
+// All blend rules (a function-local static: rules register from static initializers).
+Registry<BlendInfo>& blend_registry();
 bool register_blend(BlendInfo info);
 std::vector<BlendInfo> registered_blends();
 std::unique_ptr<BlendRule> make_blend(const std::string& name, const LawParams& params = {});
@@ -122,6 +133,9 @@ class BlendedLaw {
   // "none" when K is always an integer, else "round" (unit bins, as CountingLaw::binning).
   std::string binning() const;
   bool has_pmf() const;
+  // The rule's analytic Var[K] / Var[Binomial(N P, p)] at footprint area P for a binomial inner law
+  // (BlendRule::variance_ratio; NaN when the rule has none). Validates P like sample().
+  double variance_ratio(double area) const;
 
   // Exact law of K (see BlendRule::combine_pmf); not_implemented when the inner law has no exact
   // law or produces non-integer counts.

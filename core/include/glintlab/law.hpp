@@ -12,10 +12,13 @@
 #include <stdexcept>
 #include <string>
 #include <algorithm>
+#include <array>
+#include <utility>
 #include <variant>
 #include <vector>
 
 #include "glintlab/distribution.hpp"
+#include "glintlab/registry.hpp"
 #include "glintlab/rng.hpp"
 
 namespace glintlab {
@@ -92,6 +95,68 @@ class CountingLaw {
   }
   // Throws std::invalid_argument naming the bad parameter ("n[12] = -1 ...") if !accepts(n, p).
   virtual void validate(double n, double p, std::size_t index, bool is_array) const;
+
+  // The cost model: how much work one evaluate() at (n, p) does on top of its fixed cost, in the
+  // law's own unit (zk16: Bernoulli trials of its explicit loop; threshold: expected steps of its
+  // CDF walk). 0 for constant-time laws and for laws that do not model their cost (see
+  // LawTraits::cost). Declared by the law, from the constants its sampler uses, so that a cost model
+  // elsewhere (the scene advisor) cannot drift from the law. (n, p) must be accepted by accepts().
+  virtual double work_units(double /*n*/, double /*p*/) const { return 0.0; }
+};
+
+// What a law declares about itself, next to its code (core/laws/<name>.cpp), so that studies,
+// benchmarks, bounds and checks derive their lists from the registry instead of keeping name lists
+// of their own. A law that declares nothing (a plugin) gets these defaults, which promise nothing:
+// real output, no support bound, not constant time, in no study.
+enum class LawOutput {
+  kInteger,  // evaluate() returns integer counts in every precision (binning() is "none")
+  kReal,     // real values (a gate ramp, a mean, a clamped Gaussian): compared after binning()
+};
+std::string law_output_name(LawOutput output);  // "integer", "real"
+
+enum class SupportBound {
+  kBoundedByN,  // 0 <= K <= ceil(n), the stratified binomial's range
+  kNPlusOne,    // 0 <= K <= ceil(n) + 1 (a defect reproduced on purpose, e.g. the public shader's)
+  kUnbounded,   // K >= 0 only (another facet model: the Poisson layout)
+};
+std::string support_bound_name(SupportBound bound);  // "bounded_by_n", "n_plus_one", "unbounded"
+
+// A region of the (n, p) plane where an error bound on the law is meant to hold, with the metrics
+// bounded there and why (the law's intended regime, not where it happens to be good).
+struct BoundDomain {
+  LawParams params{};  // the variant the bound is for ({}: the defaults)
+  // Ranges in declaration order (the order names the bound): "p_range", "n_range", "np_range" -> [lo,
+  // hi]. Empty: the whole standard grid.
+  std::vector<std::pair<std::string, std::array<double, 2>>> regime{};
+  std::vector<std::string> metrics{};  // metric names (metrics.hpp): "tv", "mean_rel_err", ...
+  std::string reason{};
+};
+
+struct LawTraits {
+  LawOutput output = LawOutput::kReal;
+  SupportBound support = SupportBound::kUnbounded;
+  std::string support_note{};  // why, when the bound is not ceil(n)
+  // Cost independent of (n, p): work_units() is 0 everywhere.
+  bool constant_time = false;
+  // An exact model (binomial, Poisson) that approximations are measured against, not an
+  // approximation of the binomial itself.
+  bool reference = false;
+  std::string regime{};  // one line: where the law is meant to be used (empty: nothing declared)
+  std::string cost{};    // one line: what the cost grows with, and what work_units() counts
+  // Parameter sets (each {} = defaults) used by: the speed/accuracy trade study, the ns/sample
+  // benchmark, and the generic law tests (which also exercise non-default parameters).
+  std::vector<LawParams> study_variants{};
+  std::vector<LawParams> bench_variants{};
+  std::vector<LawParams> test_variants{};
+  // (n, p) points that separate the law's cost terms (fixed cost vs. work units) when timing it;
+  // empty for constant-time laws (any point will do).
+  std::vector<std::array<double, 2>> cost_points{};
+  std::vector<BoundDomain> bounds{};
+
+  bool declared() const { return !regime.empty(); }
+  // Largest count the law can return at n (+inf when unbounded). A law evaluated in float32 sees
+  // float(n): callers pass the n the law computes with.
+  double max_count(double n) const;
 };
 
 namespace detail {
@@ -153,13 +218,21 @@ struct LawInfo {
   std::string name;
   std::string summary;  // one line for listings
   LawFactory make;
+  LawTraits traits{};   // declared in the law's own file (defaults: nothing promised)
 };
 
+// All laws, built-in and plugin. A function-local static, so that laws registering from static
+// initializers in other files find it constructed.
+Registry<LawInfo>& law_registry();
+
 // Registration from a static initializer in the law's own file:
-//   static const bool registered = glintlab::register_law({"binomial", "...", factory});
+//   static const bool registered = glintlab::register_law({"binomial", "...", factory, traits});
+// These wrappers keep the interface that laws, plugins and the bindings already use.
 bool register_law(LawInfo info);
 std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params = {});
 std::vector<LawInfo> registered_laws();
+// The traits of a registered law (std::invalid_argument for an unknown name).
+LawTraits law_traits(const std::string& name);
 
 // Reads law parameters with defaults and rejects unknown or mistyped ones, naming them.
 class ParamReader {
@@ -179,11 +252,13 @@ class ParamReader {
 
 // Registration of a law without parameters (any given parameter is refused by name).
 template <class Law>
-bool register_parameterless_law(const std::string& name, const std::string& summary) {
-  return register_law({name, summary, [name](const LawParams& params) -> std::unique_ptr<CountingLaw> {
+bool register_parameterless_law(const std::string& name, const std::string& summary, LawTraits traits = {}) {
+  return register_law({name, summary,
+                       [name](const LawParams& params) -> std::unique_ptr<CountingLaw> {
                          ParamReader(name, params).finish();
                          return std::make_unique<Law>();
-                       }});
+                       },
+                       std::move(traits)});
 }
 
 // Parameter arrays for the vectorized drivers: `size` is 1 (broadcast) or the batch count.

@@ -1,4 +1,4 @@
-// Distances between two discrete distributions (LAWS.md §7). Supports are aligned by exact value;
+// Distances between two discrete distributions (docs/math/metrics.md). Supports are aligned by exact value;
 // a sample set enters as its empirical distribution (Distribution::empirical). Real-valued outputs
 // must be binned by the caller first, with the binning stated.
 //

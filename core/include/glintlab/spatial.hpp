@@ -1,4 +1,4 @@
-// Spatialized Bernoulli trials (DB23 §4.1, LAWS.md §2): the ground truth a counting law must match.
+// Spatialized Bernoulli trials (DB23 §4.1, docs/math/ground_truth.md): the ground truth a counting law must match.
 //
 // Facets sit on the unit torus; facet i reflects toward the camera iff its uniform theta_i < p, and
 // K counts the reflecting facets inside a footprint F. Three layouts:

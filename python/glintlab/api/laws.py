@@ -38,6 +38,16 @@ class Law:
         return law_label(self.name, self.params)
 
     @property
+    def traits(self) -> dict:
+        """What the law declares about itself, next to its code (see ``law_traits``)."""
+        return law_traits(self.name)
+
+    def work_units(self, n, p) -> np.ndarray:
+        """The law's cost model: work one evaluation at (n, p) does beyond its fixed cost, in the law's
+        own unit (zk16: Bernoulli trials of its loop); 0 for constant-time laws. Broadcasts n and p."""
+        return np.asarray(self._core.work_units(n, p), dtype=np.float64)
+
+    @property
     def n_uniforms(self) -> int:
         """Random numbers one ``evaluate`` row consumes."""
         return self._core.n_uniforms
@@ -193,6 +203,54 @@ class CustomLaw(Law):
             out[i0:i1] = self._call(nf if nf.size == 1 else nf[i0:i1],
                                     pf if pf.size == 1 else pf[i0:i1], u, precision)
         return out
+
+
+def _plain(value):
+    """Integral floats from the C++ traits back to int ({"cap": 4.0} -> {"cap": 4}), so labels, seeds
+    and test ids read as the law's parameters are written."""
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    if isinstance(value, dict):
+        return {k: _plain(x) for k, x in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(_plain(x) for x in value)
+    return value
+
+
+def law_traits(name: str) -> dict:
+    """The traits a built-in law declares in its C++ file: ``output`` ("integer" or "real"),
+    ``support`` ("bounded_by_n", "n_plus_one" or "unbounded", with ``support_note``),
+    ``constant_time``, ``reference`` (an exact model rather than an approximation), ``regime`` and
+    ``cost`` (one line each), the parameter variants used by the trade study, the benchmarks and the
+    generic tests (``study_variants``, ``bench_variants``, ``test_variants``), ``cost_points`` and
+    the domains of its error ``bounds``. Custom and plugin laws declare nothing (``declared`` False).
+
+    >>> law_traits("zk16")["test_variants"]
+    [{}, {'cap': 4}]
+    """
+    if not isinstance(name, str):
+        v.fail("name", name, "a law name (str)")
+    if name in CUSTOM_LAWS:
+        return {"name": name, "declared": False, "output": "real", "support": "unbounded", "support_note": "",
+                "constant_time": False, "reference": False, "regime": "", "cost": "", "study_variants": [],
+                "bench_variants": [], "test_variants": [], "cost_points": [], "bounds": []}
+    return _plain(_core.law_traits(name))
+
+
+def law_variants(use: str, reference=None) -> list[tuple[str, dict]]:
+    """(name, params) of every registered law variant declared for ``use``: "study" (the speed/accuracy
+    trade study), "bench" (``make bench``) or "test" (the generic law tests); ``reference`` True or
+    False keeps only the exact models or only the approximations. Derived from the registry: a new law
+    appears here by declaring its variants in its own file."""
+    if use not in ("study", "bench", "test"):
+        v.fail("use", use, "'study', 'bench' or 'test'")
+    out = []
+    for name in laws():
+        traits = law_traits(name)
+        if reference is not None and traits["reference"] != reference:
+            continue
+        out.extend((name, params) for params in traits[f"{use}_variants"])
+    return out
 
 
 def law_label(name: str, params: dict) -> str:
