@@ -314,7 +314,7 @@ TEST_CASE("every built-in law declares its traits, and keeps them on a grid of (
 
 TEST_CASE("declared traits say what the lists in the studies said", "[registry][traits]") {
   // The facts the Python name lists held, now read from the laws (spot checks, one per list).
-  CHECK(law_traits("poisson").support == SupportBound::kUnbounded);       // extremes: UNBOUNDED
+  CHECK(law_traits("poisson").support == SupportBound::kUnbounded);       // extremes: unbounded_laws()
   CHECK(law_traits("gated_shader").support == SupportBound::kNPlusOne);   // its n + 1 defect
   CHECK(law_traits("binomial").reference);
   CHECK(law_traits("poisson").study_variants.empty());                    // not in the trade study

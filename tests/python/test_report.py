@@ -15,8 +15,11 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 
-from glintlab.report import sections as report
+from glintlab.api.registry import Registry
 from glintlab.cli.main import main
+from glintlab.report import sections
+from glintlab.report.config import check_type, load_config, section_params
+from glintlab.report.sections import SECTIONS
 
 CHROMIUM = shutil.which("chromium")
 BROWSER_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--allow-file-access-from-files"]
@@ -31,11 +34,11 @@ def quick_report(tmp_path_factory):
 
 def test_every_configured_section_ran_and_wrote_its_figures(quick_report):
     out, summary = quick_report
-    doc, _ = report.load_config(None)
+    doc, _ = load_config(None)
     assert summary["ran"] == [e["name"] for e in doc["sections"]]
     for name, sec in summary["sections"].items():
         assert f"--only {name}" in sec["command"] and "--quick" in sec["command"]
-        assert sec["params"] == report.section_params(next(e for e in doc["sections"] if e["name"] == name), True)
+        assert sec["params"] == section_params(next(e for e in doc["sections"] if e["name"] == name), True)
     expected = {"sampler_vs_exact.png", "db23_figure9.png", "db23_figure4.png", "lod_strip.png",
                 "roulette_vs_linear.png", "wwh18_threshold.png", "db23_figure13.png", "trade_pareto.png",
                 "error_maps_tv.png", "extremes.png", "aniso_maps.png"}
@@ -139,7 +142,7 @@ def test_bad_arguments_and_configs_exit_2(tmp_path, capsys):
     assert main(["no-such-command"]) == 2
     cases = [
         ("{", "at /: expected valid JSON"),
-        ('{"kind": "report"}', "at /: 'sections' is a required property"),
+        ('{"kind": "report"}', 'at /sections: expected the required field "sections", got nothing'),
         ('{"kind": "report", "sections": [{"name": "nope"}]}', "at /sections/0/name: expected one of"),
         ('{"kind": "report", "sections": [{"name": "exact_laws", "params": {"samples": 0}}]}',
          "at /sections/0/params/samples: expected an integer >= 1"),
@@ -160,8 +163,40 @@ def test_bad_arguments_and_configs_exit_2(tmp_path, capsys):
 def test_readme_says_what_each_figure_means():
     # The README's table of sections carries each section's one-sentence meaning verbatim (kept in sync).
     readme = (ROOT / "README.md").read_text()
-    doc, _ = report.load_config(None)
+    doc, _ = load_config(None)
     for entry in doc["sections"]:
-        sec = report.SECTIONS[entry["name"]]
+        sec = SECTIONS.get(entry["name"])
         assert f"| `{sec.name}` | {sec.title} | {sec.meaning} |" in readme, sec.name
     assert (ROOT / "docs" / "figures" / "report_thumbnail.png").stat().st_size > 50_000
+
+
+def test_sections_are_the_discovered_studies():
+    # Every study module of glintlab.studies is a section; the default configuration runs each once and
+    # only names them (parameters and quick sizes live in the study modules).
+    assert len(SECTIONS) == 14
+    doc, _ = load_config(None)
+    assert sorted(e["name"] for e in doc["sections"]) == sorted(SECTIONS.names())
+    assert all(set(e) == {"name"} for e in doc["sections"])
+    for name, sec in SECTIONS.items():
+        assert sec.name == name and sec.title and sec.meaning and sec.defaults, name
+        for key, value in sec.quick.items():
+            check_type(f"{name}.QUICK.{key}", value, sec.defaults[key])
+        assert section_params({"name": name}, False) == sec.defaults
+        assert section_params({"name": name}, True) == {**sec.defaults, **sec.quick}
+    # An entry's params beat the study's QUICK; its quick beats both.
+    assert section_params({"name": "exact_laws", "params": {"samples": 7}}, True)["samples"] == 7
+    both = {"name": "exact_laws", "params": {"samples": 7}, "quick": {"samples": 3}}
+    assert section_params(both, True)["samples"] == 3
+    assert section_params({"name": "exact_laws", "quick": {"samples": 3}}, False)["samples"] == 1_000_000
+    assert sections.discover().names() == SECTIONS.names()
+
+
+def test_registry_refuses_duplicates_and_names_the_known():
+    r = Registry("report section")
+    r.register("a", 1)
+    r.register("b", 2)
+    with pytest.raises(ValueError, match="'a' is already registered"):
+        r.register("a", 3)
+    with pytest.raises(ValueError, match=r"unknown report section 'x'; known: a, b"):
+        r.get("x")
+    assert r.names() == ["a", "b"] and r.items() == [("a", 1), ("b", 2)] and "a" in r and len(r) == 2

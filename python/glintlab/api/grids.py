@@ -21,9 +21,17 @@ or "select" (one vertex with probability v_j: the marginal law kept exactly).
 
 >>> import glintlab as gl
 >>> c = gl.aniso_counter("db23_tetrahedral", inner="binomial", base_area=1 / 1024**2)
->>> c.terms(1024**2, 50 / 1024**2, r=3, phi=0.3)      # grids, weights and trial counts
->>> c.pmf(1024**2, 50 / 1024**2, 3, 0.3, p=0.1)         # exact law of K
+>>> t = c.terms(1024**2, 50 / 1024**2, r=3, phi=0.3)  # grids, weights and trial counts
+>>> t[["scale_level", "ratio_level", "orientation", "weight", "trials"]].round(3)
+   scale_level  ratio_level  orientation  weight  trials
+0            2            1            1   0.500  16.000
+1            2            2            1   0.472  30.215
+2            2            2            2   0.014   0.896
+3            3            2            2   0.014   3.556
+>>> c.pmf(1024**2, 50 / 1024**2, 3, 0.3, p=0.1).mean   # exact law of K
+5.0667
 >>> c.mean_bias(1024**2, 50 / 1024**2, 3, 0.3)          # sum of trials / (N P): 1 conserves the count
+1.0133
 """
 from __future__ import annotations
 
@@ -205,3 +213,27 @@ def aniso_counter(scheme: str, inner="binomial", spatial: str = "none", angular:
 def ellipse_axes(P: float, r: float) -> tuple[float, float]:
     """Semi-axes (a, b) of the ellipse of area P and ratio r."""
     return math.sqrt(P * r / math.pi), math.sqrt(P / (r * math.pi))
+
+
+# Named configurations of the grid schemes that the studies and the scene profiles compare:
+# label -> (scheme, keyword arguments of aniso_counter)
+CONFIGS = {
+    "db23_trilinear": ("db23_trilinear", {}),
+    "db23_tetrahedral": ("db23_tetrahedral", {}),
+    "db23_trilinear[log lod]": ("db23_trilinear", {"scale_weights": "log"}),
+    "db23_tetrahedral[log lod]": ("db23_tetrahedral", {"scale_weights": "log"}),
+    "db23_shader_48": ("db23_tetrahedral", {"scale_weights": "log", "spatial": "simplex", "angular": "bilinear",
+                                            "realization": "blend"}),
+    "zk16_aniso": ("zk16_aniso", {}),
+}
+# The image timing adds DB23's costliest variant: 8 grids x 4 square corners x 4 angular texels.
+IMAGE_CONFIGS = {**CONFIGS, "db23_trilinear_128": ("db23_trilinear", {"spatial": "square", "angular": "bilinear",
+                                                                      "realization": "blend"})}
+
+def configured_counter(label, law, N):
+    """The counter of a named configuration (a label of ``IMAGE_CONFIGS``, or a (scheme, keyword
+    arguments) pair) with inner law ``law`` at facet density N (base_area 1 / N)."""
+    scheme, kwargs = {**IMAGE_CONFIGS}[label] if isinstance(label, str) else label
+    kw = dict(kwargs)
+    opts = {k: kw.pop(k) for k in ("spatial", "angular", "realization") if k in kw}
+    return aniso_counter(scheme, inner=law, base_area=1.0 / N, **opts, **kw)

@@ -9,30 +9,50 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 from pathlib import Path
 
+import pandas as pd
+
 from .._core import __version__
+from ..api.laws import law_summaries, parse_law_label
+from ..api.plugins import load_plugin
+from ..report.config import load_config as load_report_config
+from ..report.html import write_extremes_report
+from ..report.runner import print_summary as print_report_summary
+from ..report.runner import run as run_report
+from ..report.sections import SECTIONS
+from ..resources import data_path
+from ..studies.aniso import write_report as write_aniso_report
+from ..studies.scenes import write_profiles
+from ..studies.speed_accuracy import write_bench
+from ..validation.advisor import advice_table, advise
+from ..validation.bench import speed_accuracy
+from ..validation.bounds import check, format_table, write_junit
+from ..validation.experiment import run_experiment
+from ..validation.extremes import extremes_summary, extremes_table, invalid_inputs_table
+from ..validation.profile import profile_scene
+from ..validation.references import resolve_law
+from ..validation.scene import load_scene
 
 
 def _cmd_laws(args) -> int:
-    from ..api.laws import law_summaries
     for name, summary in law_summaries().items():
         print(f"{name:12s} {summary}")
     return 0
 
 
 def _cmd_report(args) -> int:
-    from ..report import sections as report
     if args.list:
-        doc, source = report.load_config(args.config)
+        doc, source = load_report_config(args.config)
         for entry in doc["sections"]:
-            sec = report.SECTIONS[entry["name"]]
+            sec = SECTIONS.get(entry["name"])
             print(f"{sec.name:20s} {sec.title}")
         return 0
-    summary = report.run(Path(args.out), quick=args.quick, seed=args.seed, quiet=args.quiet, only=args.only,
+    summary = run_report(Path(args.out), quick=args.quick, seed=args.seed, quiet=args.quiet, only=args.only,
                          config=args.config)
     if not args.quiet:
-        report.print_summary(summary)
+        print_report_summary(summary)
         print(f"\nwrote {args.out}/index.html, report.json, *.csv, *.png in {summary['seconds']} s")
     for failure in summary["failures"]:
         print(f"glintlab report: FAILED {failure}", file=sys.stderr)
@@ -40,7 +60,6 @@ def _cmd_report(args) -> int:
 
 
 def _load_plugins(paths):
-    from ..api.plugins import load_plugin
     for path in paths or []:
         load_plugin(path)
 
@@ -48,13 +67,11 @@ def _load_plugins(paths):
 def _print_table(df, quiet, max_rows=60):
     if quiet:
         return
-    import pandas as pd
     with pd.option_context("display.width", 200, "display.max_columns", 30, "display.max_rows", max_rows):
         print(df.to_string(index=False, float_format=lambda x: f"{x:.4g}", max_rows=max_rows))
 
 
 def _run_experiment(source, args) -> int:
-    from ..validation.experiment import run_experiment
     _load_plugins(args.plugin)
     out = Path(args.out) if args.out else None
     engine = {}
@@ -126,7 +143,6 @@ def _cmd_sweep(args) -> int:
 
 
 def _cmd_check(args) -> int:
-    from ..validation.bounds import check, format_table, write_junit
     _load_plugins(args.plugin)
     table = check(args.bounds, progress=None if not args.quiet else False)
     if args.junit:
@@ -143,7 +159,6 @@ def _cmd_check(args) -> int:
 
 
 def _cmd_bench(args) -> int:
-    from ..validation.bench import speed_accuracy, write_bench
     _load_plugins(args.plugin)
     laws = [_law_arg(x) for x in args.laws] if args.laws else None
     summary, errors = speed_accuracy(laws, samples=args.samples, seed=args.seed, repeats=args.repeats,
@@ -158,11 +173,9 @@ def _cmd_bench(args) -> int:
 
 
 def _cmd_extremes(args) -> int:
-    from ..validation.extremes import extremes_summary, extremes_table, invalid_inputs_table, write_extremes_report
     _load_plugins(args.plugin)
     laws = [_law_arg(x) for x in args.laws] if args.laws else None
     if laws is not None:
-        from ..validation.sweep import resolve_law
         laws = [resolve_law(x) for x in laws]
     table = extremes_table(laws, samples=args.samples, seed=args.seed)
     invalid = invalid_inputs_table(laws)
@@ -176,8 +189,7 @@ def _cmd_extremes(args) -> int:
 
 
 def _cmd_aniso(args) -> int:
-    from ..studies.aniso import write_report
-    paths, tables = write_report(args.out, full=args.full, samples=args.samples, seed=args.seed,
+    paths, tables = write_aniso_report(args.out, full=args.full, samples=args.samples, seed=args.seed,
                                  image=not args.no_image)
     if not args.quiet:
         _print_table(tables["aniso_summary"], args.quiet)
@@ -190,7 +202,6 @@ def _cmd_aniso(args) -> int:
 def _scene_costs(path):
     if path is None:
         return None
-    import pandas as pd
     try:
         table = pd.read_csv(path)
     except (OSError, ValueError) as exc:
@@ -201,18 +212,13 @@ def _scene_costs(path):
     return table[[c for c in ("law", "ns_per_eval", "ns_per_trial") if c in table]].drop_duplicates("law")
 
 
-def _split_law_label(label):
-    from ..validation.advisor import _split_label
-    return _split_label(label)
+
 
 
 def _cmd_profile(args) -> int:
-    import time
-    from ..validation.advisor import advice_table, profile_scene, write_profiles
-    from ..validation.scene import load_scene
     scenes = [load_scene(path) for path in args.scenes]  # all validated before any work
     costs = _scene_costs(args.costs)
-    laws = None if costs is None else [_split_law_label(x) for x in costs.law]
+    laws = None if costs is None else [parse_law_label(x) for x in costs.law]
     profiles = []
     for sc in scenes:
         t0 = time.perf_counter()
@@ -233,8 +239,6 @@ def _cmd_profile(args) -> int:
 
 
 def _cmd_advise(args) -> int:
-    from ..validation.advisor import advise, profile_scene
-    from ..validation.scene import load_scene
     for flag, value in (("--max-tv", args.max_tv), ("--max-rel-error", args.max_rel_error)):
         if value is not None and not value >= 0:
             raise ValueError(f"{flag} = {value!r} is invalid; expected a number >= 0 (inf for no limit)")
@@ -242,7 +246,7 @@ def _cmd_advise(args) -> int:
         raise ValueError("no budget given; expected --max-tv and/or --max-rel-error")
     scene = load_scene(args.scene)
     costs = _scene_costs(args.costs)
-    laws = None if costs is None else [_split_law_label(x) for x in costs.law]
+    laws = None if costs is None else [parse_law_label(x) for x in costs.law]
     prof = profile_scene(scene, laws=laws, seed=args.seed, scale=args.scale, costs=costs,
                          schemes=sorted({args.scheme, "zk16_aniso", "db23_tetrahedral"}))
     advice = advise(prof, max_tv=args.max_tv, max_rel_error=args.max_rel_error, coverage=args.coverage,
@@ -317,8 +321,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("check", help="check error bounds; exit 1 on any violation",
                        description="Evaluates each bound of BOUNDS.json (law, regime, metric, maximum or minimum), "
                                    "prints a table and exits 1 if any bound is violated.")
-    p.add_argument("bounds", nargs="?", default="data/bounds/default.json",
-                   help="bounds file (default: data/bounds/default.json)")
+    p.add_argument("bounds", nargs="?", default=str(data_path("bounds", "default.json")),
+                   help="bounds file (default: the package's data/bounds/default.json)")
     p.add_argument("--junit", metavar="FILE.xml", help="also write JUnit XML (one testcase per bound)")
     p.add_argument("--quiet", action="store_true", help="print only violations")
     p.add_argument("--plugin", action="append", metavar="LIB.so", help="load a C++ plugin's laws first")
@@ -334,7 +338,7 @@ def build_parser() -> argparse.ArgumentParser:
     common(p, "out/bench")
     p.set_defaults(func=_cmd_bench)
 
-    p = sub.add_parser("extremes", help="the numerical-extremes suite (LAWS.md §8) for every law",
+    p = sub.add_parser("extremes", help="the numerical-extremes suite (docs/math/extremes.md) for every law",
                        description="Evaluates every law in float32 and float64 at extreme n, p and uniforms: finite, "
                                    "in [0, n], mean error, pmf mass; invalid inputs must raise clear errors. Writes "
                                    "extremes.html with failures highlighted.")

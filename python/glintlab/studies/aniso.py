@@ -15,33 +15,36 @@ scheme, realization interpolation, inner law) is compared with it:
 * ``weight_bias``: sum of scale x trials / (N P), the scheme's count conservation, inner-law free.
 
 Grids have ``base_area = 1 / N`` (level 0 cells hold one facet, DB23's "one random facet per texel").
+
+The report's aniso section and ``glintlab aniso`` run the study, the weight maps and the image timing.
 """
 from __future__ import annotations
 
 import math
 import time
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..api.grids import aniso_counter
+from ..api.grids import CONFIGS, IMAGE_CONFIGS, aniso_counter, configured_counter
 from ..api.metrics import chi2_test, distance
 from ..api.spatial import Ellipse, ground_truth
+from ..validation.rows import row_seed, tv_noise
+from .base import Context, Tables
 
-# label -> (scheme, keyword arguments of aniso_counter)
-CONFIGS = {
-    "db23_trilinear": ("db23_trilinear", {}),
-    "db23_tetrahedral": ("db23_tetrahedral", {}),
-    "db23_trilinear[log lod]": ("db23_trilinear", {"scale_weights": "log"}),
-    "db23_tetrahedral[log lod]": ("db23_tetrahedral", {"scale_weights": "log"}),
-    "db23_shader_48": ("db23_tetrahedral", {"scale_weights": "log", "spatial": "simplex", "angular": "bilinear",
-                                            "realization": "blend"}),
-    "zk16_aniso": ("zk16_aniso", {}),
-}
-# The image timing adds DB23's costliest variant: 8 grids x 4 square corners x 4 angular texels.
-IMAGE_CONFIGS = {**CONFIGS, "db23_trilinear_128": ("db23_trilinear", {"spatial": "square", "angular": "bilinear",
-                                                                      "realization": "blend"})}
+NAME = "aniso"
+TITLE = "Anisotropic grids against stratified facets in the ellipse (DB23 §5–6)"
+MEANING = ("DB23's trilinear grid conserves the count exactly, the tetrahedral one over-counts by up to 26 %, "
+           "the shader's 48-evaluation blend cuts the variance to 1/5-1/3, and ZK16 widens beyond r = 16.")
+DEFAULTS = {"samples": 10_000, "image": True, "grid": "quick"}
+QUICK = {"samples": 4000, "image": False, "grid": "small"}
+NOTEBOOK = "aniso_grids.ipynb"
+TABLE = {"aniso_summary": ["config", "law", "max_abs_mean_bias", "max_weight_bias", "var_ratio_min", "var_ratio_max",
+                           "tv_max", "evaluations_max"],
+         "aniso_image": ["config", "law", "seconds", "evaluations_mean", "evaluations_max"]}
+
 QUICK_GRID = {"n": (3.0, 30.0, 300.0), "r": (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 16.0, 24.0, 64.0),
               "phi_deg": (0.0, 30.0, 60.0, 90.0, 120.0, 150.0), "p": (0.1,)}
 # make run QUICK=1: ratios mostly between powers of 2 (at powers of 2 tetrahedral weights are exact)
@@ -51,13 +54,6 @@ SMALL_GRID = {"n": (3.0, 30.0, 300.0), "r": (1.0, 1.5, 3.0, 6.0, 24.0, 64.0), "p
 FULL_GRID = {"n": (3.0, 10.0, 30.0, 100.0, 300.0),
              "r": (1.0, 1.25, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0, 48.0, 64.0),
              "phi_deg": tuple(np.arange(0.0, 180.0, 11.25)), "p": (0.1, 0.5)}
-
-
-def _counter(label, law, N):
-    scheme, kwargs = {**IMAGE_CONFIGS}[label] if isinstance(label, str) else label
-    kw = dict(kwargs)
-    opts = {k: kw.pop(k) for k in ("spatial", "angular", "realization") if k in kw}
-    return aniso_counter(scheme, inner=law, base_area=1.0 / N, **opts, **kw)
 
 
 def _weight_bias(terms, N, P) -> float:
@@ -74,11 +70,10 @@ def truth(N: float, n: float, r: float, phi: float, p: float):
 def study(configs=None, laws=("binomial", "gated"), N: float = 1024.0**2, grid=None, samples: int = 10_000,
           seed: int = 1, threads: int | None = None, progress=None) -> pd.DataFrame:
     """One row per (configuration, law, n, r, phi, p); see the module docstring for the columns."""
-    from ..validation.sweep import row_seed, tv_noise
     configs = list(CONFIGS) if configs is None else list(configs)
     grid = dict(QUICK_GRID if grid is None else grid)
     points = [(n, r, ph, p) for n in grid["n"] for r in grid["r"] for ph in grid["phi_deg"] for p in grid["p"]]
-    counters = {(c, lw): _counter(c, lw, N) for c in configs for lw in laws}
+    counters = {(c, lw): configured_counter(c, lw, N) for c in configs for lw in laws}
 
     def one(point):
         n, r, ph, p = point
@@ -139,7 +134,7 @@ def weight_bias_map(configs=None, N: float = 1024.0**2, levels: float = 2.0, r_m
     r_axis = np.exp(np.linspace(0.0, math.log(r_max), resolution))
     out = {}
     for label in configs:
-        c = _counter(label, "binomial", N)
+        c = configured_counter(label, "binomial", N)
         grid = np.empty((resolution, resolution))
         for i, r in enumerate(r_axis):
             for j, s in enumerate(s_axis):
@@ -158,12 +153,12 @@ def image_benchmark(width: int = 1920, height: int = 1080, law: str = "gated", s
     uv, J = plane_image(width, height, tilt_deg=60.0)
     rows, hists = [], {}
     for label in (list(IMAGE_CONFIGS) if configs is None else configs):
-        c = _counter(IMAGE_CONFIGS.get(label, label), law, N)
+        c = configured_counter(IMAGE_CONFIGS.get(label, label), law, N)
         best = math.inf
         for _ in range(repeats):
-            t0 = time.perf_counter()
+            t0 = time.perfconfigured_counter()
             res = c.count_image(uv, J, N, 0.1, seed=seed)
-            best = min(best, time.perf_counter() - t0)
+            best = min(best, time.perfconfigured_counter() - t0)
         hist = res.evaluation_histogram()
         hists[label] = hist
         st = res.status_counts()
@@ -272,33 +267,56 @@ def evaluations_figure(hists: dict[str, pd.Series]):
     return fig
 
 
-def write_report(out, full: bool = False, samples: int | None = None, seed: int = 1, progress=None,
-                 image: bool = True, grid: dict | None = None):
-    """Runs the study, the weight maps and (``image``) the 1920 x 1080 image timing; writes CSVs and
-    PNGs into ``out``. Returns (figure paths, {name: table})."""
-    import matplotlib.pyplot as plt
-    from pathlib import Path
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    grid = grid or (FULL_GRID if full else QUICK_GRID)
-    samples = samples or (40_000 if full else 10_000)
+GRIDS = {"small": SMALL_GRID, "quick": QUICK_GRID, "full": FULL_GRID}
+STATS_CONFIGS = ("db23_trilinear", "db23_tetrahedral", "zk16_aniso")
+
+
+def compute(params: dict, ctx: Context) -> Tables:
+    if params["grid"] not in GRIDS:
+        raise ValueError(f"grid = {params['grid']!r} is invalid; expected one of {', '.join(GRIDS)}")
+    res = study_tables(GRIDS[params["grid"]], params["samples"], ctx.seed, params["image"])
+    by = res["aniso_summary"].groupby("config")
+    res.stats = {f"largest count bias, {c}": float(by.max_weight_bias.max()[c]) for c in STATS_CONFIGS
+                 if c in by.groups}
+    if "db23_shader_48" in by.groups:
+        res.stats["variance ratio, db23_shader_48"] = (f"{by.var_ratio_min.min()['db23_shader_48']:.2f} to "
+                                                       f"{by.var_ratio_max.max()['db23_shader_48']:.2f}")
+    return res
+
+
+def study_tables(grid: dict, samples: int, seed: int, image: bool, map_resolution: int = 80, progress=None) -> Tables:
+    """The study over ``grid`` (aniso_study; its summary aniso_summary), the weight maps and (``image``) the
+    1920 x 1080 image timing (aniso_image; evaluation histograms aniso_evaluations)."""
     table = study(grid=grid, samples=samples, seed=seed, progress=progress)
-    tables = {"aniso_study": table, "aniso_summary": summary(table)}
-    paths = []
-
-    def save(fig, name, dpi=90):
-        paths.append(out / name)
-        fig.savefig(paths[-1], dpi=dpi)
-        plt.close(fig)
-
-    save(maps_figure(table), "aniso_maps.png")
-    save(weight_bias_figure(weight_bias_map(resolution=80 if not full else 160)), "aniso_weight_bias.png")
+    res = Tables({"aniso_summary": summary(table)}, extra={"aniso_study": table},
+                 data={"weight_bias": weight_bias_map(resolution=map_resolution)})
     if image:
         timing, hists = image_benchmark(seed=seed)
-        tables["aniso_image"] = timing
-        tables["aniso_evaluations"] = pd.concat(
+        res.tables["aniso_image"] = timing
+        res.extra["aniso_evaluations"] = pd.concat(
             [h.rename("pixels").reset_index().assign(config=label) for label, h in hists.items()], ignore_index=True)
-        save(evaluations_figure(hists), "aniso_evaluations.png")
-    for name, df in tables.items():
+        res.data["hists"] = hists
+    return res
+
+
+def figures(tables: Tables, ctx: Context) -> list:
+    paths = [ctx.save(maps_figure(tables["aniso_study"]), "aniso_maps.png", 90),
+             ctx.save(weight_bias_figure(tables["weight_bias"]), "aniso_weight_bias.png", 90)]
+    if "hists" in tables:
+        paths.append(ctx.save(evaluations_figure(tables["hists"]), "aniso_evaluations.png", 90))
+    return paths
+
+
+def write_report(out, full: bool = False, samples: int | None = None, seed: int = 1, progress=None,
+                 image: bool = True, grid: dict | None = None):
+    """``glintlab aniso``: runs the study, the weight maps and (``image``) the 1920 x 1080 image timing;
+    writes CSVs and PNGs into ``out``. Returns (figure paths, {name: table})."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    res = study_tables(grid or (FULL_GRID if full else QUICK_GRID), samples or (40_000 if full else 10_000), seed,
+                       image, map_resolution=80 if not full else 160, progress=progress)
+    paths = figures(res, Context(out, seed))
+    written = {"aniso_study": res.extra["aniso_study"], **res.tables, **res.extra}
+    for name, df in written.items():
         df.to_csv(out / f"{name}.csv", index=False)
-    return paths, tables
+    return paths, written

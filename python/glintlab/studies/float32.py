@@ -8,14 +8,62 @@ K < 0, and K > ceil(n) (a count above the facets there are).
 
 `one_minus_p_pow_n` tabulates the other float32 trap of the numerical extremes (docs/math/extremes.md#extremes-pow): (1 - p)^n computed directly
 (pow(1 - p, n), what the public shaders do) versus exp(n log1p(-p)), against an mpmath reference.
+
+The report's float32 section runs both for the laws of the speed/accuracy trade.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
+from scipy.stats import beta
 
+from ..api.laws import law as get_law, law_variants, uniforms
 from ..validation.grid import standard_grid
-from ..api.laws import law as get_law, uniforms
+from .base import Context, Tables
+from .speed_accuracy import grid_maps
+
+NAME = "float32"
+TITLE = "float32 against float64, and (1 - p)^n four ways"
+MEANING = ("float32 evaluation agrees with float64 over most of the grid and breaks in identifiable corners; "
+           "the gate probability 1 - (1 - p)^n is lost by pow in float32, not by exp(n log1p(-p)).")
+DEFAULTS = {"samples": 1024}
+QUICK = {"samples": 256}
+NOTEBOOK = "speed_accuracy.ipynb"
+TABLE = {"float32_vs_float64": ["law", "mismatch_max", "at_n", "at_p", "points_broken_f32"]}
+
+
+def compute(params: dict, ctx: Context) -> Tables:
+    samples = params["samples"]
+    laws = [get_law(name, **prm) for name, prm in law_variants("study", reference=False)]
+    table = float32_table(laws, samples=samples, seed=ctx.seed)
+    summary = float32_summary(table)
+    return Tables({"float32_vs_float64": summary, "one_minus_p_pow_n": one_minus_p_pow_n()},
+                  {"largest float32 mismatch": float(summary.mismatch_max.max())},
+                  extra={"float32_vs_float64_standard_grid": table}, data={"samples": samples})
+
+
+def figures(tables: Tables, ctx: Context) -> list:
+    import matplotlib.pyplot as plt
+    samples, summary = tables["samples"], tables["float32_vs_float64"]
+    paths = [grid_maps(Path(ctx.out) / "float32_mismatch_maps.png", tables["float32_vs_float64_standard_grid"],
+                       list(summary.law), "mismatch", 1.0 / samples / 2, "viridis", "P(K_f32 != K_f64) >= TV",
+                       f"float32 vs float64 on the same uniforms ({samples} draws per point): n (x) by p (y)")]
+    pow_table = tables["one_minus_p_pow_n"]
+    fig, ax = plt.subplots(figsize=(6.4, 3.8))
+    styles = {("float32", "pow(1-p, n)"): "-", ("float32", "exp(n log1p(-p))"): "--",
+              ("float64", "pow(1-p, n)"): ":", ("float64", "exp(n log1p(-p))"): "-."}
+    for (prec, method), g in pow_table[pow_table.n == 1e3].groupby(["precision", "method"]):
+        ax.loglog(g.p, np.maximum(g.p1_rel_err, 1e-17), styles[(prec, method)], label=f"{prec} {method}")
+    ax.set_xlabel("p (n = 1000)")
+    ax.set_ylabel("relative error of P1 = 1 - (1-p)^n")
+    ax.set_title("The gate probability, four ways (reference: mpmath)", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    paths.append(ctx.save(fig, "one_minus_p_pow_n.png", 110))
+    return paths
 
 
 def float32_table(laws, n=None, p=None, samples: int = 1024, seed: int = 1) -> pd.DataFrame:
@@ -32,7 +80,6 @@ def float32_table(laws, n=None, p=None, samples: int = 1024, seed: int = 1) -> p
     laws = [get_law(x) if isinstance(x, str) else x for x in laws]
     nn, pp = (a.ravel() for a in np.meshgrid(n, p, indexing="ij"))
     rows = []
-    from scipy.stats import beta
     for lw in laws:
         if "float32" not in lw.precisions:
             continue

@@ -1,6 +1,6 @@
 """LOD studies: DB23 Figure 4 (blending against the spatial ground truth) and coherence along camera
-paths (zoom, pan) and across a receding plane. Tables are pandas DataFrames; plots live in
-``glintlab.figures``.
+paths (zoom, pan) and across a receding plane: the numbers behind the studies db23_figure4,
+ghosting_strip, roulette_vs_linear and lod_coherence (which draw them). Tables are pandas DataFrames.
 
 The ground truth is always the stratified layout (DB23's: one jittered facet per cell of an M x M
 grid, N = M^2) counted by ``gl.ground_truth`` / ``gl.joint_counts``.
@@ -12,7 +12,8 @@ import math
 import numpy as np
 import pandas as pd
 
-from ..api.blends import blended_law, zk16_variance_ratio
+from ..api.blends import blended_law
+from ..api.laws import law as get_law
 from ..api.metrics import chi2_test, distance
 from ..api.spatial import Rect, ground_truth, joint_counts
 
@@ -89,8 +90,9 @@ def figure4_table(samples: int = 200_000, seed: int = 1, cases=FIGURE4_CASES, we
                 exact = bl.pmf(N, P, p) if bl.has_pmf else None
             binned = np.floor(x + 0.5) if bl is not None and bl.binning == "round" else x
             var = float(np.var(x, ddof=1))
-            analytic = float(zk16_variance_ratio(P, base_area=a_lo)) * N * P * p * (1 - p) / truth.var \
-                if label.startswith("zk16") else (1.0 if label.startswith("distributed") else float("nan"))
+            # The variance each blend rule declares for an exact binomial inner law (NaN without a closed form).
+            analytic = (float(bl.variance_ratio(P)) * N * P * p * (1 - p) / truth.var if bl is not None
+                        else float("nan"))
             rows.append(dict(base, source=label,
                              pvalue=chi2_test(binned, truth).pvalue,
                              pvalue_vs_square=chi2_test(binned, square).pvalue,
@@ -110,9 +112,8 @@ def non_integer_trials_table(cases=((4096, 16, 0.1), (4096, 16, 0.5), (4096, 16,
     """The effect of the non-integer trial-count rule: the distributed binomial (each level's
     Binomial(floor n, p) + Bernoulli(frac(n) p)) against Binomial(N P, p) (the same rule for N P)
     over a fine sweep of P between the levels: worst TV and worst variance excess (bound p^2 / 2)."""
-    from ..api.laws import law
     rows = []
-    binomial = law("binomial")
+    binomial = get_law("binomial")
     for N, c_lo, p in cases:
         a_lo = c_lo / N
         bl = blended_law("distributed", inner="binomial", base_area=a_lo)
@@ -250,7 +251,6 @@ def blend_appearance(facets_lo: float = 4.0, p: float = 0.05, weights=None, samp
     I = K / (N P p) (D_P / D(h)), and mean_intensity E[I]. Linear blending at w = 1/2 lights about
     twice the truth's pixels at about half the intensity: the "twice the glints at half intensity" that
     DB23 Fig. 2 and KPT25 Fig. 6 show. Sampled columns carry standard errors (``*_se``)."""
-    from ..api.laws import law as get_law
     weights = np.linspace(0.0, 1.0, 21) if weights is None else np.asarray(weights, float)
     N = facets_lo / 4.0**-8  # level -8 as the low level: the blend's levels are powers of 4 of base_area 1
     rows = []

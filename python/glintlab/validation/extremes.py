@@ -1,7 +1,7 @@
-"""The numerical-extremes suite of LAWS.md §8, for every law, in float32 and float64.
+"""The numerical-extremes suite (docs/math/extremes.md), for every law, in float32 and float64.
 
 Every law (and every blend, on footprints exactly on a level boundary and one ulp either side) is
-evaluated over the §8 grid
+evaluated over the grid of docs/math/extremes.md#extremes-grid
 
     n in {0, 1e-6, 0.5, 1, 2, 16, 17, 1e9, 1e15},  p in {0, 1e-300, 1e-12, 1e-7, 0.5, 1 - 1e-7, 1}
 
@@ -17,32 +17,35 @@ for ``corners`` and ``half`` the inner law's uniforms are snapped to {0, 1/2, 1}
 rounded to float16 before the inner law evaluates them (the roulette's own keep uniforms are not
 touched). Blends run in float64 only.
 
-A second table checks the other half of §8's rule, "or a clear error for inputs that are invalid":
+A second table checks the other half of the rule (docs/math/extremes.md#extremes-invalid): invalid inputs raise a clear error:
 n in {-1, nan, inf}, p in {-1e-300, 1 + 1e-15, nan}, u in {-1e-300, 1 + 2^-52, nan} must raise a
 ValueError whose message names the parameter and its value.
 
->>> from glintlab import extremes
->>> t = extremes.extremes_table()                 # about 6 s on 2 cores (all laws and blends)
+>>> from glintlab.validation import extremes
+>>> t = extremes.extremes_table(["binomial"])     # default: all laws and blends, about 6 s on 2 cores
 >>> s = extremes.extremes_summary(t)
->>> extremes.write_extremes_report("out/extremes", t, extremes.invalid_inputs_table(), s)
+>>> s[["law", "precision", "points", "failures"]]
+        law precision  points  failures
+0  binomial   float64     189         0
+>>> import tempfile
+>>> from glintlab.report.html import write_extremes_report    # the page: figure, CSVs, extremes.html
+>>> path = write_extremes_report(tempfile.mkdtemp(), t, extremes.invalid_inputs_table(["binomial"]), s)
+>>> path.name
+'extremes.html'
 """
 from __future__ import annotations
 
-import base64
-import html
 import math
 import os
 import re
 import time
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from ..api.blends import BlendedLaw, blended_law, blends as blend_names
-from .grid import _label
-from ..api.laws import CustomLaw, Law, law as get_law, laws as law_names, uniforms
+from ..api.laws import CustomLaw, Law, law as get_law, law_label, law_traits, laws as law_names, uniforms
 
 GRID_N = (0.0, 1e-6, 0.5, 1.0, 2.0, 16.0, 17.0, 1e9, 1e15)
 GRID_P = (0.0, 1e-300, 1e-12, 1e-7, 0.5, 1 - 1e-7, 1.0)
@@ -50,8 +53,16 @@ UNIFORM_SETS = ("ordinary", "corners", "half")
 CHECKS = ("nonfinite", "below_zero", "above_n", "error", "pmf_mass", "pmf_support")
 PMF_MASS_TOL = 1e-9
 
-# Laws whose count has no upper bound by definition: the check K <= ceil(n) does not apply to them.
-UNBOUNDED = {"poisson": "the Poisson layout: K ~ Poisson(n p) counts a Poisson number of facets"}
+def unbounded_laws() -> dict[str, str]:
+    """Laws whose count has no upper bound by definition (the check K <= ceil(n) does not apply to
+    them), with the reason each declares with its code (``support`` "unbounded"). A law that declares
+    nothing (a plugin, a custom law) is held to K <= ceil(n)."""
+    out = {}
+    for name in law_names():
+        traits = law_traits(name)
+        if traits["declared"] and traits["support"] == "unbounded":
+            out[name] = traits["support_note"]
+    return out
 
 # Blends are evaluated at footprints on the boundary between level 0 and level 1 (P = A_1 =
 # base_area * level_ratio) and one ulp either side: w -> 1 from below, w = 0 (P = A_1 is also w = 1
@@ -71,7 +82,7 @@ class _Subject:
 
     def __init__(self, lw, unbounded):
         self.obj = lw
-        self.label = _label(lw)
+        self.label = law_label(lw.name, lw.params)
         self.name = lw.name
         self.k = int(lw.n_uniforms)
         self.precisions = tuple(lw.precisions)
@@ -112,12 +123,12 @@ class _BlendSubject(_Subject):
     def __init__(self, bl: BlendedLaw, tag: str, ulps: int):
         self.obj = bl
         self.name = bl.name
-        self.label = f"{_label(bl)}[{bl.inner.name}]@{tag}"
+        self.label = f"{law_label(bl.name, bl.params)}[{bl.inner.name}]@{tag}"
         self.k = int(bl.inner.n_uniforms)
         self.precisions = ("float64",)
         self.binning = bl.binning
         self.has_pmf = bool(bl.has_pmf)
-        self.bounded = bl.inner.name not in UNBOUNDED
+        self.bounded = bl.inner.name not in unbounded_laws()
         area = bl.base_area * bl.level_ratio ** 1
         for _ in range(abs(ulps)):
             area = float(np.nextafter(area, np.inf if ulps > 0 else 0.0))
@@ -303,7 +314,7 @@ def extremes_table(laws=None, precisions=("float64", "float32"), samples: int = 
                    n=GRID_N, p=GRID_P, pmf_max_support: int = 2_000_000, blend_pmf_max_support: int = 5_000,
                    unbounded=None,
                    threads=None) -> pd.DataFrame:
-    """The §8 suite: one row per (law, precision, n, p, uniform set).
+    """The numerical-extremes suite (docs/math/extremes.md): one row per (law, precision, n, p, uniform set).
 
     laws: names, ``gl.law(...)``, ``gl.custom_law(...)`` or ``gl.blended_law(...)`` objects (a blend
     is evaluated at the three ``BLEND_FOOTPRINTS``, labelled ``name[inner]@w=...``; blends run in
@@ -312,7 +323,7 @@ def extremes_table(laws=None, precisions=("float64", "float32"), samples: int = 
 
     Columns: law, kind (law, custom, blend), precision, n, p, uniforms, evaluations, nonfinite,
     below_zero (raw K < 0), above_n (K > ceil(n), binned K for laws with binning "round"; 0 for
-    laws in ``UNBOUNDED`` such as poisson), bound, k_min and k_max (finite raw K: on the corners
+    laws of ``unbounded_laws()`` such as poisson), bound, k_min and k_max (finite raw K: on the corners
     they show what u = 0 and u = 1 do), mean, mean_err (mean - n p), mean_rel_err,
     mean_z, half_shift (half rows: mean of the float16-rounded draws minus the ordinary mean, same
     draws rounded), pmf_mass (|sum(probs) - 1|), pmf_support_ok (support within [0, ceil(n)]), pmf_above_n
@@ -341,7 +352,7 @@ def extremes_table(laws=None, precisions=("float64", "float32"), samples: int = 
     for prec in precisions:
         if prec not in _EPS:
             raise ValueError(f"precisions = {precisions!r} is invalid; expected 'float64' and/or 'float32'")
-    unbounded = dict(UNBOUNDED) if unbounded is None else dict(unbounded)
+    unbounded = unbounded_laws() if unbounded is None else dict(unbounded)
     subjects = _subjects(laws, unbounded)
     nn, pp = (a.ravel() for a in np.meshgrid(np.asarray(n, dtype=float), np.asarray(p, dtype=float), indexing="ij"))
 
@@ -538,7 +549,7 @@ def invalid_inputs_table(laws=None) -> pd.DataFrame:
     for item in laws:
         item = get_law(item) if isinstance(item, str) else item
         if isinstance(item, BlendedLaw):
-            label = f"{_label(item)}[{item.inner.name}]"
+            label = f"{law_label(item.name, item.params)}[{item.inner.name}]"
             N, P, p = 4096.0, 2.5 * item.base_area, 0.5
             cases = [("N", v, (v, P, p)) for v in INVALID_N] + \
                     [("P", v, (N, v, p)) for v in (-1.0, 0.0, float("nan"), float("inf"))] + \
@@ -551,7 +562,7 @@ def invalid_inputs_table(laws=None) -> pd.DataFrame:
             continue
         if not isinstance(item, Law):
             raise ValueError(f"laws: {item!r} is invalid; expected a law name, a law object or a blended law")
-        label, k = _label(item), item.n_uniforms
+        label, k = law_label(item.name, item.params), item.n_uniforms
         good_u = np.full((1, k), 0.5)
         np_cases = [("n", v, (v, 0.5)) for v in INVALID_N] + [("p", v, (16.0, v)) for v in INVALID_P]
         for prec in item.precisions:
@@ -570,144 +581,3 @@ def invalid_inputs_table(laws=None) -> pd.DataFrame:
                 record(label, "pmf", "float64", param, value, lambda n=n, p=p: item.pmf(n, p))
     return pd.DataFrame(rows, columns=["law", "method", "precision", "parameter", "value", "outcome", "message",
                                        "names_parameter", "names_value", "ok"])
-
-
-# --------------------------------------------------------------------------------------------------
-# Report.
-
-_CSS = """
-body { font-family: sans-serif; margin: 1.5em; color: #222; }
-table { border-collapse: collapse; font-size: 12px; margin-bottom: 1.5em; }
-th, td { border: 1px solid #bbb; padding: 2px 6px; text-align: right; vertical-align: top; }
-th { background: #eee; }
-td.text { text-align: left; max-width: 40em; }
-td.fail { background: #f4b6b6; color: #7a0000; font-weight: bold; }
-td.pass { background: #d9f2d9; }
-td.na { background: #f2f2f2; color: #888; }
-"""
-
-
-def _cell(value, cls=""):
-    if isinstance(value, (float, np.floating)):
-        text = "" if np.isnan(value) else f"{value:.10g}"
-    else:
-        text = "" if value is None or (value is pd.NA) else str(value)
-    attr = f' class="{cls}"' if cls else ""
-    return f"<td{attr}>{html.escape(text)}</td>"
-
-
-def _html_table(df, fail_cells=None, text_cols=()):
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
-    body = []
-    for i, (_, r) in enumerate(df.iterrows()):
-        cells = []
-        for c in df.columns:
-            cls = "text" if c in text_cols else ""
-            if fail_cells is not None and fail_cells.iloc[i].get(c, False):
-                cls = (cls + " fail").strip()
-            cells.append(_cell(r[c], cls))
-        body.append("<tr>" + "".join(cells) + "</tr>")
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
-
-
-def _figure(summary, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    laws_ = list(dict.fromkeys(summary.law))
-    precs = ["float64", "float32"]
-    mats = {}
-    for prec in precs:
-        mat = np.full((len(laws_), len(CHECKS)), np.nan)
-        s = summary[summary.precision == prec].set_index("law")
-        for i, name in enumerate(laws_):
-            if name in s.index:
-                mat[i] = [s.loc[name, c] for c in CHECKS]
-                if prec != "float64":  # the pmf is checked once, on the float64 rows
-                    mat[i, [CHECKS.index("pmf_mass"), CHECKS.index("pmf_support")]] = np.nan
-        mats[prec] = mat
-    top = max([1.0] + [float(np.nanmax(np.log10(1 + m))) for m in mats.values() if np.isfinite(m).any()])
-    cmap = matplotlib.colormaps["Reds"].copy()
-    cmap.set_bad("#dddddd")
-    fig, axes = plt.subplots(1, 2, figsize=(13, 0.3 * len(laws_) + 2.4), sharey=True)
-    for ax, prec in zip(axes, precs):
-        mat = mats[prec]
-        ax.imshow(np.ma.masked_invalid(np.log10(1 + mat)), cmap=cmap, vmin=0, vmax=top, aspect="auto")
-        for i in range(len(laws_)):
-            for j in range(len(CHECKS)):
-                v = mat[i, j]
-                dark = not np.isnan(v) and np.log10(1 + v) > 0.6 * top
-                ax.text(j, i, "n/a" if np.isnan(v) else str(int(v)), ha="center", va="center", fontsize=7,
-                        color="#777" if np.isnan(v) else ("white" if dark else "black"),
-                        fontweight="bold" if not np.isnan(v) and v > 0 else "normal")
-        ax.set_xticks(range(len(CHECKS)), CHECKS, rotation=30, ha="right", fontsize=8)
-        ax.set_yticks(range(len(laws_)), laws_, fontsize=7)
-        ax.set_title(f"{prec}: failing (n, p, uniform set) rows per check", fontsize=9)
-    fig.suptitle("Numerical extremes (LAWS.md §8): failure counts (colour: log scale; grey: not run)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def write_extremes_report(out_dir, table: pd.DataFrame, invalid: pd.DataFrame | None, summary: pd.DataFrame) -> Path:
-    """Writes extremes.csv, extremes_invalid.csv, extremes_summary.csv, extremes.png (law x check
-    matrix of failure counts, float64 and float32 side by side) and a self-contained extremes.html
-    (summary with failing cells in red, then every failing row and every failing invalid-input
-    case). Returns the path of extremes.html."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    invalid = invalid if invalid is not None else pd.DataFrame(columns=["law", "method", "precision", "parameter",
-                                                                        "value", "outcome", "message", "ok"])
-    table.to_csv(out / "extremes.csv", index=False)
-    invalid.to_csv(out / "extremes_invalid.csv", index=False)
-    summary.to_csv(out / "extremes_summary.csv", index=False)
-    _figure(summary, out / "extremes.png")
-
-    png = base64.b64encode((out / "extremes.png").read_bytes()).decode("ascii")
-    fails = failed_checks(table)
-    sum_fail = pd.DataFrame({c: (summary[c] > 0) if c in CHECKS + ("failures",) else False
-                             for c in summary.columns}, index=summary.index).reset_index(drop=True)
-    failing = table[~table.ok]
-    f = fails.loc[failing.index]
-    row_fail = pd.DataFrame({c: False for c in failing.columns}, index=failing.index)
-    for c in ("nonfinite", "below_zero", "above_n", "error", "pmf_mass"):
-        row_fail[c] = f[c]
-    row_fail["pmf_support_ok"] = f["pmf_support"]
-    row_fail["ok"] = True
-    row_fail = row_fail.reset_index(drop=True)
-    bad_invalid = invalid[~invalid.ok.astype(bool)] if len(invalid) else invalid
-    seconds = table.attrs.get("seconds")
-    meta = (f"{len(table)} rows over {table.law.nunique()} laws / blend footprints; "
-            f"{int((~table.ok).sum())} failing rows; samples = {table.attrs.get('samples', '?')}, "
-            f"seed = {table.attrs.get('seed', '?')}"
-            + (f"; computed in {seconds:.1f} s" if seconds is not None else ""))
-    parts = [
-        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>glintlab: numerical extremes</title>",
-        f"<style>{_CSS}</style></head><body>",
-        "<h1>Numerical extremes (LAWS.md §8)</h1>",
-        f"<p>{html.escape(meta)}.</p>",
-        "<p>Grid n &isin; {" + ", ".join(_fmt(x) for x in sorted(table.n.unique())) + "}, p &isin; {"
-        + ", ".join(_fmt(x) for x in sorted(table.p.unique())) + "}; uniform sets: ordinary, corners "
-        "(coordinates exactly 0, 1/2, 1), half (ordinary rounded to float16). Each evaluation must give a "
-        "finite K in [0, &lceil;n&rceil;] without raising; the exact pmf must sum to 1 (1e-9) on a support in "
-        "[0, &lceil;n&rceil;]. Mean bias (mean_z) is reported, not checked.</p>",
-        f"<p><img alt='law x check failure counts' style='max-width: 100%' src='data:image/png;base64,{png}'></p>",
-        "<h2>Summary</h2>",
-        _html_table(summary, sum_fail, text_cols=("law", "kind", "precision", "failed_checks", "where_failed")),
-        f"<h2>Failing rows ({len(failing)})</h2>",
-        _html_table(failing, row_fail,
-                    text_cols=("law", "kind", "precision", "uniforms", "bound", "pmf_note", "error")),
-        f"<h2>Invalid inputs: {int(invalid.ok.astype(bool).sum()) if len(invalid) else 0} of {len(invalid)} "
-        "cases raise a ValueError naming the parameter and the value</h2>",
-    ]
-    if len(bad_invalid):
-        parts.append(f"<p>Cases that do not ({len(bad_invalid)}):</p>")
-        marks = pd.DataFrame({c: (c == "ok") for c in bad_invalid.columns}, index=range(len(bad_invalid)))
-        parts.append(_html_table(bad_invalid, marks, text_cols=("law", "method", "precision", "parameter",
-                                                                "outcome", "message")))
-    else:
-        parts.append("<p>All cases pass.</p>")
-    parts.append("</body></html>")
-    path = out / "extremes.html"
-    path.write_text("\n".join(parts), encoding="utf-8")
-    return path
