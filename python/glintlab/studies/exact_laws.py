@@ -12,6 +12,7 @@ import pandas as pd
 from ..api.exact import binomial as binom_fn
 from ..api.laws import law
 from ..api.metrics import METRICS, chi2_test, distance
+from ..validation.rows import relative_error
 from .base import Context, Tables
 
 NAME = "exact_laws"
@@ -33,10 +34,6 @@ SAMPLER_ALPHA = 1e-4
 TV_NS = (10, 100, 1e4, 1e6)
 
 
-def _rel(a, b):
-    return abs(a - b) / abs(b) if b else abs(a - b)
-
-
 def compute(params: dict, ctx: Context) -> Tables:
     samples, seed = params["samples"], ctx.seed
     rows = []
@@ -49,7 +46,7 @@ def compute(params: dict, ctx: Context) -> Tables:
         try:
             d = b.pmf(n, p)
             row.update(support=len(d), k_min=d.support[0], k_max=d.support[-1], mass=d.probs.sum(),
-                       mean_rel_err=_rel(d.mean, n * p), var_rel_err=_rel(d.var, var))
+                       mean_rel_err=relative_error(d.mean, n * p), var_rel_err=relative_error(d.var, var))
         except ValueError:  # support too large to list: tails still exact
             row.update(support=float("nan"))
         row["P(K=0)"] = float(binom_fn.pmf(0, n, p))
@@ -68,7 +65,7 @@ def compute(params: dict, ctx: Context) -> Tables:
             r = chi2_test(x, d)
             rows.append(dict(law=name, n=n, p=p, samples=samples, seed=seed, chi2=r.statistic, dof=r.dof,
                              pvalue=r.pvalue, tv_hist=distance(x, d, "tv"),
-                             mean_rel_err=_rel(x.mean(), d.mean), ns_per_sample=dt / samples * 1e9))
+                             mean_rel_err=relative_error(x.mean(), d.mean), ns_per_sample=dt / samples * 1e9))
             if name == "binomial" and (n, p) in FIGURE_POINTS:
                 histograms[n, p] = (d, pd.Series(x).value_counts(normalize=True).sort_index(), r.pvalue)
     checks = pd.DataFrame(rows)
