@@ -1,10 +1,12 @@
-// Experiment and bounds documents: the schema validator (every keyword glintlab's schemas use), the
-// rules beyond the schema, and the error messages (pointer, expected, got) users see.
+// Experiment, bounds, scene and report documents: the schema validator (every keyword glintlab's
+// schemas use), the rules beyond the schema, and the error messages (pointer, expected, got) users see.
 #include <catch2/catch.hpp>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "glintlab/validation/documents.hpp"
 #include "glintlab/validation/json_schema.hpp"
@@ -15,6 +17,7 @@ using glintlab::validation::parse_document;
 using glintlab::validation::parse_experiment;
 using glintlab::validation::SchemaSet;
 using json = nlohmann::json;
+using Files = std::vector<std::pair<std::string, std::string>>;  // (file name, schema text)
 
 namespace {
 
@@ -29,6 +32,15 @@ std::string read_file(const std::string& relative) {
 json experiment() { return json::parse(R"({"laws": ["binomial"], "grid": {"n": [1, 10], "p": [0.5]}})"); }
 
 json bounds() { return json::parse(R"({"bounds": [{"id": "a", "law": "gated", "metric": "tv", "maximum": 0.1}]})"); }
+
+json scene() {
+  return json::parse(R"({"camera": {"resolution": [64, 36], "fov_deg": 60, "position": [0, -4.5, 0.3], "look_at": [0, 0, 0]},
+                         "primitive": {"type": "sphere", "center": [0, 0, 0], "radius": 1},
+                         "light": {"type": "point", "position": [1.5, -4.5, 1.5]},
+                         "material": {"density": 1000}})");
+}
+
+json report() { return json::parse(R"({"kind": "report", "sections": [{"name": "exact_laws", "params": {"samples": 10}}]})"); }
 
 // The InputError a document raises (the test fails if it parses).
 InputError error_text(const std::string& kind, const std::string& text) {
@@ -421,6 +433,176 @@ TEST_CASE("documents: schemas using unsupported features are refused at load", "
   CHECK_THROWS_AS(load("true"), std::logic_error);
   CHECK_THROWS_AS(load("{"), std::logic_error);
   CHECK_NOTHROW(load(R"({"type": "string", "description": "d", "title": "t", "$id": "x", "$schema": "y"})"));
+  // Draft 2020-12 spellings and the keywords beside if/then that are not supported.
+  CHECK_THROWS_AS(load(R"({"$defs": {"a": {}}})"), std::logic_error);
+  CHECK_THROWS_AS(load(R"({"properties": {"a": true}})"), std::logic_error);
+  CHECK_THROWS_AS(load(R"({"if": {"const": 1}, "then": {}, "else": {}})"), std::logic_error);
+  CHECK_THROWS_AS(load(R"({"if": {"const": 1}})"), std::logic_error);  // no effect without then
+  CHECK_THROWS_AS(load(R"({"then": {"const": 1}})"), std::logic_error);
+  CHECK_THROWS_AS(load(R"({"allOf": []})"), std::logic_error);
+  CHECK_THROWS_AS(load(R"({"exclusiveMinimum": true})"), std::logic_error);  // draft-04's boolean form
+  CHECK_THROWS_AS(load(R"({"type": "number", "exclusiveMaximum": 1, "default": 1})"), std::logic_error);
+}
+
+TEST_CASE("documents: const, exclusiveMinimum, exclusiveMaximum", "[documents]") {
+  const SchemaSet set(Files{{"s.json", R"({"type": "object", "properties": {
+      "k": {"const": "report"}, "z": {"const": 2},
+      "x": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 180},
+      "i": {"type": "integer", "exclusiveMinimum": -1}}})"}});
+  const auto error = [&](const char* text) {
+    json doc = json::parse(text);
+    try {
+      set.validate("s.json", doc, "d.json");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  CHECK(error(R"({"k": "report", "z": 2.0, "x": 1e-300, "i": 0})") == "accepted");  // 2.0 equals 2, as in draft-07
+  CHECK(error(R"({"k": "repor"})") == "d.json: at /k: expected \"report\", got \"repor\"");
+  CHECK(error(R"({"k": null})") == "d.json: at /k: expected \"report\", got null");
+  CHECK(error(R"({"z": true})") == "d.json: at /z: expected 2, got true");  // a boolean is no number
+  CHECK(error(R"({"x": 0})") == "d.json: at /x: expected a number > 0, got 0");
+  CHECK(error(R"({"x": -0.0})") == "d.json: at /x: expected a number > 0, got -0.0");
+  CHECK(error(R"({"x": 180})") == "d.json: at /x: expected a number < 180, got 180");
+  CHECK(error(R"({"x": 179.99999})") == "accepted");
+  CHECK(error(R"({"i": -1})") == "d.json: at /i: expected an integer > -1, got -1");
+}
+
+TEST_CASE("documents: allOf and if/then choose a variant by a field, and report its errors", "[documents]") {
+  const SchemaSet set(Files{{"s.json", R"({"type": "object", "required": ["type"],
+      "properties": {"type": {"enum": ["a", "b"]}, "common": {"type": "integer", "default": 1}},
+      "allOf": [
+        {"if": {"properties": {"type": {"const": "a"}}},
+         "then": {"required": ["x"], "additionalProperties": false,
+                  "properties": {"type": {}, "common": {}, "x": {"type": "number"}, "dx": {"type": "number", "default": 0}}}},
+        {"if": {"properties": {"type": {"const": "b"}}},
+         "then": {"additionalProperties": false,
+                  "properties": {"type": {}, "common": {}, "y": {"type": "string", "default": "why"}}}}]})"}});
+  const auto validate = [&](const char* text) {
+    json doc = json::parse(text);
+    set.validate("s.json", doc, "d.json");
+    return doc;
+  };
+  const auto error = [&](const char* text) {
+    try {
+      validate(text);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  // Only the matching variant's defaults are filled in (and the common ones).
+  CHECK(validate(R"({"type": "a", "x": 1})") == json::parse(R"({"type": "a", "x": 1, "dx": 0, "common": 1})"));
+  CHECK(validate(R"({"type": "b"})") == json::parse(R"({"type": "b", "y": "why", "common": 1})"));
+  // The variant the discriminator names reports, with its own fields.
+  CHECK(error(R"({"type": "a"})") == "d.json: at /x: expected the required field \"x\", got nothing");
+  CHECK(error(R"({"type": "a", "x": 1, "y": "s"})") ==
+        "d.json: at /y: expected one of the fields common, dx, type, x, got \"y\"");
+  CHECK(error(R"({"type": "b", "y": 3})") == "d.json: at /y: expected a string, got 3");
+  // The common part is checked first: an unknown discriminator is an enum error.
+  CHECK(error(R"({"type": "c"})") == "d.json: at /type: expected one of \"a\", \"b\", got \"c\"");
+  CHECK(error(R"({"type": "a", "x": 1, "common": 1.5})") == "d.json: at /common: expected an integer, got 1.5");
+  // "if" sees the value as given (before defaults are filled in): a default cannot select a variant,
+  // whether the "if" sits beside the default's "properties" or in an allOf or oneOf part.
+  for (const char* where : {R"("if": {"required": ["t"]}, "then": {"required": ["u"]})",
+                            R"("allOf": [{"if": {"required": ["t"]}, "then": {"required": ["u"]}}])",
+                            R"("oneOf": [{"if": {"required": ["t"]}, "then": {"required": ["u"]}}])"}) {
+    const SchemaSet by_default(Files{{"t.json", std::string(R"({"properties": {"t": {"default": "a"}}, )") + where + "}"}});
+    json doc = json::parse("{}");
+    CHECK_NOTHROW(by_default.validate("t.json", doc, "d.json"));
+    CHECK(doc == json::parse(R"({"t": "a"})"));
+    doc = json::parse(R"({"t": "b"})");
+    CHECK_THROWS_AS(by_default.validate("t.json", doc, "d.json"), InputError);
+  }
+}
+
+TEST_CASE("documents: scenes", "[documents]") {
+  SECTION("defaults, in the variant the primitive's type names") {
+    const json doc = parse_document("scene", scene().dump(), "s.json");
+    CHECK(doc["camera"]["fov_axis"] == "horizontal");
+    CHECK(doc["camera"]["up"] == json::parse("[0, 0, 1]"));
+    CHECK(doc["primitive"] == json::parse(R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "uv_scale": 1.0})"));
+    CHECK(doc["material"] == json::parse(R"({"ndf": "beckmann", "alpha": 1.0, "R": 0.5, "density": 1000})"));
+    CHECK(parse_document("scene", doc.dump(), "s.json") == doc);
+    json in = scene();
+    in["primitive"] = {{"type", "heightfield"}, {"height", {{"amplitude", 0.02}, {"frequency", 4}}}};
+    const json hf = parse_document("scene", in.dump(), "s.json")["primitive"];
+    CHECK(hf == json::parse(R"({"type": "heightfield", "uv_scale": 1.0, "point": [0, 0, 0], "normal": [0, 0, 1],
+                                "tilt_deg": 0, "height": {"amplitude": 0.02, "frequency": 4, "octaves": 3}})"));
+    for (const char* name : {"sphere", "plane_90", "plane_25", "heightfield_90", "heightfield_25"}) {
+      const std::string file = std::string("python/glintlab/data/scenes/") + name + ".json";
+      CHECK_NOTHROW(parse_document("scene", read_file(file), file));
+    }
+  }
+  SECTION("a bad scene names the pointer and what was expected") {
+    json in = scene();
+    in["camera"]["fov_deg"] = 0;
+    InputError e = error_of("scene", in);
+    CHECK(std::string(e.what()) == "t.json: at /camera/fov_deg: expected a number > 0, got 0");
+    in["camera"]["fov_deg"] = 180;
+    CHECK(error_of("scene", in).expected() == "a number < 180");
+    in["camera"]["fov_deg"] = "wide";
+    CHECK_THAT(error_of("scene", in).expected(), Catch::StartsWith("the full field of view along fov_axis in degrees"));
+    in = scene();
+    in["primitive"].erase("radius");
+    e = error_of("scene", in);
+    CHECK(e.pointer() == "/primitive/radius");
+    CHECK(e.expected() == "the required field \"radius\"");
+    in = scene();
+    in["primitive"]["normal"] = {0, 0, 1};  // a plane's field on a sphere
+    e = error_of("scene", in);
+    CHECK(e.pointer() == "/primitive/normal");
+    CHECK(e.expected() == "one of the fields center, radius, type, uv_scale");
+    in = scene();
+    in["primitive"]["type"] = "torus";
+    CHECK(error_of("scene", in).expected() == "one of \"plane\", \"sphere\", \"heightfield\"");
+    in = scene();
+    in["primitive"] = {{"type", "heightfield"}, {"height", {{"amplitude", 0.02}, {"frequency", 4}, {"octaves", 9}}}};
+    e = error_of("scene", in);
+    CHECK(e.pointer() == "/primitive/height/octaves");
+    CHECK(e.expected() == "an integer <= 8");
+    in = scene();
+    in["light"] = {{"type", "directional"}, {"position", {0, 0, 1}}};
+    e = error_of("scene", in);
+    CHECK(e.pointer() == "/light/direction");
+    CHECK(e.expected() == "the required field \"direction\"");
+    in = scene();
+    in["material"]["R"] = 1.5;
+    CHECK(std::string(error_of("scene", in).what()) == "t.json: at /material/R: expected a number <= 1, got 1.5");
+    in = scene();
+    in["camera"]["position"][1] = "x";
+    CHECK(error_of("scene", in).pointer() == "/camera/position/1");
+    CHECK_THAT(error_text("scene", "[]").expected(), Catch::StartsWith("a scene, an object {camera, primitive"));
+  }
+}
+
+TEST_CASE("documents: report configurations", "[documents]") {
+  const json doc = parse_document("report", report().dump(), "r.json");
+  CHECK(doc == report());  // no defaults: the sections' own parameters apply
+  CHECK_NOTHROW(parse_document("report", read_file("python/glintlab/data/report/default.json"), "default.json"));
+  json in = report();
+  in["kind"] = "experiment";
+  InputError e = error_of("report", in);
+  CHECK(std::string(e.what()) == "t.json: at /kind: expected \"report\", got \"experiment\"");
+  in = report();
+  in["sections"][0]["parms"] = json::object();
+  e = error_of("report", in);
+  CHECK(e.pointer() == "/sections/0/parms");
+  CHECK(e.expected() == "one of the fields name, params, quick");
+  in = report();
+  in["sections"] = json::array();
+  CHECK(error_of("report", in).expected() == "an array of at least 1 item");
+  in = report();
+  in["sections"][0]["params"] = json::array();
+  e = error_of("report", in);
+  CHECK(e.pointer() == "/sections/0/params");
+  CHECK(e.expected() == "an object of the section's parameters");
+  in = report();
+  in["seed"] = 18446744073709551615ULL;
+  CHECK_NOTHROW(parse_document("report", in.dump(), "r.json"));
+  in["seed"] = -1;
+  CHECK(error_of("report", in).expected() == "an integer >= 0");
 }
 
 TEST_CASE("documents: a schema set resolves references across files by name", "[documents]") {
@@ -446,6 +628,8 @@ TEST_CASE("documents: embedded schemas and the standard grid match the data file
   using glintlab::validation::schema_text;
   CHECK(json::parse(schema_text("experiment")) == json::parse(read_file("python/glintlab/data/schema/experiment.schema.json")));
   CHECK(json::parse(schema_text("bounds")) == json::parse(read_file("python/glintlab/data/schema/bounds.schema.json")));
+  CHECK(json::parse(schema_text("scene")) == json::parse(read_file("python/glintlab/data/schema/scene.schema.json")));
+  CHECK(json::parse(schema_text("report")) == json::parse(read_file("python/glintlab/data/schema/report.schema.json")));
   CHECK_THROWS_AS(schema_text("nope"), std::invalid_argument);
   const json grid = json::parse(read_file("python/glintlab/data/grids/standard.json"));
   CHECK(grid["n"].size() == glintlab::validation::standard_n_count);

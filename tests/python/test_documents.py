@@ -1,5 +1,6 @@
-"""Experiment and bounds documents: the C++ validator (_core.parse_document) against Debian's
-python3-jsonschema on a corpus of good and bad documents (tests/data/documents).
+"""Experiment, bounds, scene and report documents: the C++ validator (_core.parse_document, the one
+path every document takes) against Debian's python3-jsonschema (a test dependency only) on a corpus
+of good and bad documents (tests/data/documents).
 
 Bad files each break one rule; bad/expected.json maps each to the JSON pointer the C++ error must
 name. Files named semantic_* break a rule beyond the schema (jsonschema accepts them), syntax_* are
@@ -14,11 +15,12 @@ import jsonschema
 import pytest
 
 from glintlab import _core
+from glintlab.validation import documents
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "tests" / "data" / "documents"
 SCHEMAS = {kind: json.loads((ROOT / "python" / "glintlab" / "data" / "schema" / f"{kind}.schema.json").read_text())
-           for kind in ("experiment", "bounds")}
+           for kind in ("experiment", "bounds", "scene", "report")}
 EXPECTED = json.loads((DOCS / "bad" / "expected.json").read_text())
 GOOD = sorted(p.name for p in (DOCS / "good").glob("*.json"))
 BAD = sorted(p.name for p in (DOCS / "bad").glob("*.json") if p.name != "expected.json")
@@ -26,6 +28,7 @@ BAD = sorted(p.name for p in (DOCS / "bad").glob("*.json") if p.name != "expecte
 
 def validator(kind):
     # bounds.schema.json refers to "experiment.schema.json#/definitions/...", relative to its $id.
+    # All four schemas are draft-07 (scene and report use allOf with if/then, const and the exclusive limits).
     store = {s["$id"]: s for s in SCHEMAS.values()}
     resolver = jsonschema.RefResolver.from_schema(SCHEMAS[kind], store=store)
     return jsonschema.Draft7Validator(SCHEMAS[kind], resolver=resolver)
@@ -54,7 +57,7 @@ def test_schemas_are_draft7_and_embedded():
 def test_corpus_is_complete():
     assert len(GOOD) >= 10 and len(BAD) >= 30
     assert sorted(EXPECTED) == BAD
-    assert {kind_of(n) for n in GOOD + BAD} == {"experiment", "bounds"}
+    assert {kind_of(n) for n in GOOD + BAD} == set(SCHEMAS)
 
 
 @pytest.mark.parametrize("name", GOOD)
@@ -67,7 +70,8 @@ def test_good_document(name):
     # Normalizing only adds defaults (and writes integral numbers as integers): the result is still
     # valid, every given value is kept, and normalizing again changes nothing.
     validator(kind).validate(doc)
-    assert doc["glintlab"] == 1
+    if kind in ("experiment", "bounds"):
+        assert doc["glintlab"] == 1
     assert _equal_given(raw, doc)
     assert json.loads(_core.parse_document(kind, json.dumps(doc), name)) == doc
 
@@ -113,7 +117,7 @@ def test_bad_corpus_exercises_every_keyword():
         if not name.startswith(("semantic_", "syntax_")):
             collect(validator(kind_of(name)).iter_errors(json.loads((DOCS / "bad" / name).read_text())))
     assert seen >= {"type", "enum", "required", "additionalProperties", "minItems", "maxItems", "minLength",
-                    "maxLength", "minimum", "maximum", "oneOf"}
+                    "maxLength", "minimum", "maximum", "oneOf", "const", "exclusiveMinimum", "exclusiveMaximum"}
 
 
 def test_defaults_are_filled_in():
@@ -126,6 +130,11 @@ def test_defaults_are_filled_in():
     assert doc["reference"] == "binomial" and doc["samples"] is None and doc["seed"] == 1
     bounds = json.loads(_core.parse_document("bounds", (DOCS / "good" / "bounds_minimal.json").read_text(), "b"))
     assert bounds["bounds"][0]["regime"] == {"n": "standard", "p": "standard"}
+    scene = json.loads(_core.parse_document("scene", (DOCS / "good" / "scene_plane_minimal.json").read_text(), "s"))
+    assert scene["primitive"] == {"type": "plane", "uv_scale": 1.0, "point": [0, 0, 0], "normal": [0, 0, 1],
+                                  "tilt_deg": 0}
+    assert scene["material"] == {"ndf": "beckmann", "alpha": 1.0, "R": 0, "density": 0.5}
+    assert scene["camera"]["fov_axis"] == "horizontal"
 
 
 def test_message_format():
@@ -138,14 +147,55 @@ def test_message_format():
         _core.parse_document("nonsense", "{}", "x")
 
 
-def _is_report_config(path):
-    return json.loads(path.read_text()).get("kind") == "report"  # glintlab report's sections (test_report.py)
+def test_messages_of_the_new_kinds():
+    # A bad scene and a bad report configuration, in the one format (before: raw jsonschema text).
+    scene = json.loads((DOCS / "good" / "scene_sphere.json").read_text())
+    scene["material"]["R"] = 1.5
+    with pytest.raises(ValueError, match=r"^s\.json: at /material/R: expected a number <= 1, got 1\.5$"):
+        _core.parse_document("scene", json.dumps(scene), "s.json")
+    scene["material"]["R"] = 0.5
+    scene["primitive"]["normal"] = [0, 0, 1]
+    assert cpp_error("scene", json.dumps(scene), "s.json") == (
+        "/primitive/normal", "one of the fields center, radius, type, uv_scale", '"normal"')
+    report = {"kind": "report", "sections": [{"name": "exact_laws", "parms": {}}]}
+    assert cpp_error("report", json.dumps(report), "r.json") == (
+        "/sections/0/parms", "one of the fields name, params, quick", '"parms"')
 
 
-@pytest.mark.parametrize("path", [p for p in sorted((ROOT / "examples").glob("*.json")) if not _is_report_config(p)] +
-                         sorted((ROOT / "python" / "glintlab" / "data").glob("bounds/*.json")), ids=lambda p: p.name)
+def test_python_parse_document():
+    # validation.documents.parse_document: a path, JSON text or a dict, for every kind.
+    path = DOCS / "good" / "scene_sphere.json"
+    doc, name, base = documents.parse_document("scene", path)
+    assert name == str(path) and base == path.resolve().parent and doc["camera"]["up"] == [0, 0, 1]
+    assert documents.parse_document("scene", str(path))[0] == doc
+    assert documents.parse_document("scene", path.read_text())[1:] == ("<scene>", None)
+    assert documents.parse_document("report", {"kind": "report", "sections": [{"name": "x"}]})[1] == "<report>"
+    with pytest.raises(ValueError, match=r"^<scene>: at /material/density: expected a finite number, got nan$"):
+        documents.parse_document("scene", {**json.loads(path.read_text()), "material": {"density": float("nan")}})
+    with pytest.raises(ValueError, match=r"^<report>: at /sections/0: expected a JSON value"):
+        documents.parse_document("report", {"kind": "report", "sections": [{1, 2}]})
+    with pytest.raises(ValueError, match="no such file"):
+        documents.parse_document("scene", DOCS / "missing.json")
+    with pytest.raises(ValueError, match="expected one of experiment, bounds, scene, report"):
+        documents.parse_document("nonsense", {})
+    from glintlab.validation import experiment
+    assert experiment.parse_document is documents.parse_document
+
+
+def _kind_of_shipped(path):
+    if path.parent.name == "scenes":
+        return "scene"
+    if path.parent.name == "bounds":
+        return "bounds"
+    return "report" if json.loads(path.read_text()).get("kind") == "report" else "experiment"
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "examples").glob("*.json")) +
+                         sorted((ROOT / "python" / "glintlab" / "data").glob("bounds/*.json")) +
+                         sorted((ROOT / "python" / "glintlab" / "data").glob("scenes/*.json")) +
+                         sorted((ROOT / "python" / "glintlab" / "data").glob("report/*.json")), ids=lambda p: p.name)
 def test_shipped_documents(path):
-    kind = "experiment" if path.parent.name == "examples" else "bounds"
+    kind = _kind_of_shipped(path)
     validator(kind).validate(json.loads(path.read_text()))
     _core.parse_document(kind, path.read_text(), path.name)
 
@@ -153,7 +203,8 @@ def test_shipped_documents(path):
 def test_random_mutations_agree_with_jsonschema():
     # Single-field mutations of the good documents: where jsonschema and the C++ validator could
     # disagree (integers, limits, unknown fields), both must call the same documents invalid.
-    values = [None, True, 0, -1, 1.5, 2.0, 1e300, "", "x", "standard", [], [0], [0, 1, 2], {}, {"name": "x"}]
+    values = [None, True, 0, -1, 1.5, 2.0, 180, 1e300, "", "x", "standard", "sphere", "report", [], [0], [0, 1, 2],
+              {}, {"name": "x"}, {"type": "plane"}]
     checked = 0
     for name in GOOD:
         kind = kind_of(name)

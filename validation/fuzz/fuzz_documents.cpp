@@ -1,4 +1,4 @@
-// libFuzzer target: any bytes through both document parsers. InputError is the parsers' only way to
+// libFuzzer target: any bytes through every document parser (experiment, bounds, scene, report). InputError is the parsers' only way to
 // reject input; any other exception escapes (libFuzzer reports it as a crash), as do ASan/UBSan findings.
 #include <cstddef>
 #include <cstdint>
@@ -8,7 +8,7 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  for (const char* kind : {"experiment", "bounds"}) {
+  for (const char* kind : {"experiment", "bounds", "scene", "report"}) {
     try {
       const nlohmann::json doc = glintlab::validation::parse_document(kind, text, "fuzz.json");
       // A normalized document is a fixed point: it must parse again to itself.

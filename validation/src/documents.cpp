@@ -10,6 +10,8 @@ namespace glintlab::validation {
 namespace detail {
 extern const char experiment_schema_text[];  // generated from python/glintlab/data/schema/ (schemas.cpp.in)
 extern const char bounds_schema_text[];
+extern const char scene_schema_text[];
+extern const char report_schema_text[];
 }  // namespace detail
 
 namespace {
@@ -18,14 +20,18 @@ using json = nlohmann::json;
 
 const std::map<std::string, std::string>& schema_texts() {
   static const std::map<std::string, std::string> texts{{"experiment", detail::experiment_schema_text},
-                                                        {"bounds", detail::bounds_schema_text}};
+                                                        {"bounds", detail::bounds_schema_text},
+                                                        {"scene", detail::scene_schema_text},
+                                                        {"report", detail::report_schema_text}};
   return texts;
 }
 
 // Keyed by file name, which is how bounds.schema.json refers to experiment.schema.json.
 const SchemaSet& schemas() {
-  static const SchemaSet set(
-      {{"experiment.schema.json", schema_text("experiment")}, {"bounds.schema.json", schema_text("bounds")}});
+  static const SchemaSet set({{"experiment.schema.json", schema_text("experiment")},
+                              {"bounds.schema.json", schema_text("bounds")},
+                              {"scene.schema.json", schema_text("scene")},
+                              {"report.schema.json", schema_text("report")}});
   return set;
 }
 
@@ -76,7 +82,8 @@ struct Checker {
 
 const std::string& schema_text(const std::string& name) {
   const auto it = schema_texts().find(name);
-  if (it == schema_texts().end()) throw std::invalid_argument("unknown schema \"" + name + "\" (experiment or bounds)");
+  if (it == schema_texts().end())
+    throw std::invalid_argument("unknown schema \"" + name + "\" (experiment, bounds, scene or report)");
   return it->second;
 }
 
@@ -139,10 +146,26 @@ json parse_bounds(std::string_view text, const std::string& source) {
   return doc;
 }
 
+// Scenes and report configurations: the schema only. The rules beyond it need Python (the scene's
+// geometry, the registered report sections) and run there, in the same message format.
+json parse_scene(std::string_view text, const std::string& source) {
+  json doc = parse_json(text, source);
+  schemas().validate("scene.schema.json", doc, source);
+  return doc;
+}
+
+json parse_report(std::string_view text, const std::string& source) {
+  json doc = parse_json(text, source);
+  schemas().validate("report.schema.json", doc, source);
+  return doc;
+}
+
 json parse_document(const std::string& kind, std::string_view text, const std::string& source) {
   if (kind == "experiment") return parse_experiment(text, source);
   if (kind == "bounds") return parse_bounds(text, source);
-  throw std::invalid_argument("unknown document kind \"" + kind + "\" (experiment or bounds)");
+  if (kind == "scene") return parse_scene(text, source);
+  if (kind == "report") return parse_report(text, source);
+  throw std::invalid_argument("unknown document kind \"" + kind + "\" (experiment, bounds, scene or report)");
 }
 
 }  // namespace glintlab::validation

@@ -145,6 +145,7 @@ struct Node {
   const json* default_value = nullptr;
   unsigned types = 0;  // 0: any type
   const json* enumeration = nullptr;
+  const json* constant = nullptr;
   std::map<std::string, const Node*> properties;
   std::vector<std::string> required;
   bool additional_allowed = true;
@@ -154,7 +155,12 @@ struct Node {
   std::optional<std::size_t> min_items, max_items, min_length, max_length;
   const json* minimum = nullptr;
   const json* maximum = nullptr;
+  const json* exclusive_minimum = nullptr;
+  const json* exclusive_maximum = nullptr;
   std::vector<const Node*> one_of;
+  std::vector<const Node*> all_of;
+  const Node* if_node = nullptr;  // with then_node: "if" holds => "then" must hold
+  const Node* then_node = nullptr;
   std::string ref;
   const Node* target = nullptr;
 };
@@ -280,6 +286,8 @@ struct SchemaSet::Impl {
       } else if (key == "enum") {
         if (!v.is_array() || v.empty()) bad(at, "expected a non-empty array");
         n.enumeration = &v;
+      } else if (key == "const") {
+        n.constant = &v;
       } else if (key == "properties") {
         if (!v.is_object()) bad(at, "expected an object");
         for (const auto& [name, sub] : v.items())
@@ -313,10 +321,19 @@ struct SchemaSet::Impl {
       } else if (key == "minimum" || key == "maximum") {
         if (!v.is_number()) bad(at, "expected a number");
         (key == "minimum" ? n.minimum : n.maximum) = &v;
+      } else if (key == "exclusiveMinimum" || key == "exclusiveMaximum") {
+        if (!v.is_number()) bad(at, "expected a number (draft-07: the bound itself)");
+        (key == "exclusiveMinimum" ? n.exclusive_minimum : n.exclusive_maximum) = &v;
       } else if (key == "oneOf") {
         if (!v.is_array() || v.empty()) bad(at, "expected a non-empty array");
         for (std::size_t i = 0; i < v.size(); ++i)
           n.one_of.push_back(compile(v[i], at + "/" + std::to_string(i), false));
+      } else if (key == "allOf") {
+        if (!v.is_array() || v.empty()) bad(at, "expected a non-empty array");
+        for (std::size_t i = 0; i < v.size(); ++i)
+          n.all_of.push_back(compile(v[i], at + "/" + std::to_string(i), false));
+      } else if (key == "if" || key == "then") {
+        (key == "if" ? n.if_node : n.then_node) = compile(v, at, false);
       } else if (key == "$ref") {
         if (!v.is_string()) bad(at, "expected a string");
         n.ref = v.get<std::string>();
@@ -324,6 +341,8 @@ struct SchemaSet::Impl {
         bad(at, "unsupported keyword \"" + key + "\"");
       }
     }
+    // "if" without "then" has no effect, "then" without "if" is ignored ("else" is not supported).
+    if (!n.if_node != !n.then_node) bad(where, n.if_node ? "\"if\" without \"then\"" : "\"then\" without \"if\"");
     // Draft-07 ignores every keyword beside $ref: refuse them rather than let them look effective.
     if (!n.ref.empty())
       for (const auto& [key, v] : s.items())
@@ -382,7 +401,10 @@ struct SchemaSet::Impl {
 
   static std::string number_text(const Node& n) { return n.types == t_integer ? "an integer" : "a number"; }
 
-  Result check(const Node& start, json& v, const std::string& ptr, int depth) const {
+  // if_holds: this node's "if", decided by the caller (the node whose allOf or oneOf holds this one)
+  // before it filled in any default.
+  Result check(const Node& start, json& v, const std::string& ptr, int depth,
+               std::optional<bool> if_holds = std::nullopt) const {
     const Node* np = &start;
     while (np->target) np = np->target;  // $ref: its siblings are annotations (enforced by compile)
     const Node& n = *np;
@@ -399,8 +421,23 @@ struct SchemaSet::Impl {
       const double x = v.get<double>();
       if (x >= -9.2e18 && x <= 9.2e18) v = static_cast<std::int64_t>(x);
     }
+    // "if" sees the value as given, not with defaults filled in: it is decided now, on a copy (checking
+    // fills defaults), for this node and for the parts of its allOf and oneOf.
+    const auto decide = [&](const Node& c) -> std::optional<bool> {
+      if (!c.if_node) return std::nullopt;
+      json trial = v;
+      return !check(*c.if_node, trial, ptr, depth);
+    };
+    const bool then_applies = n.if_node && (if_holds ? *if_holds : *decide(n));
+    std::vector<std::optional<bool>> all_of_if, one_of_if;
+    for (auto [parts, decided] : {std::pair{&n.all_of, &all_of_if}, std::pair{&n.one_of, &one_of_if}})
+      for (const Node* part : *parts) {
+        while (part->target) part = part->target;
+        decided->push_back(decide(*part));
+      }
     if (n.enumeration && std::find(n.enumeration->begin(), n.enumeration->end(), v) == n.enumeration->end())
       return fail(enum_text(*n.enumeration), render(v));
+    if (n.constant && v != *n.constant) return fail(n.constant->dump(), render(v));
 
     if (v.is_string()) {
       const std::size_t len = code_points(v.get_ref<const std::string&>());
@@ -416,6 +453,10 @@ struct SchemaSet::Impl {
         return fail(number_text(n) + " >= " + n.minimum->dump(), render(v));
       if (n.maximum && as_long_double(v) > as_long_double(*n.maximum))
         return fail(number_text(n) + " <= " + n.maximum->dump(), render(v));
+      if (n.exclusive_minimum && as_long_double(v) <= as_long_double(*n.exclusive_minimum))
+        return fail(number_text(n) + " > " + n.exclusive_minimum->dump(), render(v));
+      if (n.exclusive_maximum && as_long_double(v) >= as_long_double(*n.exclusive_maximum))
+        return fail(number_text(n) + " < " + n.exclusive_maximum->dump(), render(v));
     }
 
     if (v.is_array()) {
@@ -467,9 +508,9 @@ struct SchemaSet::Impl {
       std::optional<json> matched;
       int matches = 0;
       std::vector<Failure> failures;
-      for (const Node* branch : n.one_of) {
+      for (std::size_t i = 0; i < n.one_of.size(); ++i) {
         json trial = v;
-        if (Result f = check(*branch, trial, ptr, depth)) {
+        if (Result f = check(*n.one_of[i], trial, ptr, depth, one_of_if[i])) {
           failures.push_back(std::move(*f));
         } else if (++matches == 1) {
           matched = std::move(trial);
@@ -490,6 +531,13 @@ struct SchemaSet::Impl {
         return Failure{ptr, what, render(v), best};
       }
     }
+
+    // allOf and if/then apply to the value in place: each fills its own defaults. A variant chosen by
+    // "if" (a discriminating field) reports its own errors, with the fields it allows.
+    for (std::size_t i = 0; i < n.all_of.size(); ++i)
+      if (Result f = check(*n.all_of[i], v, ptr, depth, all_of_if[i])) return f;
+    if (then_applies)
+      if (Result f = check(*n.then_node, v, ptr, depth)) return f;
     return std::nullopt;
   }
 };

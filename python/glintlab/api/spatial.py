@@ -13,6 +13,7 @@ reflecting facets inside a footprint. Layouts:
 >>> d = gt.pmf()                      # exact (averaged over a random centre: quadrature, see pmf)
 >>> k = gt.sample(size=10**5, seed=1) # realizations, counted facet by facet near the edges
 >>> gl.chi2_test(k, d).pvalue
+0.635
 
 A realization costs time proportional to the footprint's perimeter in cells, not its area: cells
 the footprint covers fully are counted with one binomial (or Poisson) draw per realization.

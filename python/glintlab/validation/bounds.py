@@ -25,7 +25,8 @@ from .._core import Distribution
 from ..api import checks as v
 from ..api.laws import Law
 from ..resources import data_path
-from .experiment import axis_values, parse_document
+from .documents import parse_document
+from .experiment import axis_values
 from .references import resolve_law
 from .sweep import sweep
 

@@ -1,10 +1,10 @@
 """Experiments as data: a JSON file (data/schema/experiment.schema.json) describing laws, an (n, p)
 grid, metrics, a reference, sample counts and a seed; ``run_experiment`` runs it through ``sweep``.
 
-Documents are parsed and validated in C++ (validation/src/documents.cpp, the same code the fuzzer
-exercises): a bad file raises ``InputError`` (a ValueError) whose message names the file, the JSON
-pointer of the bad field and what was expected. Defaults are filled in by the parser, and results
-(results.json) carry the complete configuration and the glintlab version, so
+Documents are parsed and validated in C++ through ``validation.documents.parse_document`` (the same
+code the fuzzer exercises): a bad file raises ``InputError`` (a ValueError) whose message names the
+file, the JSON pointer of the bad field and what was expected. Defaults are filled in by the parser,
+and results (results.json) carry the complete configuration and the glintlab version, so
 ``glintlab run results.json`` re-runs an experiment exactly.
 """
 from __future__ import annotations
@@ -19,43 +19,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import _core
 from .._core import __version__
+from .documents import RESULT_FORMAT, parse_document  # noqa: F401  (parse_document re-exported: tests import it here)
 from .grid import standard_grid
 from .references import resolve_law
 from .sweep import sweep
-
-RESULT_FORMAT = 1
-
-
-def parse_document(kind: str, source) -> tuple[dict, str, Path | None]:
-    """(normalized document, source name, base directory for relative paths) of an experiment or
-    bounds document given as a path, JSON text, or an already-loaded dict."""
-    if isinstance(source, dict):
-        text, name, base = json.dumps(source), f"<{kind}>", None
-    elif isinstance(source, Path) or (isinstance(source, str) and not source.lstrip().startswith("{")):
-        path = Path(source)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            raise ValueError(f"{path}: no such file") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ValueError(f"{path}: cannot read it ({exc})") from None
-        name, base = str(path), path.resolve().parent
-    elif isinstance(source, str):
-        text, name, base = source, f"<{kind}>", None
-    else:
-        raise ValueError(f"{kind} = {source!r} is invalid; expected a path, JSON text or a dict")
-    if kind == "experiment":
-        try:
-            raw = json.loads(text)
-        except ValueError:
-            raw = None
-        if isinstance(raw, dict) and raw.get("glintlab_result") == RESULT_FORMAT and "config" in raw:
-            # A results file: re-run its stored configuration, with paths relative to where it ran.
-            doc = json.loads(_core.parse_document(kind, json.dumps(raw["config"]), name + "#/config"))
-            return doc, name, Path(raw["base_dir"]) if raw.get("base_dir") else base
-    return json.loads(_core.parse_document(kind, text, name)), name, base
 
 
 def axis_values(spec, which: str) -> np.ndarray:

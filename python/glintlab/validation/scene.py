@@ -17,7 +17,6 @@ onto the tangent plane along the ray.
 from __future__ import annotations
 
 import copy
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,6 +29,7 @@ from ..api.grids import footprint_shapes
 from ..api.ndf import ndf as get_ndf
 
 from ..resources import data_path
+from .documents import fail, parse_document
 
 SCHEMA_PATH = data_path("schema", "scene.schema.json")
 SCENES_DIR = data_path("scenes")
@@ -40,37 +40,13 @@ TABLE1_SCENES = ("sphere", "plane_90", "plane_25", "heightfield_90", "heightfiel
 # --------------------------------------------------------------------------------------------------
 # Loading and validation
 
-def _schema() -> dict:
-    return json.loads(SCHEMA_PATH.read_text())
-
-
-def _fill_defaults(schema: dict, inst, root: dict):
-    """Writes the schema's "default" values into ``inst`` (objects only; the branches of allOf/if-then
-    whose ``type`` const matches are followed, as the validator does)."""
-    if not isinstance(inst, dict):
-        return
-    if "$ref" in schema:
-        schema = root["$defs"][schema["$ref"].split("/")[-1]]
-    props = dict(schema.get("properties", {}))
-    for branch in schema.get("allOf", []):
-        const = branch.get("if", {}).get("properties", {}).get("type", {}).get("const")
-        if const is not None and inst.get("type") == const:
-            props.update({k: v for k, v in branch["then"].get("properties", {}).items() if isinstance(v, dict)})
-    for key, sub in props.items():
-        if not isinstance(sub, dict):
-            continue
-        if key not in inst and "default" in sub:
-            inst[key] = copy.deepcopy(sub["default"])
-        if key in inst:
-            _fill_defaults(sub, inst[key], root)
-
-
 def _bad(source, pointer, value, expected):
-    raise ValueError(f"{source}: {pointer} = {json.dumps(value)} is invalid; expected {expected}")
+    fail(source, pointer, expected, value)
 
 
 def _physical_checks(doc: dict, source: str):
-    """What a schema cannot say: degenerate vectors, a camera inside the sphere or below the slab."""
+    """What a schema cannot say: degenerate vectors, a camera inside the sphere or below the slab.
+    (Numbers are finite: JSON has no others, and the parser refuses overflowing ones.)"""
     cam, prim, light = doc["camera"], doc["primitive"], doc["light"]
     pos, look = np.array(cam["position"], float), np.array(cam["look_at"], float)
     if np.linalg.norm(look - pos) == 0:
@@ -79,9 +55,6 @@ def _physical_checks(doc: dict, source: str):
     up = np.array(cam["up"], float)
     if np.linalg.norm(np.cross(fwd, up)) < 1e-9 * max(np.linalg.norm(up), 1e-300):
         _bad(source, "/camera/up", cam["up"], "a vector not parallel to the view direction")
-    for key in ("position", "look_at", "up"):
-        if not all(math.isfinite(x) for x in cam[key]):
-            _bad(source, f"/camera/{key}", cam[key], "finite numbers")
     if prim["type"] == "sphere":
         c = np.array(prim["center"], float)
         if np.linalg.norm(pos - c) <= prim["radius"]:
@@ -101,48 +74,12 @@ def _physical_checks(doc: dict, source: str):
 
 def load_scene(source, name: str | None = None) -> "Scene":
     """A :class:`Scene` from a path, a JSON string or a dict, validated against
-    ``data/schema/scene.schema.json`` (defaults filled in) and checked physically. Raises ValueError
-    naming the file, the JSON pointer of the bad field and what was expected."""
-    import jsonschema
-    label = "scene"
-    if isinstance(source, dict):
-        doc = copy.deepcopy(source)
-    elif isinstance(source, (str, Path)) and (isinstance(source, Path) or not str(source).lstrip().startswith("{")):
-        path = Path(source)
-        label = f"scene file {str(path)!r}"
-        if not path.is_file():
-            raise ValueError(f"{label} does not exist; expected a scene JSON file")
-        try:
-            doc = json.loads(path.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise ValueError(f"{label} is not valid JSON ({exc})") from None
-        name = name or doc.get("name") if isinstance(doc, dict) else name
-        name = name or path.stem
-    elif isinstance(source, str):
-        try:
-            doc = json.loads(source)
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"scene text is not valid JSON ({exc})") from None
-    else:
-        V.fail("scene", source, "a path, a JSON string or a dict")
-    schema = _schema()
-    validator = jsonschema.Draft202012Validator(schema)
-    errors = list(validator.iter_errors(doc))
-    if errors:
-        err = jsonschema.exceptions.best_match(errors)
-        # best_match prefers shallow errors; inside an if/then branch the deepest one names the field.
-        err = max(errors, key=lambda e: (len(e.absolute_path), e is err))
-        ptr = V.json_pointer(err.absolute_path)
-        if err.validator == "required":
-            missing = [k for k in err.validator_value if k not in (err.instance or {})]
-            raise ValueError(f"{label}: {ptr.rstrip('/')}/{missing[0]} is missing; expected a required field "
-                             f"({err.message})")
-        if err.validator == "additionalProperties":
-            raise ValueError(f"{label}: {ptr} is invalid; {err.message}")
-        raise ValueError(f"{label}: {ptr} = {json.dumps(err.instance)} is invalid; expected {err.message}")
-    _fill_defaults(schema, doc, schema)
+    ``data/schema/scene.schema.json`` in C++ (defaults filled in; ``documents.parse_document``) and
+    checked physically. Raises ValueError ``<file>: at <JSON pointer>: expected <what>, got <value>``."""
+    doc, label, _ = parse_document("scene", source)
     _physical_checks(doc, label)
-    return Scene(doc, name=name or doc.get("name") or "scene", source=label)
+    stem = None if label == "<scene>" else Path(label).stem  # a file's stem; "<scene>" for a dict or JSON text
+    return Scene(doc, name=name or doc.get("name") or stem or "scene", source=label)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -451,17 +388,3 @@ def table1_scenes(directory=None) -> list[Scene]:
     d = Path(directory) if directory else SCENES_DIR
     return [load_scene(d / f"{stem}.json") for stem in TABLE1_SCENES]
 
-
-def write_report(out, quick: bool, seed: int, directory=None):
-    """Profiles the five DB23 Table 1 scenes of ``directory`` (default ``data/scenes/``; at 1/4 resolution
-    per side when ``quick``) and writes their figures into ``out``. Returns (figure paths, {"scene_*": table})."""
-    from .advisor import advice_table, profile_scene, write_profiles
-    out = Path(out)
-    scale = 0.25 if quick else 1.0
-    note = " (quick: 1/4 resolution per side, density x 1/16 to keep n)" if quick else ""
-    profiles = [profile_scene(sc, seed=seed, scale=scale) for sc in table1_scenes(directory)]
-    return write_profiles(profiles, out, advice=advice_table(profiles), title_note=note)
-
-
-# The profile and the advisor live in advisor.py; re-exported here (glintlab.scene is the entry point).
-from .advisor import Advice, SceneProfile, advise, profile_scene  # noqa: E402,F401

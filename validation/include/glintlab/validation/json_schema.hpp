@@ -2,6 +2,11 @@
 // (python/glintlab/data/schema/*.schema.json). Debian packages no C++ validator, and a small one lets the error
 // messages name the JSON pointer and what was expected in the user's terms. A schema that uses any
 // other keyword is rejected when loaded (std::logic_error), so it can never be silently ignored.
+// Supported: type, enum, const, properties, required, additionalProperties (false or a schema), items
+// (a schema or a tuple), minItems, maxItems, minLength, maxLength, minimum, maximum, exclusiveMinimum,
+// exclusiveMaximum (numbers, as in draft-07), oneOf, allOf, if with then (no else), $ref, definitions
+// (at a root) and default; $schema, $id, title and description are annotations (a description is the
+// "expected" text when a value has the wrong type, so schemas phrase it as what a value must be).
 #pragma once
 
 #include <cstddef>
