@@ -6,7 +6,7 @@ JOBS ?= 2
 BUILD_TYPE ?= Release
 QUICK ?=
 
-.PHONY: build run test bench sanitize fuzz deps venv clean
+.PHONY: build run test bench docs sanitize fuzz deps venv clean wheel
 
 deps:
 	@bash scripts/install-deps.sh
@@ -31,10 +31,16 @@ venv:
 	@test -f $(VENV)/share/jupyter/kernels/python3/kernel.json || \
 	  $(VENV)/bin/python -m ipykernel install --sys-prefix --name python3 --display-name "Python 3 (glintlab)" > /dev/null
 
+# `pip install .` (pyproject.toml, backend/glintlab_build.py) as a wheel in dist/, built by CMake in build-wheel/.
+wheel: deps venv
+	@$(VENV)/bin/python -m pip wheel --no-index --no-deps -q -w dist . > build-wheel.log 2>&1 \
+	  || { tail -60 build-wheel.log; echo "make wheel: failed (build-wheel.log)"; exit 1; }
+
 run: build
 	@$(VENV)/bin/glintlab report --out out/report $(if $(QUICK),--quick,)
 
-test: build
+# wheel first: tests/python/test_install.py's `pip install .` then only relinks (outside ctest's timeout).
+test: build wheel
 	@cd build && ctest --output-on-failure -j $(JOBS)
 
 bench: build
@@ -46,6 +52,14 @@ bench: build
 	@$(VENV)/bin/glintlab aniso --out out/bench/aniso
 	@# Issue 8's target: a 1920 x 1080 profile with every law and grid scheme in under 20 s (times per scene).
 	@$(VENV)/bin/glintlab profile python/glintlab/data/scenes/*.json --out out/bench/scenes
+
+# The documentation: the API reference from the docstrings (docs/api), the Markdown pages (docs/*.md,
+# docs/math) and the notebooks, built by Sphinx into out/docs/ (open out/docs/index.html). Any Sphinx
+# warning fails the target (-W); --keep-going lists them all first. The venv's interpreter imports the
+# compiled glintlab._core, hence the dependency on build.
+docs: build
+	@$(VENV)/bin/python -m sphinx -W --keep-going -q -b html docs out/docs
+	@echo "make docs: out/docs/index.html"
 
 # C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module in this build).
 sanitize: deps
@@ -76,4 +90,4 @@ fuzz: deps
 	  echo "make fuzz: no failure in $(FUZZ_SECONDS) s ($$(ls build-fuzz/corpus | wc -l) corpus inputs)"
 
 clean:
-	rm -rf build build-asan build-fuzz out build.log build-asan.log build-fuzz.log
+	rm -rf build build-asan build-fuzz build-wheel dist out build.log build-asan.log build-fuzz.log build-wheel.log

@@ -10,6 +10,9 @@ PACKAGES=(
   python3-numpy python3-scipy python3-matplotlib python3-pandas python3-pytest python3-tqdm
   python3-rich python3-mpmath python3-dask python3-distributed python3-nbclient python3-nbformat python3-ipykernel
   python3-jsonschema
+  # make docs: the Sphinx API reference, Markdown pages (MyST) and the notebooks (docs/conf.py);
+  # nbsphinx converts the notebooks' Markdown cells with pandoc (only a Recommends of nbconvert)
+  python3-sphinx python3-myst-parser python3-nbsphinx pandoc
   # the report test renders index.html headless (tests/python/test_report.py)
   chromium
   # make fuzz: clang with libFuzzer (libclang_rt.fuzzer-x86_64.a is in libclang-rt-14-dev) and
