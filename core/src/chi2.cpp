@@ -4,10 +4,67 @@
 #include <boost/math/distributions/chi_squared.hpp>
 #include <cmath>
 #include <limits>
+#include <utility>
+#include <vector>
 
 #include "glintlab/errors.hpp"
+#include "glintlab/rng.hpp"
 
 namespace glintlab {
+
+namespace {
+
+// G = 2 sum_k o_k log(o_k / e_k) over the occupied cells of `counts` (cell k's expected count e_k =
+// total q_k / mass).
+double g_statistic(const std::vector<std::pair<std::size_t, double>>& occupied, const std::vector<double>& ps,
+                   double mass, double total) {
+  double g = 0.0;
+  for (const auto& [k, o] : occupied) g += o * std::log(o / (total * ps[k] / mass));
+  return 2.0 * g;
+}
+
+// The exact (Monte Carlo) likelihood-ratio test of `obs` against the law's unmerged cells: the
+// p-value (1 + #{G_sim >= G_obs}) / (1 + draws) over `draws` multinomial samples of the same size
+// drawn from the law with a fixed key, so the same samples always get the same p-value. Valid at any
+// sample size (it never merges cells, so a sample where the law has mass 1e-12 makes G large), and
+// never below 1 / (1 + draws): the draws are capped so that a call costs at most ~1e7 samples.
+double exact_lr_pvalue(const std::vector<double>& obs, const std::vector<double>& ps, double mass,
+                       std::size_t count, std::size_t& draws) {
+  std::vector<std::pair<std::size_t, double>> occupied;
+  for (std::size_t k = 0; k < obs.size(); ++k)
+    if (obs[k] > 0) occupied.emplace_back(k, obs[k]);
+  const double total = static_cast<double>(count);
+  const double g_obs = g_statistic(occupied, ps, mass, total);
+  std::vector<double> cdf(ps.size());
+  double acc = 0.0;
+  for (std::size_t k = 0; k < ps.size(); ++k) cdf[k] = (acc += ps[k] / mass);
+  draws = std::clamp<std::size_t>(10'000'000 / std::max<std::size_t>(count, 1), 999, 9999);
+  // Ties: G takes few distinct values at small sizes; a simulated G within rounding of the observed
+  // one counts as "at least as extreme" (the p-value stays valid, i.e. conservative).
+  const double tie = 1e-9 * std::max(1.0, std::abs(g_obs));
+  std::size_t extreme = 0;
+  std::vector<std::size_t> cells(count);
+  for (std::size_t d = 0; d < draws; ++d) {
+    CounterRng rng(0x676c696e746c6162ULL, static_cast<std::uint32_t>(d), 0, 0, 0x4c52);
+    for (auto& c : cells) {
+      const double u = rng.uniform() * acc;
+      c = static_cast<std::size_t>(std::lower_bound(cdf.begin(), cdf.end(), u) - cdf.begin());
+      if (c >= ps.size()) c = ps.size() - 1;
+    }
+    std::sort(cells.begin(), cells.end());
+    std::vector<std::pair<std::size_t, double>> sim;
+    for (std::size_t i = 0; i < cells.size();) {
+      std::size_t j = i;
+      while (j < cells.size() && cells[j] == cells[i]) ++j;
+      sim.emplace_back(cells[i], static_cast<double>(j - i));
+      i = j;
+    }
+    if (g_statistic(sim, ps, mass, total) >= g_obs - tie) ++extreme;
+  }
+  return static_cast<double>(extreme + 1) / static_cast<double>(draws + 1);
+}
+
+}  // namespace
 
 Chi2Result chi2_test(const double* samples, std::size_t count, const Distribution& law,
                      double min_expected, int fitted_params) {
@@ -85,11 +142,25 @@ Chi2Result chi2_test(const double* samples, std::size_t count, const Distributio
     r.statistic += d * d / r.expected[b];
   }
   r.dof = static_cast<int>(r.expected.size()) - 1 - fitted_params;
-  if (r.dof < 1) {
+  if (r.dof < 1 && fitted_params > 0) {
+    // No degrees of freedom left: no test, and no p-value that could pass for one.
     r.dof = 0;
-    r.pvalue = 1.0;
-    r.note = "fewer than two bins with expected count >= " + format_value(min_expected) +
-             ": the test has no power (use more samples)";
+    r.pvalue = std::numeric_limits<double>::quiet_NaN();
+    r.note = std::to_string(r.expected.size()) + " bin(s) with expected count >= " + format_value(min_expected) +
+             " leave no degrees of freedom after fitted_params = " + std::to_string(fitted_params) +
+             ": the test cannot reject (NaN p-value; use more samples)";
+    return r;
+  }
+  if (r.dof < 1) {
+    // Too few samples for the chi-square approximation (fewer than two merged bins). Merging would
+    // hide the evidence that matters most here: a sample on a value of tiny probability. So the
+    // unmerged cells are tested exactly instead (see exact_lr_pvalue).
+    r.dof = 0;
+    std::size_t draws = 0;
+    r.pvalue = exact_lr_pvalue(obs, ps, mass, count, draws);
+    r.note = "too few samples for the chi-square approximation (fewer than two bins with expected count >= " +
+             format_value(min_expected) + "): exact likelihood-ratio test on the unmerged values, Monte Carlo " +
+             "p-value from " + std::to_string(draws) + " multinomial draws of the law";
     return r;
   }
   const boost::math::chi_squared_distribution<double> chi2(r.dof);

@@ -106,3 +106,20 @@ TEST_CASE("Sidak correction", "[chi2]") {
   CHECK(1 - std::pow(1 - sidak_alpha(0.01, 20), 20) == Approx(0.01));
   CHECK_THROWS_WITH(sidak_alpha(0.0, 3), Contains("alpha = 0"));
 }
+
+TEST_CASE("chi-square test: too few samples for merged bins get the exact likelihood-ratio test", "[chi2]") {
+  // Law {0: .5, 1: .3, 2: .15, 3: .05}; 6 samples merge into one bin of expected >= 5 (dof 0).
+  const Distribution law({0, 1, 2, 3}, {0.5, 0.3, 0.15, 0.05});
+  const std::vector<double> typical{0, 0, 1, 0, 2, 1};
+  const auto r = chi2_test(typical.data(), typical.size(), law);
+  CHECK(r.dof == 0);
+  CHECK_THAT(r.note, Contains("exact likelihood-ratio"));
+  CHECK(r.pvalue > 0.05);
+  CHECK(chi2_test(typical.data(), typical.size(), law).pvalue == r.pvalue);  // a fixed key
+  // Six samples on the value of mass 0.05 (probability 1.6e-8): merging hid this, the exact test
+  // rejects it at its resolution 1 / (1 + 9999).
+  const std::vector<double> rare(6, 3.0);
+  CHECK(chi2_test(rare.data(), rare.size(), law).pvalue == Approx(1e-4));
+  // No degrees of freedom after fitted parameters: no test, a NaN p-value.
+  CHECK(std::isnan(chi2_test(typical.data(), typical.size(), law, 5.0, 3).pvalue));
+}

@@ -74,3 +74,15 @@ def test_check_command_bad_file_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "/bounds/0/law" in err and "gatd" in err
     assert main(["check", str(tmp_path / "missing.json")]) == 2
+
+
+def test_a_chi_square_bound_on_eight_samples_still_rejects_an_all_or_nothing_law():
+    # Issue: with 8 samples every bin merged into one, dof = 0 and p = 1.0, so a law whose TV to the
+    # binomial is ~1 passed its chi2_pvalue bound. The exact small-sample test rejects it; the binomial
+    # itself still passes the same bound.
+    bound = {"id": "tiny", "law": "binomial", "metric": "chi2_pvalue", "minimum": 1e-3, "samples": 8, "seed": 2,
+             "regime": {"n": [16], "p": [0.1]}, "reference": {"law": "binomial"}}
+    aon = gl.custom_law(lambda n, p, u: (u[:, 0] < p) * n, n_uniforms=1, name="all_or_nothing_check_test")
+    bad = check(dict(DOC, bounds=[bound]), substitute={"binomial": aon})
+    assert not bad.ok.iloc[0], bad.to_string()
+    assert check(dict(DOC, bounds=[bound])).ok.iloc[0]

@@ -350,9 +350,34 @@ def test_chi2_impossible_sample_of_a_degenerate_law(law, n, p, bad):
                              f"p-value {r.pvalue} ({r.note!r})")
 
 
-def test_chi2_without_power_says_so():
-    r = gl.chi2_test(np.zeros(3), gl.law("binomial").pmf(10, 0.5))
-    assert r.dof == 0 and r.pvalue == 1.0 and "power" in r.note
+def test_chi2_with_too_few_samples_is_exact_and_still_rejects():
+    # Too few samples for two merged bins: the chi-square approximation is invalid, and merging would
+    # hide the evidence. An all-or-nothing law's 8 samples (K = 0 or 16 at n = 16, p = 0.1, TV ~ 1 to
+    # the binomial) used to get dof 0 and p = 1.0; the exact likelihood-ratio test rejects them.
+    b = gl.law("binomial").pmf(16, 0.1)
+    aon = gl.custom_law(lambda n, p, u: (u[:, 0] < p) * n, n_uniforms=1, name="all_or_nothing_chi2_test")
+    x = aon.sample(16, 0.1, size=8, seed=2)
+    r = gl.chi2_test(x, b)
+    assert r.dof == 0 and "exact likelihood-ratio" in r.note and r.pvalue < 1e-3, (x, r.pvalue, r.note)
+    assert gl.chi2_test(x, b).pvalue == r.pvalue  # a fixed key: the same samples, the same p-value
+    # Three zeros of Binomial(10, 1/2) have probability 2^-30: rejected too.
+    assert gl.chi2_test(np.zeros(3), gl.law("binomial").pmf(10, 0.5)).pvalue < 1e-3
+
+
+def test_exact_small_sample_test_holds_its_level():
+    # Under the law itself the exact test's p-values are (conservatively) uniform: of 200 fixed
+    # seeds of 4 draws, about 10 % fall below 0.1 (sd 2.1 %); more than 20 % would be a broken test
+    # (probability < 1e-5 for a valid one), and so would p-values that never go below 0.5.
+    law = gl.law("binomial")
+    d = law.pmf(16, 0.1)
+    ps = np.array([gl.chi2_test(law.sample(16, 0.1, size=4, seed=s), d).pvalue for s in range(200)])
+    assert np.mean(ps < 0.1) < 0.2 and np.mean(ps < 0.5) > 0.2, np.quantile(ps, [0.1, 0.5, 0.9])
+
+
+def test_chi2_without_degrees_of_freedom_cannot_pass():
+    x = gl.law("binomial").sample(16, 0.1, size=10**4, seed=3)
+    r = gl.chi2_test(x, gl.law("binomial").pmf(16, 0.1), fitted_params=100)
+    assert r.dof == 0 and np.isnan(r.pvalue) and "fitted_params = 100" in r.note
 
 
 def test_chi2_rejects_bad_arguments():
