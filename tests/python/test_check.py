@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 import glintlab as gl
-from glintlab.validation.bounds import DEFAULT_BOUNDS, check, perturbed_law
+from glintlab.validation.bounds import DEFAULT_BOUNDS, check, perturbed_law, write_junit
 from glintlab.cli.main import main
 from glintlab.validation.references import resolve_law
 
@@ -86,3 +86,19 @@ def test_a_chi_square_bound_on_eight_samples_still_rejects_an_all_or_nothing_law
     bad = check(dict(DOC, bounds=[bound]), substitute={"binomial": aon})
     assert not bad.ok.iloc[0], bad.to_string()
     assert check(dict(DOC, bounds=[bound])).ok.iloc[0]
+
+
+def test_the_chi_square_note_reaches_sweeps_tables_and_junit(tmp_path):
+    # A law shifted by one count puts samples where the binomial has no mass at p = 1 ... the test's
+    # note (the most useful line glintlab prints) must survive into every table that shows the p-value.
+    shifted = perturbed_law("binomial", p_scale=1.0, shift=1.0)
+    df = gl.sweep([shifted], n=[16], p=[1.0], metrics=["chi2_pvalue"], samples=1000, seed=1)
+    assert df.chi2_pvalue.iloc[0] == 0.0 and "probability 0" in df.chi2_note.iloc[0]
+    bound = {"id": "shifted", "law": "binomial", "metric": "chi2_pvalue", "minimum": 1e-6, "samples": 1000, "seed": 1,
+             "regime": {"n": [16], "p": [1.0]}, "reference": {"law": "binomial"}}
+    table = check(dict(DOC, bounds=[bound]), substitute={"binomial": shifted})
+    assert not table.ok.iloc[0] and "probability 0 (first: 17)" in table.note.iloc[0], table.note.iloc[0]
+    from glintlab.validation.bounds import format_table
+    assert "probability 0 (first: 17)" in format_table(table)
+    xml = write_junit(table, tmp_path / "j.xml").read_text()
+    assert "probability 0 (first: 17)" in xml

@@ -22,7 +22,7 @@ MEANING = ("The binomial and Poisson samplers reproduce their exact laws (chi-sq
 DEFAULTS = {"samples": 1_000_000}
 QUICK = {"samples": 100_000}
 NOTEBOOK = "exact_laws.ipynb"
-TABLE = {"sampler_checks": ["law", "n", "p", "pvalue", "tv_hist", "ns_per_sample"]}
+TABLE = {"sampler_checks": ["law", "n", "p", "pvalue", "tv_hist", "ns_per_sample", "note"]}
 
 EXACT_POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6), (1e15, 1e-13), (1e12, 1 - 1e-7),
                 (10.5, 0.3), (0.25, 0.8), (1e6, 1e-300)]
@@ -65,7 +65,8 @@ def compute(params: dict, ctx: Context) -> Tables:
             r = chi2_test(x, d)
             rows.append(dict(law=name, n=n, p=p, samples=samples, seed=seed, chi2=r.statistic, dof=r.dof,
                              pvalue=r.pvalue, tv_hist=distance(x, d, "tv"),
-                             mean_rel_err=relative_error(x.mean(), d.mean), ns_per_sample=dt / samples * 1e9))
+                             mean_rel_err=relative_error(x.mean(), d.mean), ns_per_sample=dt / samples * 1e9,
+                             note=r.note))
             if name == "binomial" and (n, p) in FIGURE_POINTS:
                 histograms[n, p] = (d, pd.Series(x).value_counts(normalize=True).sort_index(), r.pvalue)
     checks = pd.DataFrame(rows)
@@ -87,6 +88,7 @@ def compute(params: dict, ctx: Context) -> Tables:
         stats={"sampler checks": len(checks), "smallest p-value": float(checks.pvalue.min()),
                "largest support relative mean error": float(exact.mean_rel_err.max())},
         failures=[f"{r.law} at n = {r.n:g}, p = {r.p:g}: chi-square p = {r.pvalue:.2g} < {SAMPLER_ALPHA:g}"
+                  + (f" ({r.note})" if r.note else "")
                   for r in checks.itertuples() if r.pvalue < SAMPLER_ALPHA],
         data={"histograms": [(n, p, *histograms[n, p]) for n, p in FIGURE_POINTS], "samples": samples,
               "tv_p": ps, "tv_curves": tv_curves})

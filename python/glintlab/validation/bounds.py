@@ -83,6 +83,9 @@ def check(bounds=DEFAULT_BOUNDS, substitute: dict | None = None, progress=None) 
         key = np.where(np.isnan(vals), np.inf, vals if limit == "max" else -vals)
         k = int(np.argmax(key))
         row.update(worst=float(vals[k]), at_n=float(df.n.iloc[k]), at_p=float(df.p.iloc[k]))
+        # What the test said at the worst point (e.g. "3 samples fall on values the law gives
+        # probability 0 (first: 17)"): the line that explains a failed chi-square bound.
+        row["note"] = str(df.chi2_note.iloc[k]) if "chi2_note" in df and isinstance(df.chi2_note.iloc[k], str) else ""
         row["ok"] = bool(np.isfinite(vals).all() and (vals.max() <= value if limit == "max" else vals.min() >= value))
         row["seconds"] = round(time.perf_counter() - t0, 3)
         rows.append(row)
@@ -99,9 +102,11 @@ def write_junit(table: pd.DataFrame, path, name: str = "glintlab.check") -> Path
         case = ET.SubElement(suite, "testcase", classname=f"{name}.{r.law}", name=r.id, time=f"{r.seconds:.3f}")
         if not r.ok:
             rel = "<=" if r.limit == "max" else ">="
+            note = f" ({r.note})" if getattr(r, "note", "") else ""
             f = ET.SubElement(case, "failure", message=f"{r.metric} = {r.worst:.6g} at n = {r.at_n:g}, p = {r.at_p:g}; "
-                                                       f"bound: {r.metric} {rel} {r.bound:.6g}")
-            f.text = f"law {r.law}, metric {r.metric}, worst {r.worst!r} at (n, p) = ({r.at_n!r}, {r.at_p!r}) over {r.points} points"
+                                                       f"bound: {r.metric} {rel} {r.bound:.6g}{note}")
+            f.text = (f"law {r.law}, metric {r.metric}, worst {r.worst!r} at (n, p) = ({r.at_n!r}, {r.at_p!r}) "
+                      f"over {r.points} points{note}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)
@@ -112,7 +117,9 @@ def format_table(table: pd.DataFrame) -> str:
     cols = ["id", "law", "metric", "limit", "bound", "worst", "at_n", "at_p", "points", "ok"]
     t = table[cols].copy()
     t["ok"] = t.ok.map({True: "ok", False: "VIOLATED"})
-    return t.to_string(index=False, float_format=lambda x: f"{x:.4g}")
+    text = t.to_string(index=False, float_format=lambda x: f"{x:.4g}")
+    notes = [f"{r.id}: {r.note}" for r in table.itertuples() if getattr(r, "note", "") and not r.ok]
+    return text + "".join("\n  " + line for line in notes)
 
 
 class PerturbedLaw(Law):

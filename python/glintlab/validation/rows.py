@@ -85,7 +85,10 @@ def compute_row(lw: Law, label: str, reference, n: float, p: float, metrics, sam
     mom = moment_errors(d, d_ref.mean, d_ref.var)
     row.update({m: mom[m] for m in metrics if m in MOMENT_METRICS})
     if "chi2_pvalue" in metrics:
-        row["chi2_pvalue"] = chi2_test(x, d_ref).pvalue if reference.has_pmf else math.nan
+        # The test's note (impossible samples, the exact small-sample test) travels with its p-value.
+        test = chi2_test(x, d_ref) if reference.has_pmf else None
+        row["chi2_pvalue"] = test.pvalue if test is not None else math.nan
+        row["chi2_note"] = test.note if test is not None else "no exact reference: no chi-square test"
     if "tv" in metrics:
         row["tv_noise"] = tv_noise(d_ref, samples) if reference.has_pmf else math.nan
     if "mean_rel_err" in metrics:
