@@ -19,7 +19,7 @@ def json_pointer(path) -> str:
 
 def real(name, value):
     """`value` as a Python float (bools, strings and other objects rejected by name)."""
-    if isinstance(value, bool):
+    if isinstance(value, (bool, str, bytes)):  # float("5") would pass a string through
         fail(name, value, "a real number")
     try:
         return float(value)

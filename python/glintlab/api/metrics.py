@@ -46,9 +46,13 @@ def chi2_test(samples, dist: Distribution, min_expected: float = 5.0, fitted_par
         v.fail("samples", samples, "a non-empty array")
     if isinstance(fitted_params, bool) or not isinstance(fitted_params, (int, np.integer)):
         v.fail("fitted_params", fitted_params, "an integer >= 0")
-    return _core.chi2_test(np.ascontiguousarray(arr), dist, float(min_expected), int(fitted_params))
+    # A number, not anything float() accepts ("5" is a mistake worth naming).
+    min_expected = v.real("min_expected", min_expected)
+    return _core.chi2_test(np.ascontiguousarray(arr), dist, min_expected, int(fitted_params))
 
 
 def sidak_alpha(alpha: float, tests: int) -> float:
     """Per-test significance keeping the family-wise false-failure rate at alpha over `tests` tests."""
-    return _core.sidak_alpha(float(alpha), int(tests))
+    if isinstance(tests, bool) or not isinstance(tests, (int, np.integer)):  # 2.7 tests is not 2 tests
+        v.fail("tests", tests, "an integer >= 1")
+    return _core.sidak_alpha(v.real("alpha", alpha), int(tests))

@@ -137,6 +137,10 @@ def _cmd_sweep(args) -> int:
            "samples": args.samples, "seed": args.seed}
     if isinstance(doc["reference"], dict):
         doc["reference"] = {"law": doc["reference"]}
+    # The name becomes a folder under out/sweeps: a path (../../x) would write elsewhere.
+    if not args.name or args.name in (".", "..") or any(c in args.name for c in "/\\\0"):
+        raise ValueError(f"--name = {args.name!r} is invalid; expected a plain name without '/' (it names the "
+                         "output folder out/sweeps/NAME)")
     if args.out is None:
         args.out = "out/sweeps/" + args.name
     return _run_experiment(json.dumps(doc), args)

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..api import checks as V
 from ..api.grids import CONFIGS, IMAGE_CONFIGS, aniso_counter, configured_counter
 from ..api.metrics import chi2_test, distance
 from ..api.spatial import Ellipse, ground_truth
@@ -311,9 +312,12 @@ def write_report(out, full: bool = False, samples: int | None = None, seed: int 
                  image: bool = True, grid: dict | None = None):
     """``glintlab aniso``: runs the study, the weight maps and (``image``) the 1920 x 1080 image timing;
     writes CSVs and PNGs into ``out``. Returns (figure paths, {name: table})."""
+    if samples is not None and (isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1):
+        V.fail("samples", samples, "an integer >= 1 (draws per footprint)")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    res = study_tables(grid or (FULL_GRID if full else QUICK_GRID), samples or (40_000 if full else 10_000), seed,
+    res = study_tables(grid or (FULL_GRID if full else QUICK_GRID), (40_000 if full else 10_000) if samples is None else int(samples),
+                      seed,
                        image, map_resolution=80 if not full else 160, progress=progress)
     paths = figures(res, Context(out, seed))
     written = {"aniso_study": res.extra["aniso_study"], **res.tables, **res.extra}

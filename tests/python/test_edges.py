@@ -1,0 +1,31 @@
+"""Bad input at the edges gets a clear error naming the parameter (issue: reliability at the edges,
+item 12): nothing is silently coerced or written outside the output folder."""
+import numpy as np
+import pytest
+
+import glintlab as gl
+from glintlab.cli.main import main
+
+
+def test_sidak_alpha_refuses_a_fractional_number_of_tests():
+    with pytest.raises(ValueError, match="tests = 2.7"):
+        gl.sidak_alpha(0.05, 2.7)
+    assert gl.sidak_alpha(0.05, 2) == pytest.approx(1 - 0.95 ** 0.5)
+
+
+def test_chi2_min_expected_must_be_a_number():
+    d = gl.law("binomial").pmf(4, 0.5)
+    with pytest.raises(ValueError, match="min_expected = '5'"):
+        gl.chi2_test(np.ones(10), d, min_expected="5")
+
+
+def test_sweep_name_cannot_leave_the_output_folder(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["sweep", "--laws", "gated", "--n", "16", "--p", "0.1", "--name", "../../x"]) == 2
+    assert "--name = '../../x'" in capsys.readouterr().err
+    assert not (tmp_path.parent / "x").exists() and not (tmp_path / "out").exists()
+
+
+def test_aniso_samples_zero_is_refused(tmp_path, capsys):
+    assert main(["aniso", "--samples", "0", "--out", str(tmp_path / "a")]) == 2
+    assert "samples = 0" in capsys.readouterr().err
