@@ -153,6 +153,11 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
     const HeadCfCdf cdf(n, p);
     const double m = cdf.m;
     const auto [lo_k, hi_k] = cdf.reach();
+    // Above 2^53 consecutive integers are not representable: k += 1 below would stop advancing.
+    if (hi_k >= 0x1p53)
+      throw std::invalid_argument("head_cf.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
+                                  " puts the support at counts above 2^53 (9.007e15), where doubles no longer "
+                                  "hold consecutive integers; expected n p below 9e15");
     if (hi_k - lo_k + 2 > static_cast<double>(max_support))
       throw std::invalid_argument("head_cf.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
                                   " needs more than max_support = " + std::to_string(max_support) +

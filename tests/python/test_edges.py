@@ -29,3 +29,21 @@ def test_sweep_name_cannot_leave_the_output_folder(tmp_path, capsys, monkeypatch
 def test_aniso_samples_zero_is_refused(tmp_path, capsys):
     assert main(["aniso", "--samples", "0", "--out", str(tmp_path / "a")]) == 2
     assert "samples = 0" in capsys.readouterr().err
+
+
+def test_pmf_at_huge_n_is_refused_not_an_endless_loop():
+    # Issue item 7: at n >= ~1e36 the support's ends round to one double, k += 1 stops advancing and
+    # memory filled until bad_alloc. Run in a child process with a timeout, so a regression fails
+    # instead of hanging the suite.
+    import subprocess
+    import sys
+    code = ("import glintlab as gl\n"
+            "for name in gl.laws():\n"
+            "    try:\n"
+            "        gl.law(name).pmf(1e36, 0.5)\n"
+            "    except (ValueError, NotImplementedError) as exc:\n"
+            "        print(name, 'refused:', str(exc)[:60])\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    for name in ("gated", "head_cf", "gaussian", "zk16", "dual_gated", "gated_continuous"):
+        assert f"{name} refused:" in run.stdout, run.stdout
