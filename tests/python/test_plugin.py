@@ -139,7 +139,13 @@ def test_misbehaving_plugin_pmfs_are_caught():
         except NotImplementedError:
             pass
         assert len(gl.law("bad_pmf_wide").pmf(3, 0.5).probs) == 10_000
-        # NaN counts from a plugin's evaluate reach the samples (documented in plugin.h).
-        assert np.isnan(gl.law("bad_nan_eval").sample(3, 0.9, size=4, seed=1)).all()
+        # NaN counts from a plugin's evaluate are refused, as a Python custom law's are (plugin.h).
+        for call in (lambda: gl.law("bad_nan_eval").sample(3, 0.9, size=4, seed=1),
+                     lambda: gl.law("bad_nan_eval").evaluate(3, 0.9, gl.uniforms(4, gl.law("bad_nan_eval").n_uniforms, 1))):
+            try:
+                call()
+                raise AssertionError("NaN counts accepted")
+            except ValueError as e:
+                assert "law 'bad_nan_eval' returned nan at row 0" in str(e), e
         print("ok")
         """, GLINTLAB_BAD_PLUGIN_CASE="")

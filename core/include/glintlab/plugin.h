@@ -36,10 +36,10 @@
  *    "same seed, same samples, whatever the number of threads" holds for a plugin law only then.
  *  - No exceptions: this is a C interface, an exception escaping a callback is undefined
  *    behaviour (std::terminate at best). Mark C++ callbacks noexcept.
- *  - Bad values: evaluate's result is passed through unchanged (the hot path does not check it).
- *    A NaN or infinite K therefore reaches the user's samples; comparisons of samples (distances,
- *    chi-square tests) then refuse them with ValueError, and the extremes suite reports such
- *    outputs. Counts outside [0, ceil(n)] are not refused either (some shader laws produce them).
+ *  - Bad values: the C++ hot path passes evaluate's result through unchanged, and the Python layer
+ *    then refuses a NaN or infinite K from a plugin law (ValueError naming the law and the row), as
+ *    it does for a Python custom law; the extremes suite reports such outputs too. Counts outside
+ *    [0, ceil(n)] are not refused (some shader laws produce them).
  *    pmf's output IS checked: every probability finite and >= 0 and their sum within 1e-9 of 1,
  *    otherwise the call fails (std::runtime_error, Python RuntimeError) naming the law and (n, p).
  *

@@ -108,14 +108,28 @@ class Law:
         return self._sample_flat(nf, pf, count, seed, precision).reshape(shape)
 
     def _sample_flat(self, nf, pf, count, seed, precision):
-        return self._core.sample(nf, pf, count, seed, precision)
+        return self._finite(self._core.sample(nf, pf, count, seed, precision), nf, pf)
+
+    def _finite(self, out, nf, pf):
+        """One rule for every kind of law: a count that is NaN or infinite is an error naming the law and
+        the row, never a value passed on to be binned. Built-in laws declare their traits and are held
+        to finite counts by the extremes suite; laws that declare nothing (plugins) are checked here."""
+        if getattr(self, "_declared", None) is None:
+            self._declared = bool(law_traits(self.name)["declared"])
+        if not self._declared:
+            bad = ~np.isfinite(out)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise ValueError(f"law {self.name!r} returned {out[i]} at row {i} (n = {nf[i % nf.size]}, "
+                                 f"p = {pf[i % pf.size]}); counts must be finite")
+        return out
 
     def evaluate(self, n, p, u, precision: str = "float64") -> np.ndarray:
         """Deterministic counts from explicit uniforms u of shape (m, n_uniforms); n, p broadcast to (m,)."""
         precision = _precision(precision)
         u = _uniform_rows(u, self.n_uniforms)
         nf, pf, _ = v.broadcast_params(n, p, (u.shape[0],))
-        return self._core.evaluate(nf, pf, u, precision)
+        return self._finite(self._core.evaluate(nf, pf, u, precision), nf, pf)
 
     def estimate_pmf(self, n, p, samples: int = 10**6, seed=0, precision: str = "float64") -> Distribution:
         """Empirical distribution of ``samples`` draws at scalar (n, p).
