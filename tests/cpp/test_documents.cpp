@@ -71,7 +71,7 @@ TEST_CASE("documents: a minimal experiment gets every default", "[documents]") {
   CHECK(doc["outputs"] == json::parse(R"({"csv": true, "json": true, "plots": true})"));  // {} then its defaults
   CHECK(doc["laws"][0] == "binomial");                                                    // strings stay strings
   CHECK(doc["laws"][1] == json::parse(R"({"name": "zk16", "params": {}})"));              // only the matched branch
-  CHECK(doc["laws"][2] == json::parse(R"({"name": "mine", "python": "m:f", "n_uniforms": 2})"));
+  CHECK(doc["laws"][2] == json::parse(R"({"name": "mine", "python": "m:f", "n_uniforms": 2, "binning": "none"})"));
   CHECK(doc["laws"][3] == json::parse(R"({"name": "p", "plugin": "x.so"})"));
   // Normalizing is idempotent, and values given are kept.
   CHECK(parse_experiment(doc.dump(), "t.json") == doc);

@@ -125,7 +125,7 @@ def test_defaults_are_filled_in():
     doc = json.loads(_core.parse_document("experiment", text, "x"))
     assert doc["laws"][0] == "binomial"
     assert doc["laws"][1] == {"name": "gaussian", "params": {}}
-    assert doc["laws"][4] == {"name": "py", "python": "mod:fn", "n_uniforms": 2}
+    assert doc["laws"][4] == {"name": "py", "python": "mod:fn", "n_uniforms": 2, "binning": "none"}
     assert doc["outputs"] == {"csv": True, "json": True, "plots": True}
     assert doc["reference"] == "binomial" and doc["samples"] is None and doc["seed"] == 1
     bounds = json.loads(_core.parse_document("bounds", (DOCS / "good" / "bounds_minimal.json").read_text(), "b"))

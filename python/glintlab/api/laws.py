@@ -150,20 +150,21 @@ class CustomLaw(Law):
     custom re-implementation of a built-in law reproduces its samples seed for seed.
     """
 
-    def __init__(self, fn, n_uniforms: int, name: str):
+    def __init__(self, fn, n_uniforms: int, name: str, binning: str = "none"):
         self._fn = fn
         self._k = n_uniforms
         self._name = name
+        self._binning = binning
 
     name = property(lambda self: self._name)
     params = property(lambda self: {})
     n_uniforms = property(lambda self: self._k)
     has_pmf = property(lambda self: False)
     precisions = property(lambda self: PRECISIONS)
-    binning = property(lambda self: "none")
+    binning = property(lambda self: self._binning)
 
     def __reduce__(self):  # the function travels by value (cloudpickle, as Dask sends it)
-        return (CustomLaw, (self._fn, self._k, self._name))
+        return (CustomLaw, (self._fn, self._k, self._name, self._binning))
 
     def pmf(self, n, p, max_support: int = 50_000_000):
         raise NotImplementedError(
@@ -313,9 +314,15 @@ def law_summaries() -> dict[str, str]:
     return dict(sorted(out.items()))
 
 
-def custom_law(fn, n_uniforms: int = 2, name: str = "custom") -> CustomLaw:
+BINNINGS = ("none", "round")
+
+
+def custom_law(fn, n_uniforms: int = 2, name: str = "custom", binning: str = "none") -> CustomLaw:
     """Registers a vectorized ``fn(n, p, u) -> counts`` as a law named ``name`` and returns it.
 
+    ``binning``: how its outputs are compared with an integer law: "none" (they are counts) or "round"
+    (real outputs, round half up to unit bins, as the built-in real-valued laws are). A sampled
+    comparison of real outputs with "none" warns: unbinned, they match no integer value.
     Registering a name again replaces the earlier custom law; built-in names are refused.
     """
     if not callable(fn):
@@ -326,7 +333,9 @@ def custom_law(fn, n_uniforms: int = 2, name: str = "custom") -> CustomLaw:
         v.fail("name", name, "a non-empty string")
     if name in {n for n, _ in _core.law_infos()}:
         v.fail("name", name, "a name that no built-in law uses")
-    law_ = CustomLaw(fn, int(n_uniforms), name)
+    if binning not in BINNINGS:
+        v.fail("binning", binning, "'none' (integer counts) or 'round' (real outputs, unit bins)")
+    law_ = CustomLaw(fn, int(n_uniforms), name, binning)
     CUSTOM_LAWS.register(name, law_, replace=True)
     return law_
 

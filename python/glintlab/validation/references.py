@@ -109,7 +109,8 @@ def resolve_law(spec, base_dir: Path | None = None) -> Law:
         return get_law(name)
     if "python" in spec:
         fn = _import_function(spec["python"], base_dir)
-        return custom_law(fn, n_uniforms=int(spec.get("n_uniforms", 2)), name=name)
+        return custom_law(fn, n_uniforms=int(spec.get("n_uniforms", 2)), name=name,
+                          binning=spec.get("binning", "none"))
     return get_law(name, **spec.get("params", {}))
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import warnings
 
 import numpy as np
 from scipy.special import gammaln
@@ -75,6 +76,12 @@ def compute_row(lw: Law, label: str, reference, n: float, p: float, metrics, sam
         return row
     rs = row_seed(seed, label, n, p)
     x = lw.bin(lw.sample(n, p, size=samples, seed=rs))
+    if lw.binning == "none" and not np.array_equal(x, np.floor(x)):
+        # Real outputs compared unbinned with a law of integers match none of its values: the
+        # distances then say more about the binning than about the law.
+        warnings.warn(f"law {label!r} returned non-integer counts at n = {n!r}, p = {p!r} and declares "
+                      "binning 'none': they are compared unbinned (give a custom law binning='round')",
+                      UserWarning, stacklevel=2)
     d = Distribution.empirical(np.ascontiguousarray(x))
     if reference.has_pmf:
         d_ref = reference.pmf(n, p)
