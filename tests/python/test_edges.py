@@ -69,3 +69,17 @@ def test_custom_laws_declare_their_binning():
         gl.custom_law(lambda n, p, u: n, 0, name="bad_binning", binning="floor")
     rebuild, args = copy.__reduce__()  # how Dask ships it (cloudpickle): the binning travels too
     assert copy.binning == "round" and rebuild(*args).binning == "round"
+
+
+def test_a_store_keys_rows_by_the_laws_identity_not_its_name(tmp_path):
+    # Issue item 3: re-registering custom_law(f2, name="mine") after a run with f1 returned f1's rows.
+    store = tmp_path / "s.jsonl"
+    f1 = gl.custom_law(lambda n, p, u: (u[:, 0] < p) * n, 1, "mine_store_test")
+    gl.sweep([f1], n=[16], p=[0.1], metrics=["tv"], samples=1000, store=store)
+    f2 = gl.custom_law(lambda n, p, u: (u[:, 0] < 2 * p) * n, 1, "mine_store_test")
+    assert f1.identity != f2.identity and f1.label == f2.label
+    with pytest.raises(ValueError, match="differs in: law_identities"):
+        gl.sweep([f2], n=[16], p=[0.1], metrics=["tv"], samples=1000, store=store)
+    # The same function again resumes from the store.
+    again = gl.sweep([f1], n=[16], p=[0.1], metrics=["tv"], samples=1000, store=store)
+    assert again.attrs["resumed_rows"] == 1

@@ -6,6 +6,9 @@ comparison and reporting machinery.
 """
 from __future__ import annotations
 
+import hashlib
+import inspect
+
 import numpy as np
 
 from .. import _core
@@ -36,6 +39,15 @@ class Law:
         """The law's name with its parameters, e.g. ``gaussian[rounding=floor]``: how tables, stores and
         bounds name it (``parse_law_label`` reads it back)."""
         return law_label(self.name, self.params)
+
+    @property
+    def identity(self) -> str:
+        """What the law is, beyond its name: its label for a built-in law, ``plugin:<sha256 of the
+        library file>:<label>`` for a plugin law. Stores key their rows by it."""
+        plugin = next((path for path, names in _core.loaded_plugins() if self.name in names), None)
+        if plugin is None:
+            return self.label
+        return f"plugin:{_file_digest(plugin)}:{self.label}"
 
     @property
     def traits(self) -> dict:
@@ -162,6 +174,12 @@ class CustomLaw(Law):
     has_pmf = property(lambda self: False)
     precisions = property(lambda self: PRECISIONS)
     binning = property(lambda self: self._binning)
+
+    @property
+    def identity(self) -> str:
+        """``python:<sha256 of the function's source (or code)>:<binning>:<name>``: two functions
+        registered under one name are two laws."""
+        return f"python:{_function_digest(self._fn)}:{self._binning}:{self._name}"
 
     def __reduce__(self):  # the function travels by value (cloudpickle, as Dask sends it)
         return (CustomLaw, (self._fn, self._k, self._name, self._binning))
@@ -315,6 +333,34 @@ def law_summaries() -> dict[str, str]:
 
 
 BINNINGS = ("none", "round")
+
+
+def _file_digest(path) -> str:
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()[:16]
+
+
+def _function_digest(fn) -> str:
+    """A digest of what the function computes: its source when Python can read it, else its bytecode,
+    constants and names (a lambda typed at a prompt), plus the values it closes over."""
+    try:
+        text = inspect.getsource(fn)
+    except (OSError, TypeError):
+        text = ""
+    # The bytecode too: two lambdas on one source line share their source text.
+    code = getattr(fn, "__code__", None)
+    text += repr((code.co_code, code.co_consts, code.co_names)) if code is not None else repr(fn)
+    cells = getattr(fn, "__closure__", None) or ()
+    text += repr([_cell_repr(c) for c in cells])
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _cell_repr(cell):
+    try:
+        value = cell.cell_contents
+    except ValueError:
+        return "<empty>"
+    return getattr(value, "identity", None) or repr(value)
 
 
 def custom_law(fn, n_uniforms: int = 2, name: str = "custom", binning: str = "none") -> CustomLaw:

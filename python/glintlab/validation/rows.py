@@ -76,18 +76,19 @@ def compute_row(lw: Law, label: str, reference, n: float, p: float, metrics, sam
         return row
     rs = row_seed(seed, label, n, p)
     x = lw.bin(lw.sample(n, p, size=samples, seed=rs))
-    if lw.binning == "none" and not np.array_equal(x, np.floor(x)):
-        # Real outputs compared unbinned with a law of integers match none of its values: the
-        # distances then say more about the binning than about the law.
-        warnings.warn(f"law {label!r} returned non-integer counts at n = {n!r}, p = {p!r} and declares "
-                      "binning 'none': they are compared unbinned (give a custom law binning='round')",
-                      UserWarning, stacklevel=2)
     d = Distribution.empirical(np.ascontiguousarray(x))
     if reference.has_pmf:
         d_ref = reference.pmf(n, p)
     else:  # two samples: the reference draws with a seed of its own
         d_ref = Distribution.empirical(np.ascontiguousarray(
             reference.sample(n, p, samples, row_seed(seed, "reference:" + label, n, p))))
+    if lw.binning == "none" and not np.array_equal(x, np.floor(x)) and \
+            np.array_equal(np.asarray(d_ref.support), np.floor(np.asarray(d_ref.support))):
+        # Real outputs compared unbinned with a law of integers match none of its values: the
+        # distances then say more about the binning than about the law.
+        warnings.warn(f"law {label!r} returned non-integer counts at n = {n!r}, p = {p!r} and declares "
+                      "binning 'none', against a reference of integer counts: they are compared unbinned "
+                      "(give a custom law binning='round')", UserWarning, stacklevel=2)
     row.update({m: distance(d, d_ref, m) for m in want_dist})
     mom = moment_errors(d, d_ref.mean, d_ref.var)
     row.update({m: mom[m] for m in metrics if m in MOMENT_METRICS})

@@ -12,7 +12,8 @@ from pathlib import Path
 
 from .._core import __version__ as _version
 
-STORE_FORMAT = 1
+# 2: the configuration holds each law's identity (format 1 keyed custom laws by name only).
+STORE_FORMAT = 2
 
 
 class SweepStore:
@@ -43,6 +44,11 @@ class SweepStore:
             header = json.loads(lines[0])
         except ValueError:
             header = None
+        if isinstance(header, dict) and isinstance(header.get("glintlab_store"), int) \
+                and header["glintlab_store"] != STORE_FORMAT:
+            raise ValueError(f"store = {str(self.path)!r} was written in store format {header['glintlab_store']} "
+                             f"(this glintlab writes format {STORE_FORMAT}, which records each law's identity); "
+                             "use another store path, or delete it to start over")
         if not isinstance(header, dict) or header.get("glintlab_store") != STORE_FORMAT:
             raise ValueError(f"store = {str(self.path)!r} is invalid; expected a glintlab sweep store "
                              "(a JSON-lines file written by sweep(store=...))")

@@ -129,8 +129,10 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
         _axis("points[:, 0]", arr[:, 0], "n"), _axis("points[:, 1]", arr[:, 1], "p")
         grid = [(float(a), float(b)) for a, b in arr]
     tasks = [(i, j, a, b) for i in range(len(laws)) for j, (a, b) in enumerate(grid)]
-    config = {"laws": labels, "grid": [[a, b] for a, b in grid], "metrics": metrics, "reference": ref.spec,
-              "samples": samples, "seed": seed}
+    # law_identities: what each law IS (a custom law's source, a plugin's file), not only its name, so
+    # a store never hands one function's rows to another function registered under the same name.
+    config = {"laws": labels, "law_identities": [lw.identity for lw in laws], "grid": [[a, b] for a, b in grid],
+              "metrics": metrics, "reference": ref.spec, "samples": samples, "seed": seed}
 
     st = SweepStore(store, config) if store is not None else None
     done = st.rows if st is not None else {}
