@@ -83,3 +83,12 @@ def test_a_store_keys_rows_by_the_laws_identity_not_its_name(tmp_path):
     # The same function again resumes from the store.
     again = gl.sweep([f1], n=[16], p=[0.1], metrics=["tv"], samples=1000, store=store)
     assert again.attrs["resumed_rows"] == 1
+
+
+@pytest.mark.parametrize("command", ["run", "sweep", "advise", "bench", "extremes", "aniso", "profile"])
+def test_help_states_every_output_default(command, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, "--help"])
+    assert exit_info.value.code == 0
+    text = capsys.readouterr().out
+    assert "see above" not in text and "default: None" not in text, text

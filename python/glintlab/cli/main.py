@@ -285,7 +285,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("laws", help="list the registered counting laws")
     p.set_defaults(func=_cmd_laws)
 
-    def common(p, out_default=None, plugins=True, store=False):
+    def common(p, out_default=None, plugins=True, store=False, out_help=None):
         if store:
             p.add_argument("--store", help="resumable store (JSON lines): finished rows are kept across interruptions")
             p.add_argument("--scheduler", metavar="ADDRESS",
@@ -294,7 +294,8 @@ def build_parser() -> argparse.ArgumentParser:
                            help="run on a Dask LocalCluster of K worker processes on this machine")
             p.add_argument("--timeout", type=float, default=10.0,
                            help="seconds to wait for the scheduler to answer (default: 10)")
-        p.add_argument("--out", default=out_default, help=f"output directory (default: {out_default or 'see above'})")
+        p.add_argument("--out", default=out_default,
+                       help=f"output directory (default: {out_help or out_default})")
         p.add_argument("--quiet", action="store_true", help="no tables on stdout, no progress bar")
         if plugins:
             p.add_argument("--plugin", action="append", metavar="LIB.so",
@@ -304,7 +305,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Runs an experiment file (data/schema/experiment.schema.json), or re-runs a "
                                    "results.json exactly. Writes results.csv, results.json and one PNG per metric.")
     p.add_argument("experiment", help="experiment JSON, or a results.json written by an earlier run")
-    common(p, None, store=True)
+    common(p, None, store=True, out_help="out/experiments/EXPERIMENT, the file's stem")
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("sweep", help="sweep laws over an (n, p) grid from flags",
@@ -319,7 +320,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--samples", type=int, help="draws per grid point (default: exact distributions)")
     p.add_argument("--seed", type=int, default=1, help="seed (default: 1)")
     p.add_argument("--name", default="sweep", help="experiment name (default: sweep)")
-    common(p, None, store=True)
+    common(p, None, store=True, out_help="out/sweeps/NAME, NAME from --name")
     p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("check", help="check error bounds; exit 1 on any violation",
@@ -395,7 +396,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--costs", metavar="COSTS.csv", help="law costs instead of measuring them")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--json", action="store_true", help="print the recommendation as JSON")
-    common(p, None, plugins=False)
+    common(p, None, plugins=False, out_help="none: the advice is printed, no files are written")
     p.set_defaults(func=_cmd_advise)
 
     p = sub.add_parser("report", help="the main job: every figure family, as out/report/index.html",
