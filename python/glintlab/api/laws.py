@@ -129,11 +129,7 @@ class Law:
         if getattr(self, "_declared", None) is None:
             self._declared = bool(law_traits(self.name)["declared"])
         if not self._declared:
-            bad = ~np.isfinite(out)
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise ValueError(f"law {self.name!r} returned {out[i]} at row {i} (n = {nf[i % nf.size]}, "
-                                 f"p = {pf[i % pf.size]}); counts must be finite")
+            _require_finite(f"law {self.name!r}", out, nf, pf)
         return out
 
     def evaluate(self, n, p, u, precision: str = "float64") -> np.ndarray:
@@ -203,11 +199,7 @@ class CustomLaw(Law):
             out = out.reshape(-1) if out.size == m else out
         if out.shape != (m,):
             raise ValueError(f"custom law {self._name!r} returned shape {out.shape}; expected ({m},)")
-        bad = ~np.isfinite(out)
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise ValueError(f"custom law {self._name!r} returned {out[i]} at row {i} "
-                             f"(n = {n_rows[i]}, p = {p_rows[i]}); counts must be finite")
+        _require_finite(f"custom law {self._name!r}", out, n_rows, p_rows)
         return out
 
     def _check_np(self, nf, pf):
@@ -302,6 +294,16 @@ def parse_law_label(label: str) -> tuple[str, dict]:
         except ValueError:
             params[key] = value
     return name, params
+
+
+def _require_finite(who: str, out, n_rows, p_rows) -> None:
+    """The one rule for every kind of law: a NaN or infinite count is an error naming the law and the
+    row (n and p broadcast: a length-1 array serves every row)."""
+    bad = ~np.isfinite(out)
+    if bad.any():
+        i = int(np.argmax(bad))
+        n_i, p_i = np.ravel(n_rows)[i % np.size(n_rows)], np.ravel(p_rows)[i % np.size(p_rows)]
+        raise ValueError(f"{who} returned {out[i]} at row {i} (n = {n_i}, p = {p_i}); counts must be finite")
 
 
 def _rebuild_law(name, params, plugin):
