@@ -9,6 +9,7 @@
 #include <cstring>
 #include <optional>
 
+#include "bindings.hpp"
 #include "glintlab/aniso.hpp"
 #include "glintlab/binomial.hpp"
 #include "glintlab/blend.hpp"

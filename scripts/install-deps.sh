@@ -18,6 +18,15 @@ PACKAGES=(
   # make fuzz: clang with libFuzzer (libclang_rt.fuzzer-x86_64.a is in libclang-rt-14-dev) and
   # clang's OpenMP, which the top-level CMakeLists needs when configured with clang
   clang libclang-rt-14-dev libomp-dev
+  # shader laws: shaderc compiles HLSL/GLSL to SPIR-V in-process, the Vulkan loader, and lavapipe
+  # (mesa-vulkan-drivers) as the headless CPU device every machine has; spirv-tools for disassembly
+  libshaderc-dev libvulkan-dev mesa-vulkan-drivers spirv-tools glslang-tools
+  # SIMD math for the per-sample paths: SLEEF (vector exp/log/expm1/log1p) and Highway (dispatch)
+  libsleef-dev libhwy-dev
+  # property-based tests of the public API
+  python3-hypothesis
+  # glint animations (matplotlib writes GIF through Pillow, MP4 through ffmpeg)
+  python3-pil ffmpeg
 )
 
 missing=()
