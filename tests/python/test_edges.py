@@ -90,3 +90,31 @@ def test_help_states_every_output_default(command, capsys):
     assert main([command, "--help"]) == 0
     text = capsys.readouterr().out
     assert "see above" not in text and "default: None" not in text, text
+
+
+@pytest.mark.parametrize("kw", [dict(n=True, p=0.5), dict(n=16, p=np.array([True, False]))])
+def test_bools_are_refused_for_n_and_p_as_for_size_and_seed(kw):
+    name = next(iter(k for k, v in kw.items() if np.asarray(v).dtype == bool))
+    with pytest.raises(ValueError, match=f"^{name} = "):
+        gl.law("gated").sample(size=4, seed=1, **kw)
+
+
+def test_seed_accepts_numpy_seed_sequences_and_generators():
+    law = gl.law("binomial")
+    a = law.sample(16, 0.3, size=64, seed=np.random.SeedSequence(7))
+    b = law.sample(16, 0.3, size=64, seed=np.random.SeedSequence(7))
+    c = law.sample(16, 0.3, size=64, seed=np.random.SeedSequence(8))
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    # A Generator gives a key per call, advancing it: the sequence of calls is reproducible.
+    g1, g2 = np.random.default_rng(3), np.random.default_rng(3)
+    x1 = [law.sample(16, 0.3, size=64, seed=g1) for _ in range(2)]
+    x2 = [law.sample(16, 0.3, size=64, seed=g2) for _ in range(2)]
+    assert np.array_equal(x1[0], x2[0]) and np.array_equal(x1[1], x2[1])
+    assert not np.array_equal(x1[0], x1[1])
+    with pytest.raises(ValueError, match="seed = 'x'"):
+        law.sample(16, 0.3, size=4, seed="x")
+
+
+def test_a_size_beyond_memory_is_refused_by_name():
+    with pytest.raises(ValueError, match=r"size = \(1099511627776, 1099511627776\).*GiB"):
+        gl.law("gated").sample(16, 0.1, size=(2**40, 2**40), seed=1)

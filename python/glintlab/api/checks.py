@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import operator
+import os
 import secrets
 
 import numpy as np
@@ -33,23 +34,37 @@ def as_float_array(name, value):
         arr = np.asarray(value)
     except Exception:  # ragged sequences and the like
         fail(name, value, "a number or an array of numbers")
-    if arr.dtype.kind not in "biuf":
+    # Booleans are refused like strings: True as n = 1 is a typo far more often than a count (the same
+    # rule as for size and seed).
+    if arr.dtype.kind not in "iuf":
         fail(name, value, "a number or an array of numbers")
     return arr.astype(np.float64, copy=False)
 
 
 def seed(value):
-    """A seed in [0, 2^64); None draws one from the operating system (not reproducible)."""
+    """The 64-bit key of glintlab's counter-based streams, from a user's seed.
+
+    - an integer in [0, 2^64): the key itself;
+    - ``None``: a key from the operating system (not reproducible);
+    - a ``numpy.random.SeedSequence``: the first 64-bit word of its ``generate_state`` (the same
+      sequence always gives the same key, as numpy's own generators do);
+    - a ``numpy.random.Generator``: one 64-bit key drawn from it, which advances it. A seeded
+      Generator therefore gives a reproducible *sequence* of calls, each with a fresh key.
+    """
     if value is None:
         return secrets.randbits(64)
+    if isinstance(value, np.random.SeedSequence):
+        return int(value.generate_state(1, dtype=np.uint64)[0])
+    if isinstance(value, np.random.Generator):
+        return int(value.integers(0, 2**64, dtype=np.uint64))
     if isinstance(value, bool):
-        fail("seed", value, "an integer in [0, 2^64) or None")
+        fail("seed", value, "an integer in [0, 2^64), a numpy SeedSequence or Generator, or None")
     try:
         s = operator.index(value)
     except TypeError:
-        fail("seed", value, "an integer in [0, 2^64) or None")
+        fail("seed", value, "an integer in [0, 2^64), a numpy SeedSequence or Generator, or None")
     if not 0 <= s < 2**64:
-        fail("seed", value, "an integer in [0, 2^64) or None")
+        fail("seed", value, "an integer in [0, 2^64), a numpy SeedSequence or Generator, or None")
     return s
 
 
@@ -69,7 +84,22 @@ def size(value):
         if d < 0:
             fail("size", value, "an integer >= 0 or a tuple of them")
         shape.append(d)
+    total = 1
+    for d in shape:
+        total *= d
+    # Refused up front rather than left to the allocator: numpy's "do not broadcast" or "array is too
+    # big" messages name neither the argument nor the memory it would take.
+    if total * 8 > _physical_memory():
+        fail("size", value, f"at most {_physical_memory() // 8:,} values in all (the output is float64, "
+                            f"{total * 8 / 2**30:,.3g} GiB asked, {_physical_memory() / 2**30:.3g} GiB of memory here)")
     return tuple(shape)
+
+
+def _physical_memory() -> int:
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # not POSIX: no up-front limit
+        return 2**63
 
 
 def broadcast_params(n, p, shape=None):

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -87,8 +89,6 @@ def _run_experiment(source, args) -> int:
 
 
 def _cmd_run(args) -> int:
-    if args.out is None:
-        args.out = "out/experiments/" + Path(args.experiment).stem
     return _run_experiment(args.experiment, args)
 
 
@@ -104,17 +104,44 @@ def _axis_arg(values, flag):
             raise ValueError(f"{flag} = {values[0]!r} is invalid; expected numbers, 'standard', "
                              "'logspace:LO:HI:COUNT' or 'linspace:LO:HI:COUNT'")
         try:
-            return {kind: [float(rest[0]), float(rest[1]), int(rest[2])]}
+            lo, hi, count = float(rest[0]), float(rest[1]), int(rest[2])
         except ValueError:
             raise ValueError(f"{flag} = {values[0]!r} is invalid; expected LO and HI numbers and an integer COUNT") from None
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise ValueError(f"{flag} = {values[0]!r} is invalid; expected finite LO and HI")
+        return {kind: [lo, hi, count]}
     try:
-        return [float(x) for x in values]
+        numbers = [float(x) for x in values]
     except ValueError:
         raise ValueError(f"{flag} = {' '.join(values)!r} is invalid; expected numbers") from None
+    # Checked here: a NaN would otherwise be reported against the JSON document the flags become.
+    for text, x in zip(values, numbers):
+        if not math.isfinite(x):
+            raise ValueError(f"{flag} = {text!r} is invalid; expected finite numbers")
+    return numbers
 
 
 def _law_arg(text):
-    """name, or name:key=value,key=value (built-in parameters)."""
+    """name, name:key=value,key=value (built-in parameters), or a Python law FILE.py:FUNCTION
+    [:n_uniforms=K,binning=round] (gl.custom_law of that function, named after it)."""
+    head, dot_py, tail = text.partition(".py:")
+    if dot_py:
+        function, _, options = tail.partition(":")
+        if not function:
+            raise ValueError(f"--laws {text!r} is invalid; expected FILE.py:FUNCTION[:n_uniforms=K,binning=round]")
+        spec = {"name": function, "python": f"{head}.py:{function}"}
+        for item in filter(None, options.split(",")):
+            key, eq, value = item.partition("=")
+            if not eq or key not in ("n_uniforms", "binning", "name"):
+                raise ValueError(f"--laws {text!r} is invalid; expected options n_uniforms=K, binning=none|round, "
+                                 f"name=NAME after FILE.py:FUNCTION")
+            if key == "n_uniforms":
+                try:
+                    value = int(value)
+                except ValueError:
+                    raise ValueError(f"--laws {text!r} is invalid; n_uniforms = {value!r}, expected an integer") from None
+            spec[key] = value
+        return spec
     name, _, rest = text.partition(":")
     if not rest:
         return name
@@ -137,13 +164,60 @@ def _cmd_sweep(args) -> int:
            "samples": args.samples, "seed": args.seed}
     if isinstance(doc["reference"], dict):
         doc["reference"] = {"law": doc["reference"]}
-    # The name becomes a folder under out/sweeps: a path (../../x) would write elsewhere.
-    if not args.name or args.name in (".", "..") or any(c in args.name for c in "/\\\0"):
-        raise ValueError(f"--name = {args.name!r} is invalid; expected a plain name without '/' (it names the "
-                         "output folder out/sweeps/NAME)")
-    if args.out is None:
-        args.out = "out/sweeps/" + args.name
     return _run_experiment(json.dumps(doc), args)
+
+
+def _default_outputs(args):
+    """The output folders that depend on other arguments (run: the file's stem; sweep: --name)."""
+    if args.command == "run" and args.out is None:
+        args.out = "out/experiments/" + Path(args.experiment).stem
+    if args.command == "sweep":
+        # The name becomes a folder under out/sweeps: a path (../../x) would write elsewhere.
+        if not args.name or args.name in (".", "..") or any(c in args.name for c in "/\\\0"):
+            raise ValueError(f"--name = {args.name!r} is invalid; expected a plain name without '/' (it names "
+                             "the output folder out/sweeps/NAME)")
+        if args.out is None:
+            args.out = "out/sweeps/" + args.name
+
+
+def _prepare_outputs(args):
+    """Creates the output folder (and the folders of --store and --junit) before any work, and checks
+    that they can be written, so that a result is never computed and then lost to a bad path."""
+    if getattr(args, "list", False):  # report --list writes nothing
+        return
+    out = getattr(args, "out", None)
+    if out:
+        path = Path(out)
+        if path.exists() and not path.is_dir():
+            raise ValueError(f"--out = {out!r} is invalid; it is a file, expected a folder")
+        path.mkdir(parents=True, exist_ok=True)
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise ValueError(f"--out = {out!r} is invalid; the folder is not writable")
+    for flag in ("store", "junit"):
+        value = getattr(args, flag, None)
+        if not value:
+            continue
+        path = Path(value)
+        if path.is_dir():
+            raise ValueError(f"--{flag} = {value!r} is invalid; it is a folder, expected a file")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if not os.access(path.parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
+            raise ValueError(f"--{flag} = {value!r} is invalid; it cannot be written")
+
+
+def _one_line(exc: BaseException) -> str:
+    """An exception as the one line the CLI prints (never a traceback)."""
+    if isinstance(exc, SyntaxError):  # a Python law file (--laws FILE.py:fn) that does not parse
+        return f"{exc.filename}:{exc.lineno}: {exc.msg}"
+    if isinstance(exc, RecursionError):
+        return "the input is nested too deeply to be read (a JSON document nested thousands of levels deep?)"
+    if isinstance(exc, MemoryError):
+        detail = f" ({exc})" if str(exc) else ""
+        return f"out of memory{detail}; expected sizes that fit in this machine's memory (lower --samples?)"
+    if isinstance(exc, OSError):
+        where = exc.filename if exc.filename is not None else ""
+        return f"{where}: {exc.strerror or exc}" if where else str(exc.strerror or exc)
+    return str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
 
 
 def _cmd_check(args) -> int:
@@ -311,7 +385,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("sweep", help="sweep laws over an (n, p) grid from flags",
                        description="An experiment given by flags. Axes: numbers, 'standard', 'logspace:LO:HI:COUNT' "
                                    "(exponents of 10) or 'linspace:LO:HI:COUNT'. Laws: NAME or NAME:KEY=VALUE,...")
-    p.add_argument("--laws", nargs="+", required=True, help="laws (e.g. gated head_cf gaussian:rounding=round)")
+    p.add_argument("--laws", nargs="+", required=True,
+                   help="laws (e.g. gated head_cf gaussian:rounding=round, or a Python law "
+                        "mine.py:count[:n_uniforms=2,binning=round])")
     p.add_argument("--n", nargs="+", help="values of n (default: standard)")
     p.add_argument("--p", nargs="+", help="values of p (default: standard)")
     p.add_argument("--metrics", nargs="+", default=["tv", "mean_rel_err", "var_rel_err"],
@@ -336,7 +412,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="ns/sample and accuracy per law: table and Pareto plot",
                        description="Times every law (or --laws) against numpy's binomial and measures its error "
                                    "against the exact binomial over the standard grid, in one run.")
-    p.add_argument("--laws", nargs="+", help="laws (default: every built-in approximate law and the binomial)")
+    p.add_argument("--laws", nargs="+", help="laws as in sweep, Python laws FILE.py:FUNCTION included (default: every built-in approximate law and the binomial)")
     p.add_argument("--samples", type=int, default=10**6, help="draws per timed call (default: 1e6)")
     p.add_argument("--repeats", type=int, default=2, help="timed calls per point, best kept (default: 2)")
     p.add_argument("--seed", type=int, default=1)
@@ -347,7 +423,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Evaluates every law in float32 and float64 at extreme n, p and uniforms: finite, "
                                    "in [0, n], mean error, pmf mass; invalid inputs must raise clear errors. Writes "
                                    "extremes.html with failures highlighted.")
-    p.add_argument("--laws", nargs="+", help="laws (default: every registered law and blend)")
+    p.add_argument("--laws", nargs="+", help="laws as in sweep, Python laws FILE.py:FUNCTION included (default: every registered law and blend)")
     p.add_argument("--samples", type=int, default=4096, help="ordinary draws per point (default: 4096)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--strict", action="store_true", help="exit 1 if any check fails")
@@ -426,12 +502,17 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     try:
+        _default_outputs(args)
+        _prepare_outputs(args)
         return args.func(args)
     except ValueError as exc:
         print(f"glintlab {args.command}: {exc}", file=sys.stderr)
         return 2
-    except NotImplementedError as exc:
-        print(f"glintlab {args.command}: {exc}", file=sys.stderr)
+    # Bad input that is not a ValueError: a path that cannot be read or written, a request larger than
+    # memory, a document nested too deeply, a law file that does not parse. Exit 2 ("bad input") with
+    # one line, never 1 ("a check failed") and never a traceback.
+    except (NotImplementedError, OSError, MemoryError, RecursionError, SyntaxError) as exc:
+        print(f"glintlab {args.command}: {_one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"glintlab {args.command}: interrupted", file=sys.stderr)

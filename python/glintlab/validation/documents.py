@@ -62,7 +62,7 @@ def parse_document(kind: str, source) -> tuple[dict, str, Path | None]:
     if kind == "experiment":
         try:
             raw = json.loads(text)
-        except ValueError:
+        except (ValueError, RecursionError):  # the C++ parser below reports the error with its position
             raw = None
         if isinstance(raw, dict) and raw.get("glintlab_result") == RESULT_FORMAT and "config" in raw:
             # A results file: re-run its stored configuration, with paths relative to where it ran.

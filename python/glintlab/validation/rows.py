@@ -86,9 +86,11 @@ def compute_row(lw: Law, label: str, reference, n: float, p: float, metrics, sam
             np.array_equal(np.asarray(d_ref.support), np.floor(np.asarray(d_ref.support))):
         # Real outputs compared unbinned with a law of integers match none of its values: the
         # distances then say more about the binning than about the law.
-        warnings.warn(f"law {label!r} returned non-integer counts at n = {n!r}, p = {p!r} and declares "
-                      "binning 'none', against a reference of integer counts: they are compared unbinned "
-                      "(give a custom law binning='round')", UserWarning, stacklevel=2)
+        # One message per law (no n, p in it), so that Python's warning filter shows it once per sweep
+        # instead of once per grid point.
+        warnings.warn(f"law {label!r} returns non-integer counts and declares binning 'none', against a "
+                      "reference of integer counts: they are compared unbinned (give a custom law "
+                      "binning='round')", UserWarning, stacklevel=2)
     row.update({m: distance(d, d_ref, m) for m in want_dist})
     mom = moment_errors(d, d_ref.mean, d_ref.var)
     row.update({m: mom[m] for m in metrics if m in MOMENT_METRICS})
