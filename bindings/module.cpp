@@ -6,7 +6,9 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <csignal>
 #include <cstring>
+#include <exception>
 #include <optional>
 
 #include "bindings.hpp"
@@ -27,6 +29,45 @@ using namespace glintlab;
 namespace {
 
 using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+unsigned long g_main_thread = 0;  // PyThread_get_thread_ident() of the thread that imported _core
+
+extern "C" void on_sigint(int) { request_interrupt(); }
+
+// A call into the C++ core that may run long: releases the GIL and, on the main thread, makes Ctrl-C
+// work. Python handles SIGINT only between bytecodes, never while C++ runs, so for the duration of
+// the call SIGINT sets the core's interrupt flag instead (the batch drivers stop at their next chunk
+// and throw `interrupted`, raised as KeyboardInterrupt); the previous handler is restored after. A
+// request that arrives after the last chunk is handed to Python (PyErr_SetInterrupt), not lost.
+class LongCall {
+ public:
+  LongCall() : on_main_(PyThread_get_thread_ident() == g_main_thread), exceptions_(std::uncaught_exceptions()) {
+    if (on_main_) {
+      clear_interrupt();
+      struct sigaction action {};
+      action.sa_handler = on_sigint;
+      sigemptyset(&action.sa_mask);
+      installed_ = sigaction(SIGINT, &action, &previous_) == 0;
+    }
+    release_.emplace();
+  }
+  ~LongCall() {
+    release_.reset();  // the GIL again
+    if (!installed_) return;
+    sigaction(SIGINT, &previous_, nullptr);
+    if (interrupt_requested() && std::uncaught_exceptions() == exceptions_) PyErr_SetInterrupt();
+    clear_interrupt();
+  }
+  LongCall(const LongCall&) = delete;
+  LongCall& operator=(const LongCall&) = delete;
+
+ private:
+  bool on_main_;
+  int exceptions_;
+  bool installed_ = false;
+  struct sigaction previous_ {};
+  std::optional<py::gil_scoped_release> release_;
+};
 
 py::array_t<double> to_numpy(const std::vector<double>& v) {
   py::array_t<double> out(static_cast<py::ssize_t>(v.size()));
@@ -128,6 +169,10 @@ py::dict traits_dict(const LawInfo& info) {
   d["test_variants"] = variants(t.test_variants);
   d["cost_points"] = cost_points;
   d["bounds"] = bounds;
+  py::dict domain;
+  domain["max_n"] = t.domain.max_n;
+  domain["note"] = t.domain.note;
+  d["domain"] = domain;
   return d;
 }
 
@@ -137,6 +182,17 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "glintlab C++ core (use the glintlab package, not this module)";
   m.attr("__version__") = GLINTLAB_VERSION;
   py::register_exception<not_implemented>(m, "NotImplementedErrorCore", PyExc_NotImplementedError);
+  g_main_thread = py::module_::import("threading").attr("main_thread")().attr("ident").cast<unsigned long>();
+  py::register_exception_translator([](std::exception_ptr error) {
+    try {
+      if (error) std::rethrow_exception(error);
+    } catch (const interrupted&) {
+      PyErr_SetNone(PyExc_KeyboardInterrupt);
+    }
+  });
+  // A sweep's thread pool: on Ctrl-C the main thread asks the running C++ batches to stop.
+  m.def("request_interrupt", &request_interrupt);
+  m.def("clear_interrupt", &clear_interrupt);
   // Experiment and bounds documents (validation/documents.hpp): the normalized document as JSON text;
   // bad input raises InputError (a ValueError) "<source>: at <pointer>: expected ..., got ...".
   py::register_exception<validation::InputError>(m, "InputError", PyExc_ValueError);
@@ -145,7 +201,9 @@ PYBIND11_MODULE(_core, m) {
   }, py::arg("kind"), py::arg("text"), py::arg("source"));
   m.def("schema_text", &validation::schema_text, py::arg("name"));
 
-  py::class_<Distribution>(m, "Distribution")
+  py::class_<Distribution>(m, "Distribution",
+                           "A distribution on a finite support: support and probs (numpy arrays), mean, var, "
+                           "total_mass, cdf(x), and whether tails of mass < 1e-14 were trimmed. Pickles exactly.")
       .def(py::init([](const Array& support, const Array& probs, bool normalize) {
              if (support.ndim() != 1 || probs.ndim() != 1)
                throw std::invalid_argument("Distribution: support and probs must be 1-D arrays");
@@ -163,8 +221,29 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("trimmed_above", &Distribution::trimmed_above)
       .def("cdf", &Distribution::cdf, py::arg("x"))
       .def("__len__", &Distribution::size)
+      .def("__repr__", [](const Distribution& d) {
+        std::string s = "Distribution(" + std::to_string(d.size()) + " points";
+        if (d.size() > 0)
+          s += " in [" + format_value(d.support().front()) + ", " + format_value(d.support().back()) + "]";
+        s += ", mean=" + format_value(d.mean()) + ", var=" + format_value(d.var());
+        if (d.trimmed_below() || d.trimmed_above())
+          s += std::string(", tails trimmed") + (d.trimmed_below() ? " below" : "") +
+               (d.trimmed_below() && d.trimmed_above() ? " and" : "") + (d.trimmed_above() ? " above" : "");
+        return s + ")";
+      })
+      // Pickled as what rebuilds it exactly: support, probabilities, and which tails were trimmed.
+      .def(py::pickle(
+          [](const Distribution& d) {
+            return py::make_tuple(to_numpy(d.support()), to_numpy(d.probs()), d.trimmed_below(), d.trimmed_above());
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 4) throw std::invalid_argument("Distribution: a pickled state of 4 items was expected");
+            const auto s = t[0].cast<std::vector<double>>();
+            const auto p = t[1].cast<std::vector<double>>();
+            return Distribution::with_trimmed_tails(s, p, t[2].cast<bool>(), t[3].cast<bool>());
+          }))
       .def_static("empirical", [](const Array& samples) {
-        py::gil_scoped_release release;
+        LongCall release;
         return Distribution::empirical(samples.data(), static_cast<std::size_t>(samples.size()));
       }, py::arg("samples"));
 
@@ -176,7 +255,7 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("params", [](const CountingLaw& law) { return from_params(law.params()); })
       .def("pmf", [](const CountingLaw& law, double n, double p, std::size_t max_support) {
              law.validate(n, p, 0, false);
-             py::gil_scoped_release release;
+             LongCall release;
              return law.pmf(n, p, max_support);
            }, py::arg("n"), py::arg("p"), py::arg("max_support") = kDefaultMaxSupport)
       .def("supports", [](const CountingLaw& law, const std::string& precision) {
@@ -188,7 +267,7 @@ PYBIND11_MODULE(_core, m) {
              py::array_t<double> out(static_cast<py::ssize_t>(count));
              double* o = out.mutable_data();
              {
-               py::gil_scoped_release release;
+               LongCall release;
                sample_many(law, param(n), param(p), count, s, o, prec);
              }
              return out;
@@ -203,7 +282,7 @@ PYBIND11_MODULE(_core, m) {
              py::array_t<double> out(static_cast<py::ssize_t>(count));
              double* o = out.mutable_data();
              {
-               py::gil_scoped_release release;
+               LongCall release;
                evaluate_many(law, param(n), param(p), u.data(), count, o, prec);
              }
              return out;
@@ -244,11 +323,14 @@ PYBIND11_MODULE(_core, m) {
   m.def("metric_names", &metric_names);
   m.def("distance", [](const Distribution& a, const Distribution& b, const std::string& metric) {
     const Metric mm = metric_from_name(metric);
-    py::gil_scoped_release release;
+    LongCall release;
     return distance(a, b, mm);
   }, py::arg("a"), py::arg("b"), py::arg("metric"));
 
-  py::class_<Chi2Result>(m, "Chi2Result")
+  py::class_<Chi2Result>(m, "Chi2Result",
+                         "A chi-square test's result: statistic, pvalue, dof, samples, note (why the test is "
+                         "degenerate or failed outright) and the merged bins (lower, upper, observed, expected). "
+                         "Unpacks as (statistic, pvalue), like scipy's.")
       .def_readonly("statistic", &Chi2Result::statistic)
       .def_readonly("dof", &Chi2Result::dof)
       .def_readonly("pvalue", &Chi2Result::pvalue)
@@ -257,10 +339,52 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("lower", [](const Chi2Result& r) { return to_numpy(r.lower); })
       .def_property_readonly("upper", [](const Chi2Result& r) { return to_numpy(r.upper); })
       .def_property_readonly("observed", [](const Chi2Result& r) { return to_numpy(r.observed); })
-      .def_property_readonly("expected", [](const Chi2Result& r) { return to_numpy(r.expected); });
+      .def_property_readonly("expected", [](const Chi2Result& r) { return to_numpy(r.expected); })
+      .def(py::init([](double statistic, int dof, double pvalue, std::size_t samples, std::string note,
+                       std::vector<double> lower, std::vector<double> upper, std::vector<double> observed,
+                       std::vector<double> expected) {
+             return Chi2Result{statistic, dof, pvalue, samples, std::move(lower), std::move(upper),
+                               std::move(observed), std::move(expected), std::move(note)};
+           }),
+           py::arg("statistic"), py::arg("dof"), py::arg("pvalue"), py::arg("samples"), py::arg("note") = "",
+           py::arg("lower") = std::vector<double>{}, py::arg("upper") = std::vector<double>{},
+           py::arg("observed") = std::vector<double>{}, py::arg("expected") = std::vector<double>{})
+      // Unpacks like scipy's result: `statistic, pvalue = gl.chi2_test(...)`.
+      .def("__len__", [](const Chi2Result&) { return 2; })
+      .def("__getitem__", [](const Chi2Result& r, long i) {
+        if (i == 0 || i == -2) return r.statistic;
+        if (i == 1 || i == -1) return r.pvalue;
+        throw py::index_error("Chi2Result unpacks as (statistic, pvalue); index " + std::to_string(i));
+      })
+      .def("__iter__", [](const Chi2Result& r) { return py::iter(py::make_tuple(r.statistic, r.pvalue)); })
+      .def("__repr__", [](const Chi2Result& r) {
+        std::string s = "Chi2Result(statistic=" + format_value(r.statistic) + ", pvalue=" + format_value(r.pvalue) +
+                        ", dof=" + std::to_string(r.dof) + ", samples=" + std::to_string(r.samples);
+        if (!r.note.empty()) s += ", note=" + py::repr(py::str(r.note)).cast<std::string>();
+        return s + ")";
+      })
+      .def(py::pickle(
+          [](const Chi2Result& r) {
+            return py::make_tuple(r.statistic, r.dof, r.pvalue, r.samples, r.lower, r.upper, r.observed, r.expected,
+                                  r.note);
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 9) throw std::invalid_argument("Chi2Result: a pickled state of 9 items was expected");
+            Chi2Result r;
+            r.statistic = t[0].cast<double>();
+            r.dof = t[1].cast<int>();
+            r.pvalue = t[2].cast<double>();
+            r.samples = t[3].cast<std::size_t>();
+            r.lower = t[4].cast<std::vector<double>>();
+            r.upper = t[5].cast<std::vector<double>>();
+            r.observed = t[6].cast<std::vector<double>>();
+            r.expected = t[7].cast<std::vector<double>>();
+            r.note = t[8].cast<std::string>();
+            return r;
+          }));
   m.def("chi2_test", [](const Array& samples, const Distribution& law, double min_expected,
                         int fitted_params) {
-    py::gil_scoped_release release;
+    LongCall release;
     return chi2_test(samples.data(), static_cast<std::size_t>(samples.size()), law, min_expected,
                      fitted_params);
   }, py::arg("samples"), py::arg("law"), py::arg("min_expected"), py::arg("fitted_params"));
@@ -272,7 +396,7 @@ PYBIND11_MODULE(_core, m) {
     py::array_t<double> out({static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(k)});
     double* o = out.mutable_data();
     {
-      py::gil_scoped_release release;
+      LongCall release;
       fill_uniforms(s, static_cast<std::uint16_t>(stream), start, count, k, o);
     }
     return out;
@@ -325,7 +449,7 @@ PYBIND11_MODULE(_core, m) {
       .def("sample", [](const spatial::GroundTruth& g, std::size_t count, std::uint64_t seed) {
              std::vector<double> out;
              {
-               py::gil_scoped_release release;
+               LongCall release;
                out = g.sample(count, seed);
              }
              return to_numpy(out);
@@ -344,7 +468,7 @@ PYBIND11_MODULE(_core, m) {
     const auto lay = spatial::parse_layout(layout);
     std::vector<double> out;
     {
-      py::gil_scoped_release release;
+      LongCall release;
       out = spatial::joint_counts(lay, density, p, placed, count, seed);
     }
     auto arr = to_numpy(out);
@@ -383,7 +507,7 @@ PYBIND11_MODULE(_core, m) {
              py::array_t<double> out(static_cast<py::ssize_t>(count));
              double* o = out.mutable_data();
              {
-               py::gil_scoped_release release;
+               LongCall release;
                b.sample(density, param(area), param(p), count, seed, o);
              }
              return out;
@@ -393,7 +517,7 @@ PYBIND11_MODULE(_core, m) {
              py::array_t<double> out(static_cast<py::ssize_t>(count));
              double* o = out.mutable_data();
              {
-               py::gil_scoped_release release;
+               LongCall release;
                b.sample_at(density, param(area), param(p), param(x), param(y), count, seed, o);
              }
              return out;
@@ -478,7 +602,7 @@ PYBIND11_MODULE(_core, m) {
       .def("pmf", [](const aniso::AnisoCounter& c, double density, double area, double ratio, double angle, double p,
                      std::size_t max_support) {
              const auto shape = aniso::shape_from_params(area, ratio, angle);
-             py::gil_scoped_release release;
+             LongCall release;
              return c.pmf(density, p, shape, max_support);
            }, py::arg("N"), py::arg("P"), py::arg("r"), py::arg("phi"), py::arg("p"), py::arg("max_support") = kDefaultMaxSupport)
       .def("sample", [](const aniso::AnisoCounter& c, double density, double area, double ratio, double angle, double p,
@@ -487,7 +611,7 @@ PYBIND11_MODULE(_core, m) {
              py::array_t<double> out(static_cast<py::ssize_t>(count));
              double* o = out.mutable_data();
              {
-               py::gil_scoped_release release;
+               LongCall release;
                c.sample(density, p, shape, count, seed, o);
              }
              return out;
@@ -508,7 +632,7 @@ PYBIND11_MODULE(_core, m) {
              aniso::PixelOutput out{k.mutable_data(), evals.mutable_data(), status.mutable_data()};
              const double* sl = slope ? slope->data() : nullptr;
              {
-               py::gil_scoped_release release;
+               LongCall release;
                c.count_pixels(density, param(p), uv.data(), jac.data(), sl, m_rows, seed, out);
              }
              return py::make_tuple(k, evals, status);

@@ -115,7 +115,8 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
   std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
     const HeadCfCdf cdf(n, p);
     const auto [lo, hi] = cdf.reach();
-    if (hi - lo > static_cast<double>(std::max<std::size_t>(count / 4, 64)) || hi - lo > (1 << 16))
+    if (hi - lo > static_cast<double>(std::max<std::size_t>(count / 4, 64)) || hi - lo > (1 << 16) ||
+        hi >= 0x1p53)  // k += 1 below would stop advancing
       return nullptr;
     std::vector<double> t, guard;
     const double g = cdf.sd > 0 ? (1 - 2 * cdf.h.pt) / cdf.sd : 0.0;

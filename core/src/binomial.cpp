@@ -222,7 +222,10 @@ double Sampler::btrd(CounterRng& rng) const {
       // [~30, 1e15]: no overflow or underflow).
       double num = 1.0, den = 1.0;
       const double lo = std::min(k, mode_) + 1, hi = std::max(k, mode_);
-      for (double i = lo; i <= hi; i += 1) {
+      // An integer loop counter: at counts near 2^53, i += 1 on a double could stop advancing.
+      const auto steps = static_cast<int>(hi - lo);
+      for (int j = 0; j <= steps; ++j) {
+        const double i = lo + j;
         num *= nr_ - r_ * i;
         den *= i;
       }

@@ -1,8 +1,18 @@
 #include "glintlab/errors.hpp"
 
+#include <atomic>
 #include <cstdio>
 
 namespace glintlab {
+
+namespace {
+std::atomic<bool> g_interrupt{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "request_interrupt runs in a signal handler");
+}  // namespace
+
+void request_interrupt() noexcept { g_interrupt.store(true, std::memory_order_relaxed); }
+void clear_interrupt() noexcept { g_interrupt.store(false, std::memory_order_relaxed); }
+bool interrupt_requested() noexcept { return g_interrupt.load(std::memory_order_relaxed); }
 
 std::string format_value(double value) {
   char buf[64];

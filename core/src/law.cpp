@@ -112,6 +112,9 @@ void CountingLaw::validate(double n, double p, std::size_t index, bool is_array)
   const std::string where = name();
   check_n(where, n, indexed_name("n", index, is_array));
   check_p(where, p, indexed_name("p", index, is_array));
+  if (n > max_n_)
+    throw_invalid(where, indexed_name("n", index, is_array), n,
+                  "n <= " + format_value(max_n_) + ", the law's numeric domain (" + domain_note_ + ")");
   throw std::invalid_argument(where + ": (n, p) = (" + format_value(n) + ", " + format_value(p) +
                               ") is outside the law's domain");
 }
@@ -124,7 +127,9 @@ Registry<LawInfo>& law_registry() {
 bool register_law(LawInfo info) { return law_registry().add(std::move(info)); }
 
 std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params) {
-  return law_registry().make(name, params);
+  std::unique_ptr<CountingLaw> law = law_registry().make(name, params);
+  law->set_domain(law_registry().find(name).traits.domain);  // enforced by accepts() at every entry point
+  return law;
 }
 
 std::vector<LawInfo> registered_laws() { return law_registry().all(); }

@@ -1,6 +1,6 @@
 // Private helper of the core's vectorized drivers: one place that splits a batch across OpenMP
 // threads and carries the first exception back to the caller (an exception must not escape an
-// OpenMP region). Every item derives its random numbers from its own index, so results never
+// OpenMP region), and stops between chunks on an interrupt request. Every item derives its random numbers from its own index, so results never
 // depend on the split.
 #pragma once
 
@@ -9,6 +9,7 @@
 #include <exception>
 #include <mutex>
 
+#include "glintlab/errors.hpp"
 #include "glintlab/law.hpp"
 
 namespace glintlab::detail {
@@ -25,6 +26,8 @@ void parallel_chunks(std::size_t count, std::size_t chunk, std::size_t serial_be
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
   for (std::size_t c = 0; c < chunks; ++c) {
     try {
+      // Ctrl-C: checked once per chunk (microseconds of work), so a long batch stops promptly.
+      if (interrupt_requested()) throw interrupted("interrupted");
       body(c * chunk, std::min(count, (c + 1) * chunk));
     } catch (...) {
       std::lock_guard<std::mutex> lock(error_mutex);

@@ -157,6 +157,9 @@ std::optional<StepInversion> floor_gaussian_steps(double mean, double sd, double
   const double lo = std::clamp(std::floor(mean + shift - 8.5 * sd), 0.0, top);
   const double hi = std::clamp(std::ceil(mean + shift + 8.5 * sd), 0.0, top);
   if (hi - lo > static_cast<double>(max_steps)) return std::nullopt;
+  // Beyond 2^53 the steps j += 1 below would not advance (lo and hi may even round to one double):
+  // no table there; the law evaluates directly.
+  if (hi >= 0x1p53) return std::nullopt;
   const double magnitude = std::abs(mean) + std::abs(shift) + 9 * sd;
   std::vector<double> t, guard;
   double covered = 0;

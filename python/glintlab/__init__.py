@@ -16,7 +16,7 @@ from .api.exact import binomial, poisson
 from .api.grids import AnisoCounter, aniso_counter, footprint_shapes, grid_schemes
 from .api.laws import (CustomLaw, Law, custom_law, law, law_label, law_summaries, law_traits, law_variants, laws,
                        parse_law_label, uniforms)
-from .api.metrics import METRICS, chi2_test, distance, sidak_alpha
+from .api.metrics import METRICS, chi2_test, chi2_test_two_sample, distance, sidak_alpha
 from .api.ndf import NDF, ndf
 from .api.plugins import load_plugin, loaded_plugins
 from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
@@ -48,7 +48,7 @@ __all__ = [
     "sweep", "check", "perturbed_law", "run_experiment",
     "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
     "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
-    "chi2_test", "footprint_for_area", "ground_truth", "joint_counts",
+    "chi2_test", "chi2_test_two_sample", "footprint_for_area", "ground_truth", "joint_counts",
     "custom_law", "law_label", "law_traits", "law_variants", "parse_law_label", "distance", "error_table", "extremes_summary", "extremes_table", "invalid_inputs_table",
     "write_extremes_report", "get_num_threads", "law", "law_summaries", "laws", "poisson",
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",

@@ -91,12 +91,15 @@ def test_bad_input_exits_2_with_one_line(argv, needle, files, capsys, monkeypatc
     assert needle in lines[0], lines[0]
 
 
-def test_output_folder_exists_before_the_work(tmp_path, monkeypatch):
-    # A result is never computed and then lost: the folder is made (and checked) first. A sweep of
-    # a law that does not exist fails after the folder was created, not before.
-    out = tmp_path / "deep" / "er" / "out"
-    assert main(SWEEP[:2] + ["nosuchlaw", "--n", "16", "--p", "0.1", "--out", str(out)]) == 2
-    assert out.is_dir()
+def test_an_unwritable_output_is_refused_before_the_work(tmp_path, capsys):
+    # A result is never computed and then lost: an --out under a file is refused at once (this sweep
+    # would take minutes), and a refused command leaves no folder behind.
+    (tmp_path / "f").write_text("x")
+    argv = ["sweep", "--laws", "binomial", "--samples", "1000000000", "--out", str(tmp_path / "f" / "sub")]
+    assert main(argv) == 2
+    assert "is a file, expected a folder" in capsys.readouterr().err
+    assert main(SWEEP[:2] + ["nosuchlaw", "--n", "16", "--p", "0.1", "--out", str(tmp_path / "o")]) == 2
+    assert not (tmp_path / "o").exists()
 
 
 def _run_child(code, tmp_path, stdin=None, script=None):

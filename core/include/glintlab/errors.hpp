@@ -17,6 +17,19 @@ class not_implemented : public std::logic_error {
   using std::logic_error::logic_error;
 };
 
+// Raised by long loops once an interrupt was requested (Python: KeyboardInterrupt).
+class interrupted : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Ctrl-C for C++ loops that run without the GIL: the Python layer's SIGINT handler calls
+// request_interrupt() (a lock-free atomic store, safe in a signal handler); every batch driver checks
+// interrupt_requested() between chunks of work and throws `interrupted`.
+void request_interrupt() noexcept;
+void clear_interrupt() noexcept;
+bool interrupt_requested() noexcept;
+
 std::string format_value(double value);
 
 [[noreturn]] void throw_invalid(std::string_view where, std::string_view name, double value,

@@ -41,6 +41,15 @@ class BatchSampler {
   virtual void sample_range(std::uint64_t seed, std::size_t i0, std::size_t i1, double* out) const = 0;
 };
 
+// The largest n a law is evaluated at. Counts are doubles: above 2^53 consecutive integers are no
+// longer representable, so no integer-valued sampler can be exact there and loops that step a count
+// by 1 stop advancing (the binomial's BTRD, the table inversions). Every built-in law declares this
+// domain; a float32 law sees float(n), finite far beyond it.
+struct NumericDomain {
+  double max_n = 9007199254740992.0;  // 2^53
+  std::string note = "counts above 2^53 (9.007e15) are not consecutive doubles";
+};
+
 class CountingLaw {
  public:
   virtual ~CountingLaw() = default;
@@ -91,8 +100,15 @@ class CountingLaw {
   // Whether (n, p) is in the law's domain; the default: a finite n >= 0 and p in [0, 1]. Cheap:
   // the drivers call it for every element and build a message only on failure.
   virtual bool accepts(double n, double p) const {
-    return n >= 0.0 && n <= 1.7976931348623157e308 && p >= 0.0 && p <= 1.0;
+    return n >= 0.0 && n <= max_n_ && p >= 0.0 && p <= 1.0;
   }
+  // The numeric domain of the law's traits (LawTraits::domain), set by make_law; a law built
+  // otherwise accepts every finite n.
+  void set_domain(const NumericDomain& domain) {
+    max_n_ = domain.max_n;
+    domain_note_ = domain.note;
+  }
+  double max_n() const { return max_n_; }
   // Throws std::invalid_argument naming the bad parameter ("n[12] = -1 ...") if !accepts(n, p).
   virtual void validate(double n, double p, std::size_t index, bool is_array) const;
 
@@ -102,7 +118,11 @@ class CountingLaw {
   // LawTraits::cost). Declared by the law, from the constants its sampler uses, so that a cost model
   // elsewhere (the scene advisor) cannot drift from the law. (n, p) must be accepted by accepts().
   virtual double work_units(double /*n*/, double /*p*/) const { return 0.0; }
+ private:
+  double max_n_ = 1.7976931348623157e308;
+  std::string domain_note_{};
 };
+
 
 // What a law declares about itself, next to its code (core/laws/<name>.cpp), so that studies,
 // benchmarks, bounds and checks derive their lists from the registry instead of keeping name lists
@@ -152,6 +172,8 @@ struct LawTraits {
   // empty for constant-time laws (any point will do).
   std::vector<std::array<double, 2>> cost_points{};
   std::vector<BoundDomain> bounds{};
+  // Where the law is evaluated at all: n beyond max_n is refused with std::invalid_argument.
+  NumericDomain domain{};
 
   bool declared() const { return !regime.empty(); }
   // Largest count the law can return at n (+inf when unbounded). A law evaluated in float32 sees

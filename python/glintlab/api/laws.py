@@ -88,6 +88,15 @@ class Law:
         args = "".join(f", {k}={val!r}" for k, val in self.params.items())
         return f"glintlab.law({self.name!r}{args})"
 
+    def __eq__(self, other):
+        # Two laws are equal when they are the same law: same name, parameters and code (identity).
+        if not isinstance(other, Law):
+            return NotImplemented
+        return type(self) is type(other) and self.identity == other.identity
+
+    def __hash__(self):
+        return hash((type(self).__name__, self.identity))
+
     def __reduce__(self):
         # Pickled as what rebuilds it (name, parameters, and the plugin library a plugin law came
         # from), so laws travel to Dask workers and other processes.
@@ -104,6 +113,57 @@ class Law:
         if isinstance(max_support, bool) or not isinstance(max_support, (int, np.integer)) or max_support < 1:
             v.fail("max_support", max_support, "an integer >= 1")
         return self._core.pmf(n, p, int(max_support))
+
+    def cdf(self, k, n, p) -> np.ndarray:
+        """P(K <= k) of the exact law (``pmf``), vectorized: k, n and p broadcast numpy-style. For a
+        law with binning "round", K is the binned count. NotImplementedError without an exact law."""
+        return self._tabulated(k, n, p, "cdf")
+
+    def sf(self, k, n, p) -> np.ndarray:
+        """P(K > k), summed from the upper tail (accurate where ``1 - cdf`` would cancel)."""
+        return self._tabulated(k, n, p, "sf")
+
+    def ppf(self, q, n, p) -> np.ndarray:
+        """The smallest support value k with P(K <= k) >= q (scipy's convention for discrete laws);
+        q in [0, 1], broadcast with n and p like ``cdf``."""
+        return self._tabulated(q, n, p, "ppf")
+
+    def _tabulated(self, x, n, p, what):
+        x = v.as_float_array("q" if what == "ppf" else "k", x)
+        n = v.as_float_array("n", n)
+        p = v.as_float_array("p", p)
+        try:
+            x, n, p = np.broadcast_arrays(x, n, p)
+        except ValueError:
+            raise ValueError(f"{'q' if what == 'ppf' else 'k'} (shape {x.shape}), n (shape {n.shape}) and p "
+                             f"(shape {p.shape}) do not broadcast together; expected numpy-compatible shapes") from None
+        if what == "ppf" and not np.all((x >= 0) & (x <= 1)):
+            bad = x[~((x >= 0) & (x <= 1))].ravel()[0]
+            v.fail("q", float(bad), "probabilities in [0, 1]")
+        if what != "ppf" and np.isnan(x).any():
+            v.fail("k", float("nan"), "numbers (not NaN)")
+        out = np.empty(x.shape, dtype=np.float64)
+        pairs = np.stack([n.ravel(), p.ravel()], axis=1)
+        unique, inverse = np.unique(pairs, axis=0, return_inverse=True)
+        flat_x, flat_out = x.ravel(), out.reshape(-1)
+        for j, (nj, pj) in enumerate(unique):  # one exact law per distinct (n, p)
+            d = self.pmf(float(nj), float(pj))
+            support, probs = np.asarray(d.support), np.asarray(d.probs)
+            sel = np.flatnonzero(inverse.ravel() == j)
+            if what == "ppf":
+                cum = np.minimum(np.cumsum(probs), 1.0)
+                # A level within rounding of the total mass maps to the last support point.
+                idx = np.searchsorted(cum, flat_x[sel] * cum[-1] - 1e-15, side="left")
+                flat_out[sel] = support[np.minimum(idx, support.size - 1)]
+            else:
+                idx = np.searchsorted(support, flat_x[sel], side="right")  # points <= k
+                if what == "cdf":
+                    cum = np.concatenate([[0.0], np.cumsum(probs)])
+                    flat_out[sel] = np.minimum(cum[idx], 1.0)
+                else:
+                    tail = np.concatenate([np.cumsum(probs[::-1])[::-1], [0.0]])
+                    flat_out[sel] = np.minimum(tail[idx], 1.0)
+        return out if out.ndim else out[()]
 
     def sample(self, n, p, size=None, seed=None, precision: str = "float64") -> np.ndarray:
         """Draws counts (float64). n, p: scalars or arrays broadcast numpy-style with ``size``.
@@ -247,8 +307,10 @@ def law_traits(name: str) -> dict:
     ``support`` ("bounded_by_n", "n_plus_one" or "unbounded", with ``support_note``),
     ``constant_time``, ``reference`` (an exact model rather than an approximation), ``regime`` and
     ``cost`` (one line each), the parameter variants used by the trade study, the benchmarks and the
-    generic tests (``study_variants``, ``bench_variants``, ``test_variants``), ``cost_points`` and
-    the domains of its error ``bounds``. Custom and plugin laws declare nothing (``declared`` False).
+    generic tests (``study_variants``, ``bench_variants``, ``test_variants``), ``cost_points``, the
+    domains of its error ``bounds``, and its numeric ``domain`` (``max_n``, the largest n it is
+    evaluated at, and why: n beyond it raises ValueError). Custom and plugin laws declare nothing
+    (``declared`` False); a plugin law still gets the default numeric domain.
 
     >>> law_traits("zk16")["test_variants"]
     [{}, {'cap': 4}]
@@ -258,7 +320,8 @@ def law_traits(name: str) -> dict:
     if name in CUSTOM_LAWS:
         return {"name": name, "declared": False, "output": "real", "support": "unbounded", "support_note": "",
                 "constant_time": False, "reference": False, "regime": "", "cost": "", "study_variants": [],
-                "bench_variants": [], "test_variants": [], "cost_points": [], "bounds": []}
+                "bench_variants": [], "test_variants": [], "cost_points": [], "bounds": [],
+                "domain": {"max_n": float("inf"), "note": "a Python law: its function's own domain"}}
     return _plain(_core.law_traits(name))
 
 

@@ -181,28 +181,34 @@ def _default_outputs(args):
 
 
 def _prepare_outputs(args):
-    """Creates the output folder (and the folders of --store and --junit) before any work, and checks
-    that they can be written, so that a result is never computed and then lost to a bad path."""
+    """Checks, before any work, that the output folder (and the files of --store and --junit) can be
+    created and written, so that a result is never computed and then lost to a bad path. Nothing is
+    created here: a command that fails on its input leaves no empty folder behind."""
     if getattr(args, "list", False):  # report --list writes nothing
         return
-    out = getattr(args, "out", None)
-    if out:
-        path = Path(out)
-        if path.exists() and not path.is_dir():
-            raise ValueError(f"--out = {out!r} is invalid; it is a file, expected a folder")
-        path.mkdir(parents=True, exist_ok=True)
-        if not os.access(path, os.W_OK | os.X_OK):
-            raise ValueError(f"--out = {out!r} is invalid; the folder is not writable")
+    targets = []
+    if getattr(args, "out", None):
+        targets.append(("--out", Path(args.out), True))
     for flag in ("store", "junit"):
-        value = getattr(args, flag, None)
-        if not value:
+        if getattr(args, flag, None):
+            targets.append((f"--{flag}", Path(getattr(args, flag)), False))
+    for flag, path, is_folder in targets:
+        if path.exists():
+            if is_folder and not path.is_dir():
+                raise ValueError(f"{flag} = {str(path)!r} is invalid; it is a file, expected a folder")
+            if not is_folder and path.is_dir():
+                raise ValueError(f"{flag} = {str(path)!r} is invalid; it is a folder, expected a file")
+            if not os.access(path, os.W_OK):
+                raise ValueError(f"{flag} = {str(path)!r} is invalid; it cannot be written")
             continue
-        path = Path(value)
-        if path.is_dir():
-            raise ValueError(f"--{flag} = {value!r} is invalid; it is a folder, expected a file")
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if not os.access(path.parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
-            raise ValueError(f"--{flag} = {value!r} is invalid; it cannot be written")
+        # The nearest existing ancestor must be a folder we can create entries in.
+        parent = path.absolute().parent
+        while not parent.exists():
+            parent = parent.parent
+        if not parent.is_dir():
+            raise ValueError(f"{flag} = {str(path)!r} is invalid; {str(parent)!r} is a file, expected a folder")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise ValueError(f"{flag} = {str(path)!r} is invalid; the folder {str(parent)!r} is not writable")
 
 
 def _one_line(exc: BaseException) -> str:

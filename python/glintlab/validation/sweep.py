@@ -28,6 +28,7 @@ import sys
 import numpy as np
 import pandas as pd
 
+from .. import _core
 from .._core import __version__ as _version
 from ..api import checks as v
 from ..api.laws import Law
@@ -188,7 +189,11 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
                         st.add(row)
                     bar.update(1)
             refill()
-    except BaseException:
+    except BaseException as exc:
+        if isinstance(exc, KeyboardInterrupt):
+            # Ctrl-C reached this (main) thread; the pool's threads are inside C++ batches, which
+            # stop at their next chunk once asked, so that closing the pool does not wait for them.
+            _core.request_interrupt()
         eng.close(cancel=True)
         if st is not None:
             st.close()
