@@ -12,7 +12,7 @@ from ..api import checks as V
 from ..resources import data_path
 from ..validation.scene import table1_scenes
 from ..validation.scene_images import (ANGULAR_TEXEL, DEFAULT_METHODS, IMAGE_METHODS, TAU, display, flicker_table,
-                                       render_path, time_methods)
+                                       render_path, time_methods, with_density)
 from .base import Context, Tables
 
 NAME = "scene_images"
@@ -24,6 +24,7 @@ MEANING = ("The first thing users of glint methods compare: on DB23's Table 1 sc
 DEFAULTS = {
     "scenes": str(data_path("scenes")),
     "scale": 0.2,             # images at this fraction of 1920 x 1080 per side, density x scale^2 (same n per pixel)
+    "density_factor": 0.0625,  # N x 1/16 of the scene files: n p ~ 0.2 facing, sparse glints (1: the files' N)
     "frames": 8,              # half sub-pixel pans, half zoom steps
     "pan_px": 0.25,
     "zoom": 0.99,
@@ -66,7 +67,7 @@ def compute(params: dict, ctx: Context) -> Tables:
     paths, rows = {}, []
     for sc in scenes:
         ctx.progress(sc.name)
-        small = sc.scaled(scale, keep_n=True)
+        small = with_density(sc.scaled(scale, keep_n=True), params["density_factor"])
         names = list(dict.fromkeys(methods + (anim if sc.name == params["animation_scene"] else [])))
         path = render_path(small, names, params["frames"], params["pan_px"], params["zoom"], seed=ctx.seed,
                            angular_texel=params["angular_texel"])
@@ -75,11 +76,13 @@ def compute(params: dict, ctx: Context) -> Tables:
     flicker = pd.concat(rows, ignore_index=True)
     flicker = flicker[flicker.method.isin(methods)].reset_index(drop=True)
     ctx.progress("timing")
-    big = by_name[params["timing_scene"]].scaled(V.real("timing_scale", params["timing_scale"]), keep_n=True)
+    big = with_density(by_name[params["timing_scene"]].scaled(V.real("timing_scale", params["timing_scale"]), keep_n=True),
+                       params["density_factor"])
     timing = time_methods(big, methods, seed=ctx.seed, angular_texel=params["angular_texel"])
     first = next(iter(paths.values()))
     h, w = first.target.shape[1:]
     stats = {"image size": f"{w} x {h} (density x {scale ** 2:.4g}: each pixel keeps the 1920 x 1080 n)",
+             "facet density": f"{params['density_factor']:g} x the scene files' N",
              "frames": params["frames"]}
     for name in methods:
         if name in ("truth", "smooth"):
@@ -93,13 +96,13 @@ def compute(params: dict, ctx: Context) -> Tables:
         f"{m} {t[m]:.2f}" for m in methods)
     return Tables({"scene_images_flicker": flicker, "scene_images_timing": timing}, stats,
                   data={"paths": paths, "methods": methods, "anim": anim, "anim_scene": params["animation_scene"],
-                        "scale": scale})
+                        "scale": scale, "density_factor": params["density_factor"]})
 
 
 def figures(tables: Tables, ctx: Context) -> list:
     paths, methods = tables["paths"], tables["methods"]
     flicker = tables["scene_images_flicker"]
-    out = [ctx.save(panel_figure(paths, methods, flicker, tables["scale"]), "scene_images.png", 80),
+    out = [ctx.save(panel_figure(paths, methods, flicker, tables["scale"], tables["density_factor"]), "scene_images.png", 80),
            ctx.save(flicker_figure(flicker), "scene_images_flicker.png", 90)]
     gif = Path(ctx.out) / "scene_images_animation.gif"
     write_animation(paths[tables["anim_scene"]], tables["anim"], gif)
@@ -107,7 +110,7 @@ def figures(tables: Tables, ctx: Context) -> list:
     return out
 
 
-def panel_figure(paths: dict, methods, flicker: pd.DataFrame, scale: float = 1.0):
+def panel_figure(paths: dict, methods, flicker: pd.DataFrame, scale: float = 1.0, density_factor: float = 1.0):
     """Rows: scenes; columns: methods; the first frame of each, titled with its flicker numbers."""
     import matplotlib.pyplot as plt
     scenes = list(paths)
@@ -132,9 +135,10 @@ def panel_figure(paths: dict, methods, flicker: pd.DataFrame, scale: float = 1.0
             ax.set_title(f"{label}\n{sub}", fontsize=7.5)
             if j == 0:
                 ax.set_ylabel(sc, fontsize=9)
-    fig.suptitle(f"Glint images (NDF term, one directional light) at {w} x {h}, density x {scale ** 2:.3g} "
-                 f"(the 1920 x 1080 n per pixel); σ×: temporal deviation / the truth's, pops per 1000 pixel-frames",
-                 fontsize=9)
+    fig.suptitle(f"Glint images (NDF term, one directional light) at {w} x {h}; facet density {density_factor:g} x the "
+                 f"scene's N at 1920 x 1080 (x {scale ** 2:.3g} here, the same n per pixel); frame 1 of the path.\n"
+                 f"σ×: temporal deviation / the truth's; pops per 1000 pixel-frames (glints appearing or vanishing "
+                 f"with no change in the truth)", fontsize=9)
     fig.tight_layout()
     return fig
 
@@ -146,7 +150,7 @@ def flicker_figure(flicker: pd.DataFrame):
     methods = [m for m in dict.fromkeys(flicker.method) if m not in ("truth", "smooth")]
     scenes = list(dict.fromkeys(flicker.scene))
     f = flicker.set_index(["scene", "method"])
-    fig, axes = plt.subplots(1, 2, figsize=(13, 4.2))
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.6))
     width = 0.8 / max(len(methods), 1)
     x = np.arange(len(scenes))
     for k, m in enumerate(methods):
@@ -160,10 +164,10 @@ def flicker_figure(flicker: pd.DataFrame):
         ax.set_xticks(x + 0.4 - width / 2)
         ax.set_xticklabels(scenes, fontsize=8)
         ax.set_title(title, fontsize=10)
-    axes[0].legend(fontsize=7, ncol=2)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=len(methods), fontsize=7)
     axes[1].legend(fontsize=7)
     fig.suptitle("Flicker along the camera path (docs/math/glint_images.md#glint-flicker)", fontsize=10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     return fig
 
 

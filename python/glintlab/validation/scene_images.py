@@ -115,6 +115,16 @@ def with_directional_light(scene: Scene) -> Scene:
     return Scene(spec, name=scene.name, source=scene.source)
 
 
+def with_density(scene: Scene, factor: float) -> Scene:
+    """The scene with its facet density N multiplied by ``factor`` (sparser glints below 1)."""
+    factor = V.real("density_factor", factor)
+    if not (math.isfinite(factor) and factor > 0):
+        V.fail("density_factor", factor, "a finite factor > 0")
+    spec = copy.deepcopy(scene.spec)
+    spec["material"]["density"] *= factor
+    return Scene(spec, name=scene.name, source=scene.source)
+
+
 def camera_path(scene: Scene, frames: int, pan_px: float = 0.25, zoom: float = 0.99) -> list[Scene]:
     """``frames`` cameras: the first half pans by ``pan_px`` pixel per frame (sub-pixel steps, along the
     image's x axis, measured at the look-at distance), the second half then moves the camera towards
