@@ -54,12 +54,17 @@ def _names(param: str, value: str) -> list[str]:
 
 
 def compute(params: dict, ctx: Context) -> Tables:
+    return compute_scenes(table1_scenes(ctx.path(params["scenes"])), params, ctx)
+
+
+def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
+    """The section's tables for any list of scenes (``compute`` uses the Table 1 scenes of
+    ``params["scenes"]``; ``glintlab images`` the files it is given)."""
     methods = _names("methods", params["methods"])
     if "truth" not in methods:
         V.fail("methods", params["methods"], "a list that includes the ground truth 'truth'")
     anim = _names("animation_methods", params["animation_methods"])
     scale = V.real("scale", params["scale"])
-    scenes = table1_scenes(ctx.path(params["scenes"]))
     by_name = {s.name: s for s in scenes}
     for key in ("animation_scene", "timing_scene"):
         if params[key] not in by_name:
@@ -197,3 +202,26 @@ def write_animation(path, methods, out: Path, fps: int = 4) -> Path:
     anim.save(out, writer=PillowWriter(fps=fps), dpi=100)
     plt.close(fig)
     return Path(out)
+
+
+def write_images(scenes, out, seed: int = 1, **params) -> tuple[list, dict]:
+    """``glintlab images``: the section's figures and CSV tables for ``scenes`` into ``out`` (parameters
+    as in ``DEFAULTS``; the animation and the timing use the first scene unless named). Returns
+    (figure paths, {name: table})."""
+    import matplotlib
+    matplotlib.use("Agg")
+    unknown = sorted(set(params) - set(DEFAULTS))
+    if unknown:
+        V.fail("params", unknown, f"parameters among {', '.join(DEFAULTS)}")
+    if not scenes:
+        V.fail("scenes", scenes, "at least one scene")
+    names = [s.name for s in scenes]
+    prm = {**DEFAULTS, "animation_scene": names[0], "timing_scene": names[0], **params}
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    ctx = Context(out, V.seed(seed))
+    tables = compute_scenes(scenes, prm, ctx)
+    paths = figures(tables, ctx)
+    for name, df in tables.tables.items():
+        df.to_csv(out / f"{name}.csv", index=False)
+    return paths, tables.tables
