@@ -233,3 +233,19 @@ def test_render_path_on_a_scene_gives_flicker_rows():
     assert path.mask.any(axis=(1, 2)).all() and np.isfinite(path.images["truth"]).all()
     # The glints' mean follows the target (clamped p aside): within 20 % on this small image.
     assert 0.8 < row.loc["db23_trilinear[gated]", "mean_ratio"] < 1.25
+
+
+def test_report_page_opens_on_the_first_sections_picture(tmp_path):
+    from glintlab.report.config import load_config
+    from glintlab.report.html import write_report_page
+    doc, _ = load_config(None)
+    assert doc["sections"][0]["name"] == "scene_images"
+    rec = {"title": "t", "meaning": "m", "stats": {"a": 1}, "failures": [], "params": {}, "seed": 1, "seconds": 1,
+           "command": "c", "notebook": "", "tables": {}}
+    records = [{**rec, "name": "scene_images", "figures": ["scene_images.png"]},
+               {**rec, "name": "exact_laws", "figures": ["sampler_vs_exact.png"]}]
+    summary = {"glintlab_version": "0", "command": "c", "config": "d", "seed": 1, "quick": True, "failures": []}
+    page = write_report_page(tmp_path, summary, records).read_text()
+    first_img, toc = page.index('<img src="scene_images.png"'), page.index("<ol class='toc'>")
+    assert first_img < toc < page.index('<img src="sampler_vs_exact.png"')
+    assert first_img < page.index("<ul class='stats'>")  # the picture before the numbers
