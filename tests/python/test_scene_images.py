@@ -249,3 +249,19 @@ def test_report_page_opens_on_the_first_sections_picture(tmp_path):
     first_img, toc = page.index('<img src="scene_images.png"'), page.index("<ol class='toc'>")
     assert first_img < toc < page.index('<img src="sampler_vs_exact.png"')
     assert first_img < page.index("<ul class='stats'>")  # the picture before the numbers
+
+
+def test_images_command_writes_figures_and_refuses_bad_input(tmp_path, capsys):
+    from glintlab.cli.main import main
+    from glintlab.resources import data_path
+    scene = str(data_path("scenes", "sphere.json"))
+    out = tmp_path / "img"
+    assert main(["images", scene, "--scale", "0.04", "--frames", "3", "--timing-scale", "0.04", "--quiet",
+                 "--methods", "truth,db23_tetrahedral[head_cf]", "--out", str(out)]) == 0
+    for name in ("scene_images.png", "scene_images_flicker.png", "scene_images_animation.gif",
+                 "scene_images_flicker.csv", "scene_images_timing.csv"):
+        assert (out / name).stat().st_size > 0, name
+    assert main(["images", scene, "--methods", "truth,nope", "--quiet", "--out", str(out)]) == 2
+    assert "methods = 'truth,nope'" in capsys.readouterr().err
+    assert main(["images", scene, "--zoom", "5", "--quiet", "--out", str(out)]) == 2
+    assert "zoom = 5.0" in capsys.readouterr().err

@@ -38,8 +38,8 @@ DEFAULTS = {
 }
 QUICK = {"scale": 1.0 / 12, "frames": 4, "timing_scale": 1.0 / 12}
 NOTEBOOK = "scene_images.ipynb"
-TABLE = {"scene_images_flicker": ["scene", "method", "std_ratio", "pop_rate", "change_rate", "truth_change_rate",
-                                  "mean_ratio"],
+TABLE = {"scene_images_flicker": ["scene", "method", "std_ratio", "pop_rate", "pop_rate_wider", "change_rate",
+                                  "truth_change_rate", "mean_ratio"],
          "scene_images_timing": ["scene", "method", "width", "height", "seconds"]}
 
 

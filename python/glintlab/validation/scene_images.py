@@ -359,15 +359,17 @@ def flicker_metrics(images, truth, target, mask=None, tau: float = TAU, radius: 
 
 
 def flicker_table(path: PathImages, truth: str = "truth", tau: float = TAU, radius: int = 0) -> pd.DataFrame:
-    """:func:`flicker_metrics` of every method of ``path`` against its ``truth`` method, one row each."""
+    """:func:`flicker_metrics` of every method of ``path`` against its ``truth`` method, one row each;
+    ``pop_rate_wider`` is the pop rate with a truth change within ``radius + 1`` pixels as a cause."""
     if truth not in path.images:
         V.fail("truth", truth, f"one of the rendered methods: {', '.join(path.images)}")
     frames = path.target.shape[0]
     rows = []
     for name, seq in path.images.items():
         r = flicker_metrics(seq, path.images[truth], path.target, path.mask, tau, radius)
+        near = flicker_metrics(seq, path.images[truth], path.target, path.mask, tau, radius + 1)
         rows.append({"scene": path.scene, "method": name, "label": IMAGE_METHODS.get(name).label
-                     if name in IMAGE_METHODS else name, **r,
+                     if name in IMAGE_METHODS else name, **r, "pop_rate_wider": near["pop_rate"],
                      "seconds_per_frame": path.seconds[name] / frames})
     return pd.DataFrame(rows)
 
