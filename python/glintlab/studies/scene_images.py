@@ -180,11 +180,16 @@ def write_animation(path, methods, out: Path, fps: int = 4) -> Path:
     """A GIF of ``methods`` side by side along the camera path (matplotlib's Pillow writer)."""
     import matplotlib.pyplot as plt
     from matplotlib.animation import FuncAnimation, PillowWriter
-    T, h, w = path.target.shape
+    T = path.target.shape[0]
+    # Cropped to the pixels that see the surface in some frame (the sphere fills a fifth of its image).
+    seen = path.mask.any(axis=0)
+    rows, cols = np.flatnonzero(seen.any(axis=1)), np.flatnonzero(seen.any(axis=0))
+    crop = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)) if rows.size else (slice(None), slice(None))
+    h, w = seen[crop].shape
     fig, axes = plt.subplots(1, len(methods), figsize=(2.6 * len(methods), 2.6 * h / w + 0.5), squeeze=False)
     ims = []
     for ax, m in zip(axes[0], methods):
-        ims.append(ax.imshow(display(path.images[m][0], path.material), cmap="gray", vmin=0, vmax=1,
+        ims.append(ax.imshow(display(path.images[m][0][crop], path.material), cmap="gray", vmin=0, vmax=1,
                              interpolation="nearest"))
         ax.set_title(IMAGE_METHODS.get(m).label, fontsize=8)
         ax.set_xticks([])
@@ -194,7 +199,7 @@ def write_animation(path, methods, out: Path, fps: int = 4) -> Path:
 
     def step(t):
         for im, m in zip(ims, methods):
-            im.set_data(display(path.images[m][t], path.material))
+            im.set_data(display(path.images[m][t][crop], path.material))
         text.set_text(f"{path.scene}: frame {t + 1}/{T} ({'pan' if t <= T // 2 else 'zoom'})")
         return ims
 
