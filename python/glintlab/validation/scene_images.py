@@ -97,6 +97,9 @@ register_image_method("smooth", lambda m: SmoothNDF(m.target, m.alpha), label="s
 for _scheme, _short in (("db23_trilinear", "DB23 tri"), ("db23_tetrahedral", "DB23 tet")):
     for _inner in ("gated", "binomial", "head_cf"):
         register_image_method(f"{_scheme}[{_inner}]", _counted(_scheme, _inner), label=f"{_short} {_inner}")
+# DB23's shader configuration: tetrahedral, log LOD, realizations blended over 3 simplex vertices x 4 angular
+# texels (48 evaluations): glints fade in and out instead of popping (docs/math/grids.md#grid-realizations).
+register_image_method("db23_shader_48[gated]", _counted("db23_shader_48", "gated"), label="DB23 shader 48 gated")
 register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16")
 DEFAULT_METHODS = tuple(IMAGE_METHODS.names())
 
