@@ -7,6 +7,7 @@
 
 namespace glintlab::bindings {
 
-// Nothing yet: topics add their declarations here, e.g. void bind_shaders(pybind11::module_& m);
+// Topics add their declarations here, e.g. void bind_shaders(pybind11::module_& m);
+void bind_scene_images(pybind11::module_& m);  // scene_images.cpp: the glint images' ground truth
 
 }  // namespace glintlab::bindings

@@ -200,6 +200,7 @@ PYBIND11_MODULE(_core, m) {
     return validation::parse_document(kind, text, source).dump();
   }, py::arg("kind"), py::arg("text"), py::arg("source"));
   m.def("schema_text", &validation::schema_text, py::arg("name"));
+  bindings::bind_scene_images(m);
 
   py::class_<Distribution>(m, "Distribution",
                            "A distribution on a finite support: support and probs (numpy arrays), mean, var, "

@@ -2,7 +2,8 @@
 
 Subcommands: laws, run (one experiment), sweep (an experiment from flags), check (error bounds),
 bench (speed against accuracy), extremes (numerical extremes of every law), aniso (anisotropic grids
-against the ground truth), report (the main job).
+against the ground truth), profile and advise (scenes), images (glint images of scenes and their
+flicker), report (the main job).
 """
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ from ..report.runner import run as run_report
 from ..report.sections import SECTIONS
 from ..resources import data_path
 from ..studies.aniso import write_report as write_aniso_report
+from ..studies.scene_images import write_images
 from ..studies.scenes import write_profiles
 from ..studies.speed_accuracy import write_bench
 from ..validation.advisor import advice_table, advise
@@ -322,6 +324,24 @@ def _cmd_profile(args) -> int:
     return 0
 
 
+def _cmd_images(args) -> int:
+    scenes = [load_scene(path) for path in args.scenes]  # all validated before any work
+    params = {"scale": args.scale, "frames": args.frames, "pan_px": args.pan_px, "zoom": args.zoom,
+              "density_factor": args.density_factor, "tau": args.tau, "timing_scale": args.timing_scale}
+    if args.methods:
+        params["methods"] = args.methods
+        params["animation_methods"] = args.methods
+    t0 = time.perf_counter()
+    paths, tables = write_images(scenes, args.out, seed=args.seed, **params)
+    if not args.quiet:
+        _print_table(tables["scene_images_flicker"][["scene", "method", "std_ratio", "pop_rate", "change_rate",
+                                                     "truth_change_rate", "mean_ratio"]], args.quiet)
+        _print_table(tables["scene_images_timing"], args.quiet)
+        print(f"\nwrote {', '.join(str(p) for p in paths)} and CSV tables in {args.out} "
+              f"({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
 def _cmd_advise(args) -> int:
     for flag, value in (("--max-tv", args.max_tv), ("--max-rel-error", args.max_rel_error)):
         if value is not None and not value >= 0:
@@ -463,6 +483,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=1)
     common(p, "out/scenes", plugins=False)
     p.set_defaults(func=_cmd_profile)
+
+    p = sub.add_parser("images", help="glint images of scenes per method, their flicker, an animation",
+                       description="Per scene (data/schema/scene.schema.json), under one directional light: the glint "
+                                   "image (NDF term) of each image method along a camera path of sub-pixel pans and "
+                                   "zoom steps, the flicker of each against the facet ground truth "
+                                   "(docs/math/glint_images.md), a PNG panel, a flicker plot, a GIF of the first scene "
+                                   "and seconds per image. Writes CSV tables and the figures.")
+    p.add_argument("scenes", nargs="+", metavar="SCENE.json", help="scene files (e.g. data/scenes/*.json)")
+    p.add_argument("--scale", type=float, default=0.2,
+                   help="resolution factor per side; the density follows so n per pixel is kept (default: 0.2)")
+    p.add_argument("--frames", type=int, default=8, help="frames of the camera path (default: 8)")
+    p.add_argument("--pan-px", type=float, default=0.25, help="pan step in pixels (default: 0.25)")
+    p.add_argument("--zoom", type=float, default=0.99, help="distance factor per zoom step (default: 0.99)")
+    p.add_argument("--density-factor", type=float, default=0.0625,
+                   help="facet density x this (default: 1/16, sparse glints; 1: the files' N)")
+    p.add_argument("--tau", type=float, default=2.0, help="glint threshold in units of D(h) (default: 2)")
+    p.add_argument("--methods", help="comma-separated image methods (default: all registered; must include truth)")
+    p.add_argument("--timing-scale", type=float, default=1.0,
+                   help="resolution factor of the timed image of the first scene (default: 1, 1920 x 1080)")
+    p.add_argument("--seed", type=int, default=1)
+    common(p, "out/images", plugins=False)
+    p.set_defaults(func=_cmd_images)
 
     p = sub.add_parser("advise", help="the cheapest counting law meeting an error budget on a scene",
                        description="Profiles the scene and picks the law of least mean SIMD group cost whose "

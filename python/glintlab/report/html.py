@@ -73,18 +73,26 @@ def write_report_page(out, summary: dict, records: list) -> Path:
              f"Tables are the CSV files beside this page.</p>"]
     if summary["failures"]:
         parts.append('<p class="fail"><b>Failed checks:</b> ' + "; ".join(e(f) for f in summary["failures"]) + "</p>")
-    parts.append(f"<ol class='toc'>{toc}</ol>")
-    for r in records:
+    # The page opens on the first section's pictures (the configuration's first entry: the glint images
+    # of the scenes in the default report), then the table of contents and the other sections.
+    for i, r in enumerate(records):
+        if i == 1 or (i == 0 and len(records) == 1):
+            parts.append(f"<ol class='toc'>{toc}</ol>")
         parts.append(f'<section id="{r["name"]}"><h2>{e(r["title"])}</h2><p class="meaning">{e(r["meaning"])}</p>')
+        figures = []
+        for fig in r["figures"]:
+            size = png_size(out / fig)
+            dims = f' width="{size[0]}" height="{size[1]}"' if size else ""
+            figures.append(f'<figure><img src="{e(fig)}" alt="{e(Path(fig).stem)}"{dims}></figure>')
+        if i == 0:  # the opening picture comes before the numbers
+            parts += figures
         if r["stats"]:
             parts.append("<ul class='stats'>" + "".join(f"<li>{e(k)}: <b>{e(fmt(v))}</b></li>"
                                                         for k, v in r["stats"].items()) + "</ul>")
         for f in r["failures"]:
             parts.append(f'<p class="fail">FAILED: {e(f)}</p>')
-        for fig in r["figures"]:
-            size = png_size(out / fig)
-            dims = f' width="{size[0]}" height="{size[1]}"' if size else ""
-            parts.append(f'<figure><img src="{e(fig)}" alt="{e(Path(fig).stem)}"{dims}></figure>')
+        if i > 0:
+            parts += figures
         params = ", ".join(f"{k} = {json.dumps(v)}" for k, v in r["params"].items())
         nb = f"; notebook <code>notebooks/{e(r['notebook'])}</code>" if r["notebook"] else ""
         parts.append(f"<p class='how'>Parameters: {e(params)}; seed {r['seed']}; {r['seconds']} s. "
