@@ -7,6 +7,7 @@
 
 namespace glintlab::bindings {
 
-// Nothing yet: topics add their declarations here, e.g. void bind_shaders(pybind11::module_& m);
+// Topics add their declarations here, e.g. void bind_shaders(pybind11::module_& m);
+void bind_glinty_ndf(pybind11::module_& m);  // glinty_ndf.cpp: KPT25's glinty NDF
 
 }  // namespace glintlab::bindings
