@@ -231,7 +231,7 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
           if (roulette) keep = kpt25_roulette(unit(point_block(seed, level, i, j, a, b, 1)[0]), weight, p_.epsilon);
           if (keep == 0.0) continue;
           const double ex = mx - px.xa, ey = my - px.ya;
-          sum += keep * px.norm * std::exp(-0.5 * q) * std::exp(-(ex * ex + ey * ey) * inv2s2);
+          sum += keep * px.norm * std::exp(-0.5 * q - (ex * ex + ey * ey) * inv2s2);
         }
       }
     }
