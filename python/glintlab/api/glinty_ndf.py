@@ -90,7 +90,7 @@ class KPT25(GlintyNDF):
     ``density`` K_P (points per unit texture area), ``target`` and ``alpha`` (the smooth NDF),
     ``alpha_star`` (micro-roughness), ``k`` (angular neighbours per level: 1, 4, 9, 16), ``epsilon``
     (eq. 8's mollification; 0 = exact roulette), ``filter`` (Gaussian pixel filter std in pixels; the
-    default 1 / (2 sqrt(pi)) gives an effective area |det J|, DB23's footprint), ``compensation``
+    default 1 / (2 sqrt(pi)) gives an effective area abs(det J), DB23's footprint), ``compensation``
     ("square": eq. 10 as the paper does; "disk": eq. 9 exactly; "none"; "square_flipped": a deliberately
     wrong sign, for the tests) and ``blend`` ("roulette" or "linear")."""
 
@@ -142,7 +142,7 @@ class KPT25(GlintyNDF):
 
 class DB23(GlintyNDF):
     """DB23's D_P = (D(n) / R) K / (N P) (eq. 3-4; docs/math/ndf.md#ndf-estimator): K counted by the grid
-    scheme ``scheme`` over the inner law ``inner`` for n = N P facets (P = |det J|) with
+    scheme ``scheme`` over the inner law ``inner`` for n = N P facets (P = abs(det J)) with
     p = R D(h) / D(n) clamped to 1; ``angular_resolution`` (texels per unit slope) places the half
     vector's slope (h_x, h_y) / h_z in DB23's angular grid. ``density`` is N (facets per unit area)."""
 

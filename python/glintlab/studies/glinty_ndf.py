@@ -3,7 +3,7 @@ evaluation (Algorithm 1) against the exact sum over its own point process, and D
 the same footprints.
 
 Every row is one configuration (one factor varied at a time around a base: footprint size, density
-K_P, alpha, alpha_*, theta_h, k) and one estimator, measured over ``pixels`` independent pixels (far
+K_P, alpha, alpha_star, theta_h, k) and one estimator, measured over ``pixels`` independent pixels (far
 enough apart to share no grid cell) at the same seed:
 
 - KPT25 rows (one per k): the sampled mean of Algorithm 1 and of the reference against D(h), the
@@ -32,9 +32,10 @@ from .base import Context, Tables
 
 NAME = "glinty_ndf"
 TITLE = "Glinty NDFs as a renderer evaluates them: KPT25's Algorithm 1 against its own point process, DB23's D_P beside it"
-MEANING = ("KPT25's constant-time NDF matches the exact sum over its points in the interior of the disk, "
-           "but its square compensation (eq. 10) adds energy at grazing half vectors when k is small, and "
-           "the model itself loses energy there; DB23's D_P is unbiased with the binomial on the same footprints.")
+MEANING = ("KPT25's Algorithm 1 equals the exact sum over its own points while the lobes lie inside the disk; at "
+           "grazing half vectors the model loses up to 40 % of D(h) and eq. 10's square adds up to 16 % back "
+           "for k = 1; Algorithm 1 is up to 5x smoother than its own model; the roulette keeps the one-level "
+           "spread where linear blending drops it by 30 %; DB23's D_P over the binomial is unbiased on the same footprints.")
 DEFAULTS = {
     "pixels": 4000,
     "base": {"target": "beckmann", "alpha": 0.5, "alpha_star": 0.02, "density": 1e6, "points": 1000.0,
@@ -56,7 +57,7 @@ QUICK = {"pixels": 200, "points": [10.0, 300.0],
          "theta_deg": [0.0, 40.0], "k": [1, 4], "db23_inner": ["binomial"], "blend_levels": [0.0, 0.5],
          "timing_batch": 2048}
 NOTEBOOK = ""
-TABLE = {"glinty_ndf": ["method", "vary", "value", "k", "mean_vs_D", "bias_vs_ref", "bias_vs_ref_exact",
+TABLE = {"glinty_ndf": ["method", "vary", "value", "rho", "mean_vs_D", "ref_vs_D_exact", "bias_vs_ref", "bias_vs_ref_exact",
                         "rel_std", "rel_std_ref", "w1_vs_ref", "ns_eval", "ns_ref"],
          "glinty_ndf_blend": ["blend", "level_frac", "mean_vs_D", "rel_std", "rel_std_vs_one_level"]}
 
@@ -130,7 +131,8 @@ def measure(cfg: dict, ks, db23_inner, pixels: int, seed: int, anisotropy: float
         m_alg, se_alg, rs_alg = _stats(alg, D)
         m_ref, se_ref, rs_ref = _stats(ref, D)
         diff = (alg - ref) / D
-        rows.append({"method": f"kpt25 k={k}", "k": int(k), **common, "D": D, "lambda": px["lambda"],
+        rho = 2.0 * math.hypot(px["xa"] - 0.5, px["ya"] - 0.5)  # T(h)'s distance from the disk's centre / radius
+        rows.append({"method": f"kpt25 k={k}", "k": int(k), **common, "D": D, "lambda": px["lambda"], "rho": rho,
                      "points_summed": float(pts.mean()),
                      "mean_vs_D": m_alg, "mean_vs_D_se": se_alg, "ref_mean_vs_D": m_ref, "ref_mean_vs_D_se": se_ref,
                      "ref_vs_D_exact": float(e_ref[0] / D),
@@ -206,22 +208,29 @@ def compute(params: dict, ctx: Context) -> Tables:
     ctx.progress("MIP blend")
     blend = blend_table(base, params["blend_levels"], pixels, ctx.seed)
     kpt = table[table.method.str.startswith("kpt25")]
-    interior = kpt[kpt.theta_deg <= 25.0]
+    interior = kpt[kpt.rho <= 0.8]
     stats = {
-        "largest |bias vs reference| (exact, theta_h <= 25 deg)": float(interior.bias_vs_ref_exact.abs().max()),
-        "largest bias vs reference (exact, any theta_h)": float(kpt.bias_vs_ref_exact.max()),
+        "largest |bias vs reference| (exact, T(h) within 0.8 of the disk's radius)":
+            float(interior.bias_vs_ref_exact.abs().max()),
+        "largest bias vs reference (exact, any h)": float(kpt.bias_vs_ref_exact.max()),
         "smallest E[reference] / D(h) (exact)": float(kpt.ref_vs_D_exact.min()),
         "ns per evaluation, Algorithm 1 (median)": float(kpt.ns_eval.median()),
         "ns per evaluation, reference (max)": float(kpt.ns_ref.max()),
     }
     failures = []
     # The sampled bias against the reference must agree with its exact value (a wrong implementation of
-    # either breaks it): |z| < 5 per row (false-failure rate below 6e-7 per row).
-    z = (kpt.bias_vs_ref - kpt.bias_vs_ref_exact) / kpt.bias_vs_ref_se
-    bad = kpt[(z.abs() > 5) & np.isfinite(z)]
+    # either breaks it): within 5 standard errors (false-failure rate below 6e-7 per row), plus 1e-9 for
+    # the rows where B(k) covers every cell and both are zero up to rounding and quadrature.
+    gap = (kpt.bias_vs_ref - kpt.bias_vs_ref_exact).abs()
+    bad = kpt[(gap > 5 * kpt.bias_vs_ref_se + 1e-9) & np.isfinite(gap)]
     for _, r in bad.iterrows():
         failures.append(f"glinty_ndf: {r.method} {r.vary}={r.value:g}: sampled bias vs reference "
                         f"{r.bias_vs_ref:.4g} differs from the exact {r.bias_vs_ref_exact:.4g}")
+    # The reference's sampled mean against its exact expectation D(h) x (the lobe's mass in the disk).
+    ref_gap = (kpt.ref_mean_vs_D - kpt.ref_vs_D_exact).abs()
+    for _, r in kpt[ref_gap > 5 * kpt.ref_mean_vs_D_se + 1e-9].drop_duplicates(["vary", "value"]).iterrows():
+        failures.append(f"glinty_ndf: reference at {r.vary}={r.value:g}: sampled mean / D(h) "
+                        f"{r.ref_mean_vs_D:.4g} differs from the exact {r.ref_vs_D_exact:.4g}")
     return Tables({"glinty_ndf": table, "glinty_ndf_blend": blend}, stats, failures)
 
 
