@@ -56,7 +56,7 @@ QUICK = {"pixels": 200, "points": [10.0, 300.0],
                   "theta_deg": 25.0}, "density": [1e6], "alpha": [0.5], "alpha_star": [0.02],
          "theta_deg": [0.0, 40.0], "k": [1, 4], "db23_inner": ["binomial"], "blend_levels": [0.0, 0.5],
          "timing_batch": 2048}
-NOTEBOOK = ""
+NOTEBOOK = "glinty_ndf.ipynb"
 TABLE = {"glinty_ndf": ["method", "vary", "value", "rho", "mean_vs_D", "ref_vs_D_exact", "bias_vs_ref", "bias_vs_ref_exact",
                         "rel_std", "rel_std_ref", "w1_vs_ref", "ns_eval", "ns_ref"],
          "glinty_ndf_blend": ["blend", "level_frac", "mean_vs_D", "rel_std", "rel_std_vs_one_level"]}
