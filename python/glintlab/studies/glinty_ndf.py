@@ -36,26 +36,27 @@ MEANING = ("KPT25's Algorithm 1 equals the exact sum over its own points while t
            "grazing half vectors the model loses up to 40 % of D(h) and eq. 10's square adds up to 16 % back "
            "for k = 1; Algorithm 1 is up to 5x smoother than its own model; the roulette keeps the one-level "
            "spread where linear blending drops it by 30 %; DB23's D_P over the binomial is unbiased on the same footprints.")
+# Parameters are flat (the report configuration types them: numbers, strings, lists of numbers > 0).
 DEFAULTS = {
     "pixels": 4000,
-    "base": {"target": "beckmann", "alpha": 0.5, "alpha_star": 0.02, "density": 1e6, "points": 1000.0,
-             "theta_deg": 25.0},
+    # The base configuration every sweep varies one factor of.
+    "target": "beckmann", "base_alpha": 0.5, "base_alpha_star": 0.02, "base_density": 1e6, "base_points": 1000.0,
+    "base_theta_deg": 25.0,
     "points": [10.0, 100.0, 1000.0, 10000.0],      # K_P x footprint area (P = |det J|)
     "density": [1e4, 1e6, 1e8],
     "alpha": [0.2, 0.5],
     "alpha_star": [0.005, 0.02, 0.08],
-    "theta_deg": [0.0, 25.0, 40.0, 50.0],           # along the diagonal phi_h = 45 deg (towards a corner)
+    # cos theta_h of 0, 25, 40, 50 deg, along the diagonal phi_h = 45 deg (towards a corner of the square)
+    "cos_theta": [1.0, 0.9063077870366499, 0.766044443118978, 0.6427876096865394],
     "k": [1, 4, 9, 16],
-    "db23_inner": ["binomial", "gated"],
+    "db23_inner": "binomial,gated",                  # comma-separated inner laws of DB23's D_P
     "anisotropy": 4.0,                               # one extra footprint stretched this much
-    "blend_levels": [0.0, 0.25, 0.5],
+    "blend_lambda": [3.0, 3.25, 3.5],                # MIP levels of the blend table (the first: one level)
     "timing_batch": 16384,                           # pixels per timed call (ns per evaluation)
 }
-QUICK = {"pixels": 200, "points": [10.0, 300.0],
-         "base": {"target": "beckmann", "alpha": 0.5, "alpha_star": 0.02, "density": 1e6, "points": 300.0,
-                  "theta_deg": 25.0}, "density": [1e6], "alpha": [0.5], "alpha_star": [0.02],
-         "theta_deg": [0.0, 40.0], "k": [1, 4], "db23_inner": ["binomial"], "blend_levels": [0.0, 0.5],
-         "timing_batch": 2048}
+QUICK = {"pixels": 200, "points": [10.0, 300.0], "base_points": 300.0, "density": [1e6], "alpha": [0.5],
+         "alpha_star": [0.02], "cos_theta": [1.0, 0.766044443118978], "k": [1, 4], "db23_inner": "binomial",
+         "blend_lambda": [3.0, 3.5], "timing_batch": 2048}
 NOTEBOOK = "glinty_ndf.ipynb"
 TABLE = {"glinty_ndf": ["method", "vary", "value", "rho", "mean_vs_D", "ref_vs_D_exact", "bias_vs_ref", "bias_vs_ref_exact",
                         "rel_std", "rel_std_ref", "w1_vs_ref", "ns_eval", "ns_ref"],
@@ -155,16 +156,18 @@ def measure(cfg: dict, ks, db23_inner, pixels: int, seed: int, anisotropy: float
     return rows
 
 
-def blend_table(base: dict, fracs, pixels: int, seed: int) -> pd.DataFrame:
-    """The MIP blend (§3.3.3) at fractional levels ``fracs``: footprints chosen so that lambda = 3 + frac;
+def blend_table(base: dict, lambdas, pixels: int, seed: int) -> pd.DataFrame:
+    """The MIP blend (§3.3.3) at the MIP levels ``lambdas`` (footprints chosen to give them; the first is
+    the one-level baseline, level_frac = lambda - lambdas[0]);
     roulette (epsilon 0.1 and 0) and linear blending of the reference (no truncation: the blend alone);
     rel_std_vs_one_level divides by the one-level spread at frac = 0 scaled by 2^-frac (an approximation:
     the 1 / sqrt(points) law of sparse glints)."""
     rows = []
     res = math.sqrt(base["density"])
     h = _half_vector(base["theta_deg"], pixels)
-    for frac in fracs:
-        side = 2.0 ** (3 + frac) / (res * 6.0 * FILTER)  # lambda = log2(res 6 filter side)
+    for lam in lambdas:
+        frac = lam - lambdas[0]
+        side = 2.0 ** lam / (res * 6.0 * FILTER)  # lambda = log2(res 6 filter side)
         uv, J = _footprints(pixels, side, 1.0, seed)
         for label, kw in (("roulette eps=0.1", {"epsilon": 0.1}), ("roulette eps=0", {"epsilon": 0.0}),
                           ("linear", {"blend": "linear"})):
@@ -184,11 +187,14 @@ def blend_table(base: dict, fracs, pixels: int, seed: int) -> pd.DataFrame:
 
 
 def compute(params: dict, ctx: Context) -> Tables:
-    base = dict(params["base"])
+    base = {"target": params["target"], "alpha": params["base_alpha"], "alpha_star": params["base_alpha_star"],
+            "density": params["base_density"], "points": params["base_points"], "theta_deg": params["base_theta_deg"]}
+    inner = [s.strip() for s in params["db23_inner"].split(",") if s.strip()]
+    theta = [round(math.degrees(math.acos(min(1.0, c))), 6) for c in params["cos_theta"]]
     pixels = int(params["pixels"])
     rows = []
     sweeps = [("points", params["points"]), ("density", params["density"]), ("alpha", params["alpha"]),
-              ("alpha_star", params["alpha_star"]), ("theta_deg", params["theta_deg"])]
+              ("alpha_star", params["alpha_star"]), ("theta_deg", theta)]
     done = {}  # configurations shared by several sweeps (the base) are measured once
     for vary, values in sweeps:
         for value in values:
@@ -196,17 +202,17 @@ def compute(params: dict, ctx: Context) -> Tables:
             key = tuple(sorted(cfg.items()))
             if key not in done:
                 ctx.progress(f"{vary} = {value:g}")
-                done[key] = measure(cfg, params["k"], params["db23_inner"], pixels, ctx.seed,
+                done[key] = measure(cfg, params["k"], inner, pixels, ctx.seed,
                                     timing_batch=int(params["timing_batch"]))
             for r in done[key]:
                 rows.append({"vary": vary, "value": float(value), **r})
     ctx.progress(f"anisotropy {params['anisotropy']:g}")
-    for r in measure(base, params["k"], params["db23_inner"], pixels, ctx.seed, anisotropy=params["anisotropy"],
+    for r in measure(base, params["k"], inner, pixels, ctx.seed, anisotropy=params["anisotropy"],
                      timing_batch=int(params["timing_batch"])):
         rows.append({"vary": "anisotropy", "value": float(params["anisotropy"]), **r})
     table = pd.DataFrame(rows)
     ctx.progress("MIP blend")
-    blend = blend_table(base, params["blend_levels"], pixels, ctx.seed)
+    blend = blend_table(base, params["blend_lambda"], pixels, ctx.seed)
     kpt = table[table.method.str.startswith("kpt25")]
     interior = kpt[kpt.rho <= 0.8]
     stats = {
