@@ -144,12 +144,14 @@ class DB23(GlintyNDF):
     """DB23's D_P = (D(n) / R) K / (N P) (eq. 3-4; docs/math/ndf.md#ndf-estimator): K counted by the grid
     scheme ``scheme`` over the inner law ``inner`` for n = N P facets (P = abs(det J)) with
     p = R D(h) / D(n) clamped to 1; ``angular_resolution`` (texels per unit slope) places the half
-    vector's slope (h_x, h_y) / h_z in DB23's angular grid. ``density`` is N (facets per unit area)."""
+    vector's slope (h_x, h_y) / h_z in DB23's angular grid. ``density`` is N (facets per unit area).
+    The default inner law is DB23's own gated Gaussian; ``inner="binomial"`` is exact but costs far more
+    per pixel at large n (about 30x on a receding plane with n up to 1e5)."""
 
     name = "db23"
 
     def __init__(self, density: float = 1e6, target: str = "beckmann", alpha: float = 0.5,
-                 scheme: str = "db23_trilinear", inner: str = "binomial", R: float = 0.5,
+                 scheme: str = "db23_trilinear", inner: str = "gated", R: float = 0.5,
                  angular_resolution: float = 16.0, **scheme_params):
         super().__init__(target, alpha, density)
         R = V.real("R", R)
