@@ -295,3 +295,13 @@ def test_db23_d_p_mean_is_the_smooth_ndf():
         db.reference(uv, J, h)
     with pytest.raises(ValueError, match="R"):
         gl.glinty_ndf("db23", R=0)
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(scheme="nope"), "unknown grid scheme 'nope'"), (dict(inner="nope"), "unknown law 'nope'"),
+    (dict(angular_resolution=0), "angular_resolution"), (dict(target="x"), "target"), (dict(density=-1), "density"),
+    (dict(alpha=0), "alpha"),
+])
+def test_db23_bad_parameters_are_refused_by_name(kw, message):
+    with pytest.raises(ValueError, match=message):
+        gl.glinty_ndf("db23", **kw)
