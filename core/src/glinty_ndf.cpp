@@ -137,6 +137,7 @@ std::array<double, 3> Kpt25Ndf::map(const double hin[3]) const {
 
 GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) const {
   GlintPixel px;
+  px.index = i;
   const double* J = jac + 4 * i;
   const double* H = h + 3 * i;
   for (int c = 0; c < 4; ++c)
@@ -204,6 +205,13 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
     a1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.xa + reach) * fna)));
     b0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.ya - reach) * fna)));
     b1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.ya + reach) * fna)));
+    const double cells = static_cast<double>(i1 - i0 + 1) * static_cast<double>(j1 - j0 + 1) *
+                         static_cast<double>(std::max<std::int64_t>(0, a1 - a0 + 1)) *
+                         static_cast<double>(std::max<std::int64_t>(0, b1 - b0 + 1));
+    if (cells > kGlintMaxReferenceCells)
+      throw_invalid(kWhere, indexed_name("J", 4 * px.index, true), static_cast<double>(px.index),
+                    "a footprint whose reference sums at most 2e8 cells (this one: " + format_value(cells) +
+                        " at level " + std::to_string(level) + "; lower the density or the footprint)");
   } else {
     const int side = static_cast<int>(std::lround(std::sqrt(p_.k)));
     block_range(px.xa * fna, na, side, a0, a1);

@@ -305,3 +305,13 @@ def test_db23_d_p_mean_is_the_smooth_ndf():
 def test_db23_bad_parameters_are_refused_by_name(kw, message):
     with pytest.raises(ValueError, match=message):
         gl.glinty_ndf("db23", **kw)
+
+
+def test_reference_refuses_footprints_it_cannot_sum_in_reasonable_time():
+    # alpha_star = 0.5: every angular cell is within reach of the lobe; 4^15 cells at level 15.
+    ndf = gl.glinty_ndf("kpt25", density=1e12, alpha_star=0.5)
+    J = [[5e-3, 0.0, 0.0, 5e-3]]
+    assert ndf.pixel(J[0], [0.0, 0.0, 1.0])["levels"][0] >= 12
+    with pytest.raises(ValueError, match=r"J\[0\].*reference sums at most"):
+        ndf.reference([[0.0, 0.0]], J, [[0.0, 0.0, 1.0]])
+    assert np.isfinite(ndf.evaluate([[0.0, 0.0]], J, [[0.0, 0.0, 1.0]])[0])  # Algorithm 1 stays constant time

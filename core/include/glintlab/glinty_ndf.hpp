@@ -60,7 +60,12 @@ struct GlintPixel {
   int n_levels = 1;
   // Spatial filter: inverse covariance (a, b; b, c), normalisation, box half widths (3 sigma).
   double inv_a = 0.0, inv_b = 0.0, inv_c = 0.0, norm = 0.0, half_u = 0.0, half_v = 0.0;
+  std::size_t index = 0;     // the pixel's index (error messages)
 };
+
+// The reference refuses a pixel that would sum more cells than this (a footprint far too large for the
+// density): its cost grows with the points in the footprint, and an unbounded call would seem to hang.
+inline constexpr double kGlintMaxReferenceCells = 2e8;
 
 class Kpt25Ndf {
  public:
