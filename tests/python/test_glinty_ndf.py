@@ -222,11 +222,14 @@ def test_deterministic_whatever_the_threads_and_order():
     try:
         gl.set_num_threads(1)
         one = ndf.evaluate(uv, J, h, seed=3)
+        ref_one = ndf.reference(uv[:300], J[:300], h[:300], seed=3)
         gl.set_num_threads(2)
         two = ndf.evaluate(uv, J, h, seed=3)
+        ref_two = ndf.reference(uv[:300], J[:300], h[:300], seed=3)
     finally:
         gl.set_num_threads(threads)
     np.testing.assert_array_equal(one, two)
+    np.testing.assert_array_equal(ref_one, ref_two)
     perm = rng.permutation(n)
     np.testing.assert_array_equal(ndf.evaluate(uv[perm], J[perm], h[perm], seed=3), one[perm])
     assert not np.array_equal(ndf.evaluate(uv, J, h, seed=4), one)
