@@ -13,6 +13,7 @@ from . import _core
 from ._core import Chi2Result, Distribution, __version__
 from .api.blends import BlendedLaw, blend_summaries, blended_law, blends, roulette_keep_moments, zk16_variance_ratio
 from .api.exact import binomial, poisson
+from .api.glinty_ndf import GlintyNDF, glinty_ndf, glinty_ndfs
 from .api.grids import AnisoCounter, aniso_counter, footprint_shapes, grid_schemes
 from .api.laws import (CustomLaw, Law, custom_law, law, law_label, law_summaries, law_traits, law_variants, laws,
                        parse_law_label, uniforms)
@@ -43,7 +44,7 @@ def get_num_threads() -> int:
 
 
 __all__ = [
-    "AnisoCounter", "aniso_counter", "NDF", "ndf", "Scene", "load_scene", "Advice", "SceneProfile", "advise",
+    "AnisoCounter", "aniso_counter", "NDF", "ndf", "GlintyNDF", "glinty_ndf", "glinty_ndfs", "Scene", "load_scene", "Advice", "SceneProfile", "advise",
     "profile_scene", "footprint_shapes", "grid_schemes",
     "sweep", "check", "perturbed_law", "run_experiment",
     "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",

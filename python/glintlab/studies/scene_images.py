@@ -19,7 +19,7 @@ NAME = "scene_images"
 TITLE = "Glint images of the Table 1 scenes per method, and their flicker along a camera path"
 MEANING = ("The first thing users of glint methods compare: on DB23's Table 1 scenes under one directional light, "
            "the facet ground truth beside DB23's grids (three inner laws, trilinear and tetrahedral, and the 48-evaluation "
-           "shader configuration) and ZK16, "
+           "shader configuration), ZK16 and KPT25's constant-time NDF, "
            "with each method's temporal deviation relative to the truth's and its rate of pops (glints that "
            "appear or vanish with no cause in the truth) along sub-pixel pans and zoom steps.")
 DEFAULTS = {

@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from ..api import checks as V
+from ..api.glinty_ndf import glinty_ndf
 from ..api.image_ndfs import CountedNDF, FacetNDF, SmoothNDF
 from ..api.registry import Registry
 from .scene import Scene, _unit
@@ -101,6 +102,10 @@ for _scheme, _short in (("db23_trilinear", "DB23 tri"), ("db23_tetrahedral", "DB
 # texels (48 evaluations): glints fade in and out instead of popping (docs/math/grids.md#grid-realizations).
 register_image_method("db23_shader_48[gated]", _counted("db23_shader_48", "gated"), label="DB23 shader 48 gated")
 register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16")
+# KPT25's constant-time NDF (Algorithm 1: k = 4 angular neighbours, eps = 0.1) over its own point
+# process, whose density is the scene's facet density (docs/math/glinty_ndf.md).
+register_image_method("kpt25", lambda m: glinty_ndf("kpt25", density=m.density, target=m.target, alpha=m.alpha,
+                                                    alpha_star=0.02, k=4, epsilon=0.1), label="KPT25")
 DEFAULT_METHODS = tuple(IMAGE_METHODS.names())
 
 

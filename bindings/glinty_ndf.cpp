@@ -1,0 +1,128 @@
+// Glinty NDFs (KPT25's point process, its reference and Algorithm 1): core/include/glintlab/glinty_ndf.hpp.
+// Arrays arrive flattened and checked for shape by glintlab.api.glinty_ndf; the GIL is released while the
+// pixels are computed (the core splits them over OpenMP threads).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <string>
+
+#include "bindings.hpp"
+#include "glintlab/errors.hpp"
+#include "glintlab/glinty_ndf.hpp"
+
+namespace py = pybind11;
+
+namespace glintlab::bindings {
+
+namespace {
+
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+constexpr char kWhere[] = "glinty_ndf kpt25";
+
+GlintTarget parse_target(const std::string& s) {
+  if (s == "beckmann") return GlintTarget::beckmann;
+  if (s == "ggx") return GlintTarget::ggx;
+  throw_invalid(kWhere, "target", s, "\"beckmann\" or \"ggx\"");
+}
+GlintCompensation parse_compensation(const std::string& s) {
+  if (s == "square") return GlintCompensation::square;
+  if (s == "disk") return GlintCompensation::disk;
+  if (s == "none") return GlintCompensation::none;
+  if (s == "square_flipped") return GlintCompensation::square_flipped;
+  throw_invalid(kWhere, "compensation", s, "\"square\", \"disk\", \"none\" or \"square_flipped\"");
+}
+GlintBlend parse_blend(const std::string& s) {
+  if (s == "roulette") return GlintBlend::roulette;
+  if (s == "linear") return GlintBlend::linear;
+  throw_invalid(kWhere, "blend", s, "\"roulette\" or \"linear\"");
+}
+
+std::size_t pixels(const Array& uv, const Array* jac, const Array& h) {
+  const auto m = static_cast<std::size_t>(h.size() / 3);
+  if (static_cast<std::size_t>(h.size()) != 3 * m || (jac && static_cast<std::size_t>(jac->size()) != 4 * m) ||
+      static_cast<std::size_t>(uv.size()) != 2 * m)
+    throw std::invalid_argument("glinty_ndf: uv, J and h must hold 2, 4 and 3 numbers per pixel");
+  return m;
+}
+
+}  // namespace
+
+void bind_glinty_ndf(py::module_& m) {
+  py::class_<Kpt25Ndf>(m, "Kpt25Ndf")
+      .def(py::init([](double density, const std::string& target, double alpha, double alpha_star, int k,
+                       double epsilon, double filter, const std::string& compensation, const std::string& blend) {
+             Kpt25Params p;
+             p.density = density;
+             p.target = parse_target(target);
+             p.alpha = alpha;
+             p.alpha_star = alpha_star;
+             p.k = k;
+             p.epsilon = epsilon;
+             p.filter = filter;
+             p.compensation = parse_compensation(compensation);
+             p.blend = parse_blend(blend);
+             return Kpt25Ndf(p);
+           }),
+           py::arg("density"), py::arg("target"), py::arg("alpha"), py::arg("alpha_star"), py::arg("k"),
+           py::arg("epsilon"), py::arg("filter"), py::arg("compensation"), py::arg("blend"))
+      .def("evaluate", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
+             const std::size_t n = pixels(uv, &jac, h);
+             py::array_t<double> out(static_cast<py::ssize_t>(n));
+             double* o = out.mutable_data();
+             {
+               py::gil_scoped_release release;
+               g.evaluate(uv.data(), jac.data(), h.data(), n, seed, o);
+             }
+             return out;
+           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
+      .def("reference", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
+             const std::size_t n = pixels(uv, &jac, h);
+             py::array_t<double> out(static_cast<py::ssize_t>(n)), pts(static_cast<py::ssize_t>(n));
+             double* o = out.mutable_data();
+             double* q = pts.mutable_data();
+             {
+               py::gil_scoped_release release;
+               g.reference(uv.data(), jac.data(), h.data(), n, seed, o, q);
+             }
+             return py::make_tuple(out, pts);
+           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
+      .def("expected", [](const Kpt25Ndf& g, const Array& jac, const Array& h) {
+             const auto n = static_cast<std::size_t>(h.size() / 3);
+             if (static_cast<std::size_t>(jac.size()) != 4 * n || static_cast<std::size_t>(h.size()) != 3 * n)
+               throw std::invalid_argument("glinty_ndf: J and h must hold 4 and 3 numbers per pixel");
+             py::array_t<double> er(static_cast<py::ssize_t>(n)), ea(static_cast<py::ssize_t>(n));
+             double* a = er.mutable_data();
+             double* b = ea.mutable_data();
+             {
+               py::gil_scoped_release release;
+               g.expected(jac.data(), h.data(), n, a, b);
+             }
+             return py::make_tuple(er, ea);
+           }, py::arg("J"), py::arg("h"))
+      .def("pixel", [](const Kpt25Ndf& g, const Array& jac, const Array& h) {
+             if (jac.size() != 4 || h.size() != 3) throw std::invalid_argument("glinty_ndf: pixel takes one J and one h");
+             const GlintPixel px = g.pixel(jac.data(), h.data(), 0);
+             py::dict d;
+             d["D"] = px.D;
+             d["xa"] = px.xa;
+             d["ya"] = px.ya;
+             d["sigma"] = px.sigma;
+             d["lambda"] = px.lambda;
+             py::list levels, weights;
+             for (int l = 0; l < px.n_levels; ++l) {
+               levels.append(px.levels[l]);
+               weights.append(px.weights[l]);
+             }
+             d["levels"] = levels;
+             d["weights"] = weights;
+             d["half_u"] = px.half_u;
+             d["half_v"] = px.half_v;
+             return d;
+           }, py::arg("J"), py::arg("h"));
+  m.def("kpt25_roulette", &kpt25_roulette, py::arg("r"), py::arg("w"), py::arg("eps"));
+  m.def("gaussian_in_disk_rect", &gaussian_in_disk_rect, py::arg("cx"), py::arg("cy"), py::arg("sigma"),
+        py::arg("x0"), py::arg("x1"), py::arg("y0"), py::arg("y1"));
+}
+
+}  // namespace glintlab::bindings

@@ -1,0 +1,109 @@
+// KPT25's glinty NDF (Kemppinen et al. 2025, "Evaluating and Sampling Glinty NDFs in Constant Time"):
+// the point process of their §3.3.1-3.3.2, the full sum of eq. 5/11's first term over that process (the
+// reference), and the constant-time evaluation of their Algorithm 1 (k angular neighbours B(k), the
+// compensation of eq. 9/10, two MIP levels with the mollified roulette of eq. 8). The mathematics, the
+// normalisation and every policy where the paper is silent: docs/math/glinty_ndf.md.
+//
+// Determinism: every point is a pure function of (seed, level, spatial cell, angular cell) through
+// Philox4x32-10 (rng.hpp), and every pixel is computed independently, so an image is the same whatever
+// the number of threads or the order of the pixels.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+namespace glintlab {
+
+enum class GlintTarget { beckmann, ggx };
+
+// How the points outside B(k) are accounted for (eq. 9 and 10).
+enum class GlintCompensation {
+  square,          // eq. 10: the Gaussian integrated over the unit square minus its part in B(k) (the paper)
+  disk,            // eq. 9: over the disk U minus its part in B(k), by quadrature (the exact expectation)
+  none,            // no compensation: the truncation to B(k) alone
+  square_flipped,  // eq. 10 with the sign of its second term flipped: a deliberately wrong NDF the tests
+                   // use to show that their checks can fail
+};
+
+// How the two MIP levels are combined (§3.3.3).
+enum class GlintBlend {
+  roulette,  // each point of level l kept with weight R(r, w_l) of eq. 8 (epsilon = 0: the exact roulette)
+  linear,    // each point weighted by w_l (the linear blending the paper argues against, Fig. 6)
+};
+
+struct Kpt25Params {
+  double density = 1e6;      // K_P: points per unit texture area (cells of [0, 1)^4 per unit uv area)
+  GlintTarget target = GlintTarget::beckmann;
+  double alpha = 0.5;        // roughness of the target NDF
+  double alpha_star = 0.02;  // micro-roughness of one facet (eq. 4; angular std sqrt(D(h)) alpha_star)
+  int k = 4;                 // angular neighbours per level: 1, 4, 9 or 16 (a square block of cells)
+  double epsilon = 0.1;      // eq. 8's mollification, in [0, 0.5]
+  double filter = 0.28209479177387814;  // pixel filter std in pixels (default 1/(2 sqrt(pi)): effective area = |det J|)
+  GlintCompensation compensation = GlintCompensation::square;
+  GlintBlend blend = GlintBlend::roulette;
+};
+
+// Maximum MIP level: the angular grid has 2^l x 2^l cells, l <= 15 (the random-number layout's limit).
+inline constexpr int kGlintMaxLevel = 15;
+
+// The geometry of one pixel that both evaluations share: target value, angular position, lobe width,
+// levels and weights, spatial filter.
+struct GlintPixel {
+  double D = 0.0;            // D(h) of the smooth target (0 below the horizon)
+  double xa = 0.5, ya = 0.5; // T(h) in the unit square (the disk U has centre (1/2, 1/2), radius 1/2)
+  double sigma = 0.0;        // angular std alpha_star sqrt(D(h)) (Algorithm 1, line 12)
+  double lambda = 0.0;       // fractional MIP level
+  int levels[2] = {0, 0};
+  double weights[2] = {1.0, 0.0};
+  int n_levels = 1;
+  // Spatial filter: inverse covariance (a, b; b, c), normalisation, box half widths (3 sigma).
+  double inv_a = 0.0, inv_b = 0.0, inv_c = 0.0, norm = 0.0, half_u = 0.0, half_v = 0.0;
+  std::size_t index = 0;     // the pixel's index (error messages)
+};
+
+// The reference refuses a pixel that would sum more cells than this (a footprint far too large for the
+// density): its cost grows with the points in the footprint, and an unbounded call would seem to hang.
+inline constexpr double kGlintMaxReferenceCells = 2e8;
+
+class Kpt25Ndf {
+ public:
+  // Throws std::invalid_argument naming the parameter and its value.
+  explicit Kpt25Ndf(const Kpt25Params& params);
+  const Kpt25Params& params() const { return p_; }
+
+  // Per pixel i: uv[2i..], J[4i..] = (du/dx, dv/dx, du/dy, dv/dy) as in count_image, h[3i..] a half
+  // vector in the tangent frame (normal = +z; normalised here; h_z <= 0 gives 0). m pixels, out[m].
+  void evaluate(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                double* out) const;
+  // The full sum of eq. 11's first term over every point of the same realization (both levels, same
+  // roulette), no truncation to B(k) and no compensation. out_points[i] (if not null): points summed.
+  void reference(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                 double* out, double* out_points = nullptr) const;
+  // Exact expectations over realizations (random seed, random position) for these footprints and half
+  // vectors: e_ref = E[reference], e_alg = E[evaluate]. Either pointer may be null.
+  void expected(const double* jac, const double* h, std::size_t m, double* e_ref, double* e_alg) const;
+
+  // The pixel set-up (exposed for tests and the documentation's figures).
+  GlintPixel pixel(const double* jac, const double* h, std::size_t index) const;
+  // T(h) in the unit square and D(h): the map of §3.2 (exact uniformising map, docs/math/glinty_ndf.md).
+  std::array<double, 3> map(const double h[3]) const;
+
+ private:
+  double level_sum(const GlintPixel& px, int level, double weight, double u, double v, std::uint64_t seed,
+                   bool all_angular, double* points) const;
+  double compensation(const GlintPixel& px, int level) const;
+  Kpt25Params p_;
+  double res_ = 0.0;  // sqrt(K_P): cells per unit uv at level 0
+};
+
+// The integral over the rectangle [x0, x1] x [y0, y1] intersected with the disk U (centre (1/2, 1/2),
+// radius 1/2) of the normalised isotropic 2D Gaussian of std sigma centred at (cx, cy). Adaptive
+// Gauss-Kronrod over x of differences of normal CDFs in y; absolute error below about 1e-10.
+double gaussian_in_disk_rect(double cx, double cy, double sigma, double x0, double x1, double y0, double y1);
+
+// R(r, w) of KPT25 eq. 8: smoothstep(max(0, r - eps), min(1, r + eps), w); eps = 0 is the Heaviside w >= r.
+double kpt25_roulette(double r, double w, double eps);
+
+}  // namespace glintlab

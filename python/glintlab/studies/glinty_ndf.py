@@ -1,0 +1,316 @@
+"""Glinty NDFs as a renderer evaluates them (docs/math/glinty_ndf.md): KPT25's constant-time
+evaluation (Algorithm 1) against the exact sum over its own point process, and DB23's D_P beside it on
+the same footprints.
+
+Every row is one configuration (one factor varied at a time around a base: footprint size, density
+K_P, alpha, alpha_star, theta_h, k) and one estimator, measured over ``pixels`` independent pixels (far
+enough apart to share no grid cell) at the same seed:
+
+- KPT25 rows (one per k): the sampled mean of Algorithm 1 and of the reference against D(h), the
+  paired bias of Algorithm 1 against the reference (with its standard error) and its exact value from
+  ``expected`` (truncation to B(k) plus eq. 10's square), the relative standard deviations of both,
+  the Wasserstein-1 distance between their per-pixel distributions (in units of D(h)), and nanoseconds
+  per evaluation of each (wall clock of this run, all threads).
+- DB23 rows (grid scheme ``db23_trilinear`` over the exact binomial and over DB23's gated law): the same
+  numbers for D_P = (D(n) / R) K / (N P) at N = K_P. DB23's convergence in n p is the ``db23_figure13``
+  section (glintlab.studies.convergence); here it is only placed beside KPT25 on KPT25's footprints.
+
+A second table isolates the MIP blend (§3.3.3): at fractional levels 0, 1/4, 1/2, the relative spread
+of the roulette (epsilon 0.1 and 0) and of linear blending, against the one-level spread. A third,
+exact (no sampling), isolates the compensation: E[Algorithm 1] / E[reference] - 1 with eq. 10's square,
+eq. 9's disk and none, against theta_h, alpha_star and k.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pandas as pd
+from scipy.stats import wasserstein_distance
+
+from ..api.glinty_ndf import glinty_ndf
+from .base import Context, Tables
+
+NAME = "glinty_ndf"
+TITLE = "Glinty NDFs as a renderer evaluates them: KPT25's Algorithm 1 against its own point process, DB23's D_P beside it"
+MEANING = ("KPT25's Algorithm 1 equals the exact sum over its own points while the lobes lie inside the disk; at "
+           "grazing half vectors the model loses up to 40 % of D(h) and eq. 10's square adds up to 16 % back "
+           "for k = 1; Algorithm 1 is up to 5x smoother than its own model; the roulette keeps the one-level "
+           "spread where linear blending drops it by 30 %; DB23's D_P over the binomial is unbiased on the same footprints.")
+# Parameters are flat (the report configuration types them: numbers, strings, lists of numbers > 0).
+DEFAULTS = {
+    "pixels": 4000,
+    # The base configuration every sweep varies one factor of.
+    "target": "beckmann", "base_alpha": 0.5, "base_alpha_star": 0.02, "base_density": 1e6, "base_points": 1000.0,
+    "base_theta_deg": 25.0,
+    "points": [10.0, 100.0, 1000.0, 10000.0],      # K_P x footprint area (P = |det J|)
+    "density": [1e4, 1e6, 1e8],
+    "alpha": [0.2, 0.5],
+    "alpha_star": [0.005, 0.02, 0.08],
+    # cos theta_h of 0, 25, 40, 50 deg, along the diagonal phi_h = 45 deg (towards a corner of the square)
+    "cos_theta": [1.0, 0.9063077870366499, 0.766044443118978, 0.6427876096865394],
+    "k": [1, 4, 9, 16],
+    "db23_inner": "binomial,gated",                  # comma-separated inner laws of DB23's D_P
+    "anisotropy": 4.0,                               # one extra footprint stretched this much
+    "blend_lambda": [3.0, 3.25, 3.5],                # MIP levels of the blend table (the first: one level)
+    "timing_batch": 16384,                           # pixels per timed call (ns per evaluation)
+}
+QUICK = {"pixels": 200, "points": [10.0, 300.0], "base_points": 300.0, "density": [1e6], "alpha": [0.5],
+         "alpha_star": [0.02], "cos_theta": [1.0, 0.766044443118978], "k": [1, 4], "db23_inner": "binomial",
+         "blend_lambda": [3.0, 3.5], "timing_batch": 2048}
+NOTEBOOK = "glinty_ndf.ipynb"
+TABLE = {"glinty_ndf": ["method", "vary", "value", "rho", "mean_vs_D", "ref_vs_D_exact", "bias_vs_ref", "bias_vs_ref_exact",
+                        "rel_std", "rel_std_ref", "w1_vs_ref", "ns_eval", "ns_ref"],
+         "glinty_ndf_blend": ["blend", "level_frac", "mean_vs_D", "rel_std", "rel_std_vs_one_level"],
+         "glinty_ndf_compensation": ["alpha_star", "theta_deg", "k", "rho", "ref_vs_D", "alg_vs_D", "bias_square",
+                                     "bias_disk", "bias_none"]}
+
+FILTER = 0.5 / math.sqrt(math.pi)  # KPT25's default pixel filter std (effective area |det J|)
+
+
+def _footprints(n: int, side: float, anisotropy: float, seed: int):
+    """n pixels of footprint area side^2 (ratio ``anisotropy``, rotated 30 deg) on a lattice whose spacing
+    keeps their filters and grid cells apart, so that the pixels are independent."""
+    a, b = side * math.sqrt(anisotropy), side / math.sqrt(anisotropy)
+    c, s = math.cos(math.pi / 6), math.sin(math.pi / 6)
+    J = np.array([a * c, a * s, -b * s, b * c])  # columns (du/dx, dv/dx), (du/dy, dv/dy)
+    spacing = 40.0 * a
+    rng = np.random.default_rng(seed)
+    m = int(math.ceil(math.sqrt(n)))
+    grid = np.stack(np.meshgrid(np.arange(m), np.arange(m), indexing="ij"), -1).reshape(-1, 2)[:n]
+    uv = (grid + rng.uniform(0, 0.5, (n, 2))) * spacing
+    return uv, np.tile(J, (n, 1))
+
+
+def _half_vector(theta_deg: float, n: int):
+    t = math.tan(math.radians(theta_deg))
+    return np.tile([t / math.sqrt(2), t / math.sqrt(2), 1.0], (n, 1))
+
+
+def _timed(fn):
+    t0 = time.perf_counter()
+    out = fn()
+    return out, time.perf_counter() - t0
+
+
+def _ns_per_eval(fn, uv, J, h, batch: int = 16384, repeats: int = 3) -> float:
+    """Wall-clock nanoseconds per pixel of ``fn(uv, J, h)`` on a batch of at least ``batch`` pixels (the
+    measured ones repeated), best of ``repeats``: thread start-up and Python overhead amortised."""
+    reps = max(1, -(-batch // len(uv)))
+    uvb, Jb, hb = np.tile(uv, (reps, 1)), np.tile(J, (reps, 1)), np.tile(h, (reps, 1))
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn(uvb, Jb, hb)
+        best = min(best, time.perf_counter() - t0)
+    return 1e9 * best / len(uvb)
+
+
+def _stats(values, D):
+    v = np.asarray(values, float) / D
+    return float(v.mean()), float(v.std(ddof=1) / math.sqrt(v.size)), float(v.std(ddof=1) / max(v.mean(), 1e-300))
+
+
+def measure(cfg: dict, ks, db23_inner, pixels: int, seed: int, anisotropy: float = 1.0,
+            timing_batch: int = 16384) -> list[dict]:
+    """Rows for one configuration ``cfg`` (target, alpha, alpha_star, density, points, theta_deg): one per k
+    (KPT25) and one per DB23 inner law, over ``pixels`` independent pixels."""
+    side = math.sqrt(cfg["points"] / cfg["density"])
+    uv, J = _footprints(pixels, side, anisotropy, seed)
+    h = _half_vector(cfg["theta_deg"], pixels)
+    rows = []
+    common = {k: cfg[k] for k in ("target", "alpha", "alpha_star", "density", "points", "theta_deg")}
+    common["anisotropy"] = anisotropy
+    ref = None
+    for k in ks:
+        ndf = glinty_ndf("kpt25", density=cfg["density"], target=cfg["target"], alpha=cfg["alpha"],
+                         alpha_star=cfg["alpha_star"], k=int(k))
+        D = float(ndf.smooth(h[0]))
+        if ref is None:  # the reference does not depend on k: one per configuration
+            (ref, pts), t_ref = _timed(lambda: ndf.reference(uv, J, h, seed=seed, return_points=True))
+        alg = ndf.evaluate(uv, J, h, seed=seed)
+        ns_alg = _ns_per_eval(lambda a, b, c: ndf.evaluate(a, b, c, seed=seed), uv, J, h, timing_batch)
+        e_ref, e_alg = ndf.expected(J[:1], h[:1])
+        px = ndf.pixel(J[0], h[0])
+        m_alg, se_alg, rs_alg = _stats(alg, D)
+        m_ref, se_ref, rs_ref = _stats(ref, D)
+        diff = (alg - ref) / D
+        rho = 2.0 * math.hypot(px["xa"] - 0.5, px["ya"] - 0.5)  # T(h)'s distance from the disk's centre / radius
+        rows.append({"method": f"kpt25 k={k}", "k": int(k), **common, "D": D, "lambda": px["lambda"], "rho": rho,
+                     "points_summed": float(pts.mean()),
+                     "mean_vs_D": m_alg, "mean_vs_D_se": se_alg, "ref_mean_vs_D": m_ref, "ref_mean_vs_D_se": se_ref,
+                     "ref_vs_D_exact": float(e_ref[0] / D),
+                     "bias_vs_ref": float(diff.mean() / m_ref) if m_ref > 0 else math.nan,
+                     "bias_vs_ref_se": float(diff.std(ddof=1) / math.sqrt(diff.size) / m_ref) if m_ref > 0 else math.nan,
+                     "bias_vs_ref_exact": float(e_alg[0] / e_ref[0] - 1) if e_ref[0] > 0 else math.nan,
+                     "rel_std": rs_alg, "rel_std_ref": rs_ref,
+                     "w1_vs_ref": float(wasserstein_distance(alg / D, ref / D)),
+                     "ns_eval": ns_alg, "ns_ref": 1e9 * t_ref / pixels})
+    for inner in db23_inner:
+        db = glinty_ndf("db23", density=cfg["density"], target=cfg["target"], alpha=cfg["alpha"],
+                        scheme="db23_trilinear", inner=inner)
+        D = float(db.smooth(h[0]))
+        d = db.evaluate(uv, J, h, seed=seed)
+        ns = _ns_per_eval(lambda a, b, c: db.evaluate(a, b, c, seed=seed), uv, J, h, timing_batch)
+        m, se, rs = _stats(d, D)
+        rows.append({"method": f"db23[{inner}]", "k": 0, **common, "D": D, "mean_vs_D": m, "mean_vs_D_se": se,
+                     "rel_std": rs, "ns_eval": ns,
+                     "w1_vs_ref": float(wasserstein_distance(d / D, ref / D))})
+    return rows
+
+
+def blend_table(base: dict, lambdas, pixels: int, seed: int) -> pd.DataFrame:
+    """The MIP blend (§3.3.3) at the MIP levels ``lambdas`` (footprints chosen to give them; the first is
+    the one-level baseline, level_frac = lambda - lambdas[0]);
+    roulette (epsilon 0.1 and 0) and linear blending of the reference (no truncation: the blend alone);
+    rel_std_vs_one_level divides by the one-level spread at frac = 0 scaled by 2^-frac (an approximation:
+    the 1 / sqrt(points) law of sparse glints)."""
+    rows = []
+    res = math.sqrt(base["density"])
+    h = _half_vector(base["theta_deg"], pixels)
+    for lam in lambdas:
+        frac = lam - lambdas[0]
+        side = 2.0 ** lam / (res * 6.0 * FILTER)  # lambda = log2(res 6 filter side)
+        uv, J = _footprints(pixels, side, 1.0, seed)
+        for label, kw in (("roulette eps=0.1", {"epsilon": 0.1}), ("roulette eps=0", {"epsilon": 0.0}),
+                          ("linear", {"blend": "linear"})):
+            ndf = glinty_ndf("kpt25", density=base["density"], target=base["target"], alpha=base["alpha"],
+                             alpha_star=base["alpha_star"], k=4, **kw)
+            D = float(ndf.smooth(h[0]))
+            ref = ndf.reference(uv, J, h, seed=seed)
+            m, se, rs = _stats(ref, D)
+            rows.append({"blend": label, "level_frac": float(frac), "mean_vs_D": m, "mean_vs_D_se": se,
+                         "rel_std": rs, "lit_share": float(np.mean(ref > 0.1 * D))})
+    t = pd.DataFrame(rows)
+    # The spread one level would have on these footprints: sparse glints' relative spread falls like
+    # 1 / sqrt(points in the footprint), and the footprint holds 4^frac times the points of frac = 0.
+    one = t[t.level_frac == 0].set_index("blend").rel_std
+    t["rel_std_vs_one_level"] = t.rel_std / (t.blend.map(one) * 2.0 ** (-t.level_frac))
+    return t
+
+
+def compensation_table(base: dict, alpha_stars, ks, thetas) -> pd.DataFrame:
+    """Exact expectations only (``expected``): E[Algorithm 1] / E[reference] - 1 with eq. 10's square, eq. 9's
+    disk and no compensation (the truncation to B(k) alone), and E[reference] / D(h), over half vectors
+    ``thetas`` (deg, along the diagonal), micro-roughnesses and k, on the base footprint."""
+    side = math.sqrt(base["points"] / base["density"])
+    _, J = _footprints(1, side, 1.0, 0)
+    rows = []
+    for astar in alpha_stars:
+        for th in thetas:
+            h = _half_vector(th, 1)
+            for k in ks:
+                row = {"alpha_star": float(astar), "theta_deg": float(th), "k": int(k)}
+                for comp in ("square", "disk", "none"):
+                    ndf = glinty_ndf("kpt25", density=base["density"], target=base["target"], alpha=base["alpha"],
+                                     alpha_star=astar, k=int(k), compensation=comp)
+                    e_ref, e_alg = ndf.expected(J, h)
+                    row[f"bias_{comp}"] = float(e_alg[0] / e_ref[0] - 1) if e_ref[0] > 0 else math.nan
+                px = ndf.pixel(J[0], h[0])
+                row["rho"] = 2.0 * math.hypot(px["xa"] - 0.5, px["ya"] - 0.5)
+                row["ref_vs_D"] = float(e_ref[0] / ndf.smooth(h[0])) if ndf.smooth(h[0]) > 0 else math.nan
+                row["alg_vs_D"] = (1 + row["bias_square"]) * row["ref_vs_D"]
+                rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def compute(params: dict, ctx: Context) -> Tables:
+    base = {"target": params["target"], "alpha": params["base_alpha"], "alpha_star": params["base_alpha_star"],
+            "density": params["base_density"], "points": params["base_points"], "theta_deg": params["base_theta_deg"]}
+    inner = [s.strip() for s in params["db23_inner"].split(",") if s.strip()]
+    theta = [round(math.degrees(math.acos(min(1.0, c))), 6) for c in params["cos_theta"]]
+    pixels = int(params["pixels"])
+    rows = []
+    sweeps = [("points", params["points"]), ("density", params["density"]), ("alpha", params["alpha"]),
+              ("alpha_star", params["alpha_star"]), ("theta_deg", theta)]
+    done = {}  # configurations shared by several sweeps (the base) are measured once
+    for vary, values in sweeps:
+        for value in values:
+            cfg = {**base, vary: value}
+            key = tuple(sorted(cfg.items()))
+            if key not in done:
+                ctx.progress(f"{vary} = {value:g}")
+                done[key] = measure(cfg, params["k"], inner, pixels, ctx.seed,
+                                    timing_batch=int(params["timing_batch"]))
+            for r in done[key]:
+                rows.append({"vary": vary, "value": float(value), **r})
+    ctx.progress(f"anisotropy {params['anisotropy']:g}")
+    for r in measure(base, params["k"], inner, pixels, ctx.seed, anisotropy=params["anisotropy"],
+                     timing_batch=int(params["timing_batch"])):
+        rows.append({"vary": "anisotropy", "value": float(params["anisotropy"]), **r})
+    table = pd.DataFrame(rows)
+    ctx.progress("MIP blend")
+    blend = blend_table(base, params["blend_lambda"], pixels, ctx.seed)
+    ctx.progress("compensation (exact)")
+    comp = compensation_table(base, sorted({base["alpha_star"], *params["alpha_star"]}), params["k"],
+                              sorted({*theta, 30.0, 35.0, 45.0}))
+    kpt = table[table.method.str.startswith("kpt25")]
+    interior = kpt[kpt.rho <= 0.8]
+    stats = {
+        "largest |bias vs reference| (exact, T(h) within 0.8 of the disk's radius)":
+            float(interior.bias_vs_ref_exact.abs().max()),
+        "largest bias vs reference (exact, any h)": float(kpt.bias_vs_ref_exact.max()),
+        "smallest E[reference] / D(h) (exact)": float(kpt.ref_vs_D_exact.min()),
+        "ns per evaluation, Algorithm 1 (median)": float(kpt.ns_eval.median()),
+        "ns per evaluation, reference (max)": float(kpt.ns_ref.max()),
+    }
+    failures = []
+    # The sampled bias against the reference must agree with its exact value (a wrong implementation of
+    # either breaks it): within 5 standard errors (false-failure rate below 6e-7 per row), plus 1e-9 for
+    # the rows where B(k) covers every cell and both are zero up to rounding and quadrature.
+    gap = (kpt.bias_vs_ref - kpt.bias_vs_ref_exact).abs()
+    bad = kpt[(gap > 5 * kpt.bias_vs_ref_se + 1e-9) & np.isfinite(gap)]
+    for _, r in bad.iterrows():
+        failures.append(f"glinty_ndf: {r.method} {r.vary}={r.value:g}: sampled bias vs reference "
+                        f"{r.bias_vs_ref:.4g} differs from the exact {r.bias_vs_ref_exact:.4g}")
+    # The reference's sampled mean against its exact expectation D(h) x (the lobe's mass in the disk).
+    ref_gap = (kpt.ref_mean_vs_D - kpt.ref_vs_D_exact).abs()
+    for _, r in kpt[ref_gap > 5 * kpt.ref_mean_vs_D_se + 1e-9].drop_duplicates(["vary", "value"]).iterrows():
+        failures.append(f"glinty_ndf: reference at {r.vary}={r.value:g}: sampled mean / D(h) "
+                        f"{r.ref_mean_vs_D:.4g} differs from the exact {r.ref_vs_D_exact:.4g}")
+    stats["largest square-compensation bias vs reference (exact, any h, alpha_star, k)"] = float(comp.bias_square.max())
+    # Not 0: the compensation is blended with w_l, the points with the roulette's keep rate rho(w_l)
+    # (docs/math/glinty_ndf.md#glinty-roulette).
+    stats["largest |disk-compensation bias| (exact; the roulette's rho(w) - w)"] = float(comp.bias_disk.abs().max())
+    return Tables({"glinty_ndf": table, "glinty_ndf_blend": blend, "glinty_ndf_compensation": comp}, stats, failures)
+
+
+def figures(tables: Tables, ctx: Context) -> list:
+    import matplotlib.pyplot as plt
+
+    t = tables["glinty_ndf"]
+    vary = list(dict.fromkeys(t.vary))
+    fig, axes = plt.subplots(3, len(vary), figsize=(3.0 * len(vary), 8.5), squeeze=False)
+    methods = list(dict.fromkeys(t.method))
+    colors = plt.cm.viridis(np.linspace(0, 0.9, max(1, len(methods))))
+    for j, v in enumerate(vary):
+        g = t[t.vary == v]
+        for mi, m in enumerate(methods):
+            s = g[g.method == m].sort_values("value")
+            if s.empty:
+                continue
+            style = dict(color=colors[mi], marker="o" if m.startswith("kpt25") else "s", ms=3, lw=0.8, label=m)
+            axes[0, j].plot(s.value, s.mean_vs_D - 1, **style)
+            axes[1, j].plot(s.value, s.rel_std, **style)
+            axes[2, j].plot(s.value, s.ns_eval, **style)
+        s = g[g.method == g.method.iloc[0]].sort_values("value")
+        if "ref_mean_vs_D" in s:
+            axes[0, j].plot(s.value, s.ref_mean_vs_D - 1, "k--", lw=1, label="reference")
+            axes[1, j].plot(s.value, s.rel_std_ref, "k--", lw=1, label="reference")
+            axes[2, j].plot(s.value, s.ns_ref, "k--", lw=1, label="reference")
+        for i in range(3):
+            if v in ("points", "density", "alpha_star"):
+                axes[i, j].set_xscale("log")
+            axes[i, j].grid(True, alpha=0.3)
+        axes[2, j].set_yscale("log")
+        axes[2, j].set_xlabel(v)
+        axes[0, j].axhline(0, color="k", lw=0.6)
+    axes[0, 0].set_ylabel("E[D^f] / D(h) - 1")
+    axes[1, 0].set_ylabel("relative std of D^f")
+    axes[2, 0].set_ylabel("ns per evaluation")
+    axes[0, -1].legend(fontsize=6)
+    fig.suptitle("Glinty NDFs: bias against the smooth target, spread and cost (KPT25 Algorithm 1 per k, its "
+                 "reference, DB23's D_P), one factor varied per column", fontsize=9)
+    fig.tight_layout()
+    return [ctx.save(fig, "glinty_ndf.png")]
