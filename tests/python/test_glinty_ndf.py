@@ -301,7 +301,7 @@ def test_db23_d_p_mean_is_the_smooth_ndf():
 
 
 @pytest.mark.parametrize("kw, message", [
-    (dict(scheme="nope"), "unknown grid scheme 'nope'"), (dict(inner="nope"), "unknown law 'nope'"),
+    (dict(scheme="nope"), "scheme = 'nope' is invalid"), (dict(inner="nope"), "unknown law 'nope'"),
     (dict(angular_resolution=0), "angular_resolution"), (dict(target="x"), "target"), (dict(density=-1), "density"),
     (dict(alpha=0), "alpha"),
 ])

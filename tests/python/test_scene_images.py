@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import glintlab as gl
-from glintlab.api.image_ndfs import CountedNDF, FacetNDF, SmoothNDF, facet_counts
+from glintlab.api.glinty_ndf import DB23
+from glintlab.api.image_ndfs import FacetNDF, SmoothNDF, facet_counts
 from glintlab.validation import scene_images as si
 from glintlab.validation.scene import table1_scenes
 
@@ -94,9 +95,9 @@ def test_same_seed_same_image_whatever_the_threads_and_bad_input_refused():
     with pytest.raises(ValueError, match="R = 2"):
         FacetNDF(1e4, R=2)
     with pytest.raises(ValueError, match="angular_texel"):
-        CountedNDF(1e4, angular_texel=0)
+        FacetNDF(1e4, angular_texel=0)
     with pytest.raises(ValueError, match="scheme"):
-        CountedNDF(1e4, scheme="nope")
+        gl.glinty_ndf("db23", density=1e4, scheme="nope")
     with pytest.raises(ValueError, match="ndf"):
         SmoothNDF("phong", 0.5)
     with pytest.raises(ValueError, match="J = "):
@@ -133,7 +134,7 @@ def test_methods_share_the_glinty_ndf_signature_and_converge_to_the_target():
         assert v.shape == (m,), name
         # A grid scheme's expected count is its mean_bias times N P (the tetrahedral over-count, the
         # shader's log LOD weights: docs/math/grids.md#grid-mean); the truth and the smooth NDF have none.
-        bias = ev.counter.mean_bias(mat.density, 4e-4, 1.0, 0.0) if isinstance(ev, CountedNDF) else 1.0
+        bias = ev.counter.mean_bias(mat.density, 4e-4, 1.0, 0.0) if isinstance(ev, DB23) else 1.0
         assert abs(v.mean() / (D * bias) - 1) < 0.03, (name, v.mean() / D, bias)
     assert si.make_method("truth", mat).evaluate(uv, J, h, seed=1).std() < 0.1 * D  # n p = 200
 

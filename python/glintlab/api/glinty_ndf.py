@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import _core
 from . import checks as V
-from .grids import aniso_counter
+from .grids import IMAGE_CONFIGS, aniso_counter
 from .ndf import NDFS
 from .ndf import ndf as smooth_ndf
 from .registry import Registry
@@ -142,7 +142,8 @@ class KPT25(GlintyNDF):
 
 class DB23(GlintyNDF):
     """DB23's D_P = (D(n) / R) K / (N P) (eq. 3-4; docs/math/ndf.md#ndf-estimator): K counted by the grid
-    scheme ``scheme`` over the inner law ``inner`` for n = N P facets (P = abs(det J)) with
+    scheme configuration ``scheme`` (a name of ``grids.IMAGE_CONFIGS``: "db23_trilinear",
+    "db23_tetrahedral", "db23_shader_48", "zk16_aniso", ...) over the inner law ``inner`` for n = N P facets (P = abs(det J)) with
     p = R D(h) / D(n) clamped to 1; ``angular_resolution`` (texels per unit slope) places the half
     vector's slope (h_x, h_y) / h_z in DB23's angular grid. ``density`` is N (facets per unit area).
     The default inner law is DB23's own gated Gaussian; ``inner="binomial"`` is exact but costs far more
@@ -161,7 +162,15 @@ class DB23(GlintyNDF):
         if not (math.isfinite(ares) and ares > 0):
             V.fail("angular_resolution", angular_resolution, "a finite number > 0")
         self.R, self.angular_resolution = R, ares
-        self.counter = aniso_counter(scheme, inner=inner, **scheme_params)
+        if not isinstance(scheme, str) or scheme not in IMAGE_CONFIGS:
+            V.fail("scheme", scheme, f"a grid scheme configuration, one of {', '.join(IMAGE_CONFIGS)}")
+        # A configuration is a scheme and its options (grids.IMAGE_CONFIGS: e.g. "db23_shader_48" is
+        # the tetrahedral scheme with DB23's 48-evaluation interpolation). The finest cell holds one
+        # facet on average (base_area 1 / N), as in DB23's renderer, unless given.
+        base_scheme, options = IMAGE_CONFIGS[scheme]
+        kw = {**options, **scheme_params}
+        kw.setdefault("base_area", 1.0 / self.density)
+        self.counter = aniso_counter(base_scheme, inner=inner, **kw)
         self.params = {"density": self.density, "target": target, "alpha": self.alpha, "scheme": scheme,
                        "inner": inner if isinstance(inner, str) else getattr(inner, "name", repr(inner)),
                        "R": R, "angular_resolution": ares, **scheme_params}

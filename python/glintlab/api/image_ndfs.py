@@ -9,8 +9,10 @@ the NDF term per pixel (shape ``uv.shape[:-1]``):
 ``SmoothNDF``    the target D(h) itself (no glints)
 ``FacetNDF``     the ground truth: stratified facets of density N counted one by one in the footprint
                  ellipse (C++, :func:`facet_counts`), D_P = (D(n) / R) K / (N P) (DB23 eq. 4-6)
-``CountedNDF``   a grid scheme with an inner counting law (DB23 trilinear or tetrahedral, ZK16): the same
-                 D_P with K from ``AnisoCounter.count_image``
+
+A grid scheme with an inner counting law (DB23 trilinear or tetrahedral, ZK16) is the same D_P with K from
+``AnisoCounter.count_image``: ``glinty_ndf("db23", scheme=..., inner=...)`` (``glintlab.api.glinty_ndf``),
+with ``angular_resolution = 1 / angular_texel``.
 
 Counting methods share DB23's success probability p = min(R D(h) / D(n), 1) and the angular texel of a
 pixel, ``floor(slope / angular_texel)`` with slope (h_x / h_z, h_y / h_z): a facet's reflection uniform
@@ -31,7 +33,6 @@ import numpy as np
 
 from .. import _core
 from . import checks as V
-from .grids import configured_counter
 from .ndf import ndf as get_ndf
 
 FACET_STATUS = {0: "ok", 1: "degenerate", 2: "non_finite", 4: "too_large"}
@@ -154,28 +155,3 @@ class FacetNDF(_CountingNDF):
     def counts(self, uv, J, p, slope, seed):
         """K per pixel (see :func:`facet_counts`)."""
         return facet_counts(uv, J, p, self.density, slope, seed, self.max_cells)[0]
-
-
-class CountedNDF(_CountingNDF):
-    """A grid scheme configuration (a label of ``grids.IMAGE_CONFIGS``: "db23_trilinear",
-    "db23_tetrahedral", "zk16_aniso", ...) counted with the inner law ``inner`` ("gated", "binomial",
-    "head_cf", "zk16", ...) on the grids of ``seed`` (``AnisoCounter.count_image``)."""
-
-    def __init__(self, density, target: str = "beckmann", alpha: float = 0.5, scheme: str = "db23_trilinear",
-                 inner: str = "binomial", R: float = 0.5, angular_texel: float = 0.05):
-        super().__init__(density, target, alpha, R, angular_texel)
-        if not isinstance(scheme, str):
-            V.fail("scheme", scheme, "a grid scheme configuration name (str)")
-        self.scheme, self.inner = scheme, inner
-        try:
-            self.counter = configured_counter(scheme, inner, self.density)
-        except KeyError:
-            V.fail("scheme", scheme, "one of the grid scheme configurations of glintlab.api.grids.IMAGE_CONFIGS")
-
-    def __repr__(self):
-        return (f"CountedNDF(density={self.density:g}, {self.target!r}, alpha={self.alpha:g}, "
-                f"scheme={self.scheme!r}, inner={self.inner!r})")
-
-    def counts(self, uv, J, p, slope, seed):
-        """K per pixel from the counter's ``count_image``."""
-        return self.counter.count_image(uv, J, self.density, p, slope=slope, seed=seed).K

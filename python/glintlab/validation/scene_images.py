@@ -27,7 +27,7 @@ import pandas as pd
 
 from ..api import checks as V
 from ..api.glinty_ndf import glinty_ndf
-from ..api.image_ndfs import CountedNDF, FacetNDF, SmoothNDF
+from ..api.image_ndfs import FacetNDF, SmoothNDF
 from ..api.registry import Registry
 from .scene import Scene, _unit
 
@@ -88,8 +88,9 @@ def make_method(name: str, material: Material):
 
 
 def _counted(scheme, inner):
-    return lambda m: CountedNDF(m.density, m.target, m.alpha, scheme=scheme, inner=inner, R=m.R,
-                                angular_texel=m.angular_texel)
+    # DB23's D_P (glinty_ndf "db23") on the scheme's counts, with the scene's angular texel.
+    return lambda m: glinty_ndf("db23", density=m.density, target=m.target, alpha=m.alpha, scheme=scheme, inner=inner,
+                                R=m.R, angular_resolution=1.0 / m.angular_texel)
 
 
 register_image_method("truth", lambda m: FacetNDF(m.density, m.target, m.alpha, R=m.R, angular_texel=m.angular_texel),
