@@ -7,6 +7,7 @@
 
 namespace glintlab::bindings {
 
-// Nothing yet: topics add their declarations here, e.g. void bind_shaders(pybind11::module_& m);
+// Shader laws: the Vulkan runner (bindings/shaders.cpp).
+void bind_shaders(pybind11::module_& m);
 
 }  // namespace glintlab::bindings

@@ -140,6 +140,7 @@ PYBIND11_MODULE(_core, m) {
   // Experiment and bounds documents (validation/documents.hpp): the normalized document as JSON text;
   // bad input raises InputError (a ValueError) "<source>: at <pointer>: expected ..., got ...".
   py::register_exception<validation::InputError>(m, "InputError", PyExc_ValueError);
+  glintlab::bindings::bind_shaders(m);
   m.def("parse_document", [](const std::string& kind, std::string_view text, const std::string& source) {
     return validation::parse_document(kind, text, source).dump();
   }, py::arg("kind"), py::arg("text"), py::arg("source"));
