@@ -1,0 +1,198 @@
+"""Shader laws (gl.shader_law): HLSL and GLSL counting functions compiled by shaderc and run by Vulkan
+(lavapipe here and in CI), measured like any law.
+
+Statistical checks use fixed seeds and 10^6 samples; a sampler check passes at p > 1e-4, so over the
+16 sampled checks of this file the false-failure rate is below 16 x 1e-4 = 1.6e-3 (the seeds are fixed:
+a pass is reproducible). Each check is shown to fail on a deliberately wrong shader (K + 1, the gate
+reversed). Row-by-row agreement with the C++ twins allows 1e-4 of the rows to differ by one count: a
+GPU's pow, exp and log may be several ulps from the C++ library's (docs/guide/shaders.md).
+"""
+import concurrent.futures
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import glintlab as gl
+from glintlab.api import shaders as S
+from glintlab.studies.db23_figure9 import FIGURE9_POINTS
+
+pytestmark = pytest.mark.skipif(not S.vulkan_devices(), reason="no Vulkan device (install mesa-vulkan-drivers)")
+
+SAMPLES = 10**6
+P_PASS = 1e-4
+ROW_SHARE = 1e-4  # rows allowed to differ from the C++ twin (by one count at most)
+SHIPPED = [(name, lang) for name in S.SHIPPED for lang in S.LANGUAGES]
+_laws = {}
+
+
+def shipped(name, language, **kw):
+    key = (name, language, tuple(sorted(kw.get("defines", {}).items())))
+    if key not in _laws:
+        suffix = "".join(f"_{k}" for k in kw.get("defines", {}))
+        _laws[key] = gl.shader_law(S.shipped_shader(name, language), name=f"test_{name}_{language}{suffix}", **kw)
+    return _laws[key]
+
+
+def test_devices_and_default_device():
+    devices = gl.vulkan_devices()
+    assert all({"index", "name", "type", "api_version", "driver"} <= set(d) for d in devices)
+    law = shipped("gated", "hlsl")
+    assert law.device in [d["name"] for d in devices]
+    if not any("gpu" in d["type"] for d in devices):  # auto falls back to the CPU device (lavapipe)
+        assert law.device_type == "cpu"
+        with pytest.raises(RuntimeError, match="no Vulkan GPU"):
+            gl.shader_law(S.shipped_shader("gated"), name="test_gpu_refused", device="gpu")
+
+
+def test_uniform_rule_is_the_cpp_rule():
+    """The shader receives exactly uniforms_float32(u): the rule the C++ float32 laws use."""
+    law = gl.shader_law("float count(float n, float p, float4 u) { return u.x + 2.0 * u.y; }",
+                        name="test_shader_uniform_echo", binning="none")
+    u = np.array([[0.0, 1.0], [1.0, 0.0], [0.5, 2.0**-30], [1 - 2.0**-40, 0.3]])
+    u = np.vstack([u, gl.uniforms(1000, 2, seed=3)])
+    got = law.evaluate_raw(1.0, 0.5, u)
+    f = S.uniforms_float32(u)
+    assert np.array_equal(got, (f[:, 0] + np.float32(2) * f[:, 1]).astype(np.float64))
+    assert f.min() >= 2.0**-24 and f.max() <= 1 - 2.0**-24
+
+
+@pytest.mark.parametrize("name,language", SHIPPED)
+@pytest.mark.parametrize("n,p", FIGURE9_POINTS)
+def test_shipped_shader_against_exact_pmf(name, language, n, p):
+    law, twin = shipped(name, language), S.shipped_twin(name)
+    x = law.bin(law.sample(n, p, size=SAMPLES, seed=11))
+    assert gl.chi2_test(x, twin.pmf(n, p)).pvalue > P_PASS
+
+
+POINTS = FIGURE9_POINTS + [(3.5, 0.3), (50, 0.02), (1e5, 0.9)]
+
+
+@pytest.mark.parametrize("name", list(S.SHIPPED))
+def test_shipped_shader_row_by_row_against_cpp_twin(name):
+    law, twin = shipped(name, "hlsl"), S.shipped_twin(name)
+    u = gl.uniforms(200_000, 2, seed=5)
+    for n, p in POINTS:
+        k = law.bin(law.evaluate(n, p, u))
+        c = twin.bin(twin.evaluate(n, p, u, precision="float32"))
+        assert np.mean(k != c) <= ROW_SHARE, (n, p)
+        assert np.abs(k - c).max() <= 1, (n, p)
+
+
+@pytest.mark.parametrize("name", list(S.SHIPPED))
+def test_hlsl_and_glsl_agree_row_by_row(name):
+    u = gl.uniforms(200_000, 2, seed=6)
+    for n, p in POINTS:
+        assert np.array_equal(shipped(name, "hlsl").evaluate(n, p, u), shipped(name, "glsl").evaluate(n, p, u))
+
+
+@pytest.mark.parametrize("bug", ["GATED_BUG_PLUS_ONE", "GATED_BUG_REVERSED_GATE"])
+def test_deliberate_bugs_are_rejected(bug):
+    law, twin = shipped("gated", "hlsl", defines={bug: 1}), S.shipped_twin("gated")
+    u = gl.uniforms(200_000, 2, seed=5)
+    for n, p in FIGURE9_POINTS:
+        assert gl.chi2_test(law.bin(law.sample(n, p, size=SAMPLES, seed=11)), twin.pmf(n, p)).pvalue < 1e-10
+        k, c = law.bin(law.evaluate(n, p, u)), twin.bin(twin.evaluate(n, p, u, precision="float32"))
+        assert np.mean(k != c) > 0.001
+
+
+def test_same_output_across_runs_threads_and_python_threads():
+    law = shipped("head_cf", "glsl")
+    a = law.sample(1000, 0.002, size=300_000, seed=3)
+    threads = gl.get_num_threads()
+    try:
+        gl.set_num_threads(1)
+        b = law.sample(1000, 0.002, size=300_000, seed=3)
+    finally:
+        gl.set_num_threads(threads)
+    assert np.array_equal(a, b)
+    with concurrent.futures.ThreadPoolExecutor(4) as pool:  # calls on one device queue up
+        runs = list(pool.map(lambda s: law.sample(1000, 0.002, size=100_000, seed=s), [3, 4, 3, 4]))
+    assert np.array_equal(runs[0], a[:100_000]) and np.array_equal(runs[0], runs[2])
+    assert np.array_equal(runs[1], runs[3]) and not np.array_equal(runs[0], runs[1])
+
+
+def test_pickles_by_value():
+    law = shipped("gated", "glsl")
+    back = pickle.loads(pickle.dumps(law))
+    assert back.identity == law.identity and back.device == law.device
+    assert np.array_equal(back.sample(8, 0.1, size=1000, seed=2), law.sample(8, 0.1, size=1000, seed=2))
+
+
+def test_includes_and_defines(tmp_path):
+    (tmp_path / "inc").mkdir()
+    (tmp_path / "inc" / "lib.hlsli").write_text("float scaled(float x) { return SCALE * x; }\n")
+    (tmp_path / "near.hlsli").write_text('#include "lib.hlsli"\n')
+    src = tmp_path / "mine.hlsl"
+    src.write_text('#include "near.hlsli"\nfloat count(float n, float p, float4 u) { return scaled(n * p); }\n')
+    law = gl.shader_law(src, include_dirs=[tmp_path / "inc"], defines={"SCALE": 3}, name="test_shader_inc",
+                        binning="none")
+    assert law.evaluate(10, 0.5, [[0.1, 0.2]])[0] == 15.0
+    with pytest.raises(ValueError, match="lib.hlsli"):
+        gl.shader_law(src, defines={"SCALE": 3}, name="test_shader_inc2")
+
+
+def test_compile_error_names_file_and_line(tmp_path):
+    src = tmp_path / "broken.glsl"
+    src.write_text("// a comment\nfloat count(float n, float p, vec4 u) {\n  return n * p +;\n}\n")
+    with pytest.raises(ValueError, match=r"broken\.glsl:3: error") as e:
+        gl.shader_law(src, name="test_shader_broken")
+    assert "does not compile" in str(e.value)
+
+
+@pytest.mark.parametrize("language,code,expected", [
+    ("hlsl", "float count(float n, float p) { return n * p; }", "float count(float n, float p, float4 u)"),
+    ("glsl", "float count(float n, float p, vec4 u) { return n; }", "float mycount(float n, float p, vec4 u)"),
+])
+def test_wrong_signature_shows_the_expected_one(language, code, expected):
+    entry = expected.split("(")[0].split()[-1]
+    with pytest.raises(ValueError, match="expected signature") as e:
+        gl.shader_law(code, language=language, entry=entry, name="test_shader_signature")
+    assert expected in str(e.value)
+
+
+def test_bad_arguments():
+    for kwargs, match in [({"language": "cuda"}, "language"), ({"n_uniforms": 5}, "n_uniforms"),
+                          ({"entry": "not a name"}, "entry"), ({"device": "no such device"}, "device"),
+                          ({"timeout": 0}, "timeout"), ({"name": "gated"}, "name")]:
+        with pytest.raises(ValueError, match=match):
+            gl.shader_law(S.shipped_shader("gated"), **kwargs)
+    with pytest.raises(ValueError, match="source"):
+        gl.shader_law("missing_file.hlsl")
+
+
+def test_nan_and_negative_counts_are_errors():
+    nan = gl.shader_law("float count(float n, float p, float4 u) { return u.x < 0.5 ? log(u.x - 2.0) : 1.0; }",
+                        name="test_shader_nan")
+    with pytest.raises(ValueError, match="counts must be finite"):
+        nan.sample(10, 0.5, size=100, seed=1)
+    assert np.isnan(nan.evaluate_raw(10, 0.5, [[0.25, 0.5]])[0])
+    neg = gl.shader_law("float count(float n, float p, float4 u) { return -n * p; }", name="test_shader_neg")
+    with pytest.raises(ValueError, match=">= 0"):
+        neg.sample(10, 0.5, size=10, seed=1)
+
+
+def test_timeout_is_an_error_and_the_device_recovers():
+    slow = gl.shader_law(textwrap.dedent("""
+        float count(float n, float p, float4 u) {
+            float acc = u.x;
+            for (int i = 0; i < int(n); ++i) acc = frac(acc * 1.37 + p);
+            return acc;
+        }"""), name="test_shader_slow", timeout=0.02)
+    with pytest.raises(TimeoutError, match="timeout"):
+        slow.evaluate_raw(3e8, 0.5, np.full((64, 2), 0.5))
+    law = shipped("gated", "hlsl")  # queued behind the slow kernel, then served
+    assert law.evaluate(8, 0.1, [[0.01, 0.5]])[0] >= 1
+
+
+def test_no_device_names_the_package():
+    code = ("import glintlab as gl\ntry:\n    gl.shader_law('float count(float n, float p, float4 u) { return n; }')\n"
+            "except RuntimeError as e:\n    print(e)\n")
+    env = {**os.environ, "VK_ICD_FILENAMES": "/nonexistent.json", "VK_DRIVER_FILES": "/nonexistent.json"}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert "mesa-vulkan-drivers" in r.stdout, r.stdout + r.stderr
