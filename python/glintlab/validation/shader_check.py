@@ -84,6 +84,9 @@ def row_table(law, twin, points=None, rows: int = 10**6, seed: int = 5) -> pd.Da
     that differ (raw output and binned count) and the largest |dK| of each; ok when at most
     ``ROW_SHARE`` of the binned rows differ, by one count at most."""
     law, twin = _law(law), _law(twin)
+    if twin.n_uniforms != law.n_uniforms:
+        raise ValueError(f"twin = {twin.name!r} reads {twin.n_uniforms} uniforms and the shader {law.n_uniforms}; "
+                         "expected a twin reading the same uniforms (row-by-row comparison)")
     points = points or ROW_POINTS
     u = uniforms(rows, law.n_uniforms, seed=seed)
     out = []
@@ -112,6 +115,7 @@ def speed_table(law, baseline, n=1000.0, p=0.002, evaluations: int = 10**6, repe
     ``repeats``; ``ratio`` = shader / baseline."""
     law, baseline = _law(law), _law(baseline)
     u = uniforms(evaluations, law.n_uniforms, seed=9)
+    ub = u if baseline.n_uniforms == law.n_uniforms else uniforms(evaluations, baseline.n_uniforms, seed=9)
     law.evaluate(n, p, u[:1024])  # the first call pays for the device's start
 
     def best(fn):
@@ -123,7 +127,7 @@ def speed_table(law, baseline, n=1000.0, p=0.002, evaluations: int = 10**6, repe
         return min(times) / evaluations * 1e9
 
     shader_ns = best(lambda: law.evaluate(n, p, u))
-    base_ns = best(lambda: baseline.evaluate(n, p, u, precision="float32"))
+    base_ns = best(lambda: baseline.evaluate(n, p, ub, precision="float32"))
     return pd.DataFrame([dict(device=getattr(law, "device", ""), n=n, p=p, evaluations=evaluations,
                               shader_ns=shader_ns, baseline=baseline.name, baseline_ns=base_ns,
                               ratio=shader_ns / base_ns)])
