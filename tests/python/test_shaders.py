@@ -8,6 +8,8 @@ reversed). Row-by-row agreement with the C++ twins allows 1e-4 of the rows to di
 GPU's pow, exp and log may be several ulps from the C++ library's (docs/guide/shaders.md).
 """
 import concurrent.futures
+import functools
+import json
 import os
 import pickle
 import subprocess
@@ -18,12 +20,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from glintlab.api.plugins import CUSTOM_LAWS
+from glintlab.cli.main import main
+
 import glintlab as gl
 from glintlab.api import shaders as S
 from glintlab.studies.db23_figure9 import FIGURE9_POINTS
 
 pytestmark = pytest.mark.skipif(not S.vulkan_devices(), reason="no Vulkan device (install mesa-vulkan-drivers)")
 
+# Not registered by name: the laws of this file stay out of gl.laws() for the other test files.
+shader_law = functools.partial(gl.shader_law, register=False)
 SAMPLES = 10**6
 P_PASS = 1e-4
 ROW_SHARE = 1e-4  # rows allowed to differ from the C++ twin (by one count at most)
@@ -35,7 +42,7 @@ def shipped(name, language, **kw):
     key = (name, language, tuple(sorted(kw.get("defines", {}).items())))
     if key not in _laws:
         suffix = "".join(f"_{k}" for k in kw.get("defines", {}))
-        _laws[key] = gl.shader_law(S.shipped_shader(name, language), name=f"test_{name}_{language}{suffix}", **kw)
+        _laws[key] = shader_law(S.shipped_shader(name, language), name=f"test_{name}_{language}{suffix}", **kw)
     return _laws[key]
 
 
@@ -47,12 +54,12 @@ def test_devices_and_default_device():
     if not any("gpu" in d["type"] for d in devices):  # auto falls back to the CPU device (lavapipe)
         assert law.device_type == "cpu"
         with pytest.raises(RuntimeError, match="no Vulkan GPU"):
-            gl.shader_law(S.shipped_shader("gated"), name="test_gpu_refused", device="gpu")
+            shader_law(S.shipped_shader("gated"), name="test_gpu_refused", device="gpu")
 
 
 def test_uniform_rule_is_the_cpp_rule():
     """The shader receives exactly uniforms_float32(u): the rule the C++ float32 laws use."""
-    law = gl.shader_law("float count(float n, float p, float4 u) { return u.x + 2.0 * u.y; }",
+    law = shader_law("float count(float n, float p, float4 u) { return u.x + 2.0 * u.y; }",
                         name="test_shader_uniform_echo", binning="none")
     u = np.array([[0.0, 1.0], [1.0, 0.0], [0.5, 2.0**-30], [1 - 2.0**-40, 0.3]])
     u = np.vstack([u, gl.uniforms(1000, 2, seed=3)])
@@ -135,18 +142,18 @@ def test_includes_and_defines(tmp_path):
     (tmp_path / "near.hlsli").write_text('#include "lib.hlsli"\n')
     src = tmp_path / "mine.hlsl"
     src.write_text('#include "near.hlsli"\nfloat count(float n, float p, float4 u) { return scaled(n * p); }\n')
-    law = gl.shader_law(src, include_dirs=[tmp_path / "inc"], defines={"SCALE": 3}, name="test_shader_inc",
+    law = shader_law(src, include_dirs=[tmp_path / "inc"], defines={"SCALE": 3}, name="test_shader_inc",
                         binning="none")
     assert law.evaluate(10, 0.5, [[0.1, 0.2]])[0] == 15.0
     with pytest.raises(ValueError, match="lib.hlsli"):
-        gl.shader_law(src, defines={"SCALE": 3}, name="test_shader_inc2")
+        shader_law(src, defines={"SCALE": 3}, name="test_shader_inc2")
 
 
 def test_compile_error_names_file_and_line(tmp_path):
     src = tmp_path / "broken.glsl"
     src.write_text("// a comment\nfloat count(float n, float p, vec4 u) {\n  return n * p +;\n}\n")
     with pytest.raises(ValueError, match=r"broken\.glsl:3: error") as e:
-        gl.shader_law(src, name="test_shader_broken")
+        shader_law(src, name="test_shader_broken")
     assert "does not compile" in str(e.value)
 
 
@@ -157,7 +164,7 @@ def test_compile_error_names_file_and_line(tmp_path):
 def test_wrong_signature_shows_the_expected_one(language, code, expected):
     entry = expected.split("(")[0].split()[-1]
     with pytest.raises(ValueError, match="expected signature") as e:
-        gl.shader_law(code, language=language, entry=entry, name="test_shader_signature")
+        shader_law(code, language=language, entry=entry, name="test_shader_signature")
     assert expected in str(e.value)
 
 
@@ -166,18 +173,18 @@ def test_bad_arguments():
                           ({"entry": "not a name"}, "entry"), ({"device": "no such device"}, "device"),
                           ({"timeout": 0}, "timeout"), ({"name": "gated"}, "name")]:
         with pytest.raises(ValueError, match=match):
-            gl.shader_law(S.shipped_shader("gated"), **kwargs)
+            shader_law(S.shipped_shader("gated"), **kwargs)
     with pytest.raises(ValueError, match="source"):
-        gl.shader_law("missing_file.hlsl")
+        shader_law("missing_file.hlsl")
 
 
 def test_nan_and_negative_counts_are_errors():
-    nan = gl.shader_law("float count(float n, float p, float4 u) { return u.x < 0.5 ? log(u.x - 2.0) : 1.0; }",
+    nan = shader_law("float count(float n, float p, float4 u) { return u.x < 0.5 ? log(u.x - 2.0) : 1.0; }",
                         name="test_shader_nan")
     with pytest.raises(ValueError, match="counts must be finite"):
         nan.sample(10, 0.5, size=100, seed=1)
     assert np.isnan(nan.evaluate_raw(10, 0.5, [[0.25, 0.5]])[0])
-    neg = gl.shader_law("float count(float n, float p, float4 u) { return -n * p; }", name="test_shader_neg")
+    neg = shader_law("float count(float n, float p, float4 u) { return -n * p; }", name="test_shader_neg")
     with pytest.raises(ValueError, match=">= 0"):
         neg.sample(10, 0.5, size=10, seed=1)
 
@@ -185,7 +192,7 @@ def test_nan_and_negative_counts_are_errors():
 def test_timeout_is_an_error_and_the_device_recovers():
     # lavapipe cuts every loop at 65535 iterations (below), so the slow kernel is slow by its rows:
     # 5000 rows of 60000 sin each, about 1 s here, against a timeout of 0.05 s.
-    slow = gl.shader_law(textwrap.dedent("""
+    slow = shader_law(textwrap.dedent("""
         float count(float n, float p, float4 u) {
             float acc = u.x;
             for (int i = 0; i < int(n); ++i) acc = sin(acc * 1.0001 + float(i) * 1e-7 + p);
@@ -200,7 +207,7 @@ def test_timeout_is_an_error_and_the_device_recovers():
 def test_lavapipe_cuts_loops_at_65535_iterations():
     """A property of the device, not of glintlab (docs/guide/shaders.md): llvmpipe stops any loop after
     65535 iterations, so a counting loop (zk16's Bernoulli trials) returns too small a count there."""
-    law = gl.shader_law("float count(float n, float p, float4 u) { float k = 0.0; "
+    law = shader_law("float count(float n, float p, float4 u) { float k = 0.0; "
                         "for (int i = 0; i < int(n); ++i) k += 1.0; return k; }", name="test_shader_loop",
                         binning="none")
     got = law.evaluate_raw(np.array([10.0, 65535.0, 1e5]), 0.5, np.full((3, 2), 0.5))
@@ -216,3 +223,35 @@ def test_no_device_names_the_package():
     env = {**os.environ, "VK_ICD_FILENAMES": "/nonexistent.json", "VK_DRIVER_FILES": "/nonexistent.json"}
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert "mesa-vulkan-drivers" in r.stdout, r.stdout + r.stderr
+
+
+def test_registered_by_name_and_usable_in_an_experiment(tmp_path):
+    src = tmp_path / "hc.glsl"
+    src.write_text(S.shipped_shader("head_cf", "glsl").read_text())
+    doc = tmp_path / "e.json"
+    doc.write_text(json.dumps({"name": "shader_exp", "laws": [{"shader": "hc.glsl", "name": "test_shader_exp"}],
+                               "grid": {"n": [8, 1000], "p": [0.1]}, "metrics": ["tv"], "samples": 200_000,
+                               "outputs": {"plots": False, "csv": False, "json": False}}))
+    try:
+        table = gl.run_experiment(doc, out=tmp_path / "out").table
+        assert isinstance(gl.law("test_shader_exp"), gl.ShaderLaw)
+    finally:
+        CUSTOM_LAWS._items.pop("test_shader_exp", None)  # keep gl.laws() of the other test files
+    assert list(table.law) == ["test_shader_exp"] * 2 and (table.tv < 0.02).all()
+
+
+def test_cli_verdicts(tmp_path, capsys):
+    good = ["shader", str(S.shipped_shader("gated")), "--samples", "200000", "--grid-samples", "512",
+            "--grid-stride", "12", "--quiet"]
+    assert main(good + ["--against", "gated_shader", "--twin", "gated_shader", "--out", str(tmp_path / "a")]) == 0
+    summary = json.loads((tmp_path / "a" / "verdict.json").read_text())
+    assert summary["passed"] and summary["rows_binned_differ_max"] <= 1e-3 and summary["ratio"] > 0
+    assert (tmp_path / "a" / "tv_map.png").stat().st_size > 10_000
+    bug = good + ["-D", "GATED_BUG_PLUS_ONE=1", "--against", "gated_shader", "--twin", "gated_shader"]
+    assert main(bug + ["--out", str(tmp_path / "b")]) == 1
+    assert "FAIL" in capsys.readouterr().err
+    broken = tmp_path / "broken.hlsl"
+    broken.write_text("float count(float n, float p, float4 u) {\n  return n *;\n}\n")
+    assert main(["shader", str(broken), "--quiet", "--out", str(tmp_path / "c")]) == 2
+    assert "broken.hlsl:2: error" in capsys.readouterr().err
+    assert main(good + ["--against", "no_such_law", "--out", str(tmp_path / "d")]) == 2

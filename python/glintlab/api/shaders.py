@@ -158,7 +158,7 @@ class ShaderLaw(CustomLaw):
 
 def shader_law(source, entry: str = "count", language: str | None = None, n_uniforms: int = 2,
                name: str | None = None, defines: dict | None = None, include_dirs=(), device: str = "auto",
-               binning: str = "round", timeout: float = DEFAULT_TIMEOUT_S) -> ShaderLaw:
+               binning: str = "round", timeout: float = DEFAULT_TIMEOUT_S, register: bool = True) -> ShaderLaw:
     """A counting law computed by a shader function, compiled by shaderc and run by Vulkan.
 
     ``source``: a file path (``.hlsl``, ``.glsl``, ...) or the code as a string. The code defines
@@ -170,8 +170,8 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
     outputs, round half up, as the built-in real-valued laws) or "none" (the shader returns integer
     counts). ``timeout``: seconds a submission may run before a ``TimeoutError``.
 
-    The law is registered as a custom law under ``name`` (default: the file's name, e.g.
-    "gated.hlsl", or "shader"), so
+    Unless ``register`` is False, the law is registered as a custom law under ``name`` (default: the
+    file's name, e.g. "gated.hlsl", or "shader"), so
     experiments, sweeps and bounds can name it. A shader that does not compile raises ``ValueError``
     with the compiler's messages (file:line); no Vulkan device raises ``RuntimeError`` naming the
     package to install.
@@ -207,5 +207,6 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
             "include_dirs": [str(d) for d in include_dirs], "device": device, "binning": binning,
             "timeout": float(timeout)}
     law_ = ShaderLaw(spec)
-    CUSTOM_LAWS.register(name, law_, replace=True)
+    if register:
+        CUSTOM_LAWS.register(name, law_, replace=True)
     return law_
