@@ -2,8 +2,8 @@
 (lavapipe here and in CI), measured like any law.
 
 Statistical checks use fixed seeds and 10^6 samples; a sampler check passes at p > 1e-4, so over the
-16 sampled checks of this file the false-failure rate is below 16 x 1e-4 = 1.6e-3 (the seeds are fixed:
-a pass is reproducible). Each check is shown to fail on a deliberately wrong shader (K + 1, the gate
+32 sampled checks of this file (4 shaders x 2 languages x 4 points) the false-failure rate is below
+32 x 1e-4 = 3.2e-3 (the seeds are fixed: a pass is reproducible). Each check is shown to fail on a deliberately wrong shader (K + 1, the gate
 reversed). Row-by-row agreement with the C++ twins allows 1e-4 of the rows to differ by one count: a
 GPU's pow, exp and log may be several ulps from the C++ library's (docs/guide/shaders.md).
 """
@@ -255,3 +255,23 @@ def test_cli_verdicts(tmp_path, capsys):
     assert main(["shader", str(broken), "--quiet", "--out", str(tmp_path / "c")]) == 2
     assert "broken.hlsl:2: error" in capsys.readouterr().err
     assert main(good + ["--against", "no_such_law", "--out", str(tmp_path / "d")]) == 2
+
+
+def test_blends_and_grid_schemes_take_a_shader():
+    """A shader law is an inner law like a custom one: a blend and a grid scheme over the head_cf shader
+    give what they give over its C++ twin evaluated in float32 on the same uniforms."""
+    twin = S.shipped_twin("head_cf")
+    emulated = gl.custom_law(lambda n, p, u: twin.evaluate(n, p, u, precision="float32"), n_uniforms=2,
+                             name="test_shader_twin_f32")
+    law = shipped("head_cf", "glsl")
+    n, area = 1e4, 1 / 64
+    P = np.array([0.01, 0.02, 0.05, 0.2])
+    for inner_a, inner_b in ((law, emulated),):
+        a = gl.blended_law("distributed", inner=inner_a, base_area=area).sample(n, P, 0.3, size=4, seed=8)
+        b = gl.blended_law("distributed", inner=inner_b, base_area=area).sample(n, P, 0.3, size=4, seed=8)
+        assert np.array_equal(a, b) and a.sum() > 0
+        c = gl.aniso_counter("db23_trilinear", inner=inner_a, base_area=area).sample(n, 50 * area, 3.0, 0.2, 0.1,
+                                                                                     size=100, seed=1)
+        d = gl.aniso_counter("db23_trilinear", inner=inner_b, base_area=area).sample(n, 50 * area, 3.0, 0.2, 0.1,
+                                                                                     size=100, seed=1)
+        assert np.array_equal(c, d) and c.sum() > 0

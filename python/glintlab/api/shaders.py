@@ -10,7 +10,7 @@ The contract the shader meets is one function::
 
 where ``u.x .. u.w`` are the law's uniforms (unused ones are 0). glintlab passes float(n), float(p)
 and its own uniforms (``gl.uniforms``, same seed, same numbers) converted to float32 by the rule of
-``uniforms_float32`` (never 0 or 1), the rule the C++ float32 laws use too: a shader and its C++ twin
+``uniforms_float32`` (glintlab.api.laws; never 0 or 1), the rule the C++ float32 laws use too: a shader and its C++ twin
 compare row by row. See docs/guide/shaders.md.
 """
 from __future__ import annotations
@@ -24,7 +24,7 @@ import numpy as np
 from .. import _core
 from ..resources import data_path
 from . import checks as v
-from .laws import BINNINGS, CustomLaw, _require_finite, _uniform_rows, law
+from .laws import BINNINGS, CustomLaw, _require_finite, _uniform_rows, law, uniforms_float32
 from .plugins import CUSTOM_LAWS
 
 LANGUAGES = ("hlsl", "glsl")
@@ -33,7 +33,8 @@ DEFAULT_TIMEOUT_S = 60.0
 _CHUNK = 1 << 22  # rows handed to the runner at once (the runner submits 2^20 at a time)
 
 # The shipped shaders: name -> the C++ law that is its twin (same arithmetic in float32).
-SHIPPED = {"gated": "gated_shader", "head_cf": "head_cf"}
+SHIPPED = {"gated": "gated_shader", "gated_continuous": "gated_continuous", "dual_gated": "dual_gated",
+           "head_cf": "head_cf"}
 
 
 def vulkan_devices() -> list[dict]:
@@ -44,7 +45,8 @@ def vulkan_devices() -> list[dict]:
 
 
 def shipped_shader(name: str, language: str = "hlsl") -> Path:
-    """The path of a shader glintlab ships (``SHIPPED``: "gated", "head_cf"), in "hlsl" or "glsl"."""
+    """The path of a shader glintlab ships (``SHIPPED``: "gated", "gated_continuous", "dual_gated",
+    "head_cf"), in "hlsl" or "glsl"."""
     if name not in SHIPPED:
         v.fail("name", name, f"a shipped shader among {sorted(SHIPPED)}")
     if language not in LANGUAGES:
@@ -57,15 +59,6 @@ def shipped_twin(name: str):
     if name not in SHIPPED:
         v.fail("name", name, f"a shipped shader among {sorted(SHIPPED)}")
     return law(SHIPPED[name])
-
-
-def uniforms_float32(u) -> np.ndarray:
-    """glintlab's uniforms as a shader receives them: the top 23 bits of u plus half a step,
-    (floor(u 2^23) + 1/2) 2^-23, an exact float32 in [2^-24, 1 - 2^-24] (never 0 or 1). The C++
-    float32 laws and the Vulkan runner apply the same rule."""
-    u = np.asarray(u, dtype=np.float64)
-    k = np.clip(np.floor(u * 2.0**23), 0, 2.0**23 - 1)
-    return ((k + 0.5) / 2.0**23).astype(np.float32)
 
 
 def _read_source(source, language):
