@@ -242,7 +242,7 @@ def test_registered_by_name_and_usable_in_an_experiment(tmp_path):
 
 def test_cli_verdicts(tmp_path, capsys):
     good = ["shader", str(S.shipped_shader("gated")), "--samples", "200000", "--grid-samples", "512",
-            "--grid-stride", "12", "--quiet"]
+            "--grid-stride", "12", "--rows", "100000", "--speed-evaluations", "100000", "--quiet"]
     assert main(good + ["--against", "gated_shader", "--twin", "gated_shader", "--out", str(tmp_path / "a")]) == 0
     summary = json.loads((tmp_path / "a" / "verdict.json").read_text())
     assert summary["passed"] and summary["rows_binned_differ_max"] <= 1e-3 and summary["ratio"] > 0

@@ -198,6 +198,9 @@ def _cmd_extremes(args) -> int:
 
 def _cmd_shader(args) -> int:
     _load_plugins(args.plugin)
+    for flag in ("samples", "grid_samples", "grid_stride", "rows", "speed_evaluations"):
+        if getattr(args, flag) < 1:
+            raise ValueError(f"--{flag.replace('_', '-')} = {getattr(args, flag)} is invalid; expected an integer >= 1")
     defines = {}
     for item in args.define:
         key, sep, value = item.partition("=")
@@ -213,7 +216,8 @@ def _cmd_shader(args) -> int:
     if not args.quiet:
         print(f"{args.file}: compiled ({law.language}, entry {law.entry}); device: {law.device}")
     verdict = shader_verdict(law, against=args.against, twin=args.twin, samples=args.samples,
-                             grid_samples=args.grid_samples, grid_stride=args.grid_stride, seed=args.seed)
+                             grid_samples=args.grid_samples, grid_stride=args.grid_stride, seed=args.seed,
+                             rows=args.rows, speed_evaluations=args.speed_evaluations)
     if args.bounds:
         table = check(args.bounds, substitute={args.against: law, law.name: law}, progress=False)
         verdict["tables"]["bounds"] = table
@@ -415,6 +419,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--samples", type=int, default=10**6, help="draws per Figure 9 point (default: 1e6)")
     p.add_argument("--grid-samples", type=int, default=4096, help="draws per standard-grid point (default: 4096)")
     p.add_argument("--grid-stride", type=int, default=2, help="every k-th n and p of the standard grid (default: 2)")
+    p.add_argument("--rows", type=int, default=10**6, help="rows per point compared with --twin (default: 1e6)")
+    p.add_argument("--speed-evaluations", type=int, default=10**6, help="evaluations per timed call (default: 1e6)")
     p.add_argument("--seed", type=int, default=1)
     common(p, "out/shader")
     p.set_defaults(func=_cmd_shader)

@@ -135,14 +135,14 @@ def speed_table(law, baseline, n=1000.0, p=0.002, evaluations: int = 10**6, repe
 
 def shader_verdict(law, against="binomial", twin=None, samples: int = 10**6, grid_samples: int = 4096,
                    grid_stride: int = 2, seed: int = 1, extremes_samples: int = 256,
-                   speed_evaluations: int = 10**6) -> dict:
+                   speed_evaluations: int = 10**6, rows: int = 10**6) -> dict:
     """Every check above as tables, and ``failures`` (a list of one-line reasons; empty: the shader
     passes)."""
     law = _law(law)
     tables = {"points": point_table(law, against, samples=samples, seed=seed)}
     tables["grid"] = grid_table(law, against, samples=grid_samples, seed=seed, stride=grid_stride)
     if twin is not None:
-        tables["rows"] = row_table(law, twin)
+        tables["rows"] = row_table(law, twin, rows=rows)
     tables["extremes"] = extremes_checks(law, samples=extremes_samples, seed=seed)
     tables["speed"] = speed_table(law, twin if twin is not None else against, evaluations=speed_evaluations)
     failures = []
