@@ -68,7 +68,7 @@ TEST_CASE("shader runner: many rows over several submissions, from several threa
   CHECK(bad == std::vector<std::size_t>{0, 0, 0});
 }
 
-TEST_CASE("shader runner: compile errors name the file and line; a wrong signature shows the expected one",
+TEST_CASE("shader runner: compile errors name the file and line, a wrong signature shows the expected one",
           "[shader]") {
   if (!have_device()) return;
   auto message = [](const KernelSpec& s) {
