@@ -243,13 +243,19 @@ def test_registered_by_name_and_usable_in_an_experiment(tmp_path):
 def test_cli_verdicts(tmp_path, capsys):
     good = ["shader", str(S.shipped_shader("gated")), "--samples", "200000", "--grid-samples", "512",
             "--grid-stride", "12", "--rows", "100000", "--speed-evaluations", "100000", "--quiet"]
+    bounds = tmp_path / "bounds.json"  # a sampled bound (a shader law has no exact pmf), TV to the binomial
+    bounds.write_text(json.dumps({"glintlab": 1, "bounds": [
+        {"id": "tv", "law": "gated_shader", "regime": {"p_range": [0.01, 0.5], "n_range": [8, 1000]},
+         "metric": "tv", "maximum": 0.25, "samples": 20000}]}))
+    good += ["--bounds", str(bounds)]
     assert main(good + ["--against", "gated_shader", "--twin", "gated_shader", "--out", str(tmp_path / "a")]) == 0
     summary = json.loads((tmp_path / "a" / "verdict.json").read_text())
     assert summary["passed"] and summary["rows_binned_differ_max"] <= 1e-3 and summary["ratio"] > 0
     assert (tmp_path / "a" / "tv_map.png").stat().st_size > 10_000
     bug = good + ["-D", "GATED_BUG_PLUS_ONE=1", "--against", "gated_shader", "--twin", "gated_shader"]
     assert main(bug + ["--out", str(tmp_path / "b")]) == 1
-    assert "FAIL" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "FAIL chi-square" in err and "FAIL row by row" in err and "FAIL bound tv" in err
     broken = tmp_path / "broken.hlsl"
     broken.write_text("float count(float n, float p, float4 u) {\n  return n *;\n}\n")
     assert main(["shader", str(broken), "--quiet", "--out", str(tmp_path / "c")]) == 2
