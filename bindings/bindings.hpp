@@ -7,8 +7,8 @@
 
 namespace glintlab::bindings {
 
-// Topics add their declarations here, e.g. void bind_shaders(pybind11::module_& m);
 void bind_scene_images(pybind11::module_& m);  // scene_images.cpp: the glint images' ground truth
 void bind_glinty_ndf(pybind11::module_& m);  // glinty_ndf.cpp: KPT25's glinty NDF
+void bind_shaders(pybind11::module_& m);  // shaders.cpp: shader laws, the Vulkan runner
 
 }  // namespace glintlab::bindings

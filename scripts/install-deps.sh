@@ -19,7 +19,9 @@ PACKAGES=(
   # clang's OpenMP, which the top-level CMakeLists needs when configured with clang
   clang libclang-rt-14-dev libomp-dev
   # shader laws: shaderc compiles HLSL/GLSL to SPIR-V in-process, the Vulkan loader, and lavapipe
-  # (mesa-vulkan-drivers) as the headless CPU device every machine has; spirv-tools for disassembly
+  # (mesa-vulkan-drivers) as the headless CPU device every machine has; spirv-tools and glslang-dev (a
+  # dependency of libshaderc-dev) for their static libraries, which glintlab_shader links: Debian 12's
+  # libshaderc.so.1 does not load against its own libSPIRV-Tools
   libshaderc-dev libvulkan-dev mesa-vulkan-drivers spirv-tools glslang-tools
   # SIMD math for the per-sample paths: SLEEF (vector exp/log/expm1/log1p) and Highway (dispatch)
   libsleef-dev libhwy-dev

@@ -20,6 +20,7 @@ from .api.laws import (CustomLaw, Law, custom_law, law, law_label, law_summaries
 from .api.metrics import METRICS, chi2_test, chi2_test_two_sample, distance, sidak_alpha
 from .api.ndf import NDF, ndf
 from .api.plugins import load_plugin, loaded_plugins
+from .api.shaders import ShaderLaw, shader_law, shipped_shader, vulkan_devices
 from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 from .report.html import write_extremes_report
 from .validation.advisor import Advice, advise
@@ -53,4 +54,5 @@ __all__ = [
     "custom_law", "law_label", "law_traits", "law_variants", "parse_law_label", "distance", "error_table", "extremes_summary", "extremes_table", "invalid_inputs_table",
     "write_extremes_report", "get_num_threads", "law", "law_summaries", "laws", "poisson",
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
+    "ShaderLaw", "shader_law", "shipped_shader", "vulkan_devices",
 ]

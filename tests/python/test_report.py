@@ -46,7 +46,7 @@ def test_every_configured_section_ran_and_wrote_its_figures(quick_report):
     for fig in summary["figures"]:
         assert (out / fig).stat().st_size > 10_000, fig  # a real plot, not an empty canvas
     for table in ("exact_laws", "sampler_checks", "speed_accuracy", "wwh18_threshold", "db23_figure13_summary",
-                  "roulette_vs_linear", "extremes_summary", "bounds_check"):
+                  "roulette_vs_linear", "extremes_summary", "bounds_check", "shaders_as_they_run"):
         assert summary["tables"][table] and (out / f"{table}.csv").stat().st_size > 0, table
     trade = {row["law"]: row for row in summary["tables"]["speed_accuracy"]}
     assert trade["binomial"]["tv_max"] < 1e-12 and trade["head_cf"]["tv_max"] < 0.01
@@ -179,7 +179,7 @@ def test_readme_says_what_each_figure_means():
 def test_sections_are_the_discovered_studies():
     # Every study module of glintlab.studies is a section; the default configuration runs each once and
     # only names them (parameters and quick sizes live in the study modules).
-    assert len(SECTIONS) == 16
+    assert len(SECTIONS) == 17
     doc, _ = load_config(None)
     assert sorted(e["name"] for e in doc["sections"]) == sorted(SECTIONS.names())
     assert all(set(e) == {"name"} for e in doc["sections"])

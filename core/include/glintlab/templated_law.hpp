@@ -7,12 +7,14 @@
 //     ...
 //   };
 //
-// float32 evaluation rounds n, p and the uniforms to float first, as a shader that receives them
-// as floats would (a uniform within 2^-25 of 1 becomes 1.0f: part of what float32 changes).
+// float32 evaluation rounds n and p to float first, as a shader that receives them as floats would,
+// and turns the uniforms into floats by the rule of float32.hpp (never 0 or 1), the rule the Vulkan
+// shader runner applies too, so that a shader and its C++ twin compare row by row.
 #pragma once
 
 #include <array>
 
+#include "glintlab/float32.hpp"
 #include "glintlab/law.hpp"
 
 namespace glintlab {
@@ -27,7 +29,7 @@ class TemplatedLaw : public CountingLaw {
   }
   double evaluate_f32(double n, double p, const double* u) const override {
     std::array<float, kMaxTemplatedUniforms> uf{};
-    for (int i = 0; i < n_uniforms(); ++i) uf[static_cast<std::size_t>(i)] = static_cast<float>(u[i]);
+    for (int i = 0; i < n_uniforms(); ++i) uf[static_cast<std::size_t>(i)] = uniform_to_float(u[i]);
     return static_cast<double>(
         self().template eval<float>(static_cast<float>(n), static_cast<float>(p), uf.data()));
   }

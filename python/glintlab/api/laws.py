@@ -249,8 +249,8 @@ class CustomLaw(Law):
         m = u.shape[0]
         n_rows = np.broadcast_to(nf, (m,)) if nf.size == 1 else nf
         p_rows = np.broadcast_to(pf, (m,)) if pf.size == 1 else pf
-        if precision == "float32":  # the function sees float32 inputs, as a shader would
-            n_rows, p_rows, u = n_rows.astype(np.float32), p_rows.astype(np.float32), u.astype(np.float32)
+        if precision == "float32":  # the function sees float32 inputs, as a shader would (uniforms_float32)
+            n_rows, p_rows, u = n_rows.astype(np.float32), p_rows.astype(np.float32), uniforms_float32(u)
         try:
             out = np.asarray(self._fn(n_rows, p_rows, u), dtype=np.float64)
         except Exception as exc:
@@ -461,6 +461,16 @@ def uniforms(size: int, n_uniforms: int, seed=0, start: int = 0) -> np.ndarray:
     if isinstance(start, bool) or not isinstance(start, (int, np.integer)) or start < 0:
         v.fail("start", start, "an integer >= 0")
     return _core.uniforms(int(start), shape[0], int(n_uniforms), v.seed(seed), 0)
+
+
+def uniforms_float32(u) -> np.ndarray:
+    """glintlab's uniforms as a shader receives them: the top 23 bits of u plus half a step,
+    (floor(u 2^23) + 1/2) 2^-23, an exact float32 in [2^-24, 1 - 2^-24] (never 0 or 1). The C++
+    float32 laws, custom laws in float32 and the Vulkan runner of shader laws apply this one rule
+    (docs/math/laws.md#float32-uniforms)."""
+    u = np.asarray(u, dtype=np.float64)
+    k = np.clip(np.floor(u * 2.0**23), 0, 2.0**23 - 1)
+    return ((k + 0.5) / 2.0**23).astype(np.float32)
 
 
 def _precision(value):

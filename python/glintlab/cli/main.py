@@ -3,7 +3,7 @@
 Subcommands: laws, run (one experiment), sweep (an experiment from flags), check (error bounds),
 bench (speed against accuracy), extremes (numerical extremes of every law), aniso (anisotropic grids
 against the ground truth), profile and advise (scenes), images (glint images of scenes and their
-flicker), report (the main job).
+flicker), shader (a shader's counting function run on Vulkan: verdict and report), report (the main job).
 """
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ import pandas as pd
 from .._core import __version__
 from ..api.laws import law_summaries, parse_law_label
 from ..api.plugins import load_plugin
+from ..api.shaders import shader_law
 from ..report.config import load_config as load_report_config
 from ..report.html import write_extremes_report
 from ..report.runner import print_summary as print_report_summary
@@ -29,6 +30,7 @@ from ..resources import data_path
 from ..studies.aniso import write_report as write_aniso_report
 from ..studies.scene_images import write_images
 from ..studies.scenes import write_profiles
+from ..studies.shaders import write_verdict
 from ..studies.speed_accuracy import write_bench
 from ..validation.advisor import advice_table, advise
 from ..validation.bench import speed_accuracy
@@ -38,6 +40,7 @@ from ..validation.extremes import extremes_summary, extremes_table, invalid_inpu
 from ..validation.profile import profile_scene
 from ..validation.references import resolve_law
 from ..validation.scene import load_scene
+from ..validation.shader_check import shader_verdict
 
 
 def _cmd_laws(args) -> int:
@@ -274,6 +277,47 @@ def _cmd_extremes(args) -> int:
     return 1 if (failures and args.strict) else 0
 
 
+def _cmd_shader(args) -> int:
+    _load_plugins(args.plugin)
+    for flag in ("samples", "grid_samples", "grid_stride", "rows", "speed_evaluations"):
+        if getattr(args, flag) < 1:
+            raise ValueError(f"--{flag.replace('_', '-')} = {getattr(args, flag)} is invalid; expected an integer >= 1")
+    defines = {}
+    for item in args.define:
+        key, sep, value = item.partition("=")
+        defines[key] = value if sep else "1"
+    try:
+        law = shader_law(args.file, entry=args.entry, language=args.lang, n_uniforms=args.uniforms,
+                         defines=defines, include_dirs=args.include, device=args.device)
+    except RuntimeError as exc:  # no Vulkan device: the environment, not the shader
+        print(f"glintlab shader: {exc}", file=sys.stderr)
+        return 2
+    for name in [args.against] + ([args.twin] if args.twin else []):
+        resolve_law(name)  # an unknown law is bad input (exit 2) before any measurement
+    if not args.quiet:
+        print(f"{args.file}: compiled ({law.language}, entry {law.entry}); device: {law.device}")
+    verdict = shader_verdict(law, against=args.against, twin=args.twin, samples=args.samples,
+                             grid_samples=args.grid_samples, grid_stride=args.grid_stride, seed=args.seed,
+                             rows=args.rows, speed_evaluations=args.speed_evaluations)
+    if args.bounds:
+        table = check(args.bounds, substitute={args.against: law, law.name: law}, progress=False)
+        verdict["tables"]["bounds"] = table
+        verdict["failures"] += [f"bound {r.id}: {r.metric} = {r.worst:.6g} at n = {r.at_n:g}, p = {r.at_p:g} "
+                                f"(bound {r.bound:.6g})" for r in table[~table.ok].itertuples()]
+    path = write_verdict(args.out, verdict, law, args.against, args.twin)
+    if not args.quiet:
+        _print_table(verdict["tables"]["points"], False)
+        if "rows" in verdict["tables"]:
+            _print_table(verdict["tables"]["rows"], False)
+        _print_table(verdict["tables"]["speed"], False)
+        print(f"\nwrote {path}")
+    for failure in verdict["failures"]:
+        print(f"glintlab shader: FAIL {failure}", file=sys.stderr)
+    if not args.quiet:
+        print("verdict: " + ("FAIL" if verdict["failures"] else f"pass (against {args.against})"))
+    return 1 if verdict["failures"] else 0
+
+
 def _cmd_aniso(args) -> int:
     paths, tables = write_aniso_report(args.out, full=args.full, samples=args.samples, seed=args.seed,
                                  image=not args.no_image)
@@ -455,6 +499,32 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--strict", action="store_true", help="exit 1 if any check fails")
     common(p, "out/extremes")
     p.set_defaults(func=_cmd_extremes)
+
+    p = sub.add_parser("shader", help="a shader's counting function run on Vulkan: verdict (exit 0/1/2) and report",
+                       description="Compiles FILE (HLSL or GLSL defining float ENTRY(float n, float p, float4 u)) "
+                                   "inside glintlab's compute kernel, runs it on a Vulkan device (lavapipe without a "
+                                   "GPU) and measures it: chi-square and TV against the exact pmf of --against at "
+                                   "DB23's Figure 9 points, a TV map over the standard grid, row-by-row agreement "
+                                   "with --twin, the extremes suite, ns per evaluation. Exit 0: every check passes; "
+                                   "1: one fails; 2: bad input (a compile error, an unknown law).")
+    p.add_argument("file", help="the shader source (.hlsl, .glsl, ...)")
+    p.add_argument("--entry", default="count", help="the counting function (default: count)")
+    p.add_argument("--lang", choices=["hlsl", "glsl"], help="the language (default: from the extension)")
+    p.add_argument("--uniforms", type=int, default=2, help="uniforms the function reads, 0 to 4 (default: 2)")
+    p.add_argument("--against", default="binomial", help="the law the shader claims to approximate (default: binomial)")
+    p.add_argument("--twin", help="a C++ law computing the same in float32, compared row by row")
+    p.add_argument("-D", "--define", action="append", default=[], metavar="NAME=VALUE", help="a define (repeatable)")
+    p.add_argument("-I", "--include", action="append", default=[], metavar="DIR", help="an include folder (repeatable)")
+    p.add_argument("--device", default="auto", help="auto (default: a GPU if any, else lavapipe), gpu, cpu, an index or a name")
+    p.add_argument("--bounds", metavar="B.json", help="also check these error bounds, the shader standing in for --against")
+    p.add_argument("--samples", type=int, default=10**6, help="draws per Figure 9 point (default: 1e6)")
+    p.add_argument("--grid-samples", type=int, default=4096, help="draws per standard-grid point (default: 4096)")
+    p.add_argument("--grid-stride", type=int, default=2, help="every k-th n and p of the standard grid (default: 2)")
+    p.add_argument("--rows", type=int, default=10**6, help="rows per point compared with --twin (default: 1e6)")
+    p.add_argument("--speed-evaluations", type=int, default=10**6, help="evaluations per timed call (default: 1e6)")
+    p.add_argument("--seed", type=int, default=1)
+    common(p, "out/shader")
+    p.set_defaults(func=_cmd_shader)
 
     p = sub.add_parser("aniso", help="anisotropic grid schemes against stratified facets in the ellipse",
                        description="DB23's trilinear and tetrahedral grids (area or log LOD weights, the shader's "

@@ -16,6 +16,7 @@ from .._core import Distribution
 from ..api import checks as v
 from ..api.laws import Law, custom_law, law as get_law
 from ..api.plugins import load_plugin
+from ..api.shaders import shader_law
 from ..api.spatial import LAYOUTS, footprint_for_area, ground_truth
 
 
@@ -90,12 +91,21 @@ def make_reference(spec):
 
 
 def resolve_law(spec, base_dir: Path | None = None) -> Law:
-    """A law from a name, a Law, or an experiment's law object ({name, params}, {name, plugin} or
-    {name, python, n_uniforms}); plugin and python file paths are relative to ``base_dir``."""
+    """A law from a name, a Law, or an experiment's law object ({name, params}, {name, plugin},
+    {name, python, n_uniforms} or {shader, entry, language, n_uniforms, name, defines, binning,
+    device}); plugin, python and shader file paths are relative to ``base_dir``."""
     if isinstance(spec, Law):
         return spec
     if isinstance(spec, str):
         return get_law(spec)
+    if isinstance(spec, dict) and "shader" in spec:
+        path = Path(spec["shader"])
+        if base_dir is not None and not path.is_absolute():
+            path = base_dir / path
+        return shader_law(path, entry=spec.get("entry", "count"), language=spec.get("language"),
+                          n_uniforms=int(spec.get("n_uniforms", 2)), name=spec.get("name"),
+                          defines=spec.get("defines"), binning=spec.get("binning", "round"),
+                          device=spec.get("device", "auto"))
     if not isinstance(spec, dict) or "name" not in spec:
         v.fail("law", spec, "a law name, a Law or an object with a name")
     name = spec["name"]

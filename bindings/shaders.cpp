@@ -1,0 +1,73 @@
+// Shader laws (glintlab/validation/shader.hpp): the Vulkan runner as _core.ShaderKernel and
+// _core.vulkan_devices. The Python layer (glintlab.api.shaders) reads files and builds the law.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "bindings.hpp"
+#include "glintlab/validation/shader.hpp"
+
+namespace py = pybind11;
+
+namespace glintlab::bindings {
+
+void bind_shaders(py::module_& m) {
+  using shader::Kernel;
+  using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+  py::register_exception<shader::ShaderTimeout>(m, "ShaderTimeout", PyExc_TimeoutError);
+  py::register_exception<shader::NoVulkanDevice>(m, "NoVulkanDevice", PyExc_RuntimeError);
+
+  m.def("vulkan_devices", [] {
+    py::list out;
+    for (const auto& d : shader::vulkan_devices()) {
+      py::dict x;
+      x["index"] = d.index;
+      x["name"] = d.name;
+      x["type"] = d.type;
+      x["api_version"] = d.api_version;
+      x["driver"] = d.driver;
+      out.append(x);
+    }
+    return out;
+  });
+  m.def("shader_wrapper_source", &shader::wrapper_source, py::arg("language"), py::arg("entry"),
+        py::arg("include_name"));
+
+  py::class_<Kernel, std::shared_ptr<Kernel>>(m, "ShaderKernel")
+      .def(py::init([](const std::string& source, const std::string& source_name, const std::string& entry,
+                       const std::string& language, int n_uniforms,
+                       const std::vector<std::pair<std::string, std::string>>& defines,
+                       const std::vector<std::string>& include_dirs, const std::string& device) {
+             shader::KernelSpec spec{source, source_name, entry, language, n_uniforms, defines, include_dirs, device};
+             py::gil_scoped_release release;
+             return std::make_shared<Kernel>(spec);
+           }),
+           py::arg("source"), py::arg("source_name"), py::arg("entry"), py::arg("language"), py::arg("n_uniforms"),
+           py::arg("defines"), py::arg("include_dirs"), py::arg("device"))
+      .def_property_readonly("device", &Kernel::device_name)
+      .def_property_readonly("device_type", &Kernel::device_type)
+      .def_property_readonly("n_uniforms", &Kernel::n_uniforms)
+      .def_property_readonly("spirv", [](const Kernel& k) {
+             return py::bytes(reinterpret_cast<const char*>(k.spirv().data()), k.spirv().size() * sizeof(std::uint32_t));
+           })
+      .def("run", [](const Kernel& k, const Array& n, const Array& p, const Array& u, double timeout) {
+             const auto count = static_cast<std::size_t>(u.ndim() == 2 ? u.shape(0) : 0);
+             const auto kk = static_cast<std::size_t>(k.n_uniforms());
+             if (u.ndim() != 2 || static_cast<std::size_t>(u.shape(1)) != kk)
+               throw std::invalid_argument("u must have shape (rows, " + std::to_string(kk) + ")");
+             py::array_t<float> out(static_cast<py::ssize_t>(count));
+             const double* nd = n.data();
+             const double* pd = p.data();
+             const double* ud = u.data();
+             float* od = out.mutable_data();
+             const auto ns = static_cast<std::size_t>(n.size()), ps = static_cast<std::size_t>(p.size());
+             {
+               py::gil_scoped_release release;
+               k.run(nd, ns, pd, ps, ud, count, od, timeout);
+             }
+             return out;
+           },
+           py::arg("n"), py::arg("p"), py::arg("u"), py::arg("timeout"));
+}
+
+}  // namespace glintlab::bindings

@@ -1,0 +1,108 @@
+// The Vulkan compute runner of shader laws (validation/include/glintlab/validation/shader.hpp) on
+// whatever device the loader offers (lavapipe here and in CI): exact outputs of a simple kernel, the
+// float32 uniform rule, compile errors with file and line, the signature message, timeouts, threads.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "glintlab/float32.hpp"
+#include "glintlab/validation/shader.hpp"
+
+using namespace glintlab::shader;
+
+namespace {
+
+KernelSpec spec(std::string source, std::string language = "glsl") {
+  KernelSpec s;
+  s.source = std::move(source);
+  s.source_name = "test_kernel." + language;
+  s.language = language;
+  s.n_uniforms = 2;
+  return s;
+}
+
+bool have_device() { return !vulkan_devices().empty(); }
+
+}  // namespace
+
+TEST_CASE("shader runner: a kernel's outputs, broadcast and per row", "[shader]") {
+  if (!have_device()) { WARN("no Vulkan device: install mesa-vulkan-drivers"); return; }
+  const Kernel k(spec("float count(float n, float p, vec4 u) { return n * p + u.x + 4.0 * u.w; }"));
+  CHECK(!k.device_name().empty());
+  const std::vector<double> n{3.0, 5.0, 7.0}, p{0.5};
+  const std::vector<double> u{0.25, 0.9, 0.75, 0.1, 1.0, 0.0};
+  std::vector<float> out(3);
+  k.run(n.data(), n.size(), p.data(), p.size(), u.data(), 3, out.data(), 10.0);
+  for (std::size_t i = 0; i < 3; ++i)  // u.w is 0: unused uniforms
+    CHECK(out[i] == static_cast<float>(n[i]) * 0.5f + glintlab::uniform_to_float(u[2 * i]));
+  CHECK(glintlab::uniform_to_float(1.0) < 1.0f);
+  CHECK(glintlab::uniform_to_float(0.0) > 0.0f);
+}
+
+TEST_CASE("shader runner: many rows over several submissions, from several threads", "[shader]") {
+  if (!have_device()) return;
+  const Kernel k(spec("float count(float n, float p, float4 u) { return n + u.y; }", "hlsl"));
+  const std::size_t rows = (std::size_t{1} << 20) + 123;  // more than one submission
+  std::vector<double> n(rows), u(2 * rows);
+  for (std::size_t i = 0; i < rows; ++i) {
+    n[i] = static_cast<double>(i % 1000);
+    u[2 * i] = 0.5;
+    u[2 * i + 1] = static_cast<double>(i % 7) / 8.0;
+  }
+  const double p = 0.5;
+  auto check_rows = [&] {
+    std::vector<float> out(rows);
+    k.run(n.data(), rows, &p, 1, u.data(), rows, out.data(), 60.0);
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < rows; ++i)
+      bad += out[i] != static_cast<float>(n[i]) + glintlab::uniform_to_float(u[2 * i + 1]);
+    return bad;
+  };
+  std::vector<std::size_t> bad(3);
+  std::vector<std::thread> threads;
+  for (std::size_t t = 0; t < 3; ++t) threads.emplace_back([&, t] { bad[t] = check_rows(); });
+  for (auto& t : threads) t.join();
+  CHECK(bad == std::vector<std::size_t>{0, 0, 0});
+}
+
+TEST_CASE("shader runner: compile errors name the file and line, a wrong signature shows the expected one",
+          "[shader]") {
+  if (!have_device()) return;
+  auto message = [](const KernelSpec& s) {
+    try {
+      Kernel k(s);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string syntax = message(spec("float count(float n, float p, vec4 u) {\n  return n *;\n}\n"));
+  CHECK(syntax.find("test_kernel.glsl:2: error") != std::string::npos);
+  const std::string signature = message(spec("float count(float n, float p) { return n; }", "hlsl"));
+  CHECK(signature.find("float count(float n, float p, float4 u)") != std::string::npos);
+  KernelSpec bad = spec("float count(float n, float p, vec4 u) { return n; }");
+  bad.language = "cuda";
+  CHECK(message(bad).find("language = 'cuda'") != std::string::npos);
+  bad = spec("float count(float n, float p, vec4 u) { return n; }");
+  bad.n_uniforms = 5;
+  CHECK(message(bad).find("n_uniforms = 5") != std::string::npos);
+}
+
+TEST_CASE("shader runner: a kernel past its timeout throws, and the device serves the next call", "[shader]") {
+  if (!have_device()) return;
+  const Kernel slow(spec(
+      "float count(float n, float p, vec4 u) { float a = u.x;\n"
+      "  for (int i = 0; i < int(n); ++i) a = sin(a * 1.0001 + float(i) * 1e-7 + p);\n  return a; }"));
+  const std::size_t rows = 5000;
+  std::vector<double> u(2 * rows, 0.5);
+  std::vector<float> out(rows);
+  const double n = 60000, p = 0.5;
+  CHECK_THROWS_AS(slow.run(&n, 1, &p, 1, u.data(), rows, out.data(), 0.05), ShaderTimeout);
+  const Kernel fast(spec("float count(float n, float p, vec4 u) { return n; }"));
+  float one = 0;
+  fast.run(&n, 1, &p, 1, u.data(), 1, &one, 60.0);
+  CHECK(one == 60000.0f);
+}

@@ -1,0 +1,93 @@
+// Counting laws written as shader functions (HLSL or GLSL), compiled to SPIR-V by shaderc and run
+// by a Vulkan compute pipeline: the shader source itself, not a re-implementation, is what glintlab
+// then measures (docs/guide/shaders.md).
+//
+// The contract: the user writes one function
+//     float count(float n, float p, float4 u)      (HLSL; GLSL: float count(float n, float p, vec4 u))
+// and glintlab wraps it in its own compute kernel (buffers, bindings, dispatch). n and p arrive as
+// float(n), float(p); the uniforms by uniform_to_float (glintlab/float32.hpp); unused ones are 0.
+//
+// Runner policy: one Vulkan instance per process and one logical device per physical device, kept
+// for the process's life; pipelines cached by a hash of (device, language, entry, source, included
+// files, defines, uniforms). Calls on one device are serialized by a mutex (safe from many threads:
+// they queue). Buffers are allocated per call and freed before it returns; a call that passes its
+// timeout throws ShaderTimeout and its buffers are retired, freed once the device finishes the work.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace glintlab::shader {
+
+// A kernel that ran past its timeout (Python: TimeoutError).
+class ShaderTimeout : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// No usable Vulkan instance or device (Python: RuntimeError), naming the package to install.
+class NoVulkanDevice : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct DeviceInfo {
+  int index = 0;           // in vkEnumeratePhysicalDevices order
+  std::string name;        // e.g. "llvmpipe (LLVM 15.0.6, 256 bits)"
+  std::string type;        // "discrete_gpu", "integrated_gpu", "virtual_gpu", "cpu", "other"
+  std::string api_version; // "1.3.230"
+  std::string driver;      // driver name and info when the device reports them
+};
+
+// Every Vulkan device the loader sees (empty when there is none; never throws for that).
+std::vector<DeviceInfo> vulkan_devices();
+
+struct KernelSpec {
+  std::string source;        // the user's code
+  std::string source_name;   // its file path (messages, #include "x" relative to it), or "<string>"
+  std::string entry = "count";
+  std::string language = "hlsl";  // "hlsl" or "glsl"
+  int n_uniforms = 2;             // 0 .. 4
+  std::vector<std::pair<std::string, std::string>> defines;  // -D NAME=VALUE
+  std::vector<std::string> include_dirs;                     // searched after the source's folder
+  // "auto" (a GPU when there is one, else the CPU device), "gpu", "cpu", or a device index ("0") or
+  // a substring of a device name.
+  std::string device = "auto";
+};
+
+class Kernel {
+ public:
+  // Compiles (or finds in the cache) and builds the pipeline. Throws std::invalid_argument with the
+  // compiler's messages (file:line) for code that does not compile or lacks the expected entry.
+  explicit Kernel(const KernelSpec& spec);
+  ~Kernel();
+  Kernel(const Kernel&) = delete;
+  Kernel& operator=(const Kernel&) = delete;
+
+  const std::string& device_name() const;
+  const std::string& device_type() const;
+  int n_uniforms() const;
+  // The SPIR-V words the pipeline runs (for inspection and tests).
+  const std::vector<std::uint32_t>& spirv() const;
+
+  // out[i] = entry(float(n[i]), float(p[i]), u_f32(row i)); n and p have size 1 (broadcast) or
+  // count; u holds count rows of n_uniforms() uniforms. timeout_s bounds each submission.
+  void run(const double* n, std::size_t n_size, const double* p, std::size_t p_size, const double* u,
+           std::size_t count, float* out, double timeout_s) const;
+
+  struct Impl;
+
+ private:
+  std::shared_ptr<Impl> impl_;
+};
+
+// The wrapper kernel glintlab puts around the user's function (for the docs and for tests).
+std::string wrapper_source(const std::string& language, const std::string& entry,
+                           const std::string& include_name);
+
+}  // namespace glintlab::shader

@@ -1,0 +1,636 @@
+// The Vulkan compute runner behind shader laws (glintlab/validation/shader.hpp): shaderc compiles
+// glintlab's wrapper kernel around the user's function, Vulkan runs it on buffers of (n, p, u).
+#include "glintlab/validation/shader.hpp"
+
+#include <vulkan/vulkan.h>
+
+#include <shaderc/shaderc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <sstream>
+
+#include "glintlab/float32.hpp"
+
+namespace glintlab::shader {
+namespace {
+
+constexpr std::uint32_t kGroupSize = 64;
+constexpr std::size_t kChunkRows = std::size_t{1} << 20;  // rows per submission (16384 groups)
+constexpr const char* kInstallHint =
+    "install a Vulkan driver: on Debian `apt-get install mesa-vulkan-drivers libvulkan1` (lavapipe, "
+    "Vulkan on the CPU), or your GPU vendor's driver";
+
+std::string vk_error(const char* what, VkResult r) {
+  return std::string("Vulkan: ") + what + " failed (VkResult " + std::to_string(static_cast<int>(r)) + ")";
+}
+void check(VkResult r, const char* what) {
+  if (r != VK_SUCCESS) throw std::runtime_error(vk_error(what, r));
+}
+
+std::string type_name(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete_gpu";
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated_gpu";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual_gpu";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "cpu";
+    default: return "other";
+  }
+}
+
+// ---------------------------------------------------------------- instance and devices
+
+struct Pipeline {
+  VkShaderModule module = VK_NULL_HANDLE;
+  VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  std::vector<std::uint32_t> spirv;
+};
+
+struct Job;
+
+struct Device {
+  VkPhysicalDevice phys = VK_NULL_HANDLE;
+  VkDevice dev = VK_NULL_HANDLE;
+  VkQueue queue = VK_NULL_HANDLE;
+  std::uint32_t family = 0;
+  std::string name, type;
+  VkPhysicalDeviceMemoryProperties memory{};
+  VkCommandPool pool = VK_NULL_HANDLE;
+  std::mutex mutex;  // the queue, the pool, the pipeline cache and the retired jobs
+  std::map<std::string, std::shared_ptr<Pipeline>> pipelines;
+  std::vector<std::unique_ptr<Job>> retired;  // timed out: freed once their fence signals
+};
+
+// Process-wide, created on first use and never destroyed: destroying Vulkan objects from static
+// destructors races the driver's own teardown; the operating system reclaims them at exit.
+struct Vulkan {
+  VkInstance instance = VK_NULL_HANDLE;
+  std::vector<VkPhysicalDevice> physical;
+  std::map<int, Device*> devices;
+  std::string error;  // why there is no instance, when there is none
+};
+
+std::mutex g_vulkan_mutex;
+
+Vulkan& vulkan() {
+  static Vulkan* v = [] {
+    auto* out = new Vulkan;
+    VkApplicationInfo app{};
+    app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+    app.pApplicationName = "glintlab";
+    app.apiVersion = VK_API_VERSION_1_1;
+    VkInstanceCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+    info.pApplicationInfo = &app;
+    const VkResult r = vkCreateInstance(&info, nullptr, &out->instance);
+    if (r != VK_SUCCESS) {
+      out->instance = VK_NULL_HANDLE;
+      out->error = vk_error("vkCreateInstance", r);
+      return out;
+    }
+    std::uint32_t count = 0;
+    vkEnumeratePhysicalDevices(out->instance, &count, nullptr);
+    out->physical.resize(count);
+    if (count) vkEnumeratePhysicalDevices(out->instance, &count, out->physical.data());
+    out->physical.resize(count);
+    return out;
+  }();
+  return *v;
+}
+
+DeviceInfo describe(int index, VkPhysicalDevice phys) {
+  VkPhysicalDeviceProperties props{};
+  vkGetPhysicalDeviceProperties(phys, &props);
+  DeviceInfo d;
+  d.index = index;
+  d.name = props.deviceName;
+  d.type = type_name(props.deviceType);
+  d.api_version = std::to_string(VK_API_VERSION_MAJOR(props.apiVersion)) + "." +
+                  std::to_string(VK_API_VERSION_MINOR(props.apiVersion)) + "." +
+                  std::to_string(VK_API_VERSION_PATCH(props.apiVersion));
+  if (props.apiVersion >= VK_API_VERSION_1_2) {
+    VkPhysicalDeviceDriverProperties driver{};
+    driver.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES;
+    VkPhysicalDeviceProperties2 props2{};
+    props2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    props2.pNext = &driver;
+    vkGetPhysicalDeviceProperties2(phys, &props2);
+    d.driver = std::string(driver.driverName) + (driver.driverInfo[0] ? std::string(" ") + driver.driverInfo : "");
+  }
+  return d;
+}
+
+int rank(const std::string& type) {  // "auto" prefers a discrete GPU, then any GPU, then the CPU
+  if (type == "discrete_gpu") return 0;
+  if (type == "integrated_gpu") return 1;
+  if (type == "virtual_gpu") return 2;
+  if (type == "cpu") return 3;
+  return 4;
+}
+
+int choose_device(const std::string& request) {
+  Vulkan& v = vulkan();
+  if (!v.instance) throw NoVulkanDevice("no Vulkan instance (" + v.error + "); " + kInstallHint);
+  if (v.physical.empty()) throw NoVulkanDevice(std::string("no Vulkan device found; ") + kInstallHint);
+  std::vector<DeviceInfo> all;
+  for (std::size_t i = 0; i < v.physical.size(); ++i) all.push_back(describe(static_cast<int>(i), v.physical[i]));
+  std::string known;
+  for (const auto& d : all) known += (known.empty() ? "" : ", ") + std::to_string(d.index) + ": " + d.name + " (" + d.type + ")";
+  auto best = [&](auto keep) {
+    int chosen = -1;
+    for (const auto& d : all)
+      if (keep(d) && (chosen < 0 || rank(d.type) < rank(all[static_cast<std::size_t>(chosen)].type))) chosen = d.index;
+    return chosen;
+  };
+  int chosen = -1;
+  if (request == "auto") {
+    chosen = best([](const DeviceInfo&) { return true; });
+  } else if (request == "gpu") {
+    chosen = best([](const DeviceInfo& d) { return d.type.find("gpu") != std::string::npos; });
+    if (chosen < 0) throw NoVulkanDevice("device = 'gpu' but no Vulkan GPU is present (devices: " + known + ")");
+  } else if (request == "cpu") {
+    chosen = best([](const DeviceInfo& d) { return d.type == "cpu"; });
+    if (chosen < 0)
+      throw NoVulkanDevice("device = 'cpu' but no CPU Vulkan device is present (devices: " + known +
+                           "); install mesa-vulkan-drivers (lavapipe)");
+  } else if (!request.empty() && std::all_of(request.begin(), request.end(), ::isdigit)) {
+    chosen = std::stoi(request);
+    if (chosen >= static_cast<int>(all.size()))
+      throw std::invalid_argument("device = '" + request + "' is invalid; expected one of " + known);
+  } else {
+    for (const auto& d : all)
+      if (d.name.find(request) != std::string::npos) { chosen = d.index; break; }
+    if (chosen < 0)
+      throw std::invalid_argument("device = '" + request +
+                                  "' is invalid; expected 'auto', 'gpu', 'cpu', an index or part of a name among " + known);
+  }
+  return chosen;
+}
+
+Device& device(int index) {
+  std::lock_guard<std::mutex> lock(g_vulkan_mutex);
+  Vulkan& v = vulkan();
+  if (auto it = v.devices.find(index); it != v.devices.end()) return *it->second;
+  auto d = std::make_unique<Device>();
+  d->phys = v.physical[static_cast<std::size_t>(index)];
+  const DeviceInfo info = describe(index, d->phys);
+  d->name = info.name;
+  d->type = info.type;
+  vkGetPhysicalDeviceMemoryProperties(d->phys, &d->memory);
+  std::uint32_t nfam = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(d->phys, &nfam, nullptr);
+  std::vector<VkQueueFamilyProperties> fams(nfam);
+  vkGetPhysicalDeviceQueueFamilyProperties(d->phys, &nfam, fams.data());
+  bool found = false;
+  for (std::uint32_t i = 0; i < nfam && !found; ++i)
+    if (fams[i].queueFlags & VK_QUEUE_COMPUTE_BIT) { d->family = i; found = true; }
+  if (!found) throw NoVulkanDevice("Vulkan device '" + d->name + "' has no compute queue");
+  const float priority = 1.0f;
+  VkDeviceQueueCreateInfo q{};
+  q.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+  q.queueFamilyIndex = d->family;
+  q.queueCount = 1;
+  q.pQueuePriorities = &priority;
+  VkDeviceCreateInfo info_create{};
+  info_create.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  info_create.queueCreateInfoCount = 1;
+  info_create.pQueueCreateInfos = &q;
+  check(vkCreateDevice(d->phys, &info_create, nullptr, &d->dev), "vkCreateDevice");
+  vkGetDeviceQueue(d->dev, d->family, 0, &d->queue);
+  VkCommandPoolCreateInfo pool{};
+  pool.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+  pool.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pool.queueFamilyIndex = d->family;
+  check(vkCreateCommandPool(d->dev, &pool, nullptr, &d->pool), "vkCreateCommandPool");
+  Device& out = *d;
+  v.devices[index] = d.release();
+  return out;
+}
+
+// ---------------------------------------------------------------- compilation
+
+std::string wrapper_name(const std::string& language) {
+  return language == "hlsl" ? "glintlab_kernel.hlsl" : "glintlab_kernel.comp";
+}
+
+bool is_identifier(const std::string& s) {
+  if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
+  return std::all_of(s.begin(), s.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+}
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// Serves the user's code under its own name (so the compiler's messages say file:line) and resolves
+// its #include "x" relative to the including file, then the include directories.
+class Includer final : public shaderc::CompileOptions::IncluderInterface {
+ public:
+  Includer(std::string user_name, std::string user_source, std::vector<std::string> dirs)
+      : user_name_(std::move(user_name)), user_source_(std::move(user_source)), dirs_(std::move(dirs)) {}
+
+  shaderc_include_result* GetInclude(const char* requested, shaderc_include_type, const char* requesting,
+                                     std::size_t) override {
+    auto* r = new Result;
+    if (user_name_ == requested && std::string(requesting).rfind("glintlab_kernel.", 0) == 0) {
+      r->name = user_name_;
+      r->content = user_source_;
+    } else {
+      std::vector<std::filesystem::path> candidates;
+      const std::filesystem::path from(requesting);
+      if (from.has_parent_path()) candidates.push_back(from.parent_path() / requested);
+      else candidates.push_back(std::filesystem::path(requested));
+      for (const auto& d : dirs_) candidates.push_back(std::filesystem::path(d) / requested);
+      for (const auto& c : candidates) {
+        std::error_code ec;
+        if (std::filesystem::is_regular_file(c, ec)) {
+          r->name = c.string();
+          r->content = read_file(c);
+          break;
+        }
+      }
+      if (r->name.empty()) r->content = std::string("cannot find include file '") + requested + "'";
+    }
+    r->result.source_name = r->name.c_str();
+    r->result.source_name_length = r->name.size();
+    r->result.content = r->content.c_str();
+    r->result.content_length = r->content.size();
+    r->result.user_data = r;
+    return &r->result;
+  }
+  void ReleaseInclude(shaderc_include_result* data) override { delete static_cast<Result*>(data->user_data); }
+
+ private:
+  struct Result {
+    shaderc_include_result result{};
+    std::string name, content;
+  };
+  std::string user_name_, user_source_;
+  std::vector<std::string> dirs_;
+};
+
+std::string expected_signature(const std::string& language, const std::string& entry) {
+  return language == "hlsl" ? "float " + entry + "(float n, float p, float4 u)"
+                            : "float " + entry + "(float n, float p, vec4 u)";
+}
+
+shaderc::CompileOptions options(const KernelSpec& spec) {
+  shaderc::CompileOptions o;
+  o.SetSourceLanguage(spec.language == "hlsl" ? shaderc_source_language_hlsl : shaderc_source_language_glsl);
+  o.SetTargetEnvironment(shaderc_target_env_vulkan, shaderc_env_version_vulkan_1_0);
+  o.SetOptimizationLevel(shaderc_optimization_level_performance);
+  o.SetGenerateDebugInfo();  // no effect on the code; keeps names in the SPIR-V for inspection
+  for (const auto& [name, value] : spec.defines) o.AddMacroDefinition(name, value);
+  o.AddMacroDefinition("GLINTLAB_N_UNIFORMS", std::to_string(spec.n_uniforms));
+  o.SetIncluder(std::make_unique<Includer>(spec.source_name, spec.source, spec.include_dirs));
+  return o;
+}
+
+[[noreturn]] void compile_failure(const KernelSpec& spec, const std::string& messages) {
+  // An error inside glintlab's wrapper means the call to the entry did not match.
+  if (messages.find(wrapper_name(spec.language) + ":") != std::string::npos)
+    throw std::invalid_argument("shader " + spec.source_name + ": no function " + spec.entry +
+                                " with the expected signature " + expected_signature(spec.language, spec.entry) +
+                                " (" + spec.language + "); the compiler says:\n" + messages);
+  throw std::invalid_argument("shader " + spec.source_name + " does not compile (" + spec.language +
+                              "); the compiler says:\n" + messages);
+}
+
+std::uint64_t fnv1a(const std::string& s) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s) { h ^= c; h *= 1099511628211ull; }
+  return h;
+}
+
+// ---------------------------------------------------------------- one call's resources
+
+struct Buffer {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  void* mapped = nullptr;
+  VkDeviceSize size = 0;
+};
+
+std::uint32_t memory_type(const Device& d, std::uint32_t bits, bool readback) {
+  const VkMemoryPropertyFlags need = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  int fallback = -1;
+  for (std::uint32_t i = 0; i < d.memory.memoryTypeCount; ++i) {
+    if (!(bits & (1u << i)) || (d.memory.memoryTypes[i].propertyFlags & need) != need) continue;
+    const bool cached = d.memory.memoryTypes[i].propertyFlags & VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+    if (readback == cached) return i;
+    if (fallback < 0) fallback = static_cast<int>(i);
+  }
+  if (fallback < 0) throw std::runtime_error("Vulkan: device '" + d.name + "' has no host-visible coherent memory");
+  return static_cast<std::uint32_t>(fallback);
+}
+
+struct Job {
+  Device& d;
+  Buffer buffers[4];  // n, p, u, out
+  VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
+  VkCommandBuffer command = VK_NULL_HANDLE;
+  VkFence fence = VK_NULL_HANDLE;
+
+  explicit Job(Device& device) : d(device) {}
+  ~Job() {
+    if (fence) vkDestroyFence(d.dev, fence, nullptr);
+    if (command) vkFreeCommandBuffers(d.dev, d.pool, 1, &command);
+    if (descriptor_pool) vkDestroyDescriptorPool(d.dev, descriptor_pool, nullptr);
+    for (auto& b : buffers) {
+      if (b.mapped) vkUnmapMemory(d.dev, b.memory);
+      if (b.buffer) vkDestroyBuffer(d.dev, b.buffer, nullptr);
+      if (b.memory) vkFreeMemory(d.dev, b.memory, nullptr);
+    }
+  }
+  void make_buffer(int i, VkDeviceSize size, bool readback) {
+    Buffer& b = buffers[i];
+    b.size = size;
+    VkBufferCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    info.size = size;
+    info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+    info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    check(vkCreateBuffer(d.dev, &info, nullptr, &b.buffer), "vkCreateBuffer");
+    VkMemoryRequirements req{};
+    vkGetBufferMemoryRequirements(d.dev, b.buffer, &req);
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = req.size;
+    alloc.memoryTypeIndex = memory_type(d, req.memoryTypeBits, readback);
+    check(vkAllocateMemory(d.dev, &alloc, nullptr, &b.memory), "vkAllocateMemory");
+    check(vkBindBufferMemory(d.dev, b.buffer, b.memory, 0), "vkBindBufferMemory");
+    check(vkMapMemory(d.dev, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory");
+  }
+};
+
+void reap(Device& d) {  // with d.mutex held
+  std::erase_if(d.retired, [&](const std::unique_ptr<Job>& j) { return vkGetFenceStatus(d.dev, j->fence) == VK_SUCCESS; });
+}
+
+struct Push {
+  std::uint32_t count, n_stride, p_stride, pad;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------- public
+
+std::vector<DeviceInfo> vulkan_devices() {
+  std::lock_guard<std::mutex> lock(g_vulkan_mutex);
+  Vulkan& v = vulkan();
+  std::vector<DeviceInfo> out;
+  for (std::size_t i = 0; i < v.physical.size(); ++i) out.push_back(describe(static_cast<int>(i), v.physical[i]));
+  return out;
+}
+
+std::string wrapper_source(const std::string& language, const std::string& entry, const std::string& include_name) {
+  std::ostringstream s;
+  // Bindings: 0 n, 1 p (one float per row, or one for all: stride 0), 2 u (float4 per row), 3 counts.
+  if (language == "hlsl") {
+    s << "#include \"" << include_name << "\"\n"
+      << "struct GlintlabPush { uint count; uint n_stride; uint p_stride; uint pad; };\n"
+      << "[[vk::push_constant]] GlintlabPush glintlab_push;\n"
+      << "[[vk::binding(0, 0)]] StructuredBuffer<float> glintlab_n;\n"
+      << "[[vk::binding(1, 0)]] StructuredBuffer<float> glintlab_p;\n"
+      << "[[vk::binding(2, 0)]] StructuredBuffer<float4> glintlab_u;\n"
+      << "[[vk::binding(3, 0)]] RWStructuredBuffer<float> glintlab_k;\n"
+      << "[numthreads(" << kGroupSize << ", 1, 1)]\n"
+      << "void glintlab_main(uint3 glintlab_id : SV_DispatchThreadID) {\n"
+      << "  uint i = glintlab_id.x;\n"
+      << "  if (i >= glintlab_push.count) return;\n"
+      << "  float n = glintlab_n[i * glintlab_push.n_stride];\n"
+      << "  float p = glintlab_p[i * glintlab_push.p_stride];\n"
+      << "  float4 u = glintlab_u[i];\n"
+      << "  glintlab_k[i] = " << entry << "(n, p, u);\n"
+      << "}\n";
+  } else {
+    s << "#version 450\n"
+      << "#extension GL_GOOGLE_include_directive : require\n"
+      << "#include \"" << include_name << "\"\n"
+      << "layout(local_size_x = " << kGroupSize << ") in;\n"
+      << "layout(push_constant) uniform GlintlabPush { uint count; uint n_stride; uint p_stride; uint pad; } glintlab_push;\n"
+      << "layout(std430, set = 0, binding = 0) readonly buffer GlintlabN { float glintlab_n[]; };\n"
+      << "layout(std430, set = 0, binding = 1) readonly buffer GlintlabP { float glintlab_p[]; };\n"
+      << "layout(std430, set = 0, binding = 2) readonly buffer GlintlabU { vec4 glintlab_u[]; };\n"
+      << "layout(std430, set = 0, binding = 3) writeonly buffer GlintlabK { float glintlab_k[]; };\n"
+      << "void main() {\n"
+      << "  uint i = gl_GlobalInvocationID.x;\n"
+      << "  if (i >= glintlab_push.count) return;\n"
+      << "  float k = " << entry << "(glintlab_n[i * glintlab_push.n_stride], glintlab_p[i * glintlab_push.p_stride], glintlab_u[i]);\n"
+      << "  glintlab_k[i] = k;\n"
+      << "}\n";
+  }
+  return s.str();
+}
+
+struct Kernel::Impl {
+  Device* device = nullptr;
+  std::shared_ptr<Pipeline> pipeline;
+  int n_uniforms = 0;
+};
+
+Kernel::Kernel(const KernelSpec& spec) : impl_(std::make_shared<Impl>()) {
+  if (spec.language != "hlsl" && spec.language != "glsl")
+    throw std::invalid_argument("language = '" + spec.language + "' is invalid; expected 'hlsl' or 'glsl'");
+  if (!is_identifier(spec.entry))
+    throw std::invalid_argument("entry = '" + spec.entry + "' is invalid; expected a function name");
+  if (spec.n_uniforms < 0 || spec.n_uniforms > 4)
+    throw std::invalid_argument("n_uniforms = " + std::to_string(spec.n_uniforms) + " is invalid; expected 0 to 4");
+  for (const auto& [name, value] : spec.defines)
+    if (!is_identifier(name)) throw std::invalid_argument("defines: name '" + name + "' is invalid; expected an identifier");
+  if (spec.source_name.empty() || spec.source_name.rfind("glintlab_kernel.", 0) == 0)
+    throw std::invalid_argument("source_name = '" + spec.source_name + "' is invalid; expected a file name");
+  const int index = choose_device(spec.device);
+  Device& d = device(index);
+  impl_->device = &d;
+  impl_->n_uniforms = spec.n_uniforms;
+
+  const std::string wrapper = wrapper_source(spec.language, spec.entry, spec.source_name);
+  shaderc::Compiler compiler;
+  const shaderc_shader_kind kind = shaderc_glsl_compute_shader;
+  const char* entry_point = spec.language == "hlsl" ? "glintlab_main" : "main";
+  // The cache key is the preprocessed text (the user's code with its #includes and defines expanded),
+  // so an edited included file is a new kernel.
+  auto pre = compiler.PreprocessGlsl(wrapper, kind, wrapper_name(spec.language).c_str(), options(spec));
+  if (pre.GetCompilationStatus() != shaderc_compilation_status_success) compile_failure(spec, pre.GetErrorMessage());
+  const std::string text(pre.cbegin(), pre.cend());
+  std::ostringstream key;
+  key << spec.language << '|' << spec.entry << '|' << spec.n_uniforms << '|' << fnv1a(text) << '|' << text.size();
+  std::lock_guard<std::mutex> lock(d.mutex);
+  if (auto it = d.pipelines.find(key.str()); it != d.pipelines.end()) {
+    impl_->pipeline = it->second;
+    return;
+  }
+  auto res = compiler.CompileGlslToSpv(wrapper, kind, wrapper_name(spec.language).c_str(), entry_point, options(spec));
+  if (res.GetCompilationStatus() != shaderc_compilation_status_success) compile_failure(spec, res.GetErrorMessage());
+  auto pl = std::make_shared<Pipeline>();
+  pl->spirv.assign(res.cbegin(), res.cend());
+
+  VkShaderModuleCreateInfo module{};
+  module.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+  module.codeSize = pl->spirv.size() * sizeof(std::uint32_t);
+  module.pCode = pl->spirv.data();
+  check(vkCreateShaderModule(d.dev, &module, nullptr, &pl->module), "vkCreateShaderModule");
+  VkDescriptorSetLayoutBinding bindings[4]{};
+  for (std::uint32_t i = 0; i < 4; ++i) {
+    bindings[i].binding = i;
+    bindings[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    bindings[i].descriptorCount = 1;
+    bindings[i].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+  }
+  VkDescriptorSetLayoutCreateInfo set{};
+  set.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+  set.bindingCount = 4;
+  set.pBindings = bindings;
+  check(vkCreateDescriptorSetLayout(d.dev, &set, nullptr, &pl->set_layout), "vkCreateDescriptorSetLayout");
+  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push)};
+  VkPipelineLayoutCreateInfo layout{};
+  layout.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+  layout.setLayoutCount = 1;
+  layout.pSetLayouts = &pl->set_layout;
+  layout.pushConstantRangeCount = 1;
+  layout.pPushConstantRanges = &range;
+  check(vkCreatePipelineLayout(d.dev, &layout, nullptr, &pl->layout), "vkCreatePipelineLayout");
+  VkComputePipelineCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+  info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  info.stage.module = pl->module;
+  info.stage.pName = entry_point;
+  info.layout = pl->layout;
+  check(vkCreateComputePipelines(d.dev, VK_NULL_HANDLE, 1, &info, nullptr, &pl->pipeline), "vkCreateComputePipelines");
+  d.pipelines[key.str()] = pl;
+  impl_->pipeline = std::move(pl);
+}
+
+Kernel::~Kernel() = default;
+
+const std::string& Kernel::device_name() const { return impl_->device->name; }
+const std::string& Kernel::device_type() const { return impl_->device->type; }
+int Kernel::n_uniforms() const { return impl_->n_uniforms; }
+const std::vector<std::uint32_t>& Kernel::spirv() const { return impl_->pipeline->spirv; }
+
+void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size_t p_size, const double* u,
+                 std::size_t count, float* out, double timeout_s) const {
+  if (count == 0) return;
+  if (!(timeout_s > 0) || !std::isfinite(timeout_s))
+    throw std::invalid_argument("timeout = " + std::to_string(timeout_s) + " is invalid; expected seconds > 0");
+  if ((n_size != 1 && n_size != count) || (p_size != 1 && p_size != count))
+    throw std::invalid_argument("n and p must have 1 or count elements");
+  Device& d = *impl_->device;
+  const Pipeline& pl = *impl_->pipeline;
+  const std::size_t k = static_cast<std::size_t>(impl_->n_uniforms);
+  std::lock_guard<std::mutex> lock(d.mutex);
+  reap(d);
+
+  const std::size_t chunk = std::min(count, kChunkRows);
+  auto job = std::make_unique<Job>(d);
+  job->make_buffer(0, (n_size == 1 ? 1 : chunk) * sizeof(float), false);
+  job->make_buffer(1, (p_size == 1 ? 1 : chunk) * sizeof(float), false);
+  job->make_buffer(2, chunk * 4 * sizeof(float), false);
+  job->make_buffer(3, chunk * sizeof(float), true);
+
+  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4};
+  VkDescriptorPoolCreateInfo pool{};
+  pool.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  pool.maxSets = 1;
+  pool.poolSizeCount = 1;
+  pool.pPoolSizes = &size;
+  check(vkCreateDescriptorPool(d.dev, &pool, nullptr, &job->descriptor_pool), "vkCreateDescriptorPool");
+  VkDescriptorSetAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  alloc.descriptorPool = job->descriptor_pool;
+  alloc.descriptorSetCount = 1;
+  alloc.pSetLayouts = &pl.set_layout;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+  check(vkAllocateDescriptorSets(d.dev, &alloc, &set), "vkAllocateDescriptorSets");
+  VkDescriptorBufferInfo infos[4];
+  VkWriteDescriptorSet writes[4]{};
+  for (int i = 0; i < 4; ++i) {
+    infos[i] = {job->buffers[i].buffer, 0, VK_WHOLE_SIZE};
+    writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    writes[i].dstSet = set;
+    writes[i].dstBinding = static_cast<std::uint32_t>(i);
+    writes[i].descriptorCount = 1;
+    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    writes[i].pBufferInfo = &infos[i];
+  }
+  vkUpdateDescriptorSets(d.dev, 4, writes, 0, nullptr);
+  VkCommandBufferAllocateInfo cmd{};
+  cmd.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+  cmd.commandPool = d.pool;
+  cmd.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cmd.commandBufferCount = 1;
+  check(vkAllocateCommandBuffers(d.dev, &cmd, &job->command), "vkAllocateCommandBuffers");
+  VkFenceCreateInfo fence{};
+  fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+  check(vkCreateFence(d.dev, &fence, nullptr, &job->fence), "vkCreateFence");
+
+  auto* nb = static_cast<float*>(job->buffers[0].mapped);
+  auto* pb = static_cast<float*>(job->buffers[1].mapped);
+  auto* ub = static_cast<float*>(job->buffers[2].mapped);
+  const auto* kb = static_cast<const float*>(job->buffers[3].mapped);
+  const auto timeout_ns = static_cast<std::uint64_t>(std::min(timeout_s, 1e9) * 1e9);
+  for (std::size_t base = 0; base < count; base += chunk) {
+    const std::size_t rows = std::min(chunk, count - base);
+    const auto srows = static_cast<std::ptrdiff_t>(rows);
+    if (n_size == 1) nb[0] = static_cast<float>(n[0]);
+    if (p_size == 1) pb[0] = static_cast<float>(p[0]);
+#pragma omp parallel for schedule(static) if (rows > 65536)
+    for (std::ptrdiff_t si = 0; si < srows; ++si) {
+      const auto i = static_cast<std::size_t>(si);
+      if (n_size != 1) nb[i] = static_cast<float>(n[base + i]);
+      if (p_size != 1) pb[i] = static_cast<float>(p[base + i]);
+      const double* row = u + (base + i) * k;
+      for (std::size_t j = 0; j < 4; ++j) ub[4 * i + j] = j < k ? uniform_to_float(row[j]) : 0.0f;
+    }
+    const Push push{static_cast<std::uint32_t>(rows), n_size == 1 ? 0u : 1u, p_size == 1 ? 0u : 1u, 0u};
+    check(vkResetCommandBuffer(job->command, 0), "vkResetCommandBuffer");
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    check(vkBeginCommandBuffer(job->command, &begin), "vkBeginCommandBuffer");
+    vkCmdBindPipeline(job->command, VK_PIPELINE_BIND_POINT_COMPUTE, pl.pipeline);
+    vkCmdBindDescriptorSets(job->command, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout, 0, 1, &set, 0, nullptr);
+    vkCmdPushConstants(job->command, pl.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &push);
+    vkCmdDispatch(job->command, static_cast<std::uint32_t>((rows + kGroupSize - 1) / kGroupSize), 1, 1);
+    VkMemoryBarrier barrier{};  // the shader's writes, visible to the host after the fence
+    barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(job->command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &barrier, 0, nullptr, 0, nullptr);
+    check(vkEndCommandBuffer(job->command), "vkEndCommandBuffer");
+    check(vkResetFences(d.dev, 1, &job->fence), "vkResetFences");
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &job->command;
+    check(vkQueueSubmit(d.queue, 1, &submit, job->fence), "vkQueueSubmit");
+    const VkResult r = vkWaitForFences(d.dev, 1, &job->fence, VK_TRUE, timeout_ns);
+    if (r == VK_TIMEOUT) {
+      // The device still uses the buffers: they are freed by a later call once the fence signals.
+      d.retired.push_back(std::move(job));
+      std::ostringstream msg;
+      msg << "shader kernel ran longer than timeout = " << timeout_s << " s on '" << d.name
+          << "' (rows " << base << " .. " << base + rows << "); its buffers are released when the device finishes";
+      throw ShaderTimeout(msg.str());
+    }
+    check(r, "vkWaitForFences");
+    std::memcpy(out + base, kb, rows * sizeof(float));
+  }
+}
+
+}  // namespace glintlab::shader
