@@ -85,7 +85,7 @@ def test_a_store_keys_rows_by_the_laws_identity_not_its_name(tmp_path):
     assert again.attrs["resumed_rows"] == 1
 
 
-@pytest.mark.parametrize("command", ["run", "sweep", "advise", "bench", "extremes", "aniso", "profile"])
+@pytest.mark.parametrize("command", ["run", "sweep", "advise", "bench", "extremes", "aniso", "profile", "images", "shader"])
 def test_help_states_every_output_default(command, capsys):
     assert main([command, "--help"]) == 0
     text = capsys.readouterr().out
