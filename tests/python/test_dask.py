@@ -112,3 +112,11 @@ def test_local_cluster_from_workers_and_bad_arguments():
         gl.sweep("gated", n=[16], p=[0.1], scheduler="tcp://127.0.0.1:9")
     with pytest.raises(ValueError, match="workers = 0"):
         gl.sweep("gated", n=[16], p=[0.1], engine="dask", workers=0)
+
+
+def test_a_shader_law_runs_on_dask_workers(cluster):
+    # A shader law travels to the workers by its code (compiled again there, on their Vulkan device)
+    # and gives the local table bit for bit.
+    law = gl.shader_law(gl.shipped_shader("gated"), name="gated_hlsl_dask")
+    kw = dict(laws=[law], n=[16, 100], p=[0.1, 0.5], metrics=["tv", "chi2_pvalue"], samples=20000, seed=3)
+    pd.testing.assert_frame_equal(gl.sweep(**kw), gl.sweep(**kw, engine="dask", scheduler=cluster.scheduler_address))
