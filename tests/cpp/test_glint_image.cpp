@@ -57,7 +57,7 @@ TEST_CASE("facet counts: mean N P at p = 1, none at p = 0, monotone in p", "[ima
   CHECK(var < 0.5 * N * P);  // stratified: far below Poisson's variance N P
 }
 
-TEST_CASE("facet counts do not depend on the number of threads; bad input is refused by name", "[images]") {
+TEST_CASE("facet counts do not depend on the number of threads, and bad input is refused by name", "[images]") {
   const Pixels px = ellipses(3000, 0.05, 0.01, 2.0);
   const int before = num_threads();
   set_num_threads(1);
