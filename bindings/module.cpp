@@ -36,6 +36,22 @@ py::array_t<double> to_numpy(const std::vector<double>& v) {
 
 ParamArray param(const Array& a) { return {a.data(), static_cast<std::size_t>(a.size())}; }
 
+// A sampler's output: the caller's preallocated `out` (a writeable C-contiguous float64 array of
+// `count` elements; the Python layer checks its shape and names it) or a fresh array. Never a copy.
+using OutArray = py::array_t<double, py::array::c_style>;
+OutArray output_array(const py::object& out, std::size_t count) {
+  if (out.is_none()) return OutArray(static_cast<py::ssize_t>(count));
+  if (!py::isinstance<OutArray>(out))
+    throw std::invalid_argument("out is not a C-contiguous float64 array; expected one of " +
+                                std::to_string(count) + " elements");
+  auto a = py::reinterpret_borrow<OutArray>(out);
+  if (static_cast<std::size_t>(a.size()) != count)
+    throw std::invalid_argument("out has " + std::to_string(a.size()) + " elements; expected " +
+                                std::to_string(count));
+  if (!a.writeable()) throw std::invalid_argument("out is read-only; expected a writeable float64 array");
+  return a;
+}
+
 LawParams to_params(const py::dict& kwargs) {
   LawParams params;
   for (auto item : kwargs) {
@@ -183,16 +199,18 @@ PYBIND11_MODULE(_core, m) {
              return law.supports(precision_from_name(precision));
            }, py::arg("precision"))
       .def("sample", [](const CountingLaw& law, const Array& n, const Array& p, std::size_t count,
-                        std::uint64_t s, const std::string& precision) {
+                        std::uint64_t s, const std::string& precision,
+                        const py::object& out_arg) {
              const Precision prec = precision_from_name(precision);
-             py::array_t<double> out(static_cast<py::ssize_t>(count));
+             OutArray out = output_array(out_arg, count);
              double* o = out.mutable_data();
              {
                py::gil_scoped_release release;
                sample_many(law, param(n), param(p), count, s, o, prec);
              }
              return out;
-           }, py::arg("n"), py::arg("p"), py::arg("count"), py::arg("seed"), py::arg("precision"))
+           }, py::arg("n"), py::arg("p"), py::arg("count"), py::arg("seed"), py::arg("precision"),
+           py::arg("out") = py::none())
       .def("evaluate", [](const CountingLaw& law, const Array& n, const Array& p, const Array& u,
                           const std::string& precision) {
              const Precision prec = precision_from_name(precision);
@@ -279,6 +297,8 @@ PYBIND11_MODULE(_core, m) {
   }, py::arg("start"), py::arg("count"), py::arg("k"), py::arg("seed"), py::arg("stream"));
   m.def("set_num_threads", &set_num_threads, py::arg("threads"));
   m.def("num_threads", &num_threads);
+  // The SIMD level the vector kernels run at (2 AVX-512, 1 AVX2, 0 portable), for benchmark headers.
+  m.def("simd_level", &detail::simd_level);
 
   // Exact distribution functions, vectorized (numpy broadcasting).
   m.def("binomial_log_pmf", py::vectorize(&binomial::log_pmf), py::arg("k"), py::arg("n"), py::arg("p"));
@@ -379,25 +399,26 @@ PYBIND11_MODULE(_core, m) {
       .def("pmf", &BlendedLaw::pmf, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("max_support") = kDefaultMaxSupport,
            py::call_guard<py::gil_scoped_release>())
       .def("sample", [](const BlendedLaw& b, double density, const Array& area, const Array& p, std::size_t count,
-                        std::uint64_t seed) {
-             py::array_t<double> out(static_cast<py::ssize_t>(count));
+                        std::uint64_t seed, const py::object& out_arg) {
+             OutArray out = output_array(out_arg, count);
              double* o = out.mutable_data();
              {
                py::gil_scoped_release release;
                b.sample(density, param(area), param(p), count, seed, o);
              }
              return out;
-           }, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("count"), py::arg("seed"))
+           }, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("count"), py::arg("seed"), py::arg("out") = py::none())
       .def("sample_at", [](const BlendedLaw& b, double density, const Array& area, const Array& p, const Array& x,
-                           const Array& y, std::size_t count, std::uint64_t seed) {
-             py::array_t<double> out(static_cast<py::ssize_t>(count));
+                           const Array& y, std::size_t count, std::uint64_t seed, const py::object& out_arg) {
+             OutArray out = output_array(out_arg, count);
              double* o = out.mutable_data();
              {
                py::gil_scoped_release release;
                b.sample_at(density, param(area), param(p), param(x), param(y), count, seed, o);
              }
              return out;
-           }, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("x"), py::arg("y"), py::arg("count"), py::arg("seed"));
+           }, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("x"), py::arg("y"), py::arg("count"), py::arg("seed"),
+           py::arg("out") = py::none());
   m.def("make_blended_law", [](const std::string& name, const py::dict& kwargs, std::shared_ptr<CountingLaw> inner,
                                double ratio, double base_area) {
     return std::make_shared<BlendedLaw>(make_blend(name, to_params(kwargs)), InnerLaw::from_law(std::move(inner)),
@@ -482,16 +503,17 @@ PYBIND11_MODULE(_core, m) {
              return c.pmf(density, p, shape, max_support);
            }, py::arg("N"), py::arg("P"), py::arg("r"), py::arg("phi"), py::arg("p"), py::arg("max_support") = kDefaultMaxSupport)
       .def("sample", [](const aniso::AnisoCounter& c, double density, double area, double ratio, double angle, double p,
-                        std::size_t count, std::uint64_t seed) {
+                        std::size_t count, std::uint64_t seed, const py::object& out_arg) {
              const auto shape = aniso::shape_from_params(area, ratio, angle);
-             py::array_t<double> out(static_cast<py::ssize_t>(count));
+             OutArray out = output_array(out_arg, count);
              double* o = out.mutable_data();
              {
                py::gil_scoped_release release;
                c.sample(density, p, shape, count, seed, o);
              }
              return out;
-           }, py::arg("N"), py::arg("P"), py::arg("r"), py::arg("phi"), py::arg("p"), py::arg("count"), py::arg("seed"))
+           }, py::arg("N"), py::arg("P"), py::arg("r"), py::arg("phi"), py::arg("p"), py::arg("count"), py::arg("seed"),
+           py::arg("out") = py::none())
       .def("count_pixels", [](const aniso::AnisoCounter& c, double density, const Array& p, const Array& uv,
                               const Array& jac, std::optional<Array> slope, std::uint64_t seed) {
              const auto m_rows = static_cast<std::size_t>(uv.size() / 2);
