@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "glintlab/binomial.hpp"
 #include "glintlab/law.hpp"
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
@@ -118,6 +119,53 @@ TEST_CASE("per-pixel evaluation equals evaluate(), bit for bit, at every SIMD le
       mismatches = 0;
       for (std::size_t i = 0; i < m; ++i) mismatches += !(fast[i] == direct[i] || (std::isnan(fast[i]) && std::isnan(direct[i])));
       INFO("sample_many, " << threads << " threads");
+      CHECK(mismatches == 0);
+    }
+  }
+}
+
+TEST_CASE("the exact binomial's prefetched Philox rows give the scalar generator's draws", "[law][batch][pixels]") {
+  // sample_range and the per-pixel path take each sample's first Philox block from the vector rows
+  // (binomial::PrefetchedRng); the draws must be those of binomial::Sampler on CounterRng::for_index,
+  // including the samples that need more than two uniforms (BTRD rejections, the fractional facet).
+  const auto law = make_law("binomial");
+  const std::vector<std::pair<double, double>> points{
+      {16, 0.1}, {1e3, 1e-2}, {1e6, 0.3}, {1e9, 1e-6}, {40.5, 0.7}, {1e15, 0.5}, {0.5, 0.5}, {100, 0}, {100, 1}};
+  const std::size_t count = 5000;
+  std::vector<double> got(count);
+  struct Restore { ~Restore() { detail::set_simd_level(2); set_num_threads(2); } } restore;
+  for (int level : {2, 1, 0}) {
+    detail::set_simd_level(level);
+    for (const auto& [n, p] : points) {
+      for (bool table : {false, true}) {
+        const binomial::Sampler sampler(n, p, table);
+        const std::size_t m = table ? count : 40;  // sample_range tabulates from kTabulateMinBatch rows
+        law->sample_range(n, p, 9, 100, 100 + m, got.data());
+        std::size_t mismatches = 0;
+        for (std::size_t i = 0; i < m; ++i) {
+          auto rng = CounterRng::for_index(9, 100 + i, kStreamSample);
+          mismatches += got[i] != sampler(rng);
+        }
+        INFO("n = " << n << " p = " << p << ", SIMD level " << detail::simd_level());
+        CHECK(mismatches == 0);
+      }
+    }
+    // Pixels, each its own (n, p), at 1 and 2 threads.
+    std::vector<double> n(count), p(count);
+    CounterRng pick(3, 4, 5);
+    for (std::size_t i = 0; i < count; ++i) {
+      n[i] = std::floor(std::exp(pick.uniform() * std::log(1e12))) + (i % 3 == 0 ? 0.5 : 0.0);
+      p[i] = pick.uniform();
+    }
+    for (int threads : {1, 2}) {
+      set_num_threads(threads);
+      sample_many(*law, {n.data(), count}, {p.data(), count}, count, 11, got.data());
+      std::size_t mismatches = 0;
+      for (std::size_t i = 0; i < count; ++i) {
+        auto rng = CounterRng::for_index(11, i, kStreamSample);
+        mismatches += got[i] != binomial::Sampler(n[i], p[i])(rng);
+      }
+      INFO("pixels, " << threads << " threads, SIMD level " << detail::simd_level());
       CHECK(mismatches == 0);
     }
   }

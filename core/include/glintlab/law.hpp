@@ -81,6 +81,12 @@ class CountingLaw {
   // set up per-(n, p) constants once per range.
   virtual void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                             double* out) const;
+  // Samples start .. start + count - 1 of a batch whose (n, p) change at every sample (a renderer's
+  // pixels): out[r] is what sample_range(n[r], p[r], seed, start + r, start + r + 1) gives. The
+  // default: the uniforms' rows and evaluate_pixels for laws that sample by evaluate(), else
+  // sample_range per pixel; the exact binomial prefetches its first Philox block as vector rows.
+  virtual void sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start,
+                             std::size_t count, double* out) const;
   // Whether sample_range is evaluate() on the fill_uniforms rows (the default). Laws that override
   // sample_range with their own sampler return false. The drivers use it to evaluate a batch whose
   // (n, p) change at every sample (a renderer's pixels) directly on one block of uniforms.
