@@ -83,6 +83,15 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
         a[i] = v < 0.5 ? v : 1.0 - v;  // quantile's min(u, 1 - u), as it computes it
       }
       detail::vec_log(a, lt, m);
+      if (const int level = detail::simd_level(); level >= 1) {
+        // The rest as one vectorized branch-free pass (gated_pixels_body.inc), then eval where flagged.
+        alignas(64) double redo[kB];
+        if (level >= 2) detail::gated_pixels_avx512(nn, pp, uu, e, lt, m, oo, redo);
+        else detail::gated_pixels_avx2(nn, pp, uu, e, lt, m, oo, redo);
+        for (std::size_t i = 0; i < m; ++i)
+          if (redo[i] != 0.0) oo[i] = eval<double>(nn[i], pp[i], uu + 2 * i);
+        continue;
+      }
       for (std::size_t i = 0; i < m; ++i) {
         const double nv = nn[i], pv = pp[i], u0 = uu[2 * i], u1 = uu[2 * i + 1];
         const double* row = uu + 2 * i;

@@ -23,3 +23,12 @@ void vec_math_avx512(int op, const double* x, double* y, std::size_t count);
 void vec_math_avx2(int op, const double* x, double* y, std::size_t count);
 
 }  // namespace glintlab::detail
+
+namespace glintlab::detail {
+// The gated law's per-pixel arithmetic after the vector logarithms (gated_pixels_body.inc), per ISA:
+// out[i] = eval's count, redo[i] = 1 where eval must recompute it.
+void gated_pixels_avx512(const double* n, const double* p, const double* u, const double* e, const double* lt,
+                         std::size_t m, double* out, double* redo);
+void gated_pixels_avx2(const double* n, const double* p, const double* u, const double* e, const double* lt,
+                       std::size_t m, double* out, double* redo);
+}  // namespace glintlab::detail
