@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <stdexcept>
 
 #include "glintlab/binomial.hpp"
@@ -210,17 +211,22 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       }
     }
     if (vector_rows) {
-      std::vector<double> block(m * k);
-      for (const int level : levels) {
-        detail::philox_uniform_rows_level(seed, level_key(level), kStreamLevelCount, i0, m, static_cast<int>(k),
-                                          block.data());
-        for (int j = 0; j < 2; ++j) {
-          u[j].resize(rows[j].size() * k);
-          for (std::size_t q = 0; q < rows[j].size(); ++q) {
-            const std::size_t r = rows[j][q];
-            if (brackets[r].lo + j != level) continue;
-            for (std::size_t d = 0; d < k; ++d) u[j][q * k + d] = block[r * k + d];
-          }
+      // One block of rows per distinct level (uninitialized: every row is written), then one pass per
+      // level slot j picking each row's level.
+      const std::size_t stride = m * k;
+      const std::unique_ptr<double[]> blocks(new double[levels.size() * stride]);
+      for (std::size_t l = 0; l < levels.size(); ++l)
+        detail::philox_uniform_rows_level(seed, level_key(levels[l]), kStreamLevelCount, i0, m, static_cast<int>(k),
+                                          blocks.get() + l * stride);
+      for (int j = 0; j < 2; ++j) {
+        u[j].resize(rows[j].size() * k);
+        for (std::size_t q = 0; q < rows[j].size(); ++q) {
+          const std::size_t r = rows[j][q];
+          const int level = brackets[r].lo + j;
+          std::size_t l = 0;
+          while (levels[l] != level) ++l;
+          const double* src = blocks.get() + l * stride + r * k;
+          for (std::size_t d = 0; d < k; ++d) u[j][q * k + d] = src[d];
         }
       }
     } else {
