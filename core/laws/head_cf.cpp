@@ -134,6 +134,15 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
         a[i] = v < 0.5 ? v : 1.0 - v;
       }
       detail::vec_log(a, lt, mcount);
+      if (const int level = detail::simd_level(); level >= 1) {
+        // The rest as one vectorized branch-free pass (head_cf_pixels_body.inc), then eval where flagged.
+        alignas(64) double redo[kB];
+        if (level >= 2) detail::head_cf_pixels_avx512(nn, pp, uu, e, lt, mcount, oo, redo);
+        else detail::head_cf_pixels_avx2(nn, pp, uu, e, lt, mcount, oo, redo);
+        for (std::size_t i = 0; i < mcount; ++i)
+          if (redo[i] != 0.0) oo[i] = eval<double>(nn[i], pp[i], uu + 2 * i);
+        continue;
+      }
       for (std::size_t i = 0; i < mcount; ++i) {
         const double nv = nn[i], pv = pp[i], u0 = uu[2 * i], u1 = uu[2 * i + 1];
         const double* row = uu + 2 * i;

@@ -32,3 +32,11 @@ void gated_pixels_avx512(const double* n, const double* p, const double* u, cons
 void gated_pixels_avx2(const double* n, const double* p, const double* u, const double* e, const double* lt,
                        std::size_t m, double* out, double* redo);
 }  // namespace glintlab::detail
+
+namespace glintlab::detail {
+// head_cf's per-pixel arithmetic after the vector logarithms (head_cf_pixels_body.inc), per ISA.
+void head_cf_pixels_avx512(const double* n, const double* p, const double* u, const double* e, const double* lt,
+                           std::size_t count, double* out, double* redo);
+void head_cf_pixels_avx2(const double* n, const double* p, const double* u, const double* e, const double* lt,
+                         std::size_t count, double* out, double* redo);
+}  // namespace glintlab::detail
