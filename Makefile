@@ -44,6 +44,8 @@ test: build wheel
 	@cd build && ctest --output-on-failure -j $(JOBS)
 
 bench: build
+	@# Issue 21: the renderer and sweep paths, each beside its baseline (out/bench/paths.*).
+	@$(VENV)/bin/python bench/bench_paths.py --busy
 	@$(VENV)/bin/python bench/bench_binomial.py --cpp build/bench/glintlab_bench_binomial
 	@$(VENV)/bin/python bench/bench_laws.py
 	@$(VENV)/bin/python bench/bench_ground_truth.py

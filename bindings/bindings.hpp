@@ -5,7 +5,53 @@
 
 #include <pybind11/pybind11.h>
 
+#include <csignal>
+#include <exception>
+#include <optional>
+
+#include "glintlab/errors.hpp"
+
 namespace glintlab::bindings {
+
+inline unsigned long g_main_thread = 0;  // PyThread_get_thread_ident() of the thread that imported _core
+
+inline void on_sigint(int) noexcept { request_interrupt(); }
+
+// A call into the C++ core that may run long: releases the GIL and, on the main thread, makes Ctrl-C
+// work. Python handles SIGINT only between bytecodes, never while C++ runs, so for the duration of
+// the call SIGINT sets the core's interrupt flag instead (the batch drivers stop at their next chunk
+// and throw `interrupted`, raised as KeyboardInterrupt); the previous handler is restored after. A
+// request that arrives after the last chunk is handed to Python (PyErr_SetInterrupt), not lost.
+class LongCall {
+ public:
+  LongCall() : on_main_(PyThread_get_thread_ident() == g_main_thread), exceptions_(std::uncaught_exceptions()) {
+    if (on_main_) {
+      clear_interrupt();
+      struct sigaction action {};
+      action.sa_handler = on_sigint;
+      sigemptyset(&action.sa_mask);
+      installed_ = sigaction(SIGINT, &action, &previous_) == 0;
+    }
+    release_.emplace();
+  }
+  ~LongCall() {
+    release_.reset();  // the GIL again
+    if (!installed_) return;
+    sigaction(SIGINT, &previous_, nullptr);
+    if (interrupt_requested() && std::uncaught_exceptions() == exceptions_) PyErr_SetInterrupt();
+    clear_interrupt();
+  }
+  LongCall(const LongCall&) = delete;
+  LongCall& operator=(const LongCall&) = delete;
+
+ private:
+  bool on_main_;
+  int exceptions_;
+  bool installed_ = false;
+  struct sigaction previous_ {};
+  std::optional<pybind11::gil_scoped_release> release_;
+};
+
 
 void bind_scene_images(pybind11::module_& m);  // scene_images.cpp: the glint images' ground truth
 void bind_glinty_ndf(pybind11::module_& m);  // glinty_ndf.cpp: KPT25's glinty NDF

@@ -71,7 +71,7 @@ void bind_glinty_ndf(py::module_& m) {
              py::array_t<double> out(static_cast<py::ssize_t>(n));
              double* o = out.mutable_data();
              {
-               py::gil_scoped_release release;
+               glintlab::bindings::LongCall release;
                g.evaluate(uv.data(), jac.data(), h.data(), n, seed, o);
              }
              return out;
@@ -82,7 +82,7 @@ void bind_glinty_ndf(py::module_& m) {
              double* o = out.mutable_data();
              double* q = pts.mutable_data();
              {
-               py::gil_scoped_release release;
+               glintlab::bindings::LongCall release;
                g.reference(uv.data(), jac.data(), h.data(), n, seed, o, q);
              }
              return py::make_tuple(out, pts);
@@ -95,7 +95,7 @@ void bind_glinty_ndf(py::module_& m) {
              double* a = er.mutable_data();
              double* b = ea.mutable_data();
              {
-               py::gil_scoped_release release;
+               glintlab::bindings::LongCall release;
                g.expected(jac.data(), h.data(), n, a, b);
              }
              return py::make_tuple(er, ea);

@@ -25,49 +25,11 @@
 
 namespace py = pybind11;
 using namespace glintlab;
+using glintlab::bindings::LongCall;
 
 namespace {
 
 using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
-
-unsigned long g_main_thread = 0;  // PyThread_get_thread_ident() of the thread that imported _core
-
-extern "C" void on_sigint(int) { request_interrupt(); }
-
-// A call into the C++ core that may run long: releases the GIL and, on the main thread, makes Ctrl-C
-// work. Python handles SIGINT only between bytecodes, never while C++ runs, so for the duration of
-// the call SIGINT sets the core's interrupt flag instead (the batch drivers stop at their next chunk
-// and throw `interrupted`, raised as KeyboardInterrupt); the previous handler is restored after. A
-// request that arrives after the last chunk is handed to Python (PyErr_SetInterrupt), not lost.
-class LongCall {
- public:
-  LongCall() : on_main_(PyThread_get_thread_ident() == g_main_thread), exceptions_(std::uncaught_exceptions()) {
-    if (on_main_) {
-      clear_interrupt();
-      struct sigaction action {};
-      action.sa_handler = on_sigint;
-      sigemptyset(&action.sa_mask);
-      installed_ = sigaction(SIGINT, &action, &previous_) == 0;
-    }
-    release_.emplace();
-  }
-  ~LongCall() {
-    release_.reset();  // the GIL again
-    if (!installed_) return;
-    sigaction(SIGINT, &previous_, nullptr);
-    if (interrupt_requested() && std::uncaught_exceptions() == exceptions_) PyErr_SetInterrupt();
-    clear_interrupt();
-  }
-  LongCall(const LongCall&) = delete;
-  LongCall& operator=(const LongCall&) = delete;
-
- private:
-  bool on_main_;
-  int exceptions_;
-  bool installed_ = false;
-  struct sigaction previous_ {};
-  std::optional<py::gil_scoped_release> release_;
-};
 
 py::array_t<double> to_numpy(const std::vector<double>& v) {
   py::array_t<double> out(static_cast<py::ssize_t>(v.size()));
@@ -76,6 +38,22 @@ py::array_t<double> to_numpy(const std::vector<double>& v) {
 }
 
 ParamArray param(const Array& a) { return {a.data(), static_cast<std::size_t>(a.size())}; }
+
+// A sampler's output: the caller's preallocated `out` (a writeable C-contiguous float64 array of
+// `count` elements; the Python layer checks its shape and names it) or a fresh array. Never a copy.
+using OutArray = py::array_t<double, py::array::c_style>;
+OutArray output_array(const py::object& out, std::size_t count) {
+  if (out.is_none()) return OutArray(static_cast<py::ssize_t>(count));
+  if (!py::isinstance<OutArray>(out))
+    throw std::invalid_argument("out is not a C-contiguous float64 array; expected one of " +
+                                std::to_string(count) + " elements");
+  auto a = py::reinterpret_borrow<OutArray>(out);
+  if (static_cast<std::size_t>(a.size()) != count)
+    throw std::invalid_argument("out has " + std::to_string(a.size()) + " elements; expected " +
+                                std::to_string(count));
+  if (!a.writeable()) throw std::invalid_argument("out is read-only; expected a writeable float64 array");
+  return a;
+}
 
 LawParams to_params(const py::dict& kwargs) {
   LawParams params;
@@ -182,7 +160,7 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "glintlab C++ core (use the glintlab package, not this module)";
   m.attr("__version__") = GLINTLAB_VERSION;
   py::register_exception<not_implemented>(m, "NotImplementedErrorCore", PyExc_NotImplementedError);
-  g_main_thread = py::module_::import("threading").attr("main_thread")().attr("ident").cast<unsigned long>();
+  glintlab::bindings::g_main_thread = py::module_::import("threading").attr("main_thread")().attr("ident").cast<unsigned long>();
   py::register_exception_translator([](std::exception_ptr error) {
     try {
       if (error) std::rethrow_exception(error);
@@ -265,16 +243,18 @@ PYBIND11_MODULE(_core, m) {
              return law.supports(precision_from_name(precision));
            }, py::arg("precision"))
       .def("sample", [](const CountingLaw& law, const Array& n, const Array& p, std::size_t count,
-                        std::uint64_t s, const std::string& precision) {
+                        std::uint64_t s, const std::string& precision,
+                        const py::object& out_arg) {
              const Precision prec = precision_from_name(precision);
-             py::array_t<double> out(static_cast<py::ssize_t>(count));
+             OutArray out = output_array(out_arg, count);
              double* o = out.mutable_data();
              {
                LongCall release;
                sample_many(law, param(n), param(p), count, s, o, prec);
              }
              return out;
-           }, py::arg("n"), py::arg("p"), py::arg("count"), py::arg("seed"), py::arg("precision"))
+           }, py::arg("n"), py::arg("p"), py::arg("count"), py::arg("seed"), py::arg("precision"),
+           py::arg("out") = py::none())
       .def("evaluate", [](const CountingLaw& law, const Array& n, const Array& p, const Array& u,
                           const std::string& precision) {
              const Precision prec = precision_from_name(precision);
@@ -406,6 +386,8 @@ PYBIND11_MODULE(_core, m) {
   }, py::arg("start"), py::arg("count"), py::arg("k"), py::arg("seed"), py::arg("stream"));
   m.def("set_num_threads", &set_num_threads, py::arg("threads"));
   m.def("num_threads", &num_threads);
+  // The SIMD level the vector kernels run at (2 AVX-512, 1 AVX2, 0 portable), for benchmark headers.
+  m.def("simd_level", &detail::simd_level);
 
   // Exact distribution functions, vectorized (numpy broadcasting).
   m.def("binomial_log_pmf", py::vectorize(&binomial::log_pmf), py::arg("k"), py::arg("n"), py::arg("p"));
@@ -448,7 +430,7 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("footprint", &spatial::GroundTruth::footprint)
       .def_property_readonly("center", &spatial::GroundTruth::center)
       .def("pmf", &spatial::GroundTruth::pmf, py::arg("max_support") = kDefaultMaxSupport, py::arg("quadrature") = 16,
-           py::call_guard<py::gil_scoped_release>())
+           py::call_guard<glintlab::bindings::LongCall>())
       .def("sample", [](const spatial::GroundTruth& g, std::size_t count, std::uint64_t seed) {
              std::vector<double> out;
              {
@@ -504,27 +486,28 @@ PYBIND11_MODULE(_core, m) {
              return d;
            }, py::arg("P"))
       .def("pmf", &BlendedLaw::pmf, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("max_support") = kDefaultMaxSupport,
-           py::call_guard<py::gil_scoped_release>())
+           py::call_guard<glintlab::bindings::LongCall>())
       .def("sample", [](const BlendedLaw& b, double density, const Array& area, const Array& p, std::size_t count,
-                        std::uint64_t seed) {
-             py::array_t<double> out(static_cast<py::ssize_t>(count));
+                        std::uint64_t seed, const py::object& out_arg) {
+             OutArray out = output_array(out_arg, count);
              double* o = out.mutable_data();
              {
                LongCall release;
                b.sample(density, param(area), param(p), count, seed, o);
              }
              return out;
-           }, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("count"), py::arg("seed"))
+           }, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("count"), py::arg("seed"), py::arg("out") = py::none())
       .def("sample_at", [](const BlendedLaw& b, double density, const Array& area, const Array& p, const Array& x,
-                           const Array& y, std::size_t count, std::uint64_t seed) {
-             py::array_t<double> out(static_cast<py::ssize_t>(count));
+                           const Array& y, std::size_t count, std::uint64_t seed, const py::object& out_arg) {
+             OutArray out = output_array(out_arg, count);
              double* o = out.mutable_data();
              {
                LongCall release;
                b.sample_at(density, param(area), param(p), param(x), param(y), count, seed, o);
              }
              return out;
-           }, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("x"), py::arg("y"), py::arg("count"), py::arg("seed"));
+           }, py::arg("N"), py::arg("P"), py::arg("p"), py::arg("x"), py::arg("y"), py::arg("count"), py::arg("seed"),
+           py::arg("out") = py::none());
   m.def("make_blended_law", [](const std::string& name, const py::dict& kwargs, std::shared_ptr<CountingLaw> inner,
                                double ratio, double base_area) {
     return std::make_shared<BlendedLaw>(make_blend(name, to_params(kwargs)), InnerLaw::from_law(std::move(inner)),
@@ -609,16 +592,17 @@ PYBIND11_MODULE(_core, m) {
              return c.pmf(density, p, shape, max_support);
            }, py::arg("N"), py::arg("P"), py::arg("r"), py::arg("phi"), py::arg("p"), py::arg("max_support") = kDefaultMaxSupport)
       .def("sample", [](const aniso::AnisoCounter& c, double density, double area, double ratio, double angle, double p,
-                        std::size_t count, std::uint64_t seed) {
+                        std::size_t count, std::uint64_t seed, const py::object& out_arg) {
              const auto shape = aniso::shape_from_params(area, ratio, angle);
-             py::array_t<double> out(static_cast<py::ssize_t>(count));
+             OutArray out = output_array(out_arg, count);
              double* o = out.mutable_data();
              {
                LongCall release;
                c.sample(density, p, shape, count, seed, o);
              }
              return out;
-           }, py::arg("N"), py::arg("P"), py::arg("r"), py::arg("phi"), py::arg("p"), py::arg("count"), py::arg("seed"))
+           }, py::arg("N"), py::arg("P"), py::arg("r"), py::arg("phi"), py::arg("p"), py::arg("count"), py::arg("seed"),
+           py::arg("out") = py::none())
       .def("count_pixels", [](const aniso::AnisoCounter& c, double density, const Array& p, const Array& uv,
                               const Array& jac, std::optional<Array> slope, std::uint64_t seed) {
              const auto m_rows = static_cast<std::size_t>(uv.size() / 2);

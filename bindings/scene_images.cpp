@@ -31,7 +31,7 @@ void bind_scene_images(py::module_& m) {
     py::array_t<std::uint8_t> status(n);
     const double* sl = slope ? slope->data() : nullptr;
     {
-      py::gil_scoped_release release;
+      glintlab::bindings::LongCall release;
       images::facet_counts(density, p.data(), static_cast<std::size_t>(p.size()), uv.data(), jac.data(), sl, rows,
                            seed, max_cells, k.mutable_data(), status.mutable_data(), tested.mutable_data());
     }

@@ -39,7 +39,7 @@ void bind_shaders(py::module_& m) {
                        const std::vector<std::pair<std::string, std::string>>& defines,
                        const std::vector<std::string>& include_dirs, const std::string& device) {
              shader::KernelSpec spec{source, source_name, entry, language, n_uniforms, defines, include_dirs, device};
-             py::gil_scoped_release release;
+             glintlab::bindings::LongCall release;
              return std::make_shared<Kernel>(spec);
            }),
            py::arg("source"), py::arg("source_name"), py::arg("entry"), py::arg("language"), py::arg("n_uniforms"),
@@ -62,7 +62,7 @@ void bind_shaders(py::module_& m) {
              float* od = out.mutable_data();
              const auto ns = static_cast<std::size_t>(n.size()), ps = static_cast<std::size_t>(p.size());
              {
-               py::gil_scoped_release release;
+               glintlab::bindings::LongCall release;
                k.run(nd, ns, pd, ps, ud, count, od, timeout);
              }
              return out;

@@ -6,6 +6,8 @@
 
 #include "glintlab/law.hpp"
 
+#include <algorithm>
+
 namespace glintlab {
 namespace {
 
@@ -17,14 +19,40 @@ class BinomialLaw final : public CountingLaw {
     return binomial::quantile(u[0], n, p);
   }
   bool samples_by_evaluate() const override { return false; }
+  // Sample i's first Philox block (two uniforms: all that most draws use) comes from the vectorized
+  // rows, the rest from its scalar generator (PrefetchedRng): the same numbers as before.
   void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                     double* out) const override {
     const binomial::Sampler sampler(n, p, /*tabulate=*/i1 - i0 >= kTabulateMinBatch);
-    for (std::size_t i = i0; i < i1; ++i) {
-      auto rng = CounterRng::for_index(seed, i, kStreamSample);
-      out[i - i0] = sampler(rng);
+    alignas(64) double u[2 * kRows];
+    for (std::size_t b = i0; b < i1; b += kRows) {
+      const std::size_t rows = std::min(kRows, i1 - b);
+      detail::philox_uniform_rows(seed, kStreamSample, b, rows, 2, u);
+      for (std::size_t r = 0; r < rows; ++r) {
+        binomial::PrefetchedRng rng(u + 2 * r, seed, b + r, kStreamSample);
+        out[b - i0 + r] = sampler(rng);
+      }
     }
   }
+  // Pixels: a sampler per (n, p) (no table), the same prefetched rows.
+  void sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start, std::size_t count,
+                     double* out) const override {
+    alignas(64) double u[2 * kRows];
+    for (std::size_t b = 0; b < count; b += kRows) {
+      const std::size_t rows = std::min(kRows, count - b);
+      detail::philox_uniform_rows(seed, kStreamSample, start + b, rows, 2, u);
+      for (std::size_t r = 0; r < rows; ++r) {
+        const binomial::Sampler sampler(n[b + r], p[b + r]);
+        binomial::PrefetchedRng rng(u + 2 * r, seed, start + b + r, kStreamSample);
+        out[b + r] = sampler(rng);
+      }
+    }
+  }
+
+ private:
+  static constexpr std::size_t kRows = 256;
+
+ public:
   bool has_pmf() const override { return true; }
   Distribution pmf(double n, double p, std::size_t max_support) const override {
     return binomial::distribution(n, p, max_support);

@@ -17,6 +17,7 @@
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
 #include "glintlab/templated_law.hpp"
+#include "../src/simd_math.hpp"
 
 namespace glintlab {
 namespace {
@@ -57,6 +58,64 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
     const GatedConstants<double> c(n, p);
     for (std::size_t r = 0; r < rows; ++r)
       out[r] = u[2 * r] < c.p1 ? 1 + c.gaussian_count(u[2 * r + 1]) : 0.0;
+  }
+
+  // Pixels with their own (n, p): log1p, expm1 and the quantile's log by SLEEF over the block, the
+  // rest as eval. Bit-identical to eval: the gate is decided from the vector P1 only when u0 is
+  // farther from it than 1e-11 P1 (the two P1 differ by a few ulps: |n log1p(-p)| e^x / (1 - e^x) <= 1
+  // keeps expm1's relative error at its own), the Gaussian count only when its argument is farther
+  // than 1e-11 of its magnitude from an integer (the quantile's central region is eval's own
+  // expressions, exact); any other pixel (about 1e-11 of them) is recomputed by eval.
+  void evaluate_pixels(const double* n, const double* p, const double* u, std::size_t count,
+                       double* out) const override {
+    constexpr std::size_t kB = 256;
+    alignas(64) double a[kB], e[kB], lt[kB];
+    for (std::size_t s = 0; s < count; s += kB) {
+      const std::size_t m = std::min(kB, count - s);
+      const double *nn = n + s, *pp = p + s, *uu = u + 2 * s;
+      double* oo = out + s;
+      for (std::size_t i = 0; i < m; ++i) a[i] = -pp[i];
+      detail::vec_log1p(a, e, m);
+      for (std::size_t i = 0; i < m; ++i) a[i] = nn[i] * e[i];
+      detail::vec_expm1(a, e, m);  // e = -P1
+      for (std::size_t i = 0; i < m; ++i) {
+        const double v = uu[2 * i + 1];
+        a[i] = v < 0.5 ? v : 1.0 - v;  // quantile's min(u, 1 - u), as it computes it
+      }
+      detail::vec_log(a, lt, m);
+      if (const int level = detail::simd_level(); level >= 1) {
+        // The rest as one vectorized branch-free pass (gated_pixels_body.inc), then eval where flagged.
+        alignas(64) double redo[kB];
+        if (level >= 2) detail::gated_pixels_avx512(nn, pp, uu, e, lt, m, oo, redo);
+        else detail::gated_pixels_avx2(nn, pp, uu, e, lt, m, oo, redo);
+        for (std::size_t i = 0; i < m; ++i)
+          if (redo[i] != 0.0) oo[i] = eval<double>(nn[i], pp[i], uu + 2 * i);
+        continue;
+      }
+      for (std::size_t i = 0; i < m; ++i) {
+        const double nv = nn[i], pv = pp[i], u0 = uu[2 * i], u1 = uu[2 * i + 1];
+        const double* row = uu + 2 * i;
+        if (!(u0 > 0.0 && u0 < 1.0 && u1 > 0.0 && u1 < 1.0)) { oo[i] = eval<double>(nv, pv, row); continue; }
+        if (!(nv > 0.0)) { oo[i] = 0.0; continue; }  // P1 = 0: never gated (eval's guard)
+        const double p1 = -e[i];
+        if (!(std::abs(u0 - p1) > 1e-11 * std::abs(p1))) { oo[i] = eval<double>(nv, pv, row); continue; }
+        if (!(u0 < p1)) { oo[i] = 0.0; continue; }
+        const double mm = nv > 1.0 ? nv - 1.0 : 0.0, mu = mm * pv, sigma = std::sqrt(mu * (1.0 - pv));
+        const double top = std::ceil(nv) - 1.0;
+        double g = mu;
+        if (sigma > 0.0) {
+          bool central;
+          const double z = normal::quantile_given_log(u1, lt[i], central);
+          g = mu + sigma * z;
+          if (!central) {
+            const double f = g - std::floor(g), tol = 1e-11 * (std::abs(mu) + sigma * (std::abs(z) + 1.0));
+            if (!(f > tol && 1.0 - f > tol)) { oo[i] = eval<double>(nv, pv, row); continue; }
+          }
+        }
+        const double j = std::floor(g);
+        oo[i] = 1.0 + (j < 0.0 ? 0.0 : (j > top ? top : j));
+      }
+    }
   }
 
   // A batch at one (n, p): constants once, and the Gaussian count by table inversion.

@@ -267,7 +267,6 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
   const std::string where = "aniso_counter('" + scheme_->name() + "', inner='" + inner_.name + "')";
   const std::size_t nu = static_cast<std::size_t>(inner_.n_uniforms);
   const bool select = options_.realization == Realization::kSelect;
-  const CountingLaw* law = inner_.law && inner_.thread_safe ? inner_.law.get() : nullptr;
   const Spatial angular_lattice = options_.angular == Angular::kNone ? Spatial::kNone : Spatial::kSquare;
   auto refuse = [&](double trials, double p) {
     throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(trials) +
@@ -279,7 +278,7 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
     // Gathered requests (laws that are not thread safe or not built in: one call per chunk).
     std::vector<double> n, pp, u, coef, kk;
     std::vector<std::size_t> owner;
-    double urow[kMaxRows * 16], krow[kMaxRows], wrow[kMaxRows];
+    double urow[kMaxRows * 16], wrow[kMaxRows];
     for (std::size_t i = i0; i < i1; ++i) {
       Pixel px;
       Shape shape;
@@ -294,7 +293,6 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
       const bool clamped = scheme_->terms(shape, density, terms);
       if (status_out) status_out[i] = static_cast<std::uint8_t>(clamped ? ShapeStatus::kClamped : shape.status);
       std::int32_t evaluations = 0;
-      double k = 0.0;
       for (std::size_t ti = 0; ti < terms.size(); ++ti) {
         const Term& t = terms[ti];
         if (inner_.law && t.trials > 0 && !inner_.law->accepts(t.trials, px.p)) refuse(t.trials, px.p);
@@ -332,28 +330,20 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
           }
         }
         evaluations += static_cast<std::int32_t>(rows);
-        if (law) {
-          law->evaluate_rows(t.trials, px.p, urow, rows, krow);
-          for (std::size_t q = 0; q < rows; ++q) {
-            if (!std::isfinite(krow[q]))
-              throw std::invalid_argument(where + ": the inner law returned " + format_value(krow[q]) + " at n = " +
-                                          format_value(t.trials) + ", p = " + format_value(px.p));
-            k += wrow[q] * krow[q];
-          }
-        } else {
-          for (std::size_t q = 0; q < rows; ++q) {
-            n.push_back(t.trials);
-            pp.push_back(px.p);
-            u.insert(u.end(), urow + q * nu, urow + (q + 1) * nu);
-            coef.push_back(wrow[q]);
-            owner.push_back(i);
-          }
+        // Every evaluation of the chunk is gathered and made in one call of the inner law's per-pixel
+        // path (vector code for the laws that have it), then summed per pixel in term order: the
+        // same operations in the same order as summing each term as it comes, so the same bits.
+        for (std::size_t q = 0; q < rows; ++q) {
+          n.push_back(t.trials);
+          pp.push_back(px.p);
+          u.insert(u.end(), urow + q * nu, urow + (q + 1) * nu);
+          coef.push_back(wrow[q]);
+          owner.push_back(i);
         }
       }
-      k_out[i] = k;
       if (evals_out) evals_out[i] = evaluations;
     }
-    if (law || n.empty()) return;
+    if (n.empty()) return;
     kk.resize(n.size());
     inner_.evaluate(n.data(), pp.data(), u.data(), n.size(), kk.data());
     for (std::size_t q = 0; q < n.size(); ++q) {

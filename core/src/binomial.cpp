@@ -193,7 +193,8 @@ Sampler::Sampler(double n, double p, bool tabulate) {
   }
 }
 
-double Sampler::btrd(CounterRng& rng) const {
+template <class Rng>
+double Sampler::btrd(Rng& rng) const {
   // Hörmann (1993), algorithm BTRD, steps 1-3.4. Step 3.3-3.4 (the final acceptance test) compares
   // log V with log f(k) - log f(mode) from Loader's saddle-point pmf, which stays accurate at
   // n = 1e15 where the paper's Stirling-difference form loses digits to cancellation.
@@ -248,7 +249,8 @@ double Sampler::btrd(CounterRng& rng) const {
   }
 }
 
-double Sampler::draw_integer_part(CounterRng& rng) const {
+template <class Rng>
+double Sampler::draw_integer_part(Rng& rng) const {
   switch (method_) {
     case Method::kConstant: return constant_;
     case Method::kInversion: return flip_ ? m_ - inversion_(rng) : inversion_(rng);
@@ -257,11 +259,15 @@ double Sampler::draw_integer_part(CounterRng& rng) const {
   return 0.0;
 }
 
-double Sampler::operator()(CounterRng& rng) const {
+template <class Rng>
+double Sampler::draw(Rng& rng) const {
   const double k = draw_integer_part(rng);
   if (g_ == 0.0) return k;
   return k + (rng.uniform() < g_ ? 1.0 : 0.0);  // the fractional facet
 }
+
+double Sampler::operator()(CounterRng& rng) const { return draw(rng); }
+double Sampler::operator()(PrefetchedRng& rng) const { return draw(rng); }
 
 }  // namespace binomial
 

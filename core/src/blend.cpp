@@ -1,8 +1,10 @@
 #include "glintlab/blend.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <stdexcept>
 
 #include "glintlab/binomial.hpp"
@@ -34,19 +36,26 @@ std::array<double, 2> snap_trials(std::array<double, 2> t) {
 
 }  // namespace
 
-LevelLadder::LevelLadder(double ratio, double base_area) : ratio_(ratio), base_area_(base_area) {
+LevelLadder::LevelLadder(double ratio, double base_area) : ratio_(ratio), base_area_(base_area), log_ratio_(0.0) {
   if (!(ratio > 1.0) || !std::isfinite(ratio))
     throw_invalid("blended_law", "level_ratio", ratio, "a finite number > 1 (4 for mip levels)");
   if (!(base_area > 0.0) || !std::isfinite(base_area))
     throw_invalid("blended_law", "base_area", base_area, "a finite area > 0");
+  log_ratio_ = std::log(ratio_);
+  areas_.resize(2 * kTabulated + 1);
+  for (int l = -kTabulated; l <= kTabulated; ++l)
+    areas_[static_cast<std::size_t>(l + kTabulated)] = base_area_ * std::pow(ratio_, l);
 }
 
-double LevelLadder::area(int level) const { return base_area_ * std::pow(ratio_, level); }
+double LevelLadder::area(int level) const {
+  if (level >= -kTabulated && level <= kTabulated) return areas_[static_cast<std::size_t>(level + kTabulated)];
+  return base_area_ * std::pow(ratio_, level);
+}
 
 LevelBracket LevelLadder::bracket(double footprint_area) const {
   const double a = footprint_area;
   if (!(a > 0.0) || !std::isfinite(a)) throw_invalid("blended_law", "P", a, "a finite footprint area > 0");
-  const double guess = std::floor(std::log(a / base_area_) / std::log(ratio_));
+  const double guess = std::floor(std::log(a / base_area_) / log_ratio_);
   if (!(std::abs(guess) < 32767))
     throw_invalid("blended_law", "P", a, "an area within 32767 levels of base_area (level index is 16 bits)");
   int lo = static_cast<int>(guess);
@@ -57,7 +66,7 @@ LevelBracket LevelLadder::bracket(double footprint_area) const {
   b.lo = lo;
   b.area_lo = area(lo);
   b.area_hi = area(lo + 1);
-  b.w_lod = std::clamp(std::log(a / b.area_lo) / std::log(ratio_), 0.0, std::nextafter(1.0, 0.0));
+  b.w_lod = std::clamp(std::log(a / b.area_lo) / log_ratio_, 0.0, std::nextafter(1.0, 0.0));
   b.w_area = std::clamp((a - b.area_lo) / (b.area_hi - b.area_lo), 0.0, std::nextafter(1.0, 0.0));
   return b;
 }
@@ -69,9 +78,9 @@ InnerLaw InnerLaw::from_law(std::shared_ptr<const CountingLaw> law) {
   inner.integer_output = law->binning() == "none";
   inner.thread_safe = true;
   const CountingLaw* raw = law.get();
-  const std::size_t k = static_cast<std::size_t>(inner.n_uniforms);
-  inner.evaluate = [raw, k](const double* n, const double* p, const double* u, std::size_t m, double* out) {
-    for (std::size_t i = 0; i < m; ++i) out[i] = raw->evaluate(n[i], p[i], u + i * k);
+  // The law's per-pixel path (vector code where the law has one; bit-identical to evaluate()).
+  inner.evaluate = [raw](const double* n, const double* p, const double* u, std::size_t m, double* out) {
+    raw->evaluate_pixels(n, p, u, m, out);
   };
   inner.law = std::move(law);
   return inner;
@@ -172,6 +181,19 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     std::vector<std::size_t> rows[2];
     std::vector<double> n[2], pp[2], u[2], kk[2];
     std::vector<double> k_level[2] = {std::vector<double>(m, 0.0), std::vector<double>(m, 0.0)};
+    for (int j = 0; j < 2; ++j) {
+      rows[j].reserve(m);
+      n[j].reserve(m);
+      pp[j].reserve(m);
+      u[j].reserve(m * k);
+    }
+    // Sample i's cells are (i mod 2^32, i >> 32) at every level (sample(), not sample_at()): the
+    // level's uniforms are then rows of the vectorized Philox keyed at that level, generated for
+    // the chunk's few distinct levels (the same numbers as one CounterRng per cell).
+    constexpr bool kIndexCells = requires { CellOf::kIndexCells; };
+    constexpr std::size_t kMaxVectorLevels = 6;
+    std::vector<int> levels;  // distinct levels drawn in this chunk (index cells only)
+    bool vector_rows = kIndexCells && k > 0;
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
       brackets[r] = ladder_.bracket(area[i]);
@@ -179,12 +201,43 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       for (int j = 0; j < 2; ++j) {
         if (!(trials[j] > 0)) continue;
         const int level = brackets[r].lo + j;
-        const auto [cx, cy] = cell_of(i, j == 0 ? brackets[r].area_lo : brackets[r].area_hi);
-        CounterRng rng(seed, cx, cy, level_key(level), kStreamLevelCount);
         rows[j].push_back(r);
         n[j].push_back(trials[j]);
         pp[j].push_back(p[i]);
-        for (std::size_t d = 0; d < k; ++d) u[j].push_back(rng.uniform());
+        if (vector_rows) {
+          if (std::find(levels.begin(), levels.end(), level) == levels.end()) levels.push_back(level);
+          vector_rows = levels.size() <= kMaxVectorLevels;
+        }
+      }
+    }
+    if (vector_rows) {
+      // One block of rows per distinct level (uninitialized: every row is written), then one pass per
+      // level slot j picking each row's level.
+      const std::size_t stride = m * k;
+      const std::unique_ptr<double[]> blocks(new double[levels.size() * stride]);
+      for (std::size_t l = 0; l < levels.size(); ++l)
+        detail::philox_uniform_rows_level(seed, level_key(levels[l]), kStreamLevelCount, i0, m, static_cast<int>(k),
+                                          blocks.get() + l * stride);
+      for (int j = 0; j < 2; ++j) {
+        u[j].resize(rows[j].size() * k);
+        for (std::size_t q = 0; q < rows[j].size(); ++q) {
+          const std::size_t r = rows[j][q];
+          const int level = brackets[r].lo + j;
+          std::size_t l = 0;
+          while (levels[l] != level) ++l;
+          const double* src = blocks.get() + l * stride + r * k;
+          for (std::size_t d = 0; d < k; ++d) u[j][q * k + d] = src[d];
+        }
+      }
+    } else {
+      for (int j = 0; j < 2; ++j) {
+        for (const std::size_t r : rows[j]) {
+          const std::size_t i = i0 + r;
+          const int level = brackets[r].lo + j;
+          const auto [cx, cy] = cell_of(i, j == 0 ? brackets[r].area_lo : brackets[r].area_hi);
+          CounterRng rng(seed, cx, cy, level_key(level), kStreamLevelCount);
+          for (std::size_t d = 0; d < k; ++d) u[j].push_back(rng.uniform());
+        }
       }
     }
     for (int j = 0; j < 2; ++j) {
@@ -217,14 +270,20 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   }
 }
 
+namespace {
+// sample()'s cells: sample i sits in cell (i mod 2^32, i >> 32) at every level, the layout of the
+// vectorized Philox rows (kIndexCells tells run() so).
+struct IndexCells {
+  static constexpr bool kIndexCells = true;
+  std::pair<std::uint32_t, std::uint32_t> operator()(std::size_t i, double) const {
+    return {static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(static_cast<std::uint64_t>(i) >> 32)};
+  }
+};
+}  // namespace
+
 void BlendedLaw::sample(double density, ParamArray area, ParamArray p, std::size_t count, std::uint64_t seed,
                         double* out) const {
-  run(density, area, p, count, seed,
-      [](std::size_t i, double) {
-        return std::pair<std::uint32_t, std::uint32_t>(static_cast<std::uint32_t>(i),
-                                                       static_cast<std::uint32_t>(static_cast<std::uint64_t>(i) >> 32));
-      },
-      out);
+  run(density, area, p, count, seed, IndexCells{}, out);
 }
 
 void BlendedLaw::sample_at(double density, ParamArray area, ParamArray p, ParamArray x, ParamArray y,

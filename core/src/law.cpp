@@ -63,6 +63,22 @@ void CountingLaw::sample_range(double n, double p, std::uint64_t seed, std::size
   }
 }
 
+void CountingLaw::sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start,
+                                std::size_t count, double* out) const {
+  const std::size_t k = static_cast<std::size_t>(n_uniforms());
+  if (!samples_by_evaluate() || k == 0) {
+    for (std::size_t r = 0; r < count; ++r) sample_range(n[r], p[r], seed, start + r, start + r + 1, out + r);
+    return;
+  }
+  constexpr std::size_t kRows = 256;
+  std::vector<double> u(kRows * k);
+  for (std::size_t b = 0; b < count; b += kRows) {
+    const std::size_t rows = std::min(kRows, count - b);
+    detail::philox_uniform_rows(seed, kStreamSample, start + b, rows, static_cast<int>(k), u.data());
+    evaluate_pixels(n + b, p + b, u.data(), rows, out + b);
+  }
+}
+
 std::unique_ptr<BatchSampler> CountingLaw::batch_sampler(double, double, std::size_t) const {
   return nullptr;
 }
@@ -219,31 +235,44 @@ void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t
     parallel_chunks(count, [&](std::size_t i0, std::size_t i1) { range(n[0], p[0], i0, i1, out + i0); });
   } else {
     // Runs of equal (n, p) share one sampler setup (results are keyed by index, so unchanged);
-    // short runs of a law that samples by evaluate() are evaluated on one block of uniforms.
+    // short runs are gathered into blocks of pixels for the law's sample_pixels (its vector
+    // per-pixel path: evaluate_pixels on one block of uniforms, or prefetched Philox rows).
     constexpr std::size_t kShortRun = 16, kRows = 256;
     const std::size_t k = static_cast<std::size_t>(law.n_uniforms());
-    const bool direct = law.samples_by_evaluate() && k > 0;
     parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
-      std::vector<double> u(direct ? kRows * k : 0);
-      std::size_t u_start = i0, u_end = i0;  // rows [u_start, u_end) are in u
+      std::vector<double> u(precision == Precision::kFloat32 ? kRows * std::max<std::size_t>(k, 1) : 0);
+      std::vector<double> nb(kRows), pb(kRows);
+      std::size_t ps = i0, pe = i0;  // pending short-run pixels [ps, pe)
+      const auto flush = [&] {
+        for (std::size_t b = ps; b < pe; b += kRows) {
+          const std::size_t rows = std::min(kRows, pe - b);
+          if (precision == Precision::kFloat32) {
+            if (k > 0) detail::philox_uniform_rows(seed, kStreamSample, b, rows, static_cast<int>(k), u.data());
+            for (std::size_t r = 0; r < rows; ++r) out[b + r] = law.evaluate_f32(n[b + r], p[b + r], u.data() + r * k);
+          } else {
+            for (std::size_t r = 0; r < rows; ++r) {
+              nb[r] = n[b + r];
+              pb[r] = p[b + r];
+            }
+            law.sample_pixels(nb.data(), pb.data(), seed, b, rows, out + b);
+          }
+        }
+        ps = pe;
+      };
       for (std::size_t i = i0; i < i1;) {
         std::size_t j = i + 1;
         while (j < i1 && n[j] == n[i] && p[j] == p[i]) ++j;
-        if (!direct || j - i >= kShortRun) {
+        if (j - i >= kShortRun) {
+          flush();
           range(n[i], p[i], i, j, out + i);
-          i = j;
-          continue;
+          ps = pe = j;
+        } else {
+          pe = j;
+          if (pe - ps >= 8 * kRows) flush();
         }
-        for (; i < j; ++i) {
-          if (i >= u_end) {
-            u_start = i;
-            u_end = std::min(i1, i + kRows);
-            detail::philox_uniform_rows(seed, kStreamSample, u_start, u_end - u_start, static_cast<int>(k), u.data());
-          }
-          const double* row = u.data() + (i - u_start) * k;
-          out[i] = precision == Precision::kFloat32 ? law.evaluate_f32(n[i], p[i], row) : law.evaluate(n[i], p[i], row);
-        }
+        i = j;
       }
+      flush();
     });
   }
 }

@@ -298,4 +298,16 @@ void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t s
   else rows_portable(key0, key1, c3, start, count, kk, out);
 }
 
+// The same rows keyed at LOD level `level` (the counter's upper 16 bits, as CounterRng's).
+void philox_uniform_rows_level(std::uint64_t seed, std::uint16_t level, std::uint16_t stream, std::size_t start,
+                               std::size_t count, int k, double* out) {
+  const std::uint32_t key0 = static_cast<std::uint32_t>(seed), key1 = static_cast<std::uint32_t>(seed >> 32);
+  const std::uint32_t c3 = (static_cast<std::uint32_t>(level) << 16) | stream;
+  const std::size_t kk = static_cast<std::size_t>(k);
+  const int simd = simd_level();
+  if (simd >= 2) rows_avx512(key0, key1, c3, start, count, kk, out);
+  else if (simd >= 1) rows_avx2(key0, key1, c3, start, count, kk, out);
+  else rows_portable(key0, key1, c3, start, count, kk, out);
+}
+
 }  // namespace glintlab::detail

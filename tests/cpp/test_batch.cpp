@@ -1,8 +1,10 @@
 // Batch samplers (per-(n, p) tables) must give exactly what per-sample evaluation gives.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
+#include "glintlab/binomial.hpp"
 #include "glintlab/law.hpp"
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
@@ -76,4 +78,95 @@ TEST_CASE("a step table without guard bands would be wrong (the check can fail)"
     errors += wrong(u) != std::clamp(std::floor(mu + sd * normal::quantile(u)), 0.0, 100.0);
   }
   CHECK(errors > 30);
+}
+
+TEST_CASE("per-pixel evaluation equals evaluate(), bit for bit, at every SIMD level", "[law][batch][pixels]") {
+  // Pixels with their own (n, p): log-uniform n over [1e-2, 1e12] plus edge values, p over
+  // [1e-9, 1 - 1e-9] plus 0, 1/2, 1, on the batch uniforms (evaluate_pixels) and through sample_many's
+  // per-pixel path; every law (the default loops over evaluate(), gated and head_cf have vector code).
+  const std::size_t count = 60'000;
+  std::vector<double> n(count), p(count), u, fast(count), direct(count);
+  CounterRng rng(7, 1, 2);
+  const double edge_n[] = {0, 0.3, 1, 1.5, 2, 3, 16, 1e15};
+  const double edge_p[] = {0, 0.5, 1, 1e-300, 0.4999999999, 0.5000000001};
+  for (std::size_t i = 0; i < count; ++i) {
+    n[i] = i % 17 == 0 ? edge_n[(i / 17) % 8] : std::exp(std::log(1e-2) + rng.uniform() * std::log(1e14));
+    const double t = rng.uniform();
+    p[i] = i % 13 == 0 ? edge_p[(i / 13) % 6] : (i % 2 ? std::exp(std::log(1e-9) * t) : 1 - std::exp(std::log(1e-9) * t));
+  }
+  struct Restore { ~Restore() { detail::set_simd_level(2); set_num_threads(2); } } restore;
+  for (int level : {2, 1, 0}) for (const auto& info : registered_laws()) {
+    detail::set_simd_level(level);
+    const auto law = make_law(info.name);
+    if (!law->samples_by_evaluate()) continue;
+    // Laws whose cost grows with n (explicit trial loops) get n capped at 1e4.
+    const double cap = info.traits.constant_time ? 1e300 : 1e4;
+    std::vector<double> nn, pp;
+    for (std::size_t i = 0; i < count; ++i)
+      if (law->accepts(std::min(n[i], cap), p[i])) { nn.push_back(std::min(n[i], cap)); pp.push_back(p[i]); }
+    const std::size_t m = nn.size(), k = static_cast<std::size_t>(law->n_uniforms());
+    u.assign(m * std::max<std::size_t>(k, 1), 0.0);
+    fill_uniforms(42, kStreamSample, 0, m, static_cast<int>(k), u.data());
+    law->evaluate_pixels(nn.data(), pp.data(), u.data(), m, fast.data());
+    for (std::size_t i = 0; i < m; ++i) direct[i] = law->evaluate(nn[i], pp[i], u.data() + i * k);
+    std::size_t mismatches = 0;
+    for (std::size_t i = 0; i < m; ++i) mismatches += !(fast[i] == direct[i] || (std::isnan(fast[i]) && std::isnan(direct[i])));
+    INFO(info.name << ", SIMD level " << detail::simd_level() << ", " << m << " pixels");
+    CHECK(mismatches == 0);
+    for (int threads : {1, 2}) {  // sample_many's per-pixel path: same output at any thread count
+      set_num_threads(threads);
+      sample_many(*law, {nn.data(), m}, {pp.data(), m}, m, 42, fast.data());
+      mismatches = 0;
+      for (std::size_t i = 0; i < m; ++i) mismatches += !(fast[i] == direct[i] || (std::isnan(fast[i]) && std::isnan(direct[i])));
+      INFO("sample_many, " << threads << " threads");
+      CHECK(mismatches == 0);
+    }
+  }
+}
+
+TEST_CASE("the exact binomial's prefetched Philox rows give the scalar generator's draws", "[law][batch][pixels]") {
+  // sample_range and the per-pixel path take each sample's first Philox block from the vector rows
+  // (binomial::PrefetchedRng); the draws must be those of binomial::Sampler on CounterRng::for_index,
+  // including the samples that need more than two uniforms (BTRD rejections, the fractional facet).
+  const auto law = make_law("binomial");
+  const std::vector<std::pair<double, double>> points{
+      {16, 0.1}, {1e3, 1e-2}, {1e6, 0.3}, {1e9, 1e-6}, {40.5, 0.7}, {1e15, 0.5}, {0.5, 0.5}, {100, 0}, {100, 1}};
+  const std::size_t count = 5000;
+  std::vector<double> got(count);
+  struct Restore { ~Restore() { detail::set_simd_level(2); set_num_threads(2); } } restore;
+  for (int level : {2, 1, 0}) {
+    detail::set_simd_level(level);
+    for (const auto& [n, p] : points) {
+      for (bool table : {false, true}) {
+        const binomial::Sampler sampler(n, p, table);
+        const std::size_t m = table ? count : 40;  // sample_range tabulates from kTabulateMinBatch rows
+        law->sample_range(n, p, 9, 100, 100 + m, got.data());
+        std::size_t mismatches = 0;
+        for (std::size_t i = 0; i < m; ++i) {
+          auto rng = CounterRng::for_index(9, 100 + i, kStreamSample);
+          mismatches += got[i] != sampler(rng);
+        }
+        INFO("n = " << n << " p = " << p << ", SIMD level " << detail::simd_level());
+        CHECK(mismatches == 0);
+      }
+    }
+    // Pixels, each its own (n, p), at 1 and 2 threads.
+    std::vector<double> n(count), p(count);
+    CounterRng pick(3, 4, 5);
+    for (std::size_t i = 0; i < count; ++i) {
+      n[i] = std::floor(std::exp(pick.uniform() * std::log(1e12))) + (i % 3 == 0 ? 0.5 : 0.0);
+      p[i] = pick.uniform();
+    }
+    for (int threads : {1, 2}) {
+      set_num_threads(threads);
+      sample_many(*law, {n.data(), count}, {p.data(), count}, count, 11, got.data());
+      std::size_t mismatches = 0;
+      for (std::size_t i = 0; i < count; ++i) {
+        auto rng = CounterRng::for_index(11, i, kStreamSample);
+        mismatches += got[i] != binomial::Sampler(n[i], p[i])(rng);
+      }
+      INFO("pixels, " << threads << " threads, SIMD level " << detail::simd_level());
+      CHECK(mismatches == 0);
+    }
+  }
 }

@@ -53,7 +53,11 @@ class LevelLadder {
   LevelBracket bracket(double footprint_area) const;
 
  private:
-  double ratio_, base_area_;
+  // area(l) for |l| <= kTabulated, computed once by the same expression (a per-sample bracket then
+  // costs two logarithms instead of three and four pow calls; the same bits).
+  static constexpr int kTabulated = 256;
+  double ratio_, base_area_, log_ratio_;
+  std::vector<double> areas_;
 };
 
 // The inner law as the blend sees it: a vectorized evaluation on explicit uniforms, so that a

@@ -21,7 +21,8 @@ class SmallMeanInversion {
   SmallMeanInversion() = default;
   SmallMeanInversion(double f0, double a, double s, double bound, bool tabulate);
 
-  double operator()(CounterRng& rng) const {
+  template <class Rng>  // CounterRng, or binomial::PrefetchedRng (the same numbers)
+  double operator()(Rng& rng) const {
     if (!cum_.empty()) return tabulated(rng);
     for (;;) {
       const double u = rng.uniform();
@@ -37,7 +38,8 @@ class SmallMeanInversion {
   }
 
  private:
-  double tabulated(CounterRng& rng) const {
+  template <class Rng>
+  double tabulated(Rng& rng) const {
     const std::size_t last = cum_.size() - 1;
     for (;;) {
       const double u = rng.uniform();

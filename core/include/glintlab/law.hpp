@@ -73,6 +73,16 @@ class CountingLaw {
     for (std::size_t r = 0; r < rows; ++r) out[r] = evaluate(n, p, u + r * k);
   }
   virtual bool supports(Precision precision) const { return precision == Precision::kFloat64; }
+  // `count` evaluations with their own (n, p) each, as a renderer's pixels have:
+  // out[i] = evaluate(n[i], p[i], u + i * n_uniforms()), bit for bit, for uniforms in (0, 1) (those of
+  // fill_uniforms). The default loops over evaluate(); laws with costly per-(n, p) constants compute
+  // them with vector code over the block and fall back to evaluate() wherever the vector result
+  // could decide differently (the per-pixel path of sample_many).
+  virtual void evaluate_pixels(const double* n, const double* p, const double* u, std::size_t count,
+                               double* out) const {
+    const auto k = static_cast<std::size_t>(n_uniforms());
+    for (std::size_t i = 0; i < count; ++i) out[i] = evaluate(n[i], p[i], u + i * k);
+  }
 
   // Samples i0 .. i1-1 of a batch with fixed (n, p): sample i uses CounterRng::for_index(seed, i,
   // kStreamSample), so results do not depend on how the batch is split between threads. The default
@@ -80,6 +90,12 @@ class CountingLaw {
   // set up per-(n, p) constants once per range.
   virtual void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                             double* out) const;
+  // Samples start .. start + count - 1 of a batch whose (n, p) change at every sample (a renderer's
+  // pixels): out[r] is what sample_range(n[r], p[r], seed, start + r, start + r + 1) gives. The
+  // default: the uniforms' rows and evaluate_pixels for laws that sample by evaluate(), else
+  // sample_range per pixel; the exact binomial prefetches its first Philox block as vector rows.
+  virtual void sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start,
+                             std::size_t count, double* out) const;
   // Whether sample_range is evaluate() on the fill_uniforms rows (the default). Laws that override
   // sample_range with their own sampler return false. The drivers use it to evaluate a batch whose
   // (n, p) change at every sample (a renderer's pixels) directly on one block of uniforms.
@@ -190,6 +206,10 @@ int simd_level();  // the level in effect: min(the setting, what the CPU has)
 // Rows [start, start + count) of fill_uniforms (bit-identical at every SIMD level).
 void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start,
                          std::size_t count, int k, double* out);
+// The same rows at LOD level `level` (16-bit key): row r holds the first k draws of
+// CounterRng(seed, low 32 bits of r, high 32 bits of r, level, stream).
+void philox_uniform_rows_level(std::uint64_t seed, std::uint16_t level, std::uint16_t stream, std::size_t start,
+                               std::size_t count, int k, double* out);
 
 // A BatchSampler that hands blocks of rows to f(const double* u, std::size_t rows, double* out):
 // u holds `rows` rows of k uniforms (those of fill_uniforms), out gets one sample per row. Blocks

@@ -63,6 +63,29 @@ T quantile(T u) {
   return q < T(0) ? -x : x;
 }
 
+// quantile(u) for u in (0, 1) with log(min(u, 1 - u)) given by the caller (log_tail: a vector log,
+// possibly an ulp away from std::log). In the central region |u - 1/2| <= 0.425 it is quantile(u)
+// bit for bit (the same expressions, log_tail unused) and `central` is set; outside it differs from
+// quantile(u) only through log_tail, by a few ulps: callers guard their decisions there.
+inline double quantile_given_log(double u, double log_tail, bool& central) {
+  const double q = u - 0.5;
+  central = std::abs(q) <= 0.425;
+  if (central) {
+    const double r = 0.180625 - q * q;
+    return q * detail::poly7(detail::kA, r) / detail::poly7(detail::kB, r);
+  }
+  double r = std::sqrt(-log_tail);
+  double x;
+  if (r <= 5.0) {
+    r -= 1.6;
+    x = detail::poly7(detail::kC, r) / detail::poly7(detail::kD, r);
+  } else {
+    r -= 5.0;
+    x = detail::poly7(detail::kE, r) / detail::poly7(detail::kF, r);
+  }
+  return q < 0.0 ? -x : x;
+}
+
 // P(Z <= x) and P(Z > x), each from erfc so that both tails keep relative precision.
 inline double cdf(double x) { return 0.5 * boost::math::erfc(-x / 1.41421356237309504880); }
 inline double sf(double x) { return 0.5 * boost::math::erfc(x / 1.41421356237309504880); }

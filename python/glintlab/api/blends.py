@@ -89,24 +89,28 @@ class BlendedLaw:
             V.fail("max_support", max_support, "an integer >= 1")
         return self._core.pmf(_density(N), _number("P", P), _number("p", p), int(max_support))
 
-    def sample(self, N, P, p, size=None, seed=None) -> np.ndarray:
+    def sample(self, N, P, p, size=None, seed=None, out=None) -> np.ndarray:
         """Independent draws of K. N is a scalar density; P and p broadcast numpy-style with ``size``.
 
         Sample i draws level l from the cell keyed by (seed, i, l): the same output whatever the
-        number of threads.
+        number of threads. ``out``: a preallocated float64 array of the output's shape, filled in
+        place and returned (as ``Law.sample``'s).
         """
         shape = V.size(size)
         seed = V.seed(seed)
         Pf, pf, shape = V.broadcast_params(P, p, shape)
         count = int(np.prod(shape, dtype=np.int64))
-        return self._core.sample(_density(N), Pf, pf, count, seed).reshape(shape)
+        flat = None if out is None else V.out_array(out, shape)
+        result = self._core.sample(_density(N), Pf, pf, count, seed, out=flat)
+        return out if out is not None else result.reshape(shape)
 
-    def sample_at(self, N, P, p, x, y, seed=0) -> np.ndarray:
+    def sample_at(self, N, P, p, x, y, seed=0, out=None) -> np.ndarray:
         """K for footprints of area P centred at texture positions (x, y) (arrays broadcast together).
 
         Level l's count comes from the cell (floor(x / s_l), floor(y / s_l)), s_l = sqrt(A_l), of the
         seed's realization: fixed seed and position give the same K in every frame, and moving across
-        a cell edge draws a new cell (what a renderer's grid does).
+        a cell edge draws a new cell (what a renderer's grid does). ``out``: a preallocated float64 array
+        of the broadcast shape, filled in place and returned.
         """
         seed = V.seed(seed)
         arrays = [V.as_float_array(name, a) for name, a in (("P", P), ("p", p), ("x", x), ("y", y))]
@@ -118,7 +122,9 @@ class BlendedLaw:
         flat = [a.reshape(1) if a.size == 1 else np.ascontiguousarray(np.broadcast_to(a, shape)).ravel()
                 for a in arrays]
         count = int(np.prod(shape, dtype=np.int64))
-        return self._core.sample_at(_density(N), *flat, count, seed).reshape(shape)
+        target = None if out is None else V.out_array(out, shape)
+        result = self._core.sample_at(_density(N), *flat, count, seed, out=target)
+        return out if out is not None else result.reshape(shape)
 
 
 class _AtDensity:

@@ -124,3 +124,21 @@ def broadcast_params(n, p, shape=None):
         return a.reshape(1) if a.size == 1 else np.ascontiguousarray(np.broadcast_to(a, common)).ravel()
 
     return flat(n), flat(p), common
+
+
+def out_array(out, shape):
+    """A caller's preallocated output (numpy's ``out=`` convention): a writeable, C-contiguous float64
+    array of exactly ``shape``; returns its flat view (no copy), so samplers write in place.
+    ValueError naming ``out`` otherwise (a silent copy would defeat the point of passing one)."""
+    shape = tuple(shape)
+    if not isinstance(out, np.ndarray):
+        fail("out", out, f"a numpy float64 array of shape {shape}")
+    if out.dtype != np.float64:
+        raise ValueError(f"out has dtype {out.dtype}; expected float64")
+    if out.shape != shape:
+        raise ValueError(f"out has shape {out.shape}; expected {shape}")
+    if not out.flags.c_contiguous:
+        raise ValueError("out is not C-contiguous; expected a C-contiguous float64 array")
+    if not out.flags.writeable:
+        raise ValueError("out is read-only; expected a writeable float64 array")
+    return out.reshape(-1)

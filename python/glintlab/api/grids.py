@@ -151,14 +151,18 @@ class AnisoCounter:
         law); NotImplementedError otherwise."""
         return self._core.pmf(float(N), float(P), float(r), float(phi), float(p), int(max_support))
 
-    def sample(self, N, P, r, phi, p, size: int, seed: int = 0) -> np.ndarray:
+    def sample(self, N, P, r, phi, p, size: int, seed: int = 0, out=None) -> np.ndarray:
         """``size`` realizations of K for one footprint, each on fresh grids at a random position and
-        angular coordinate. Same seed, same output, whatever the number of threads."""
+        angular coordinate. Same seed, same output, whatever the number of threads. ``out``: a
+        preallocated float64 array of shape ``size``, filled in place and returned."""
         shape = V.size(size) or ()
         count = int(np.prod(shape)) if shape else 1
-        out = self._core.sample(V.real("N", N), V.real("P", P), V.real("r", r), V.real("phi", phi),
-                                V.real("p", p), count, V.seed(seed))
-        return out.reshape(shape) if shape else out[0]
+        flat = None if out is None else V.out_array(out, shape)
+        res = self._core.sample(V.real("N", N), V.real("P", P), V.real("r", r), V.real("phi", phi),
+                                V.real("p", p), count, V.seed(seed), out=flat)
+        if out is not None:
+            return out
+        return res.reshape(shape) if shape else res[0]
 
     def count_image(self, uv, J, N, p, slope=None, seed: int = 0) -> ImageCounts:
         """Counts of a whole image: ``uv`` (H, W, 2) texture positions, ``J`` (H, W, 4) Jacobians

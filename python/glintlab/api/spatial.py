@@ -152,7 +152,7 @@ class GroundTruth:
             V.fail("quadrature", quadrature, "an integer >= 1")
         return self._core.pmf(int(max_support), int(q[0]))
 
-    def sample(self, size: int, seed=None) -> np.ndarray:
+    def sample(self, size: int, seed=None, out=None) -> np.ndarray:
         """``size`` independent realizations of the layout (and of the centre when None): K of each.
 
         Realization r depends on (seed, r) only, whatever the number of threads.
@@ -160,7 +160,13 @@ class GroundTruth:
         shape = V.size(size)
         if shape is None or len(shape) != 1:
             V.fail("size", size, "an integer >= 0")
-        return self._core.sample(shape[0], V.seed(seed))
+        if out is None:
+            return self._core.sample(shape[0], V.seed(seed))
+        # The simulator builds its own buffer: out= is accepted for a uniform API, copied into, and
+        # saves nothing here (the cost is the facet placement, not the output's pages).
+        flat = V.out_array(out, shape)
+        flat[:] = self._core.sample(shape[0], V.seed(seed))
+        return out
 
     def __repr__(self):
         return (f"GroundTruth(layout={self.layout!r}, density={self.density:g}, footprint={self.footprint!r}, "

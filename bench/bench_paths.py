@@ -1,0 +1,245 @@
+#!/usr/bin/env python3
+"""`make bench`: the paths renderers and sweeps take (project issue 21), each beside its baseline.
+
+One run measures, from Python, every row of the issue's table with the baseline of that row timed in
+the same run (numpy's binomial, the law's own batch, or the inner law), on one thread and on
+glintlab's default threads, and prints the ratio the issue's goal is stated in:
+
+  batch[law]        law.sample(n, p, size=--size) at the four benchmark points   vs numpy binomial
+  per_pixel[law]    law.sample(n_array, p_array), --pixels random (n, p) of the standard grid
+                    (gated, head_cf: vs the law's own batch at the four points, mean ns; binomial: vs
+                    numpy's binomial on the same arrays)
+  blend[rule/law]   gl.blended_law(rule, inner=law).sample(N, P, p) with P log-uniform over two levels
+                    per sample                                                   vs the inner law's batch
+  count_image[cfg]  AnisoCounter.count_image on a 1920 x 1080 tilted plane (gated inside): ns per pixel
+                    per inner evaluation                                         vs per-pixel gated ns
+  out=              the per-pixel and batch calls again with a preallocated ``out=`` buffer: the
+                    share of the time that is the fresh output array's page faults.
+
+What is timed: the whole Python call, including the allocation of the output array (the user pays
+it), except in the ``out=`` rows, which reuse one buffer. numpy has one thread only. Each time is the
+best (minimum) of --repeats calls after a warm-up: noise from other processes only adds time.
+``--busy`` also times 1 and 2 threads while a competing process spins on one core (the shared-machine
+case: two threads must not be slower than one).
+
+Written to out/bench/paths.{csv,json,md}. A benchmark, not a test: exits 0 when the measurements
+complete, whatever the goals say (each row prints PASS or FAIL against its goal).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import multiprocessing as mp
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+import glintlab as gl
+from glintlab import _core
+from glintlab.validation.bench import best_time
+
+POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6)]
+BLENDS = ["distributed", "zk16_linear", "roulette", "nearest"]
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def simd_name(level: int) -> str:
+    return {2: "AVX-512", 1: "AVX2", 0: "portable (scalar)"}.get(level, str(level))
+
+
+def _spin(stop):
+    x = 0
+    while not stop.is_set():
+        for _ in range(10000):
+            x += 1
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--size", type=int, default=10**7, help="samples of the batch calls (default 1e7)")
+    ap.add_argument("--pixels", type=int, default=10**6, help="samples of the per-pixel and blend calls (1e6)")
+    ap.add_argument("--repeats", type=int, default=3, help="timed calls per measurement; best kept")
+    ap.add_argument("--image", default="1920x1080", help="count_image size WxH ('0' skips it)")
+    ap.add_argument("--busy", action="store_true", help="also time 1 vs 2 threads beside a competing process")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--out", type=Path, default=Path("out/bench"))
+    args = ap.parse_args(argv)
+    if args.size < 64 or args.pixels < 64 or args.repeats < 1:
+        ap.error("--size >= 64, --pixels >= 64 and --repeats >= 1 are required")
+    R, S, M = args.repeats, args.size, args.pixels
+    default_threads = gl.get_num_threads()
+    thread_settings = sorted({1, default_threads})
+    rng = np.random.default_rng(args.seed)
+    rows = []
+
+    def ns(fn, count, threads):
+        gl.set_num_threads(threads)
+        try:
+            return best_time(fn, R) / count * 1e9
+        finally:
+            gl.set_num_threads(default_threads)
+
+    def add(path, goal, value, baseline, baseline_name, ratio, ok, threads, note=""):
+        rows.append(dict(path=path, threads=threads, ns=value, baseline=baseline_name, baseline_ns=baseline,
+                         ratio=ratio, goal=goal, ok=bool(ok), note=note))
+
+    # numpy baselines (one thread; numpy has no other)
+    numpy_ns = {pt: best_time(lambda: rng.binomial(int(pt[0]), pt[1], size=S), R) / S * 1e9 for pt in POINTS}
+    gn, gp = gl.standard_grid()
+    pick = np.random.default_rng(args.seed).integers(0, gn.size * gp.size, M)
+    pix_n, pix_p = gn[pick // gp.size], gp[pick % gp.size]
+    pix_n_int = np.floor(pix_n).astype(np.int64)
+    numpy_pixel_ns = best_time(lambda: rng.binomial(pix_n_int, pix_p), R) / M * 1e9
+
+    batch_ns = {}
+    for name in ("gated", "head_cf", "binomial"):
+        law = gl.law(name)
+        for t in thread_settings:
+            for n, p in POINTS:
+                v = ns(lambda: law.sample(n, p, size=S, seed=args.seed), S, t)
+                batch_ns[(name, n, p, t)] = v
+                if name == "head_cf":
+                    continue  # only its per-pixel row is in the table; the batch is its baseline
+                goal = 10 if name == "gated" else 2
+                r = numpy_ns[(n, p)] / v
+                add(f"batch {name} ({n:g}, {p:g})", f"numpy/law >= {goal}", v, numpy_ns[(n, p)], "numpy binomial",
+                    r, r >= goal, t)
+    # per pixel
+    for name in ("gated", "head_cf", "binomial"):
+        law = gl.law(name)
+        for t in thread_settings:
+            v = ns(lambda: law.sample(pix_n, pix_p, seed=args.seed), M, t)
+            if name == "binomial":
+                r = numpy_pixel_ns / v
+                add(f"per_pixel {name}", "numpy/law >= 2", v, numpy_pixel_ns, "numpy binomial per pixel", r, r >= 2, t)
+            else:
+                base = float(np.mean([batch_ns[(name, n, p, t)] for n, p in POINTS]))
+                r = v / base
+                add(f"per_pixel {name}", "law/batch <= 2", v, base, f"{name} batch (mean of 4 points)", r, r <= 2, t)
+    # out=: the same calls into a reused buffer (skipped when the sampler does not take out=)
+    buf = np.empty(S)
+    pbuf = np.empty(M)
+    for name in ("gated", "binomial"):
+        law = gl.law(name)
+        try:
+            law.sample(16, 0.1, size=64, seed=1, out=np.empty(64))
+        except TypeError:
+            break
+        t = default_threads
+        n, p = POINTS[1]
+        v = ns(lambda: law.sample(n, p, size=S, seed=args.seed, out=buf), S, t)
+        base = batch_ns[(name, n, p, t)]
+        add(f"batch {name} ({n:g}, {p:g}) out=", "info", v, base, "same call, fresh array", v / base, True, t)
+        v = ns(lambda: law.sample(pix_n, pix_p, seed=args.seed, out=pbuf), M, t)
+        base = [r for r in rows if r["path"] == f"per_pixel {name}" and r["threads"] == t][0]["ns"]
+        add(f"per_pixel {name} out=", "info", v, base, "same call, fresh array", v / base, True, t)
+    # blends: P log-uniform over [1, 16] (two levels of ratio 4), N = 1e4 facets per unit area, p = 0.01
+    N, p_blend = 1e4, 0.01
+    P = np.exp(np.random.default_rng(args.seed + 1).uniform(0, math.log(16), M))
+    inner_point = (N * 4.0, p_blend)  # the geometric middle of the P range
+    for inner, goal in (("gated", 4), ("binomial", 3)):
+        law = gl.law(inner)
+        for t in thread_settings:
+            base = ns(lambda: law.sample(inner_point[0], inner_point[1], size=M, seed=args.seed), M, t)
+            for rule in BLENDS:
+                b = gl.blended_law(rule, inner=inner)
+                v = ns(lambda: b.sample(N, P, p_blend, seed=args.seed), M, t)
+                r = v / base
+                add(f"blend {rule}[{inner}]", f"blend/inner batch <= {goal}", v, base,
+                    f"{inner} batch at (n, p) = ({inner_point[0]:g}, {p_blend:g})", r, r <= goal, t)
+    # count_image: ns per pixel per inner evaluation against the per-pixel gated cost
+    if args.image != "0":
+        from glintlab.api.grids import IMAGE_CONFIGS, configured_counter
+        from glintlab.studies.aniso import plane_image
+        w, h = (int(x) for x in args.image.lower().split("x"))
+        uv, J = plane_image(w, h, tilt_deg=60.0)
+        Nimg = 1024.0**2
+        for t in thread_settings:
+            pixel = [r for r in rows if r["path"] == "per_pixel gated" and r["threads"] == t][0]["ns"]
+            for label in IMAGE_CONFIGS:
+                c = configured_counter(IMAGE_CONFIGS[label], "gated", Nimg)
+                res = c.count_image(uv, J, Nimg, 0.1, seed=args.seed)
+                evals = float(res.evaluations.sum())
+                gl.set_num_threads(t)
+                try:
+                    sec = best_time(lambda: c.count_image(uv, J, Nimg, 0.1, seed=args.seed), max(1, R - 1))
+                finally:
+                    gl.set_num_threads(default_threads)
+                per_eval = sec / max(evals, 1) * 1e9
+                r = per_eval / pixel
+                add(f"count_image {label}", "ns/eval / per-pixel gated <= 2", per_eval, pixel, "per_pixel gated",
+                    r, r <= 2, t, note=f"{sec:.3f} s, {sec / (w * h) * 1e9:.0f} ns/pixel, "
+                                       f"{evals / (w * h):.1f} evaluations/pixel")
+    # the shared-machine case: a competing process on one core
+    if args.busy and default_threads > 1:
+        stop = mp.Event()
+        proc = mp.Process(target=_spin, args=(stop,), daemon=True)
+        proc.start()
+        try:
+            time.sleep(0.2)
+            for name in ("gated", "binomial"):
+                law = gl.law(name)
+                n, p = POINTS[1]
+                one = ns(lambda: law.sample(n, p, size=S, seed=args.seed), S, 1)
+                two = ns(lambda: law.sample(n, p, size=S, seed=args.seed), S, default_threads)
+                add(f"busy batch {name} ({n:g}, {p:g})", f"{default_threads}T <= 1T", two, one,
+                    "1 thread, same competing process", two / one, two <= one * 1.05, default_threads)
+                one = ns(lambda: law.sample(pix_n, pix_p, seed=args.seed), M, 1)
+                two = ns(lambda: law.sample(pix_n, pix_p, seed=args.seed), M, default_threads)
+                add(f"busy per_pixel {name}", f"{default_threads}T <= 1T", two, one,
+                    "1 thread, same competing process", two / one, two <= one * 1.05, default_threads)
+        finally:
+            stop.set()
+            proc.join()
+
+    df = pd.DataFrame(rows)
+    # two-thread speed-up of each path (1-thread ns / default-threads ns)
+    if len(thread_settings) > 1:
+        one = df[df.threads == 1].set_index("path").ns
+        speed = df[(df.threads == default_threads)].set_index("path").ns
+        df["speedup_threads"] = df.path.map(one / speed)
+    simd = _core.simd_level() if hasattr(_core, "simd_level") else -1
+    load = os.getloadavg()
+    header = (f"CPU: {cpu_model()}; SIMD level: {simd_name(simd)}; cores: {os.cpu_count()}; "
+              f"default threads: {default_threads}; load average at the end: {load[0]:.2f}; "
+              f"glintlab {gl.__version__}; numpy {np.__version__}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    df.to_csv(args.out / "paths.csv", index=False)
+    (args.out / "paths.json").write_text(json.dumps(dict(
+        cpu=cpu_model(), simd_level=simd, simd=simd_name(simd), cores=os.cpu_count(), threads=default_threads,
+        loadavg=load, size=S, pixels=M, repeats=R, seed=args.seed, version=gl.__version__,
+        rows=df.to_dict("records")), indent=1, default=float))
+    show = df.copy()
+    show["result"] = np.where(show.goal == "info", "", np.where(show.ok, "PASS", "FAIL"))
+    cols = ["path", "threads", "ns", "baseline", "baseline_ns", "ratio", "goal", "result"] + \
+        (["speedup_threads"] if "speedup_threads" in show else []) + ["note"]
+    table = show[cols].round(3)
+    md = ["# glintlab paths (issue 21)", "", header, "",
+          "Times: ns per sample (count_image: ns per inner evaluation), best of "
+          f"{R} calls, output allocation included except in the `out=` rows.", "",
+          "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    md += ["| " + " | ".join(str(x) for x in r) + " |" for r in table.itertuples(index=False)]
+    (args.out / "paths.md").write_text("\n".join(md) + "\n")
+    pd.set_option("display.width", 250)
+    pd.set_option("display.max_colwidth", 60)
+    print("== issue 21 paths: " + header)
+    print(table.to_string(index=False))
+    print(f"wrote {args.out / 'paths.csv'}, paths.json and paths.md")
+
+
+if __name__ == "__main__":
+    main()
