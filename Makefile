@@ -72,6 +72,7 @@ sanitize: deps
 	@cmake --build build-asan -j $(JOBS) --target glintlab_tests >> build-asan.log 2>&1 \
 	  || { tail -60 build-asan.log; echo "make sanitize: build failed (build-asan.log)"; exit 1; }
 	@cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitize/lsan.supp \
 	  ctest --output-on-failure -j $(JOBS)
 
 # libFuzzer (clang, ASan + UBSan) on the experiment and bounds parsers for FUZZ_SECONDS, from a fresh

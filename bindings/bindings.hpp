@@ -7,7 +7,6 @@
 
 #include <csignal>
 #include <exception>
-#include <optional>
 
 #include "glintlab/errors.hpp"
 
@@ -24,18 +23,10 @@ inline void on_sigint(int) noexcept { request_interrupt(); }
 // request that arrives after the last chunk is handed to Python (PyErr_SetInterrupt), not lost.
 class LongCall {
  public:
-  LongCall() : on_main_(PyThread_get_thread_ident() == g_main_thread), exceptions_(std::uncaught_exceptions()) {
-    if (on_main_) {
-      clear_interrupt();
-      struct sigaction action {};
-      action.sa_handler = on_sigint;
-      sigemptyset(&action.sa_mask);
-      installed_ = sigaction(SIGINT, &action, &previous_) == 0;
-    }
-    release_.emplace();
-  }
+  LongCall() : exceptions_(std::uncaught_exceptions()), installed_(install(previous_)) {}
+  // Runs before release_ is destroyed, i.e. still without the GIL: sigaction and PyErr_SetInterrupt
+  // need none.
   ~LongCall() {
-    release_.reset();  // the GIL again
     if (!installed_) return;
     sigaction(SIGINT, &previous_, nullptr);
     if (interrupt_requested() && std::uncaught_exceptions() == exceptions_) PyErr_SetInterrupt();
@@ -45,11 +36,19 @@ class LongCall {
   LongCall& operator=(const LongCall&) = delete;
 
  private:
-  bool on_main_;
+  static bool install(struct sigaction& previous) {
+    if (PyThread_get_thread_ident() != g_main_thread) return false;  // Python signals reach the main thread only
+    clear_interrupt();
+    struct sigaction action {};
+    action.sa_handler = on_sigint;
+    sigemptyset(&action.sa_mask);
+    return sigaction(SIGINT, &action, &previous) == 0;
+  }
+
   int exceptions_;
-  bool installed_ = false;
   struct sigaction previous_ {};
-  std::optional<pybind11::gil_scoped_release> release_;
+  bool installed_;
+  pybind11::gil_scoped_release release_;  // last: released after the handler is in place, taken back last
 };
 
 
