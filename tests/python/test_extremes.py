@@ -230,7 +230,7 @@ class _Lax(gl.CustomLaw):
             raise ValueError("bad input")
         return np.zeros(len(u))
 
-    def _sample_flat(self, nf, pf, count, seed, precision):
+    def _sample_flat(self, nf, pf, count, seed, precision, out=None):
         if self.vague and not (np.all(pf >= 0) and np.all(pf <= 1) and np.all(np.isfinite(nf)) and np.all(nf >= 0)):
             raise ValueError(f"p = {pf[0]!r} is invalid")  # names p even when n is the bad one
         return np.zeros(count)
