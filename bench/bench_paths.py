@@ -32,7 +32,6 @@ import json
 import math
 import multiprocessing as mp
 import os
-import platform
 import time
 from pathlib import Path
 
@@ -40,21 +39,12 @@ import numpy as np
 import pandas as pd
 
 import glintlab as gl
+from bench_binomial import cpu_model  # the same machine line in every bench table (a sibling script)
 from glintlab import _core
 from glintlab.validation.bench import best_time
 
 POINTS = [(16, 0.1), (1e3, 1e-2), (1e6, 0.3), (1e9, 1e-6)]
 BLENDS = ["distributed", "zk16_linear", "roulette", "nearest"]
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def simd_name(level: int) -> str:

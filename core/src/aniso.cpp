@@ -9,6 +9,7 @@
 #include "glintlab/errors.hpp"
 #include "glintlab/rng.hpp"
 #include "parallel.hpp"
+#include "splitmix.hpp"
 
 namespace glintlab::aniso {
 
@@ -193,12 +194,7 @@ int spatial_vertices(Spatial spatial, double X, double Y, Vertex2* out) {
 // The counter
 
 namespace {
-std::uint64_t mix64(std::uint64_t x) {  // splitmix64's finalizer (Steele, Lea & Flood 2014)
-  x += 0x9E3779B97F4A7C15ULL;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
-  return x ^ (x >> 31);
-}
+using glintlab::detail::mix64;
 std::uint64_t hash_combine(std::uint64_t h, std::uint64_t v) { return mix64(h ^ mix64(v)); }
 // The key of one grid (scale, ratio, orientation level) under a seed, then of one of its angular
 // texels.

@@ -9,16 +9,12 @@
 
 #include "glintlab/errors.hpp"
 #include "parallel.hpp"
+#include "splitmix.hpp"
 
 namespace glintlab::images {
 
 namespace {
-std::uint64_t mix64(std::uint64_t x) {  // splitmix64's finalizer (Steele, Lea & Flood 2014)
-  x += 0x9E3779B97F4A7C15ULL;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
-  return x ^ (x >> 31);
-}
+using glintlab::detail::mix64;
 std::uint64_t cell_hash(std::uint64_t key, std::int64_t i, std::int64_t j) {
   return mix64(key + static_cast<std::uint64_t>(i) * 0xD1B54A32D192ED03ULL +
                static_cast<std::uint64_t>(j) * 0xABC98388FB8FAC03ULL);

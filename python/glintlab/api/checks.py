@@ -1,6 +1,7 @@
 """Argument checks shared by the Python layer: one message format, naming the parameter and value."""
 from __future__ import annotations
 
+import functools
 import operator
 import os
 import secrets
@@ -89,13 +90,15 @@ def size(value):
         total *= d
     # Refused up front rather than left to the allocator: numpy's "do not broadcast" or "array is too
     # big" messages name neither the argument nor the memory it would take.
-    if total * 8 > _physical_memory():
-        fail("size", value, f"at most {_physical_memory() // 8:,} values in all (the output is float64, "
-                            f"{total * 8 / 2**30:,.3g} GiB asked, {_physical_memory() / 2**30:.3g} GiB of memory here)")
+    memory = _physical_memory()
+    if total * 8 > memory:
+        fail("size", value, f"at most {memory // 8:,} values in all (the output is float64, "
+                            f"{total * 8 / 2**30:,.3g} GiB asked, {memory / 2**30:.3g} GiB of memory here)")
     return tuple(shape)
 
 
-def _physical_memory() -> int:
+@functools.lru_cache(maxsize=1)
+def _physical_memory() -> int:  # read once: size() runs on every sampling call
     try:
         return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (ValueError, OSError, AttributeError):  # not POSIX: no up-front limit

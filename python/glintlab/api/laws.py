@@ -145,11 +145,14 @@ class Law:
         out = np.empty(x.shape, dtype=np.float64)
         pairs = np.stack([n.ravel(), p.ravel()], axis=1)
         unique, inverse = np.unique(pairs, axis=0, return_inverse=True)
+        # The elements of each distinct (n, p), grouped once (not a scan of every element per pair).
+        order = np.argsort(inverse.ravel(), kind="stable")
+        starts = np.searchsorted(inverse.ravel()[order], np.arange(len(unique) + 1))
         flat_x, flat_out = x.ravel(), out.reshape(-1)
         for j, (nj, pj) in enumerate(unique):  # one exact law per distinct (n, p)
             d = self.pmf(float(nj), float(pj))
             support, probs = np.asarray(d.support), np.asarray(d.probs)
-            sel = np.flatnonzero(inverse.ravel() == j)
+            sel = order[starts[j]:starts[j + 1]]
             if what == "ppf":
                 cum = np.minimum(np.cumsum(probs), 1.0)
                 # A level within rounding of the total mass maps to the last support point.
