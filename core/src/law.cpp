@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -35,6 +36,27 @@ void parallel_chunks(std::size_t count, Body body) {
   detail::parallel_chunks(count, 4096, kParallelThreshold, std::move(body));
 }
 
+// The two per-pixel scans of the drivers, compiled for AVX-512 and AVX2 too and picked at load time
+// (GCC's target_clones): for the baseline ISA (SSE2) GCC leaves them scalar, and with a compare and
+// a branch per element they cost 4-5 ns of a per-pixel draw's ~25 (perf). Integer results: the same
+// on every clone.
+// Whether some (n[i], p[i]), i in [a, b), is outside accepts()'s domain.
+__attribute__((target_clones("avx512f", "avx2", "default"))) bool any_outside_domain(
+    const double* n, const double* p, std::size_t a, std::size_t b, double max_n) {
+  int bad = 0;
+#pragma omp simd reduction(| : bad)
+  for (std::size_t i = a; i < b; ++i) bad |= !((n[i] >= 0.0) & (n[i] <= max_n) & (p[i] >= 0.0) & (p[i] <= 1.0));
+  return bad != 0;
+}
+// #{j in (a, b) : n[j] == n[j - 1] and p[j] == p[j - 1]}.
+__attribute__((target_clones("avx512f", "avx2", "default"))) std::size_t count_equal_pairs(
+    const double* n, const double* p, std::size_t a, std::size_t b) {
+  std::size_t equal = 0;
+#pragma omp simd reduction(+ : equal)
+  for (std::size_t j = a + 1; j < b; ++j) equal += (n[j] == n[j - 1]) & (p[j] == p[j - 1]);
+  return equal;
+}
+
 void validate_all(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count) {
   if (n.size != 1 && n.size != count)
     throw std::invalid_argument("n has " + std::to_string(n.size) + " values; expected 1 or " +
@@ -42,9 +64,37 @@ void validate_all(const CountingLaw& law, ParamArray n, ParamArray p, std::size_
   if (p.size != 1 && p.size != count)
     throw std::invalid_argument("p has " + std::to_string(p.size) + " values; expected 1 or " +
                                 std::to_string(count));
+  // The check is a virtual call per element (2 ns of a per-pixel draw's ~30): split across the
+  // threads like the draws, then the first bad element (lowest index) is named, as a serial scan would.
   const std::size_t m = std::max(n.size, p.size);
-  for (std::size_t i = 0; i < m; ++i)
-    if (!law.accepts(n[i], p[i])) law.validate(n[i], p[i], i, m > 1);
+  std::atomic<std::size_t> first_bad{m};
+  const double max_n = law.max_n();
+  parallel_chunks(m, [&](std::size_t i0, std::size_t i1) {
+    if (n.size > 1 && p.size > 1) {
+      // accepts() as one vectorized pass (bitwise logic, no branch); the element scan below only
+      // for a chunk that holds a bad element.
+      if (!any_outside_domain(n.data, p.data, i0, i1, max_n)) return;
+    }
+    for (std::size_t i = i0; i < i1; ++i)
+      if (!law.accepts(n[i], p[i])) {
+        std::size_t seen = first_bad.load();
+        while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
+        }
+        return;
+      }
+  });
+  if (const std::size_t i = first_bad.load(); i < m) law.validate(n[i], p[i], i, m > 1);
+}
+
+// #{j in (a, b) : (n[j], p[j]) == (n[j - 1], p[j - 1])}, branch-free (vectorized for arrays).
+std::size_t count_equal_neighbours(ParamArray n, ParamArray p, std::size_t a, std::size_t b) {
+  std::size_t equal = 0;
+  if (n.size > 1 && p.size > 1) {
+    equal = count_equal_pairs(n.data, p.data, a, b);
+  } else {
+    for (std::size_t j = a + 1; j < b; ++j) equal += (n[j] == n[j - 1]) & (p[j] == p[j - 1]);
+  }
+  return equal;
 }
 
 }  // namespace
@@ -237,42 +287,51 @@ void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t
     // Runs of equal (n, p) share one sampler setup (results are keyed by index, so unchanged);
     // short runs are gathered into blocks of pixels for the law's sample_pixels (its vector
     // per-pixel path: evaluate_pixels on one block of uniforms, or prefetched Philox rows).
-    constexpr std::size_t kShortRun = 16, kRows = 256;
+    constexpr std::size_t kShortRun = 16, kRows = 256, kBlock = 8 * kRows;
     const std::size_t k = static_cast<std::size_t>(law.n_uniforms());
+    const bool n_array = n.size > 1 || count == 1, p_array = p.size > 1 || count == 1;
     parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
       std::vector<double> u(precision == Precision::kFloat32 ? kRows * std::max<std::size_t>(k, 1) : 0);
-      std::vector<double> nb(kRows), pb(kRows);
-      std::size_t ps = i0, pe = i0;  // pending short-run pixels [ps, pe)
-      const auto flush = [&] {
-        for (std::size_t b = ps; b < pe; b += kRows) {
-          const std::size_t rows = std::min(kRows, pe - b);
+      std::vector<double> nb(n_array ? 0 : kRows), pb(p_array ? 0 : kRows);
+      // Pixels [a, b) by the per-pixel path; the arrays are passed in place (a scalar n or p is
+      // broadcast into a block first).
+      const auto pixels = [&](std::size_t a, std::size_t b) {
+        for (std::size_t s = a; s < b; s += kRows) {
+          const std::size_t rows = std::min(kRows, b - s);
           if (precision == Precision::kFloat32) {
-            if (k > 0) detail::philox_uniform_rows(seed, kStreamSample, b, rows, static_cast<int>(k), u.data());
-            for (std::size_t r = 0; r < rows; ++r) out[b + r] = law.evaluate_f32(n[b + r], p[b + r], u.data() + r * k);
-          } else {
-            for (std::size_t r = 0; r < rows; ++r) {
-              nb[r] = n[b + r];
-              pb[r] = p[b + r];
-            }
-            law.sample_pixels(nb.data(), pb.data(), seed, b, rows, out + b);
+            if (k > 0) detail::philox_uniform_rows(seed, kStreamSample, s, rows, static_cast<int>(k), u.data());
+            for (std::size_t r = 0; r < rows; ++r) out[s + r] = law.evaluate_f32(n[s + r], p[s + r], u.data() + r * k);
+            continue;
           }
+          if (!n_array) std::fill(nb.begin(), nb.begin() + rows, n.data[0]);
+          if (!p_array) std::fill(pb.begin(), pb.begin() + rows, p.data[0]);
+          law.sample_pixels(n_array ? n.data + s : nb.data(), p_array ? p.data + s : pb.data(), seed, s, rows, out + s);
         }
-        ps = pe;
       };
       for (std::size_t i = i0; i < i1;) {
-        std::size_t j = i + 1;
-        while (j < i1 && n[j] == n[i] && p[j] == p[i]) ++j;
-        if (j - i >= kShortRun) {
-          flush();
-          range(n[i], p[i], i, j, out + i);
-          ps = pe = j;
-        } else {
-          pe = j;
-          if (pe - ps >= 8 * kRows) flush();
+        const std::size_t b1 = std::min(i1, i + kBlock);
+        // A run of kShortRun equal pixels needs kShortRun - 1 equal neighbours: most blocks of a
+        // renderer's pixels have none, and this branch-free count settles them (a run crossing the
+        // block's end may then be drawn pixel by pixel: the same values, at the per-pixel cost).
+        const std::size_t equal_neighbours = count_equal_neighbours(n, p, i, b1);
+        if (equal_neighbours + 1 < kShortRun) {
+          pixels(i, b1);
+          i = b1;
+          continue;
         }
-        i = j;
+        std::size_t pending = i;  // short-run pixels [pending, i) not drawn yet
+        while (i < b1) {
+          std::size_t j = i + 1;
+          while (j < i1 && n[j] == n[i] && p[j] == p[i]) ++j;
+          if (j - i >= kShortRun) {
+            pixels(pending, i);
+            range(n[i], p[i], i, j, out + i);
+            pending = j;
+          }
+          i = j;
+        }
+        pixels(pending, i);
       }
-      flush();
     });
   }
 }

@@ -7,13 +7,17 @@
 
 namespace glintlab::detail {
 
+bool cpu_has_fma() {
+  static const bool fma = __builtin_cpu_supports("fma");
+  return fma;
+}
+
 namespace {
 void dispatch(int op, const double* x, double* y, std::size_t count) {
   const int level = simd_level();
   if (level >= 2) return vec_math_avx512(op, x, y, count);
   // SLEEF's AVX2 functions use FMA3, which every AVX2 CPU of Intel and AMD has; checked anyway.
-  static const bool fma = __builtin_cpu_supports("fma");
-  if (level >= 1 && fma) return vec_math_avx2(op, x, y, count);
+  if (level >= 1 && cpu_has_fma()) return vec_math_avx2(op, x, y, count);
   switch (op) {
     case 0: for (std::size_t i = 0; i < count; ++i) y[i] = std::log(x[i]); break;
     case 1: for (std::size_t i = 0; i < count; ++i) y[i] = std::log1p(x[i]); break;

@@ -31,6 +31,14 @@ void gated_pixels_avx512(const double* n, const double* p, const double* u, cons
                          std::size_t m, double* out, double* redo);
 void gated_pixels_avx2(const double* n, const double* p, const double* u, const double* e, const double* lt,
                        std::size_t m, double* out, double* redo);
+// The whole pass over a block of at most 256 pixels (the vector logarithms' arguments, SLEEF, the
+// kernel), per ISA; true when some redo[i] != 0. The AVX2 one needs FMA3 (SLEEF's AVX2 functions).
+bool gated_pixels_block_avx512(const double* n, const double* p, const double* u, std::size_t m, double* out,
+                               double* redo);
+bool gated_pixels_block_avx2(const double* n, const double* p, const double* u, std::size_t m, double* out,
+                             double* redo);
+// Whether SLEEF's AVX2 functions can run (FMA3).
+bool cpu_has_fma();
 }  // namespace glintlab::detail
 
 namespace glintlab::detail {
@@ -39,4 +47,8 @@ void head_cf_pixels_avx512(const double* n, const double* p, const double* u, co
                            std::size_t count, double* out, double* redo);
 void head_cf_pixels_avx2(const double* n, const double* p, const double* u, const double* e, const double* lt,
                          std::size_t count, double* out, double* redo);
+bool head_cf_pixels_block_avx512(const double* n, const double* p, const double* u, std::size_t count, double* out,
+                                 double* redo);
+bool head_cf_pixels_block_avx2(const double* n, const double* p, const double* u, std::size_t count, double* out,
+                               double* redo);
 }  // namespace glintlab::detail

@@ -170,3 +170,61 @@ TEST_CASE("the exact binomial's prefetched Philox rows give the scalar generator
     }
   }
 }
+
+TEST_CASE("the vector per-pixel kernels hand their unsure pixels to evaluate()", "[law][batch][pixels]") {
+  // Explicit uniforms where the kernels' shortcuts could decide wrongly: the gate uniform on (and a
+  // few ulps beside) the gate probability P1 = -expm1(n log1p(-p)), including tiny P1 where the
+  // kernel's 1 - exp(x) loses relative precision; the count uniform in the far tails (within e^-25
+  // of 0 or 1, where the kernels do not evaluate AS 241's third region), at the central/tail border
+  // and on the steps of the Gaussian count. Every pixel must equal evaluate().
+  std::vector<double> n, p, u;
+  const double ns[] = {1e-3, 0.5, 1, 1.5, 2, 7.3, 16, 1e3, 1e6, 1e12};
+  const double ps[] = {1e-300, 1e-17, 1e-9, 1e-6, 0.01, 0.3, 0.5, 0.7, 1 - 1e-9};
+  const double tails[] = {1e-300, 1e-100, 1e-13, 1.5e-11, 1e-9, 0.075, 0.0750000001, 0.5,
+                          0.925, 1 - 1e-9, 1 - 1e-13, 1 - 1.5e-11};
+  for (double nv : ns)
+    for (double pv : ps) {
+      const double p1 = -std::expm1(nv * std::log1p(-pv));
+      std::vector<double> gates{0.5, std::nextafter(1.0, 0.0)};
+      if (p1 > 0) {
+        double g = p1;
+        for (int k = 0; k < 3; ++k) g = std::nextafter(g, 0.0);
+        for (int k = 0; k < 7; ++k, g = std::nextafter(g, 1.0)) gates.push_back(g);
+        gates.push_back(p1 * (1 - 1e-12));
+        gates.push_back(p1 * 0.5);
+      }
+      for (double g : gates)
+        for (double t : tails) {
+          if (!(g > 0 && g < 1)) continue;
+          n.push_back(nv);
+          p.push_back(pv);
+          u.push_back(g);
+          u.push_back(t);
+        }
+    }
+  // Count uniforms on the steps of the Gaussian count at (1e3, 0.01): floor(mu + sigma z) = j.
+  const double mu = 999 * 0.01, sigma = std::sqrt(mu * 0.99);
+  for (double j = 0; j <= 30; j += 1)
+    for (double d : {-1e-13, 0.0, 1e-13}) {
+      n.push_back(1e3);
+      p.push_back(0.01);
+      u.push_back(0.5 * 1e-3);  // gated
+      u.push_back(normal::cdf((j - mu) / sigma) + d);
+    }
+  const std::size_t m = n.size();
+  std::vector<double> fast(m);
+  struct Restore { ~Restore() { detail::set_simd_level(2); } } restore;
+  for (int level : {2, 1, 0})
+    for (const char* name : {"gated", "head_cf"}) {
+      detail::set_simd_level(level);
+      const auto law = make_law(name);
+      law->evaluate_pixels(n.data(), p.data(), u.data(), m, fast.data());
+      std::size_t mismatches = 0;
+      for (std::size_t i = 0; i < m; ++i) {
+        const double direct = law->evaluate(n[i], p[i], u.data() + 2 * i);
+        mismatches += !(fast[i] == direct || (std::isnan(fast[i]) && std::isnan(direct)));
+      }
+      INFO(name << ", SIMD level " << detail::simd_level() << ", " << m << " pixels");
+      CHECK(mismatches == 0);
+    }
+}

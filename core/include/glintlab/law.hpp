@@ -113,9 +113,10 @@ class CountingLaw {
   // Exact law of K; throws not_implemented when the law has none.
   virtual Distribution pmf(double n, double p, std::size_t max_support) const;
 
-  // Whether (n, p) is in the law's domain; the default: a finite n >= 0 and p in [0, 1]. Cheap:
-  // the drivers call it for every element and build a message only on failure.
-  virtual bool accepts(double n, double p) const {
+  // Whether (n, p) is in the law's domain: a finite n >= 0 up to the traits' numeric domain, and p
+  // in [0, 1]. Cheap, and not virtual (a law declares its domain by LawTraits::domain): the drivers
+  // call it for every element and build a message only on failure.
+  bool accepts(double n, double p) const {
     return n >= 0.0 && n <= max_n_ && p >= 0.0 && p <= 1.0;
   }
   // The numeric domain of the law's traits (LawTraits::domain), set by make_law; a law built
