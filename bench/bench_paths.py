@@ -15,6 +15,9 @@ glintlab's default threads, and prints the ratio the issue's goal is stated in:
                     per inner evaluation                                         vs per-pixel gated ns
   out=              the per-pixel and batch calls again with a preallocated ``out=`` buffer: the
                     share of the time that is the fresh output array's page faults.
+  bound: ...        what the batch rows cannot go below: the Philox4x32-10 rows (two uniforms, one
+                    block, per sample) every sampler draws, and the first touch of a fresh float64
+                    array (the kernel zeroing its pages), each measured in the same run.
 
 What is timed: the whole Python call, including the allocation of the output array (the user pays
 it), except in the ``out=`` rows, which reuse one buffer. numpy has one thread only. Each time is the
@@ -30,6 +33,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import mmap
 import multiprocessing as mp
 import os
 import time
@@ -120,23 +124,45 @@ def main(argv=None):
                 base = float(np.mean([batch_ns[(name, n, p, t)] for n, p in POINTS]))
                 r = v / base
                 add(f"per_pixel {name}", "law/batch <= 2", v, base, f"{name} batch (mean of 4 points)", r, r <= 2, t)
-    # out=: the same calls into a reused buffer (skipped when the sampler does not take out=)
+    # out=: the same calls into a reused buffer: the share of the fresh array's page faults, and the
+    # two-thread speed-up without them
     buf = np.empty(S)
     pbuf = np.empty(M)
     for name in ("gated", "binomial"):
         law = gl.law(name)
-        try:
-            law.sample(16, 0.1, size=64, seed=1, out=np.empty(64))
-        except TypeError:
-            break
-        t = default_threads
-        n, p = POINTS[1]
-        v = ns(lambda: law.sample(n, p, size=S, seed=args.seed, out=buf), S, t)
-        base = batch_ns[(name, n, p, t)]
-        add(f"batch {name} ({n:g}, {p:g}) out=", "info", v, base, "same call, fresh array", v / base, True, t)
-        v = ns(lambda: law.sample(pix_n, pix_p, seed=args.seed, out=pbuf), M, t)
-        base = [r for r in rows if r["path"] == f"per_pixel {name}" and r["threads"] == t][0]["ns"]
-        add(f"per_pixel {name} out=", "info", v, base, "same call, fresh array", v / base, True, t)
+        for t in thread_settings:
+            for n, p in POINTS if name == "gated" else POINTS[1:2]:
+                v = ns(lambda: law.sample(n, p, size=S, seed=args.seed, out=buf), S, t)
+                base = batch_ns[(name, n, p, t)]
+                add(f"batch {name} ({n:g}, {p:g}) out=", "info", v, base, "same call, fresh array", v / base, True, t)
+            v = ns(lambda: law.sample(pix_n, pix_p, seed=args.seed, out=pbuf), M, t)
+            base = [r for r in rows if r["path"] == f"per_pixel {name}" and r["threads"] == t][0]["ns"]
+            add(f"per_pixel {name} out=", "info", v, base, "same call, fresh array", v / base, True, t)
+    # What bounds the batch rows: the counter-based Philox4x32-10 rows every sampler draws (two uniforms
+    # per sample: one Philox block), generated into memory that malloc reuses (1 MiB calls), and the
+    # first touch of a fresh output array (the kernel zeroes its pages), as ns per float64.
+    rows_per_call, calls = 1 << 16, max(1, S // (1 << 16))
+    for t in thread_settings:
+        v = ns(lambda: [_core.uniforms(0, rows_per_call, 2, 1, 0) for _ in range(calls)], rows_per_call * calls, t)
+        add("bound: Philox rows, 2 uniforms", "info", v, batch_ns[("gated", 16, 0.1, t)],
+            "gated batch (16, 0.1)", v / batch_ns[("gated", 16, 0.1, t)], True, t)
+    # Fresh pages from mmap itself (malloc may hand back pages it already holds), advised as huge pages
+    # as numpy advises its large arrays; numpy's arrays of --size float64 (80 MB) are above glibc's
+    # largest mmap threshold (32 MiB), so they are fresh pages too.
+    reuse = np.empty(S)
+    touch_reused = best_time(lambda: reuse.fill(1.0), R) / S * 1e9
+
+    def fresh_fill():
+        with mmap.mmap(-1, S * 8, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS) as m:
+            if hasattr(mmap, "MADV_HUGEPAGE"):
+                m.madvise(mmap.MADV_HUGEPAGE)
+            a = np.frombuffer(m, dtype=np.float64)
+            a.fill(1.0)
+            del a
+    touch_fresh = best_time(fresh_fill, R) / S * 1e9
+    add("bound: first touch of a fresh array", "info", touch_fresh - touch_reused, touch_reused,
+        "writing a reused array", (touch_fresh - touch_reused) / touch_reused, True, 1,
+        note="ns per float64 (numpy fill, one thread)")
     # blends: P log-uniform over [1, 16] (two levels of ratio 4), N = 1e4 facets per unit area, p = 0.01
     N, p_blend = 1e4, 0.01
     P = np.exp(np.random.default_rng(args.seed + 1).uniform(0, math.log(16), M))
