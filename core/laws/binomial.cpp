@@ -20,7 +20,8 @@ class BinomialLaw final : public CountingLaw {
   }
   bool samples_by_evaluate() const override { return false; }
   // Sample i's first Philox block (two uniforms: all that most draws use) comes from the vectorized
-  // rows, the rest from its scalar generator (PrefetchedRng): the same numbers as before.
+  // rows, the rest from its scalar generator (PrefetchedRng): the same numbers as before. The
+  // sampler's common first step runs across the rows as vector code (Sampler::sample_rows).
   void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                     double* out) const override {
     const binomial::Sampler sampler(n, p, /*tabulate=*/i1 - i0 >= kTabulateMinBatch);
@@ -28,24 +29,18 @@ class BinomialLaw final : public CountingLaw {
     for (std::size_t b = i0; b < i1; b += kRows) {
       const std::size_t rows = std::min(kRows, i1 - b);
       detail::philox_uniform_rows(seed, kStreamSample, b, rows, 2, u);
-      for (std::size_t r = 0; r < rows; ++r) {
-        binomial::PrefetchedRng rng(u + 2 * r, seed, b + r, kStreamSample);
-        out[b - i0 + r] = sampler(rng);
-      }
+      sampler.sample_rows(u, seed, b, kStreamSample, rows, out + (b - i0));
     }
   }
-  // Pixels: a sampler per (n, p) (no table), the same prefetched rows.
+  // Pixels: the same prefetched rows; the per-pixel setup and first steps as vector code
+  // (binomial::sample_pixels), a scalar sampler per (n, p) (no table) for the rest.
   void sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start, std::size_t count,
                      double* out) const override {
     alignas(64) double u[2 * kRows];
     for (std::size_t b = 0; b < count; b += kRows) {
       const std::size_t rows = std::min(kRows, count - b);
       detail::philox_uniform_rows(seed, kStreamSample, start + b, rows, 2, u);
-      for (std::size_t r = 0; r < rows; ++r) {
-        const binomial::Sampler sampler(n[b + r], p[b + r]);
-        binomial::PrefetchedRng rng(u + 2 * r, seed, start + b + r, kStreamSample);
-        out[b + r] = sampler(rng);
-      }
+      binomial::sample_pixels(n + b, p + b, u, seed, start + b, kStreamSample, rows, out + b);
     }
   }
 

@@ -6,8 +6,11 @@
 #include <functional>
 #include <limits>
 
+#include "binomial_simd.hpp"
 #include "glintlab/errors.hpp"
+#include "glintlab/law.hpp"
 #include "glintlab/special.hpp"
+#include "simd_math.hpp"
 
 namespace glintlab {
 
@@ -156,7 +159,21 @@ Distribution distribution(double n, double p, std::size_t max_support) {
 
 // Below this mean, inversion (expected mean + 1 steps, O(1) with the table); above, BTRD/PTRD,
 // which are exact only from mean 10 on and at their slowest just above it.
-constexpr double kInversionMaxMean = 30.0;
+constexpr double kInversionMaxMean = detail::kBinomialInversionMaxMean;
+
+namespace {
+
+// The inversion's recursion f(k) = f(k - 1) (a / k - s) for Binomial(m, pp), pp <= 1/2, and its
+// search bound (mean + 15 sd + 30, at most m): one definition for the Sampler and the per-pixel path.
+struct InversionRecursion {
+  double a, s, bound;
+  InversionRecursion(double m, double pp, double mean)
+      : a(0), s(pp / (1.0 - pp)), bound(std::min(m, std::ceil(mean + 15.0 * std::sqrt(mean) + 30.0))) {
+    a = (m + 1) * s;  // ratio f(k)/f(k - 1) = (m - k + 1)/k p/q
+  }
+};
+
+}  // namespace
 
 Sampler::Sampler(double n, double p, bool tabulate) {
   check_np("binomial.sample", n, p);
@@ -170,10 +187,9 @@ Sampler::Sampler(double n, double p, bool tabulate) {
     constant_ = flip_ ? m_ : 0.0;
   } else if (mean < kInversionMaxMean) {
     method_ = Method::kInversion;
-    // P(K = 0) = (1 - p)^m > e^-61 here (p <= 1/2, m p < 30): no underflow. Ratio (m - k + 1)/k p/q.
-    const double s = pp_ / (1.0 - pp_);
-    const double bound = std::min(m_, std::ceil(mean + 15.0 * std::sqrt(mean) + 30.0));
-    inversion_ = SmallMeanInversion(std::exp(m_ * std::log1p(-pp_)), (m_ + 1) * s, s, bound, tabulate);
+    // P(K = 0) = (1 - p)^m > e^-61 here (p <= 1/2, m p < 30): no underflow.
+    const InversionRecursion rec(m_, pp_, mean);
+    inversion_ = SmallMeanInversion(std::exp(m_ * std::log1p(-pp_)), rec.a, rec.s, rec.bound, tabulate);
   } else {
     method_ = Method::kBtrd;
     const double q = 1.0 - pp_;
@@ -268,6 +284,95 @@ double Sampler::draw(Rng& rng) const {
 
 double Sampler::operator()(CounterRng& rng) const { return draw(rng); }
 double Sampler::operator()(PrefetchedRng& rng) const { return draw(rng); }
+
+namespace {
+constexpr std::size_t kVectorBlock = 256;  // samples per kernel call (stack buffers)
+}  // namespace
+
+void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t first_index, std::uint16_t stream,
+                          std::size_t rows, double* out) const {
+  if (method_ != Method::kBtrd) {
+    for (std::size_t r = 0; r < rows; ++r) {
+      PrefetchedRng rng(u + 2 * r, seed, first_index + r, stream);
+      out[r] = draw(rng);
+    }
+    return;
+  }
+  const detail::BtrdStep1 step{.m = m_, .g = g_, .flip = flip_ ? 1.0 : 0.0, .urvr = urvr_, .inv_vr = inv_vr_,
+                               .two_a = 2 * a_, .b = b_, .c = c_};
+  const int level = detail::simd_level();
+  alignas(64) double redo[kVectorBlock];
+  for (std::size_t b = 0; b < rows; b += kVectorBlock) {
+    const std::size_t len = std::min(kVectorBlock, rows - b);
+    const double* ub = u + 2 * b;
+    double* ob = out + b;
+    if (level >= 2) detail::binomial_btrd_rows_avx512(step, ub, len, ob, redo);
+    else if (level >= 1) detail::binomial_btrd_rows_avx2(step, ub, len, ob, redo);
+    else detail::binomial_btrd_rows_portable(step, ub, len, ob, redo);
+    for (std::size_t r = 0; r < len; ++r) {
+      if (redo[r] == 0.0) continue;
+      PrefetchedRng rng(ub + 2 * r, seed, first_index + b + r, stream);
+      out[b + r] = draw(rng);
+    }
+  }
+}
+
+namespace {
+
+// The inversion's search (SmallMeanInversion's on-the-fly loop) continued past K = 0 from the vector
+// P(K = 0), f0 (within 1e-12 of the C library's, binomial_simd.hpp): the same recursion on it gives
+// cumulative sums within that relative distance plus a few ulps per step of the scalar ones, so
+// u0 <= c (1 - guard) proves u0 <= the scalar c, and u0 > c (1 + guard) proves u0 > it. The search
+// answers only when every comparison on its way was proved so (and the bound not passed);
+// otherwise it returns false and the caller draws with the scalar Sampler.
+bool continue_inversion(double n, double p, const double* u, double f0, double& out) {
+  constexpr double kLow = 1.0 - detail::kInversionGuard, kHigh = 1.0 + detail::kInversionGuard;
+  const double m = std::floor(n), g = (n - m) * p;
+  const bool flip = p > 0.5;
+  const double pp = flip ? 1.0 - p : p;
+  const InversionRecursion rec(m, pp, m * pp);
+  const double u0 = u[0];
+  double f = f0, c = f0, k = 0;
+  for (;;) {
+    k += 1;
+    if (k > rec.bound) return false;
+    f *= rec.a / k - rec.s;
+    c += f;
+    if (u0 <= c * kLow) break;
+    if (!(u0 > c * kHigh)) return false;
+  }
+  const double integer = flip ? m - k : k;
+  out = g == 0.0 ? integer : integer + (u[1] < g ? 1.0 : 0.0);  // the fractional facet: the next uniform
+  return true;
+}
+
+}  // namespace
+
+void sample_pixels(const double* n, const double* p, const double* u, std::uint64_t seed, std::uint64_t first_index,
+                   std::uint16_t stream, std::size_t count, double* out) {
+  const int level = detail::simd_level();
+  alignas(64) double x[kVectorBlock], f0[kVectorBlock], redo[kVectorBlock];
+  for (std::size_t b = 0; b < count; b += kVectorBlock) {
+    const std::size_t len = std::min(kVectorBlock, count - b);
+    const double *nb = n + b, *pb = p + b, *ub = u + 2 * b;
+    double* ob = out + b;
+    // The inversion's P(K = 0) = exp(m log1p(-min(p, 1 - p))) by the vector functions: an
+    // approximation, used only with the guard band (binomial_simd.hpp).
+    for (std::size_t i = 0; i < len; ++i) x[i] = -(pb[i] > 0.5 ? 1.0 - pb[i] : pb[i]);
+    detail::vec_log1p(x, f0, len);
+    for (std::size_t i = 0; i < len; ++i) x[i] = std::floor(nb[i]) * f0[i];
+    detail::vec_exp(x, f0, len);
+    if (level >= 2) detail::binomial_pixels_avx512(nb, pb, ub, f0, len, ob, redo);
+    else if (level >= 1) detail::binomial_pixels_avx2(nb, pb, ub, f0, len, ob, redo);
+    else detail::binomial_pixels_portable(nb, pb, ub, f0, len, ob, redo);
+    for (std::size_t i = 0; i < len; ++i) {
+      if (redo[i] == 0.0) continue;
+      if (redo[i] == 2.0 && continue_inversion(nb[i], pb[i], ub + 2 * i, f0[i], ob[i])) continue;
+      PrefetchedRng rng(ub + 2 * i, seed, first_index + b + i, stream);
+      ob[i] = Sampler(nb[i], pb[i])(rng);
+    }
+  }
+}
 
 }  // namespace binomial
 

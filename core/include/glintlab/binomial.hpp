@@ -71,6 +71,13 @@ class Sampler {
   Sampler(double n, double p, bool tabulate = false);
   double operator()(CounterRng& rng) const;
   double operator()(PrefetchedRng& rng) const;  // the same draw on a prefetched generator
+  // Samples first_index .. first_index + rows - 1 of `stream`, given their first two uniforms as rows
+  // u[2 r], u[2 r + 1] (detail::philox_uniform_rows with k = 2): out[r] is, bit for bit,
+  // (*this)(PrefetchedRng(u + 2 r, seed, first_index + r, stream)). In BTRD's regime, step 1 runs
+  // across samples as vector code (detail::simd_level()); the scalar code redraws, from their first
+  // uniform, only the samples that step 1 does not accept (14 to 30 % of them).
+  void sample_rows(const double* u, std::uint64_t seed, std::uint64_t first_index, std::uint16_t stream,
+                   std::size_t rows, double* out) const;
 
  private:
   template <class Rng> double draw(Rng& rng) const;
@@ -88,6 +95,15 @@ class Sampler {
          npq_ = 0;
   special::BinomialLogRatio log_ratio_;  // log f(k) - log f(mode)
 };
+
+// Samples with their own (n, p) each (a renderer's pixels), first two uniforms as rows u as above:
+// out[r] is, bit for bit, Sampler(n[r], p[r])(PrefetchedRng(u + 2 r, seed, first_index + r, stream)),
+// and bad parameters raise the Sampler's errors. The per-pixel setup and the first step of each
+// method (BTRD's step 1; the inversion's search, from a vector P(K = 0) and with a guard band
+// around every comparison) run as vector code across pixels; the pixels they cannot settle get the
+// scalar Sampler.
+void sample_pixels(const double* n, const double* p, const double* u, std::uint64_t seed, std::uint64_t first_index,
+                   std::uint16_t stream, std::size_t count, double* out);
 
 }  // namespace glintlab::binomial
 

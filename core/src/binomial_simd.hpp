@@ -1,0 +1,55 @@
+// Private helper of binomial.cpp: the exact binomial sampler's common first steps as branch-free
+// loops across samples (binomial_simd_body.inc), compiled once per instruction set
+// (binomial_simd_avx512.cpp, binomial_simd_avx2.cpp, binomial_simd_portable.cpp) and chosen by
+// detail::simd_level(). Each sample has its own uniforms (its own counter-based stream), so
+// evaluating many samples side by side changes nothing; every kernel repeats the scalar
+// Sampler's IEEE operations in the scalar code's order (no FMA contraction: -ffp-contract=off) and
+// flags the samples it cannot finish, which the caller draws with the scalar Sampler.
+#pragma once
+
+#include <cstddef>
+
+namespace glintlab::detail {
+
+// Below this mean (of min(p, 1 - p) floor(n)) the Sampler inverts (inversion.hpp), from it on it
+// runs BTRD; see binomial.cpp.
+inline constexpr double kBinomialInversionMaxMean = 30.0;
+
+// Constants of BTRD's step 1 for one (n, p), as binomial::Sampler holds them.
+struct BtrdStep1 {
+  double m;       // integer part of n
+  double g;       // probability of the fractional facet (0: none)
+  double flip;    // 1: K = m - BTRD(m, 1 - p)
+  double urvr;    // step 1 accepts v <= urvr
+  double inv_vr;
+  double two_a;   // 2 a
+  double b, c;
+};
+
+// Rows of one (n, p) in BTRD's regime; u = [u0, u1] per row (the first Philox block).
+// out[r] = the draw when BTRD's step 1 accepts u0 (then the fractional facet takes u1), and
+// redo[r] = 1.0 where it does not (out[r] is then meaningless).
+void binomial_btrd_rows_avx512(const BtrdStep1& s, const double* u, std::size_t rows, double* out, double* redo);
+void binomial_btrd_rows_avx2(const BtrdStep1& s, const double* u, std::size_t rows, double* out, double* redo);
+void binomial_btrd_rows_portable(const BtrdStep1& s, const double* u, std::size_t rows, double* out, double* redo);
+
+// Pixels with their own (n, p): the Sampler's setup and the first step of its method.
+// f0[i] is an approximation of the inversion's P(K = 0) = exp(m log1p(-min(p, 1 - p))) within a
+// relative 1e-12 of the C library's value (the caller's vector exp and log1p); the kernel decides
+// K = 0 only when u0 lies below f0 by more than kInversionGuard, so the exact value decides alike.
+// Outputs as above: out[i] the draw, redo[i] = 1.0 where the scalar Sampler must draw (invalid
+// parameters included, so that it reports them).
+void binomial_pixels_avx512(const double* n, const double* p, const double* u, const double* f0, std::size_t count,
+                            double* out, double* redo);
+void binomial_pixels_avx2(const double* n, const double* p, const double* u, const double* f0, std::size_t count,
+                          double* out, double* redo);
+void binomial_pixels_portable(const double* n, const double* p, const double* u, const double* f0,
+                              std::size_t count, double* out, double* redo);
+
+// The relative guard band around the vector P(K = 0) (and the cumulative sums continued from it):
+// 2^-30, over four orders of magnitude wider than the difference between SLEEF's and the C
+// library's exp(m log1p(-p)) (a few ulps times |m log1p(-p)| <= 42) plus the rounding of the
+// recursion's few hundred steps, and far too narrow to matter for speed.
+inline constexpr double kInversionGuard = 0x1.0p-30;
+
+}  // namespace glintlab::detail
