@@ -300,19 +300,60 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
   }
   const detail::BtrdStep1 step{.m = m_, .g = g_, .flip = flip_ ? 1.0 : 0.0, .urvr = urvr_, .inv_vr = inv_vr_,
                                .two_a = 2 * a_, .b = b_, .c = c_};
+  const detail::BtrdAttempt attempt{.m = m_, .mode = mode_, .alpha = alpha_, .a = a_, .b = b_, .c = c_, .vr = vr_,
+                                    .inv_vr = inv_vr_, .r = r_, .nr = nr_, .npq = npq_};
   const int level = detail::simd_level();
-  alignas(64) double redo[kVectorBlock];
+  alignas(64) double redo[kVectorBlock], v[kVectorBlock], u1[kVectorBlock], k[kVectorBlock], w[kVectorBlock],
+      log_w[kVectorBlock], lo[kVectorBlock], hi[kVectorBlock], state[kVectorBlock];
+  std::size_t row_of[kVectorBlock];
   for (std::size_t b = 0; b < rows; b += kVectorBlock) {
     const std::size_t len = std::min(kVectorBlock, rows - b);
     const double* ub = u + 2 * b;
     double* ob = out + b;
+    // Step 1 on every row.
     if (level >= 2) detail::binomial_btrd_rows_avx512(step, ub, len, ob, redo);
     else if (level >= 1) detail::binomial_btrd_rows_avx2(step, ub, len, ob, redo);
     else detail::binomial_btrd_rows_portable(step, ub, len, ob, redo);
+    // The rest of the first attempt on the rows step 1 left (a fifth to a quarter), compacted.
+    std::size_t pending = 0;
     for (std::size_t r = 0; r < len; ++r) {
-      if (redo[r] == 0.0) continue;
-      PrefetchedRng rng(ub + 2 * r, seed, first_index + b + r, stream);
-      out[b + r] = draw(rng);
+      row_of[pending] = r;
+      v[pending] = ub[2 * r];
+      u1[pending] = ub[2 * r + 1];
+      pending += redo[r] != 0.0;
+    }
+    if (level >= 2) detail::binomial_btrd_attempt_avx512(attempt, v, u1, pending, k, w, lo, hi, state);
+    else if (level >= 1) detail::binomial_btrd_attempt_avx2(attempt, v, u1, pending, k, w, lo, hi, state);
+    else detail::binomial_btrd_attempt_portable(attempt, v, u1, pending, k, w, lo, hi, state);
+    // Step 3.2 compares log w with [lo, hi]: the vector log is within a few ulps of the C
+    // library's, so a margin of 2^-40 |log w| proves the scalar comparison's outcome; inside it, the
+    // scalar Sampler decides.
+    detail::vec_log(w, log_w, pending);
+    for (std::size_t j = 0; j < pending; ++j) {
+      const std::size_t r = row_of[j];
+      const std::uint64_t index = first_index + b + r;
+      double st = state[j];
+      if (st == 2.0) {
+        const double margin = 0x1.0p-40 * std::abs(log_w[j]);
+        st = log_w[j] < lo[j] - margin ? 0.0 : (log_w[j] > hi[j] + margin ? 1.0 : 3.0);
+      }
+      if (st == 0.0) {  // accepted by the first attempt, which drew the first block's two uniforms
+        const double integer = flip_ ? m_ - k[j] : k[j];
+        if (g_ == 0.0) {
+          ob[r] = integer;
+        } else {  // the fractional facet: the second block's first uniform
+          auto rng = CounterRng::for_index(seed, index, stream);
+          rng.skip_blocks(1);
+          ob[r] = integer + (rng.uniform() < g_ ? 1.0 : 0.0);
+        }
+      } else if (st == 1.0) {  // rejected: BTRD starts afresh from the second block
+        auto rng = CounterRng::for_index(seed, index, stream);
+        rng.skip_blocks(1);
+        ob[r] = draw(rng);
+      } else {
+        PrefetchedRng rng(ub + 2 * r, seed, index, stream);
+        ob[r] = draw(rng);
+      }
     }
   }
 }

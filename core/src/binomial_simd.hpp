@@ -33,6 +33,23 @@ void binomial_btrd_rows_avx512(const BtrdStep1& s, const double* u, std::size_t 
 void binomial_btrd_rows_avx2(const BtrdStep1& s, const double* u, std::size_t rows, double* out, double* redo);
 void binomial_btrd_rows_portable(const BtrdStep1& s, const double* u, std::size_t rows, double* out, double* redo);
 
+// BTRD's other steps (2-3.2) of the first attempt, for the rows step 1 did not accept, compacted:
+// v[j], u1[j] their two uniforms. Constants as binomial::Sampler holds them.
+struct BtrdAttempt {
+  double m, mode, alpha, a, b, c, vr, inv_vr, r, nr, npq;
+};
+// Outputs per row: k[j] the attempt's K (before the reflection), and state[j]:
+//   0  accepted (step 3.1's exact ratio test, |K - mode| <= 15);
+//   1  rejected (K outside [0, m], or step 3.1 rejects): the next attempt starts at the second block;
+//   2  step 3.2's squeeze decides: accept iff log(w[j]) < lo[j], reject iff log(w[j]) > hi[j],
+//      otherwise (or on NaN) the scalar Sampler decides.
+void binomial_btrd_attempt_avx512(const BtrdAttempt& s, const double* v, const double* u1, std::size_t count,
+                                  double* k, double* w, double* lo, double* hi, double* state);
+void binomial_btrd_attempt_avx2(const BtrdAttempt& s, const double* v, const double* u1, std::size_t count,
+                                double* k, double* w, double* lo, double* hi, double* state);
+void binomial_btrd_attempt_portable(const BtrdAttempt& s, const double* v, const double* u1, std::size_t count,
+                                    double* k, double* w, double* lo, double* hi, double* state);
+
 // Pixels with their own (n, p): the Sampler's setup and the first step of its method.
 // f0[i] is an approximation of the inversion's P(K = 0) = exp(m log1p(-min(p, 1 - p))) within a
 // relative 1e-12 of the C library's value (the caller's vector exp and log1p); the kernel decides

@@ -43,15 +43,12 @@ Distribution distribution(double n, double p, std::size_t max_support = kDefault
 class PrefetchedRng {
  public:
   PrefetchedRng(const double* first_two, std::uint64_t seed, std::uint64_t index, std::uint16_t stream)
-      : first_{first_two[0], first_two[1]}, rng_(CounterRng::for_index(seed, index, stream)) {}
+      : first_{first_two[0], first_two[1]}, rng_(CounterRng::for_index(seed, index, stream)) {
+    rng_.skip_blocks(1);  // the prefetched one
+  }
   double uniform() {
     if (pos_ < 2) return first_[pos_++];
-    if (pos_ == 2) {  // past the prefetched block: the scalar generator, its first block skipped
-      rng_.uniform();
-      rng_.uniform();
-      pos_ = 3;
-    }
-    return rng_.uniform();
+    return rng_.uniform();  // past the prefetched block: the scalar generator, from its second block
   }
 
  private:
