@@ -250,19 +250,20 @@ double Sampler::btrd(Rng& rng) const {
       if (mode_ < k ? v * den <= num : v * num <= den) return k;
       continue;
     }
-    // Step 3.2: squeeze on log f(k)/f(mode) around the normal approximation.
-    v = std::log(v);
-    const double rho = (km / npq_) * (((km / 3.0 + 0.625) * km + 1.0 / 6.0) / npq_ + 0.5);
-    const double t = -km * km / (2 * npq_);
-    if (v < t - rho) return k;
-    if (v > t + rho) continue;
-    if (k == 0 || k == m_) {  // the ends, outside BinomialLogRatio's domain (far in the tails)
-      if (v <= special::binomial_log_pmf_int(k, m_, pp_) - special::binomial_log_pmf_int(mode_, m_, pp_))
-        return k;
-      continue;
-    }
-    if (v <= log_ratio_(k)) return k;
+    if (btrd_far_accepts(k, km, v)) return k;
   }
+}
+
+bool Sampler::btrd_far_accepts(double k, double km, double v) const {
+  // Step 3.2: squeeze on log f(k)/f(mode) around the normal approximation.
+  v = std::log(v);
+  const double rho = (km / npq_) * (((km / 3.0 + 0.625) * km + 1.0 / 6.0) / npq_ + 0.5);
+  const double t = -km * km / (2 * npq_);
+  if (v < t - rho) return true;
+  if (v > t + rho) return false;
+  if (k == 0 || k == m_)  // the ends, outside BinomialLogRatio's domain (far in the tails)
+    return v <= special::binomial_log_pmf_int(k, m_, pp_) - special::binomial_log_pmf_int(mode_, m_, pp_);
+  return v <= log_ratio_(k);
 }
 
 template <class Rng>
@@ -303,9 +304,10 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
   const detail::BtrdAttempt attempt{.m = m_, .mode = mode_, .alpha = alpha_, .a = a_, .b = b_, .c = c_, .vr = vr_,
                                     .inv_vr = inv_vr_, .r = r_, .nr = nr_, .npq = npq_};
   const int level = detail::simd_level();
-  alignas(64) double redo[kVectorBlock], v[kVectorBlock], u1[kVectorBlock], k[kVectorBlock], w[kVectorBlock],
+  constexpr std::size_t kPadded = kVectorBlock + 8;  // room for binomial_compact_avx512's whole-vector stores
+  alignas(64) double redo[kVectorBlock], v[kPadded], u1[kPadded], k[kVectorBlock], w[kVectorBlock],
       log_w[kVectorBlock], lo[kVectorBlock], hi[kVectorBlock], state[kVectorBlock];
-  std::size_t row_of[kVectorBlock];
+  std::uint32_t row_of[kPadded];
   for (std::size_t b = 0; b < rows; b += kVectorBlock) {
     const std::size_t len = std::min(kVectorBlock, rows - b);
     const double* ub = u + 2 * b;
@@ -316,11 +318,15 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
     else detail::binomial_btrd_rows_portable(step, ub, len, ob, redo);
     // The rest of the first attempt on the rows step 1 left (a fifth to a quarter), compacted.
     std::size_t pending = 0;
-    for (std::size_t r = 0; r < len; ++r) {
-      row_of[pending] = r;
-      v[pending] = ub[2 * r];
-      u1[pending] = ub[2 * r + 1];
-      pending += redo[r] != 0.0;
+    if (level >= 2) {
+      pending = detail::binomial_compact_avx512(redo, ub, len, row_of, v, u1);
+    } else {
+      for (std::size_t r = 0; r < len; ++r) {
+        row_of[pending] = static_cast<std::uint32_t>(r);
+        v[pending] = ub[2 * r];
+        u1[pending] = ub[2 * r + 1];
+        pending += redo[r] != 0.0;
+      }
     }
     if (level >= 2) detail::binomial_btrd_attempt_avx512(attempt, v, u1, pending, k, w, lo, hi, state);
     else if (level >= 1) detail::binomial_btrd_attempt_avx2(attempt, v, u1, pending, k, w, lo, hi, state);
@@ -335,7 +341,9 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
       double st = state[j];
       if (st == 2.0) {
         const double margin = 0x1.0p-40 * std::abs(log_w[j]);
-        st = log_w[j] < lo[j] - margin ? 0.0 : (log_w[j] > hi[j] + margin ? 1.0 : 3.0);
+        if (log_w[j] < lo[j] - margin) st = 0.0;
+        else if (log_w[j] > hi[j] + margin) st = 1.0;
+        else st = btrd_far_accepts(k[j], std::abs(k[j] - mode_), w[j]) ? 0.0 : 1.0;  // btrd()'s own test
       }
       if (st == 0.0) {  // accepted by the first attempt, which drew the first block's two uniforms
         const double integer = flip_ ? m_ - k[j] : k[j];
@@ -346,12 +354,9 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
           rng.skip_blocks(1);
           ob[r] = integer + (rng.uniform() < g_ ? 1.0 : 0.0);
         }
-      } else if (st == 1.0) {  // rejected: BTRD starts afresh from the second block
+      } else {  // rejected: BTRD starts afresh from the second block
         auto rng = CounterRng::for_index(seed, index, stream);
         rng.skip_blocks(1);
-        ob[r] = draw(rng);
-      } else {
-        PrefetchedRng rng(ub + 2 * r, seed, index, stream);
         ob[r] = draw(rng);
       }
     }

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 
 namespace glintlab::detail {
 
@@ -49,6 +50,12 @@ void binomial_btrd_attempt_avx2(const BtrdAttempt& s, const double* v, const dou
                                 double* k, double* w, double* lo, double* hi, double* state);
 void binomial_btrd_attempt_portable(const BtrdAttempt& s, const double* v, const double* u1, std::size_t count,
                                     double* k, double* w, double* lo, double* hi, double* state);
+
+// The rows with redo[r] != 0 gathered densely: row_of[j], v[j] = u[2 row], u1[j] = u[2 row + 1];
+// returns their number. The AVX-512 version writes whole vectors: the three outputs need room for
+// 7 elements past rows.
+std::size_t binomial_compact_avx512(const double* redo, const double* u, std::size_t rows, std::uint32_t* row_of,
+                                    double* v, double* u1);
 
 // Pixels with their own (n, p): the Sampler's setup and the first step of its method.
 // f0[i] is an approximation of the inversion's P(K = 0) = exp(m log1p(-min(p, 1 - p))) within a

@@ -80,6 +80,8 @@ class Sampler {
   template <class Rng> double draw(Rng& rng) const;
   template <class Rng> double draw_integer_part(Rng& rng) const;
   template <class Rng> double btrd(Rng& rng) const;
+  // BTRD's step 3.2 for an attempt at k, km = |k - mode| > 15, v scaled by step 3: true to accept.
+  bool btrd_far_accepts(double k, double km, double v) const;
 
   enum class Method { kConstant, kInversion, kBtrd } method_;
   double m_ = 0, g_ = 0;  // integer part of n; probability of the fractional facet (f p)
