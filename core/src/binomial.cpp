@@ -363,59 +363,78 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
   }
 }
 
-namespace {
-
-// The inversion's search (SmallMeanInversion's on-the-fly loop) continued past K = 0 from the vector
-// P(K = 0), f0 (within 1e-12 of the C library's, binomial_simd.hpp): the same recursion on it gives
-// cumulative sums within that relative distance plus a few ulps per step of the scalar ones, so
-// u0 <= c (1 - guard) proves u0 <= the scalar c, and u0 > c (1 + guard) proves u0 > it. The search
-// answers only when every comparison on its way was proved so (and the bound not passed);
-// otherwise it returns false and the caller draws with the scalar Sampler.
-bool continue_inversion(double n, double p, const double* u, double f0, double& out) {
-  constexpr double kLow = 1.0 - detail::kInversionGuard, kHigh = 1.0 + detail::kInversionGuard;
-  const double m = std::floor(n), g = (n - m) * p;
-  const bool flip = p > 0.5;
-  const double pp = flip ? 1.0 - p : p;
-  const InversionRecursion rec(m, pp, m * pp);
-  const double u0 = u[0];
-  double f = f0, c = f0, k = 0;
-  for (;;) {
-    k += 1;
-    if (k > rec.bound) return false;
-    f *= rec.a / k - rec.s;
-    c += f;
-    if (u0 <= c * kLow) break;
-    if (!(u0 > c * kHigh)) return false;
-  }
-  const double integer = flip ? m - k : k;
-  out = g == 0.0 ? integer : integer + (u[1] < g ? 1.0 : 0.0);  // the fractional facet: the next uniform
-  return true;
-}
-
-}  // namespace
-
 void sample_pixels(const double* n, const double* p, const double* u, std::uint64_t seed, std::uint64_t first_index,
                    std::uint16_t stream, std::size_t count, double* out) {
   const int level = detail::simd_level();
-  alignas(64) double x[kVectorBlock], f0[kVectorBlock], redo[kVectorBlock];
-  for (std::size_t b = 0; b < count; b += kVectorBlock) {
-    const std::size_t len = std::min(kVectorBlock, count - b);
+  constexpr std::size_t B = kVectorBlock;
+  alignas(64) double x[B], m[B], f0[B], redo[B], inv_a[B], inv_s[B], inv_bound[B];
+  // The inversion's pixels past K = 0, compacted: their search state and recursion.
+  alignas(64) double su0[B], sa[B], ss[B], sbound[B], sk[B], sf[B], sc[B], sstate[B];
+  std::uint32_t row_of[B];
+  for (std::size_t b = 0; b < count; b += B) {
+    const std::size_t len = std::min(B, count - b);
     const double *nb = n + b, *pb = p + b, *ub = u + 2 * b;
     double* ob = out + b;
     // The inversion's P(K = 0) = exp(m log1p(-min(p, 1 - p))) by the vector functions: an
     // approximation, used only with the guard band (binomial_simd.hpp).
-    for (std::size_t i = 0; i < len; ++i) x[i] = -(pb[i] > 0.5 ? 1.0 - pb[i] : pb[i]);
+    if (level >= 2) detail::binomial_pixels_prepare_avx512(nb, pb, len, x, m);
+    else if (level >= 1) detail::binomial_pixels_prepare_avx2(nb, pb, len, x, m);
+    else detail::binomial_pixels_prepare_portable(nb, pb, len, x, m);
     detail::vec_log1p(x, f0, len);
-    for (std::size_t i = 0; i < len; ++i) x[i] = std::floor(nb[i]) * f0[i];
+    for (std::size_t i = 0; i < len; ++i) x[i] = m[i] * f0[i];
     detail::vec_exp(x, f0, len);
-    if (level >= 2) detail::binomial_pixels_avx512(nb, pb, ub, f0, len, ob, redo);
-    else if (level >= 1) detail::binomial_pixels_avx2(nb, pb, ub, f0, len, ob, redo);
-    else detail::binomial_pixels_portable(nb, pb, ub, f0, len, ob, redo);
-    for (std::size_t i = 0; i < len; ++i) {
-      if (redo[i] == 0.0) continue;
-      if (redo[i] == 2.0 && continue_inversion(nb[i], pb[i], ub + 2 * i, f0[i], ob[i])) continue;
+    if (level >= 2) detail::binomial_pixels_avx512(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
+    else if (level >= 1) detail::binomial_pixels_avx2(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
+    else detail::binomial_pixels_portable(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
+    const auto scalar_draw = [&](std::size_t i) {
       PrefetchedRng rng(ub + 2 * i, seed, first_index + b + i, stream);
       ob[i] = Sampler(nb[i], pb[i])(rng);
+    };
+    std::size_t searching = 0;
+    for (std::size_t i = 0; i < len; ++i) {
+      if (redo[i] == 0.0) continue;
+      if (redo[i] == 1.0) {
+        scalar_draw(i);
+        continue;
+      }
+      row_of[searching] = static_cast<std::uint32_t>(i);
+      su0[searching] = ub[2 * i];
+      sa[searching] = inv_a[i];
+      ss[searching] = inv_s[i];
+      sbound[searching] = inv_bound[i];
+      sk[searching] = 0.0;
+      sf[searching] = f0[i];
+      sc[searching] = f0[i];
+      ++searching;
+    }
+    // The search, eight steps at a time, on the pixels not settled yet.
+    while (searching > 0) {
+      if (level >= 2) detail::binomial_inversion_steps_avx512(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
+      else if (level >= 1) detail::binomial_inversion_steps_avx2(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
+      else detail::binomial_inversion_steps_portable(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
+      std::size_t still = 0;
+      for (std::size_t j = 0; j < searching; ++j) {
+        const std::size_t i = row_of[j];
+        if (sstate[j] == 0.0) {
+          // K proved; then the reflection and the fractional facet (the next uniform: u1).
+          const double mi = m[i], g = (nb[i] - mi) * pb[i], k = sk[j];
+          const double integer = pb[i] > 0.5 ? mi - k : k;
+          ob[i] = g == 0.0 ? integer : integer + (ub[2 * i + 1] < g ? 1.0 : 0.0);
+        } else if (sstate[j] == 1.0) {
+          scalar_draw(i);
+        } else {
+          row_of[still] = row_of[j];
+          su0[still] = su0[j];
+          sa[still] = sa[j];
+          ss[still] = ss[j];
+          sbound[still] = sbound[j];
+          sk[still] = sk[j];
+          sf[still] = sf[j];
+          sc[still] = sc[j];
+          ++still;
+        }
+      }
+      searching = still;
     }
   }
 }

@@ -57,18 +57,35 @@ void binomial_btrd_attempt_portable(const BtrdAttempt& s, const double* v, const
 std::size_t binomial_compact_avx512(const double* redo, const double* u, std::size_t rows, std::uint32_t* row_of,
                                     double* v, double* u1);
 
-// Pixels with their own (n, p): the Sampler's setup and the first step of its method.
-// f0[i] is an approximation of the inversion's P(K = 0) = exp(m log1p(-min(p, 1 - p))) within a
-// relative 1e-12 of the C library's value (the caller's vector exp and log1p); the kernel decides
+// Pixels with their own (n, p), in three kernels.
+// prepare: neg_pp[i] = -min(p, 1 - p) (as the Sampler reflects p), m[i] = floor(n[i]), for the
+// caller's vector log1p and exp of P(K = 0) = exp(m log1p(-min(p, 1 - p))).
+void binomial_pixels_prepare_avx512(const double* n, const double* p, std::size_t count, double* neg_pp, double* m);
+void binomial_pixels_prepare_avx2(const double* n, const double* p, std::size_t count, double* neg_pp, double* m);
+void binomial_pixels_prepare_portable(const double* n, const double* p, std::size_t count, double* neg_pp, double* m);
+// pixels: the Sampler's setup and the first step of its method. f0[i] approximates P(K = 0) within
+// a relative 1e-12 of the C library's value (the caller's vector exp and log1p); the kernel decides
 // K = 0 only when u0 lies below f0 by more than kInversionGuard, so the exact value decides alike.
-// Outputs as above: out[i] the draw, redo[i] = 1.0 where the scalar Sampler must draw (invalid
-// parameters included, so that it reports them).
+// out[i] the draw; redo[i] = 0 done, 1 for the scalar Sampler (invalid parameters included, so
+// that it reports them), 2 for the inversion's search past K = 0 (u0 above f0 by more than the
+// guard), whose recursion f(k) = f(k - 1) (a / k - s) up to k = bound is given in inv_a, inv_s,
+// inv_bound (the Sampler's values).
 void binomial_pixels_avx512(const double* n, const double* p, const double* u, const double* f0, std::size_t count,
-                            double* out, double* redo);
+                            double* out, double* redo, double* inv_a, double* inv_s, double* inv_bound);
 void binomial_pixels_avx2(const double* n, const double* p, const double* u, const double* f0, std::size_t count,
-                          double* out, double* redo);
-void binomial_pixels_portable(const double* n, const double* p, const double* u, const double* f0,
-                              std::size_t count, double* out, double* redo);
+                          double* out, double* redo, double* inv_a, double* inv_s, double* inv_bound);
+void binomial_pixels_portable(const double* n, const double* p, const double* u, const double* f0, std::size_t count,
+                              double* out, double* redo, double* inv_a, double* inv_s, double* inv_bound);
+// inversion steps: up to 8 more steps of the inversion's search (SmallMeanInversion) for compacted
+// pixels at (k, f = f(k), c = c_k) with u0 > c_k proved, on cumulative sums continued from the
+// vector f0 and compared with the guard band. state[j] = 0: K = k[j] proved; 1: a comparison fell
+// within the band or k passed the bound (the scalar Sampler decides); 2: not settled yet.
+void binomial_inversion_steps_avx512(const double* u0, const double* a, const double* s, const double* bound,
+                                     std::size_t count, double* k, double* f, double* c, double* state);
+void binomial_inversion_steps_avx2(const double* u0, const double* a, const double* s, const double* bound,
+                                   std::size_t count, double* k, double* f, double* c, double* state);
+void binomial_inversion_steps_portable(const double* u0, const double* a, const double* s, const double* bound,
+                                       std::size_t count, double* k, double* f, double* c, double* state);
 
 // The relative guard band around the vector P(K = 0) (and the cumulative sums continued from it):
 // 2^-30, over four orders of magnitude wider than the difference between SLEEF's and the C
