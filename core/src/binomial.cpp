@@ -292,7 +292,10 @@ constexpr std::size_t kVectorBlock = 256;  // samples per kernel call (stack buf
 
 void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t first_index, std::uint16_t stream,
                           std::size_t rows, double* out) const {
-  if (method_ != Method::kBtrd) {
+  const int level = detail::simd_level();
+  // The portable level draws each sample with the scalar code: without SSE4.1's vector floor the
+  // kernels would run one lane at a time, slower than the branchy scalar code (measured 10 %).
+  if (method_ != Method::kBtrd || level == 0) {
     for (std::size_t r = 0; r < rows; ++r) {
       PrefetchedRng rng(u + 2 * r, seed, first_index + r, stream);
       out[r] = draw(rng);
@@ -303,7 +306,6 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
                                .two_a = 2 * a_, .b = b_, .c = c_};
   const detail::BtrdAttempt attempt{.m = m_, .mode = mode_, .alpha = alpha_, .a = a_, .b = b_, .c = c_, .vr = vr_,
                                     .inv_vr = inv_vr_, .r = r_, .nr = nr_, .npq = npq_};
-  const int level = detail::simd_level();
   constexpr std::size_t kPadded = kVectorBlock + 8;  // room for binomial_compact_avx512's whole-vector stores
   alignas(64) double redo[kVectorBlock], v[kPadded], u1[kPadded], k[kVectorBlock], w[kVectorBlock],
       log_w[kVectorBlock], lo[kVectorBlock], hi[kVectorBlock], state[kVectorBlock];
@@ -314,8 +316,7 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
     double* ob = out + b;
     // Step 1 on every row.
     if (level >= 2) detail::binomial_btrd_rows_avx512(step, ub, len, ob, redo);
-    else if (level >= 1) detail::binomial_btrd_rows_avx2(step, ub, len, ob, redo);
-    else detail::binomial_btrd_rows_portable(step, ub, len, ob, redo);
+    else detail::binomial_btrd_rows_avx2(step, ub, len, ob, redo);
     // The rest of the first attempt on the rows step 1 left (a fifth to a quarter), compacted.
     std::size_t pending = 0;
     if (level >= 2) {
@@ -329,8 +330,7 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
       }
     }
     if (level >= 2) detail::binomial_btrd_attempt_avx512(attempt, v, u1, pending, k, w, lo, hi, state);
-    else if (level >= 1) detail::binomial_btrd_attempt_avx2(attempt, v, u1, pending, k, w, lo, hi, state);
-    else detail::binomial_btrd_attempt_portable(attempt, v, u1, pending, k, w, lo, hi, state);
+    else detail::binomial_btrd_attempt_avx2(attempt, v, u1, pending, k, w, lo, hi, state);
     // Step 3.2 compares log w with [lo, hi]: the vector log is within a few ulps of the C
     // library's, so a margin of 2^-40 |log w| proves the scalar comparison's outcome; inside it, the
     // scalar Sampler decides.
@@ -366,6 +366,13 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
 void sample_pixels(const double* n, const double* p, const double* u, std::uint64_t seed, std::uint64_t first_index,
                    std::uint16_t stream, std::size_t count, double* out) {
   const int level = detail::simd_level();
+  if (level == 0) {  // the portable level: the scalar code (see Sampler::sample_rows)
+    for (std::size_t i = 0; i < count; ++i) {
+      PrefetchedRng rng(u + 2 * i, seed, first_index + i, stream);
+      out[i] = Sampler(n[i], p[i])(rng);
+    }
+    return;
+  }
   constexpr std::size_t B = kVectorBlock;
   alignas(64) double x[B], m[B], f0[B], redo[B], inv_a[B], inv_s[B], inv_bound[B];
   // The inversion's pixels past K = 0, compacted: their search state and recursion.
@@ -378,14 +385,12 @@ void sample_pixels(const double* n, const double* p, const double* u, std::uint6
     // The inversion's P(K = 0) = exp(m log1p(-min(p, 1 - p))) by the vector functions: an
     // approximation, used only with the guard band (binomial_simd.hpp).
     if (level >= 2) detail::binomial_pixels_prepare_avx512(nb, pb, len, x, m);
-    else if (level >= 1) detail::binomial_pixels_prepare_avx2(nb, pb, len, x, m);
-    else detail::binomial_pixels_prepare_portable(nb, pb, len, x, m);
+    else detail::binomial_pixels_prepare_avx2(nb, pb, len, x, m);
     detail::vec_log1p(x, f0, len);
     for (std::size_t i = 0; i < len; ++i) x[i] = m[i] * f0[i];
     detail::vec_exp(x, f0, len);
     if (level >= 2) detail::binomial_pixels_avx512(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
-    else if (level >= 1) detail::binomial_pixels_avx2(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
-    else detail::binomial_pixels_portable(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
+    else detail::binomial_pixels_avx2(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
     const auto scalar_draw = [&](std::size_t i) {
       PrefetchedRng rng(ub + 2 * i, seed, first_index + b + i, stream);
       ob[i] = Sampler(nb[i], pb[i])(rng);
@@ -410,8 +415,7 @@ void sample_pixels(const double* n, const double* p, const double* u, std::uint6
     // The search, eight steps at a time, on the pixels not settled yet.
     while (searching > 0) {
       if (level >= 2) detail::binomial_inversion_steps_avx512(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
-      else if (level >= 1) detail::binomial_inversion_steps_avx2(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
-      else detail::binomial_inversion_steps_portable(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
+      else detail::binomial_inversion_steps_avx2(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
       std::size_t still = 0;
       for (std::size_t j = 0; j < searching; ++j) {
         const std::size_t i = row_of[j];

@@ -1,10 +1,11 @@
 // Private helper of binomial.cpp: the exact binomial sampler's common first steps as branch-free
 // loops across samples (binomial_simd_body.inc), compiled once per instruction set
-// (binomial_simd_avx512.cpp, binomial_simd_avx2.cpp, binomial_simd_portable.cpp) and chosen by
-// detail::simd_level(). Each sample has its own uniforms (its own counter-based stream), so
-// evaluating many samples side by side changes nothing; every kernel repeats the scalar
-// Sampler's IEEE operations in the scalar code's order (no FMA contraction: -ffp-contract=off) and
-// flags the samples it cannot finish, which the caller draws with the scalar Sampler.
+// (binomial_simd_avx512.cpp, binomial_simd_avx2.cpp) and chosen by detail::simd_level(); the
+// portable level keeps the scalar code (see binomial.cpp). Each sample has its own uniforms (its
+// own counter-based stream), so evaluating many samples side by side changes nothing; every kernel
+// repeats the scalar Sampler's IEEE operations in the scalar code's order (no FMA contraction:
+// -ffp-contract=off) and flags the samples it cannot finish, which the caller completes with the
+// scalar code.
 #pragma once
 
 #include <cstddef>
@@ -32,7 +33,6 @@ struct BtrdStep1 {
 // redo[r] = 1.0 where it does not (out[r] is then meaningless).
 void binomial_btrd_rows_avx512(const BtrdStep1& s, const double* u, std::size_t rows, double* out, double* redo);
 void binomial_btrd_rows_avx2(const BtrdStep1& s, const double* u, std::size_t rows, double* out, double* redo);
-void binomial_btrd_rows_portable(const BtrdStep1& s, const double* u, std::size_t rows, double* out, double* redo);
 
 // BTRD's other steps (2-3.2) of the first attempt, for the rows step 1 did not accept, compacted:
 // v[j], u1[j] their two uniforms. Constants as binomial::Sampler holds them.
@@ -48,8 +48,6 @@ void binomial_btrd_attempt_avx512(const BtrdAttempt& s, const double* v, const d
                                   double* k, double* w, double* lo, double* hi, double* state);
 void binomial_btrd_attempt_avx2(const BtrdAttempt& s, const double* v, const double* u1, std::size_t count,
                                 double* k, double* w, double* lo, double* hi, double* state);
-void binomial_btrd_attempt_portable(const BtrdAttempt& s, const double* v, const double* u1, std::size_t count,
-                                    double* k, double* w, double* lo, double* hi, double* state);
 
 // The rows with redo[r] != 0 gathered densely: row_of[j], v[j] = u[2 row], u1[j] = u[2 row + 1];
 // returns their number. The AVX-512 version writes whole vectors: the three outputs need room for
@@ -62,7 +60,6 @@ std::size_t binomial_compact_avx512(const double* redo, const double* u, std::si
 // caller's vector log1p and exp of P(K = 0) = exp(m log1p(-min(p, 1 - p))).
 void binomial_pixels_prepare_avx512(const double* n, const double* p, std::size_t count, double* neg_pp, double* m);
 void binomial_pixels_prepare_avx2(const double* n, const double* p, std::size_t count, double* neg_pp, double* m);
-void binomial_pixels_prepare_portable(const double* n, const double* p, std::size_t count, double* neg_pp, double* m);
 // pixels: the Sampler's setup and the first step of its method. f0[i] approximates P(K = 0) within
 // a relative 1e-12 of the C library's value (the caller's vector exp and log1p); the kernel decides
 // K = 0 only when u0 lies below f0 by more than kInversionGuard, so the exact value decides alike.
@@ -74,8 +71,6 @@ void binomial_pixels_avx512(const double* n, const double* p, const double* u, c
                             double* out, double* redo, double* inv_a, double* inv_s, double* inv_bound);
 void binomial_pixels_avx2(const double* n, const double* p, const double* u, const double* f0, std::size_t count,
                           double* out, double* redo, double* inv_a, double* inv_s, double* inv_bound);
-void binomial_pixels_portable(const double* n, const double* p, const double* u, const double* f0, std::size_t count,
-                              double* out, double* redo, double* inv_a, double* inv_s, double* inv_bound);
 // inversion steps: up to 8 more steps of the inversion's search (SmallMeanInversion) for compacted
 // pixels at (k, f = f(k), c = c_k) with u0 > c_k proved, on cumulative sums continued from the
 // vector f0 and compared with the guard band. state[j] = 0: K = k[j] proved; 1: a comparison fell
@@ -84,8 +79,6 @@ void binomial_inversion_steps_avx512(const double* u0, const double* a, const do
                                      std::size_t count, double* k, double* f, double* c, double* state);
 void binomial_inversion_steps_avx2(const double* u0, const double* a, const double* s, const double* bound,
                                    std::size_t count, double* k, double* f, double* c, double* state);
-void binomial_inversion_steps_portable(const double* u0, const double* a, const double* s, const double* bound,
-                                       std::size_t count, double* k, double* f, double* c, double* state);
 
 // The relative guard band around the vector P(K = 0) (and the cumulative sums continued from it):
 // 2^-30, over four orders of magnitude wider than the difference between SLEEF's and the C
