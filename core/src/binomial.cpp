@@ -263,7 +263,26 @@ bool Sampler::btrd_far_accepts(double k, double km, double v) const {
   if (v > t + rho) return false;
   if (k == 0 || k == m_)  // the ends, outside BinomialLogRatio's domain (far in the tails)
     return v <= special::binomial_log_pmf_int(k, m_, pp_) - special::binomial_log_pmf_int(mode_, m_, pp_);
-  return v <= log_ratio_(k);
+  return v <= log_ratio(k);
+}
+
+double Sampler::log_ratio(double k) const {
+  const double offset = k - log_ratio_lo_;
+  if (offset >= 0 && offset < static_cast<double>(log_ratio_table_.size()))
+    return log_ratio_table_[static_cast<std::size_t>(offset)];
+  return log_ratio_(k);
+}
+
+void Sampler::tabulate_log_ratios(std::size_t max_entries) {
+  if (method_ != Method::kBtrd) return;
+  // Step 3.2's final test is reached only for |k - mode| > 15 within the squeeze's reach, a few
+  // standard deviations; 8.5 sd covers all but ~1e-17 of the draws (the rest compute it directly).
+  const double reach = std::ceil(8.5 * std::sqrt(npq_)) + 16;
+  const double lo = std::max(1.0, mode_ - reach), hi = std::min(m_ - 1, mode_ + reach);
+  if (!(hi >= lo) || hi - lo + 1 > static_cast<double>(max_entries)) return;
+  log_ratio_lo_ = lo;
+  log_ratio_table_.resize(static_cast<std::size_t>(hi - lo) + 1);
+  for (std::size_t j = 0; j < log_ratio_table_.size(); ++j) log_ratio_table_[j] = log_ratio_(lo + static_cast<double>(j));
 }
 
 template <class Rng>

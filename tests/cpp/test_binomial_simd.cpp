@@ -100,3 +100,20 @@ TEST_CASE("the per-pixel path reports bad parameters as the scalar sampler does"
   CHECK_THROWS_WITH(law->sample_pixels(n, p_bad, 1, 0, 3, out), Catch::Contains("p = 1.5"));
   CHECK_THROWS_AS(law->sample_pixels(n_bad, p, 1, 0, 3, out), std::invalid_argument);
 }
+
+TEST_CASE("tabulated BTRD final-test values give the same draws", "[binomial][determinism]") {
+  // Long batches tabulate log f(k) - log f(mode) around the mode (Sampler::tabulate_log_ratios): the
+  // same values, so the same draws, including those whose k falls outside the table.
+  for (auto [n, p] : {std::pair{1e9, 1e-6}, {3000.0, 0.01}, {1e6, 0.3}, {100.0, 0.5}, {61.5, 0.7}}) {
+    binomial::Sampler plain(n, p, true), table(n, p, true);
+    table.tabulate_log_ratios(1'000'000);
+    for (std::uint64_t i = 0; i < 200'000; ++i) {
+      auto r1 = CounterRng::for_index(5, i, kStreamSample), r2 = r1;
+      const double a = plain(r1), b = table(r2);
+      if (a != b) {
+        INFO("n = " << n << ", p = " << p << ", seed 5, index " << i << ": " << a << " vs " << b);
+        REQUIRE(a == b);
+      }
+    }
+  }
+}

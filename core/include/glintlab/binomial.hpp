@@ -16,6 +16,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "glintlab/distribution.hpp"
 #include "glintlab/inversion.hpp"
@@ -75,6 +76,10 @@ class Sampler {
   // uniform, only the samples that step 1 does not accept (14 to 30 % of them).
   void sample_rows(const double* u, std::uint64_t seed, std::uint64_t first_index, std::uint16_t stream,
                    std::size_t rows, double* out) const;
+  // For long batches in BTRD's regime: tabulates BTRD's final test value log f(k) - log f(mode) over
+  // mode +- (8.5 sd + 16) if that takes at most max_entries values (the same values, computed
+  // ahead: draws are unchanged). Worth it when the batch is many times longer than the table.
+  void tabulate_log_ratios(std::size_t max_entries);
 
  private:
   template <class Rng> double draw(Rng& rng) const;
@@ -93,6 +98,9 @@ class Sampler {
   double b_ = 0, a_ = 0, c_ = 0, alpha_ = 0, vr_ = 0, inv_vr_ = 0, urvr_ = 0, mode_ = 0, r_ = 0, nr_ = 0,
          npq_ = 0;
   special::BinomialLogRatio log_ratio_;  // log f(k) - log f(mode)
+  std::vector<double> log_ratio_table_;  // log_ratio_(k) for k = log_ratio_lo_, ... (tabulate_log_ratios)
+  double log_ratio_lo_ = 0;
+  double log_ratio(double k) const;
 };
 
 // Samples with their own (n, p) each (a renderer's pixels), first two uniforms as rows u as above:
