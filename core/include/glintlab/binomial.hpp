@@ -71,9 +71,11 @@ class Sampler {
   double operator()(PrefetchedRng& rng) const;  // the same draw on a prefetched generator
   // Samples first_index .. first_index + rows - 1 of `stream`, given their first two uniforms as rows
   // u[2 r], u[2 r + 1] (detail::philox_uniform_rows with k = 2): out[r] is, bit for bit,
-  // (*this)(PrefetchedRng(u + 2 r, seed, first_index + r, stream)). In BTRD's regime, step 1 runs
-  // across samples as vector code (detail::simd_level()); the scalar code redraws, from their first
-  // uniform, only the samples that step 1 does not accept (14 to 30 % of them).
+  // (*this)(PrefetchedRng(u + 2 r, seed, first_index + r, stream)). In BTRD's regime (AVX2 and
+  // AVX-512 levels), the first attempt runs across samples as vector code: step 1 on every row,
+  // steps 2-3.2 on the rows step 1 left; the scalar code finishes only the attempts that were
+  // rejected (from the second Philox block on: 11 to 22 % of the samples) or whose squeeze is
+  // undecided (its own final test).
   void sample_rows(const double* u, std::uint64_t seed, std::uint64_t first_index, std::uint16_t stream,
                    std::size_t rows, double* out) const;
   // For long batches in BTRD's regime: tabulates BTRD's final test value log f(k) - log f(mode) over
