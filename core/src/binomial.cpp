@@ -397,6 +397,9 @@ void sample_pixels(const double* n, const double* p, const double* u, std::uint6
   // The inversion's pixels past K = 0, compacted: their search state and recursion.
   alignas(64) double su0[B], sa[B], ss[B], sbound[B], sk[B], sf[B], sc[B], sstate[B];
   std::uint32_t row_of[B];
+  // BTRD's pixels past step 1, compacted: their (n, p), uniforms and first-attempt outputs.
+  alignas(64) double bn[B], bp[B], bv[B], bu1[B], bk[B], bw[B], blog_w[B], blo[B], bhi[B], bstate[B];
+  std::uint32_t brow[B];
   for (std::size_t b = 0; b < count; b += B) {
     const std::size_t len = std::min(B, count - b);
     const double *nb = n + b, *pb = p + b, *ub = u + 2 * b;
@@ -414,11 +417,20 @@ void sample_pixels(const double* n, const double* p, const double* u, std::uint6
       PrefetchedRng rng(ub + 2 * i, seed, first_index + b + i, stream);
       ob[i] = Sampler(nb[i], pb[i])(rng);
     };
-    std::size_t searching = 0;
+    std::size_t searching = 0, attempting = 0;
     for (std::size_t i = 0; i < len; ++i) {
       if (redo[i] == 0.0) continue;
       if (redo[i] == 1.0) {
         scalar_draw(i);
+        continue;
+      }
+      if (redo[i] == 3.0) {
+        brow[attempting] = static_cast<std::uint32_t>(i);
+        bn[attempting] = nb[i];
+        bp[attempting] = pb[i];
+        bv[attempting] = ub[2 * i];
+        bu1[attempting] = ub[2 * i + 1];
+        ++attempting;
         continue;
       }
       row_of[searching] = static_cast<std::uint32_t>(i);
@@ -430,6 +442,35 @@ void sample_pixels(const double* n, const double* p, const double* u, std::uint6
       sf[searching] = f0[i];
       sc[searching] = f0[i];
       ++searching;
+    }
+    // BTRD's first attempt past step 1, as Sampler::sample_rows does it, with each pixel's constants.
+    if (level >= 2) detail::binomial_pixels_attempt_avx512(bn, bp, bv, bu1, attempting, bk, bw, blo, bhi, bstate);
+    else detail::binomial_pixels_attempt_avx2(bn, bp, bv, bu1, attempting, bk, bw, blo, bhi, bstate);
+    detail::vec_log(bw, blog_w, attempting);
+    for (std::size_t j = 0; j < attempting; ++j) {
+      const std::size_t i = brow[j];
+      double st = bstate[j];
+      if (st == 2.0) {  // the squeeze on the vector log, with sample_rows' proven margin
+        const double margin = 0x1.0p-40 * std::abs(blog_w[j]);
+        st = blog_w[j] < blo[j] - margin ? 0.0 : (blog_w[j] > bhi[j] + margin ? 1.0 : 2.0);
+      }
+      if (st == 0.0) {  // accepted: the reflection, then the fractional facet from the second block
+        const double mi = m[i], g = (nb[i] - mi) * pb[i];
+        const double integer = pb[i] > 0.5 ? mi - bk[j] : bk[j];
+        if (g == 0.0) {
+          ob[i] = integer;
+        } else {
+          auto rng = CounterRng::for_index(seed, first_index + b + i, stream);
+          rng.skip_blocks(1);
+          ob[i] = integer + (rng.uniform() < g ? 1.0 : 0.0);
+        }
+      } else if (st == 1.0) {  // rejected: BTRD starts afresh from the second block
+        auto rng = CounterRng::for_index(seed, first_index + b + i, stream);
+        rng.skip_blocks(1);
+        ob[i] = Sampler(nb[i], pb[i])(rng);
+      } else {  // within the squeeze's margin: the scalar Sampler from the start
+        scalar_draw(i);
+      }
     }
     // The search, eight steps at a time, on the pixels not settled yet.
     while (searching > 0) {

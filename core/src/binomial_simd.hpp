@@ -64,13 +64,19 @@ void binomial_pixels_prepare_avx2(const double* n, const double* p, std::size_t 
 // a relative 1e-12 of the C library's value (the caller's vector exp and log1p); the kernel decides
 // K = 0 only when u0 lies below f0 by more than kInversionGuard, so the exact value decides alike.
 // out[i] the draw; redo[i] = 0 done, 1 for the scalar Sampler (invalid parameters included, so
-// that it reports them), 2 for the inversion's search past K = 0 (u0 above f0 by more than the
-// guard), whose recursion f(k) = f(k - 1) (a / k - s) up to k = bound is given in inv_a, inv_s,
+// that it reports them), 3 for BTRD's steps 2-3.2 (step 1 did not accept u0), 2 for the
+// inversion's search past K = 0 (u0 above f0 by more than the guard), whose recursion f(k) = f(k - 1) (a / k - s) up to k = bound is given in inv_a, inv_s,
 // inv_bound (the Sampler's values).
 void binomial_pixels_avx512(const double* n, const double* p, const double* u, const double* f0, std::size_t count,
                             double* out, double* redo, double* inv_a, double* inv_s, double* inv_bound);
 void binomial_pixels_avx2(const double* n, const double* p, const double* u, const double* f0, std::size_t count,
                           double* out, double* redo, double* inv_a, double* inv_s, double* inv_bound);
+// pixels attempt: binomial_btrd_attempt_* for compacted pixels in BTRD's regime, each with its own
+// (n[j], p[j]) (the Sampler's constants computed per pixel).
+void binomial_pixels_attempt_avx512(const double* n, const double* p, const double* v, const double* u1,
+                                    std::size_t count, double* k, double* w, double* lo, double* hi, double* state);
+void binomial_pixels_attempt_avx2(const double* n, const double* p, const double* v, const double* u1,
+                                  std::size_t count, double* k, double* w, double* lo, double* hi, double* state);
 // inversion steps: up to 8 more steps of the inversion's search (SmallMeanInversion) for compacted
 // pixels at (k, f = f(k), c = c_k) with u0 > c_k proved, on cumulative sums continued from the
 // vector f0 and compared with the guard band. state[j] = 0: K = k[j] proved; 1: a comparison fell

@@ -3,6 +3,7 @@
 #define GLINTLAB_BINOMIAL_ATTEMPT_KERNEL glintlab::detail::binomial_btrd_attempt_avx512
 #define GLINTLAB_BINOMIAL_PREPARE_KERNEL glintlab::detail::binomial_pixels_prepare_avx512
 #define GLINTLAB_BINOMIAL_INVERSION_STEPS_KERNEL glintlab::detail::binomial_inversion_steps_avx512
+#define GLINTLAB_BINOMIAL_PIXELS_ATTEMPT_KERNEL glintlab::detail::binomial_pixels_attempt_avx512
 #define GLINTLAB_BINOMIAL_PIXELS_KERNEL glintlab::detail::binomial_pixels_avx512
 #include "binomial_simd_body.inc"
 
