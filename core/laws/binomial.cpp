@@ -7,6 +7,8 @@
 #include "glintlab/law.hpp"
 
 #include <algorithm>
+#include <memory>
+#include <utility>
 
 namespace glintlab {
 namespace {
@@ -20,37 +22,54 @@ class BinomialLaw final : public CountingLaw {
   }
   bool samples_by_evaluate() const override { return false; }
   // Sample i's first Philox block (two uniforms: all that most draws use) comes from the vectorized
-  // rows, the rest from its scalar generator (PrefetchedRng): the same numbers as before.
+  // rows, the rest from its scalar generator (PrefetchedRng): the same numbers as before. The
+  // sampler's common first step runs across the rows as vector code (Sampler::sample_rows).
   void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                     double* out) const override {
-    const binomial::Sampler sampler(n, p, /*tabulate=*/i1 - i0 >= kTabulateMinBatch);
-    alignas(64) double u[2 * kRows];
-    for (std::size_t b = i0; b < i1; b += kRows) {
-      const std::size_t rows = std::min(kRows, i1 - b);
-      detail::philox_uniform_rows(seed, kStreamSample, b, rows, 2, u);
-      for (std::size_t r = 0; r < rows; ++r) {
-        binomial::PrefetchedRng rng(u + 2 * r, seed, b + r, kStreamSample);
-        out[b - i0 + r] = sampler(rng);
-      }
-    }
+    sample_with(binomial::Sampler(n, p, /*tabulate=*/i1 - i0 >= kTabulateMinBatch), seed, i0, i1, out);
   }
-  // Pixels: a sampler per (n, p) (no table), the same prefetched rows.
+  // Long batches: one sampler for the whole call (shared by the threads), with BTRD's final test
+  // values tabulated when the batch is at least 16 times longer than the table.
+  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
+    binomial::Sampler sampler(n, p, /*tabulate=*/true);
+    sampler.tabulate_log_ratios(count / 16);
+    return std::make_unique<Batch>(std::move(sampler));
+  }
+  // Pixels: the same prefetched rows; the per-pixel setup and first steps as vector code
+  // (binomial::sample_pixels), a scalar sampler per (n, p) (no table) for the rest.
   void sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start, std::size_t count,
                      double* out) const override {
     alignas(64) double u[2 * kRows];
     for (std::size_t b = 0; b < count; b += kRows) {
       const std::size_t rows = std::min(kRows, count - b);
       detail::philox_uniform_rows(seed, kStreamSample, start + b, rows, 2, u);
-      for (std::size_t r = 0; r < rows; ++r) {
-        const binomial::Sampler sampler(n[b + r], p[b + r]);
-        binomial::PrefetchedRng rng(u + 2 * r, seed, start + b + r, kStreamSample);
-        out[b + r] = sampler(rng);
-      }
+      binomial::sample_pixels(n + b, p + b, u, seed, start + b, kStreamSample, rows, out + b);
     }
   }
 
  private:
   static constexpr std::size_t kRows = 256;
+
+  static void sample_with(const binomial::Sampler& sampler, std::uint64_t seed, std::size_t i0, std::size_t i1,
+                          double* out) {
+    alignas(64) double u[2 * kRows];
+    for (std::size_t b = i0; b < i1; b += kRows) {
+      const std::size_t rows = std::min(kRows, i1 - b);
+      detail::philox_uniform_rows(seed, kStreamSample, b, rows, 2, u);
+      sampler.sample_rows(u, seed, b, kStreamSample, rows, out + (b - i0));
+    }
+  }
+
+  class Batch final : public BatchSampler {
+   public:
+    explicit Batch(binomial::Sampler sampler) : sampler_(std::move(sampler)) {}
+    void sample_range(std::uint64_t seed, std::size_t i0, std::size_t i1, double* out) const override {
+      sample_with(sampler_, seed, i0, i1, out);
+    }
+
+   private:
+    binomial::Sampler sampler_;
+  };
 
  public:
   bool has_pmf() const override { return true; }

@@ -6,8 +6,11 @@
 #include <functional>
 #include <limits>
 
+#include "binomial_simd.hpp"
 #include "glintlab/errors.hpp"
+#include "glintlab/law.hpp"
 #include "glintlab/special.hpp"
+#include "simd_math.hpp"
 
 namespace glintlab {
 
@@ -156,7 +159,21 @@ Distribution distribution(double n, double p, std::size_t max_support) {
 
 // Below this mean, inversion (expected mean + 1 steps, O(1) with the table); above, BTRD/PTRD,
 // which are exact only from mean 10 on and at their slowest just above it.
-constexpr double kInversionMaxMean = 30.0;
+constexpr double kInversionMaxMean = detail::kBinomialInversionMaxMean;
+
+namespace {
+
+// The inversion's recursion f(k) = f(k - 1) (a / k - s) for Binomial(m, pp), pp <= 1/2, and its
+// search bound (mean + 15 sd + 30, at most m): one definition for the Sampler and the per-pixel path.
+struct InversionRecursion {
+  double a, s, bound;
+  InversionRecursion(double m, double pp, double mean)
+      : a(0), s(pp / (1.0 - pp)), bound(std::min(m, std::ceil(mean + 15.0 * std::sqrt(mean) + 30.0))) {
+    a = (m + 1) * s;  // ratio f(k)/f(k - 1) = (m - k + 1)/k p/q
+  }
+};
+
+}  // namespace
 
 Sampler::Sampler(double n, double p, bool tabulate) {
   check_np("binomial.sample", n, p);
@@ -170,10 +187,9 @@ Sampler::Sampler(double n, double p, bool tabulate) {
     constant_ = flip_ ? m_ : 0.0;
   } else if (mean < kInversionMaxMean) {
     method_ = Method::kInversion;
-    // P(K = 0) = (1 - p)^m > e^-61 here (p <= 1/2, m p < 30): no underflow. Ratio (m - k + 1)/k p/q.
-    const double s = pp_ / (1.0 - pp_);
-    const double bound = std::min(m_, std::ceil(mean + 15.0 * std::sqrt(mean) + 30.0));
-    inversion_ = SmallMeanInversion(std::exp(m_ * std::log1p(-pp_)), (m_ + 1) * s, s, bound, tabulate);
+    // P(K = 0) = (1 - p)^m > e^-61 here (p <= 1/2, m p < 30): no underflow.
+    const InversionRecursion rec(m_, pp_, mean);
+    inversion_ = SmallMeanInversion(std::exp(m_ * std::log1p(-pp_)), rec.a, rec.s, rec.bound, tabulate);
   } else {
     method_ = Method::kBtrd;
     const double q = 1.0 - pp_;
@@ -234,19 +250,39 @@ double Sampler::btrd(Rng& rng) const {
       if (mode_ < k ? v * den <= num : v * num <= den) return k;
       continue;
     }
-    // Step 3.2: squeeze on log f(k)/f(mode) around the normal approximation.
-    v = std::log(v);
-    const double rho = (km / npq_) * (((km / 3.0 + 0.625) * km + 1.0 / 6.0) / npq_ + 0.5);
-    const double t = -km * km / (2 * npq_);
-    if (v < t - rho) return k;
-    if (v > t + rho) continue;
-    if (k == 0 || k == m_) {  // the ends, outside BinomialLogRatio's domain (far in the tails)
-      if (v <= special::binomial_log_pmf_int(k, m_, pp_) - special::binomial_log_pmf_int(mode_, m_, pp_))
-        return k;
-      continue;
-    }
-    if (v <= log_ratio_(k)) return k;
+    if (btrd_far_accepts(k, km, v)) return k;
   }
+}
+
+bool Sampler::btrd_far_accepts(double k, double km, double v) const {
+  // Step 3.2: squeeze on log f(k)/f(mode) around the normal approximation.
+  v = std::log(v);
+  const double rho = (km / npq_) * (((km / 3.0 + 0.625) * km + 1.0 / 6.0) / npq_ + 0.5);
+  const double t = -km * km / (2 * npq_);
+  if (v < t - rho) return true;
+  if (v > t + rho) return false;
+  if (k == 0 || k == m_)  // the ends, outside BinomialLogRatio's domain (far in the tails)
+    return v <= special::binomial_log_pmf_int(k, m_, pp_) - special::binomial_log_pmf_int(mode_, m_, pp_);
+  return v <= log_ratio(k);
+}
+
+double Sampler::log_ratio(double k) const {
+  const double offset = k - log_ratio_lo_;
+  if (offset >= 0 && offset < static_cast<double>(log_ratio_table_.size()))
+    return log_ratio_table_[static_cast<std::size_t>(offset)];
+  return log_ratio_(k);
+}
+
+void Sampler::tabulate_log_ratios(std::size_t max_entries) {
+  if (method_ != Method::kBtrd) return;
+  // Step 3.2's final test is reached only for |k - mode| > 15 within the squeeze's reach, a few
+  // standard deviations; 8.5 sd covers all but ~1e-17 of the draws (the rest compute it directly).
+  const double reach = std::ceil(8.5 * std::sqrt(npq_)) + 16;
+  const double lo = std::max(1.0, mode_ - reach), hi = std::min(m_ - 1, mode_ + reach);
+  if (!(hi >= lo) || hi - lo + 1 > static_cast<double>(max_entries)) return;
+  log_ratio_lo_ = lo;
+  log_ratio_table_.resize(static_cast<std::size_t>(hi - lo) + 1);
+  for (std::size_t j = 0; j < log_ratio_table_.size(); ++j) log_ratio_table_[j] = log_ratio_(lo + static_cast<double>(j));
 }
 
 template <class Rng>
@@ -268,6 +304,204 @@ double Sampler::draw(Rng& rng) const {
 
 double Sampler::operator()(CounterRng& rng) const { return draw(rng); }
 double Sampler::operator()(PrefetchedRng& rng) const { return draw(rng); }
+
+namespace {
+constexpr std::size_t kVectorBlock = 256;  // samples per kernel call (stack buffers)
+}  // namespace
+
+void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t first_index, std::uint16_t stream,
+                          std::size_t rows, double* out) const {
+  const int level = detail::simd_level();
+  // The portable level draws each sample with the scalar code: without SSE4.1's vector floor the
+  // kernels would run one lane at a time, slower than the branchy scalar code (measured 10 %).
+  if (method_ != Method::kBtrd || level == 0) {
+    for (std::size_t r = 0; r < rows; ++r) {
+      PrefetchedRng rng(u + 2 * r, seed, first_index + r, stream);
+      out[r] = draw(rng);
+    }
+    return;
+  }
+  const detail::BtrdStep1 step{.m = m_, .g = g_, .flip = flip_ ? 1.0 : 0.0, .urvr = urvr_, .inv_vr = inv_vr_,
+                               .two_a = 2 * a_, .b = b_, .c = c_};
+  const detail::BtrdAttempt attempt{.m = m_, .mode = mode_, .alpha = alpha_, .a = a_, .b = b_, .c = c_, .vr = vr_,
+                                    .inv_vr = inv_vr_, .r = r_, .nr = nr_, .npq = npq_};
+  constexpr std::size_t kPadded = kVectorBlock + 8;  // room for binomial_compact_avx512's whole-vector stores
+  alignas(64) double redo[kVectorBlock], v[kPadded], u1[kPadded], k[kVectorBlock], w[kVectorBlock],
+      log_w[kVectorBlock], lo[kVectorBlock], hi[kVectorBlock], state[kVectorBlock];
+  std::uint32_t row_of[kPadded];
+  for (std::size_t b = 0; b < rows; b += kVectorBlock) {
+    const std::size_t len = std::min(kVectorBlock, rows - b);
+    const double* ub = u + 2 * b;
+    double* ob = out + b;
+    // Step 1 on every row.
+    if (level >= 2) detail::binomial_btrd_rows_avx512(step, ub, len, ob, redo);
+    else detail::binomial_btrd_rows_avx2(step, ub, len, ob, redo);
+    // The rest of the first attempt on the rows step 1 left (a fifth to a quarter), compacted.
+    std::size_t pending = 0;
+    if (level >= 2) {
+      pending = detail::binomial_compact_avx512(redo, ub, len, row_of, v, u1);
+    } else {
+      for (std::size_t r = 0; r < len; ++r) {
+        row_of[pending] = static_cast<std::uint32_t>(r);
+        v[pending] = ub[2 * r];
+        u1[pending] = ub[2 * r + 1];
+        pending += redo[r] != 0.0;
+      }
+    }
+    if (level >= 2) detail::binomial_btrd_attempt_avx512(attempt, v, u1, pending, k, w, lo, hi, state);
+    else detail::binomial_btrd_attempt_avx2(attempt, v, u1, pending, k, w, lo, hi, state);
+    // Step 3.2 compares log w with [lo, hi]: the vector log is within a few ulps of the C
+    // library's, so a margin of 2^-40 |log w| proves the scalar comparison's outcome; inside it, the
+    // scalar Sampler decides.
+    detail::vec_log(w, log_w, pending);
+    for (std::size_t j = 0; j < pending; ++j) {
+      const std::size_t r = row_of[j];
+      const std::uint64_t index = first_index + b + r;
+      double st = state[j];
+      if (st == 2.0) {
+        const double margin = 0x1.0p-40 * std::abs(log_w[j]);
+        if (log_w[j] < lo[j] - margin) st = 0.0;
+        else if (log_w[j] > hi[j] + margin) st = 1.0;
+        else st = btrd_far_accepts(k[j], std::abs(k[j] - mode_), w[j]) ? 0.0 : 1.0;  // btrd()'s own test
+      }
+      if (st == 0.0) {  // accepted by the first attempt, which drew the first block's two uniforms
+        const double integer = flip_ ? m_ - k[j] : k[j];
+        if (g_ == 0.0) {
+          ob[r] = integer;
+        } else {  // the fractional facet: the second block's first uniform
+          auto rng = CounterRng::for_index(seed, index, stream);
+          rng.skip_blocks(1);
+          ob[r] = integer + (rng.uniform() < g_ ? 1.0 : 0.0);
+        }
+      } else {  // rejected: BTRD starts afresh from the second block
+        auto rng = CounterRng::for_index(seed, index, stream);
+        rng.skip_blocks(1);
+        ob[r] = draw(rng);
+      }
+    }
+  }
+}
+
+void sample_pixels(const double* n, const double* p, const double* u, std::uint64_t seed, std::uint64_t first_index,
+                   std::uint16_t stream, std::size_t count, double* out) {
+  const int level = detail::simd_level();
+  if (level == 0) {  // the portable level: the scalar code (see Sampler::sample_rows)
+    for (std::size_t i = 0; i < count; ++i) {
+      PrefetchedRng rng(u + 2 * i, seed, first_index + i, stream);
+      out[i] = Sampler(n[i], p[i])(rng);
+    }
+    return;
+  }
+  constexpr std::size_t B = kVectorBlock;
+  alignas(64) double x[B], m[B], f0[B], redo[B], inv_a[B], inv_s[B], inv_bound[B];
+  // The inversion's pixels past K = 0, compacted: their search state and recursion.
+  alignas(64) double su0[B], sa[B], ss[B], sbound[B], sk[B], sf[B], sc[B], sstate[B];
+  std::uint32_t row_of[B];
+  // BTRD's pixels past step 1, compacted: their (n, p), uniforms and first-attempt outputs.
+  alignas(64) double bn[B], bp[B], bv[B], bu1[B], bk[B], bw[B], blog_w[B], blo[B], bhi[B], bstate[B];
+  std::uint32_t brow[B];
+  for (std::size_t b = 0; b < count; b += B) {
+    const std::size_t len = std::min(B, count - b);
+    const double *nb = n + b, *pb = p + b, *ub = u + 2 * b;
+    double* ob = out + b;
+    // The inversion's P(K = 0) = exp(m log1p(-min(p, 1 - p))) by the vector functions: an
+    // approximation, used only with the guard band (binomial_simd.hpp).
+    if (level >= 2) detail::binomial_pixels_prepare_avx512(nb, pb, len, x, m);
+    else detail::binomial_pixels_prepare_avx2(nb, pb, len, x, m);
+    detail::vec_log1p(x, f0, len);
+    for (std::size_t i = 0; i < len; ++i) x[i] = m[i] * f0[i];
+    detail::vec_exp(x, f0, len);
+    if (level >= 2) detail::binomial_pixels_avx512(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
+    else detail::binomial_pixels_avx2(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
+    const auto scalar_draw = [&](std::size_t i) {
+      PrefetchedRng rng(ub + 2 * i, seed, first_index + b + i, stream);
+      ob[i] = Sampler(nb[i], pb[i])(rng);
+    };
+    std::size_t searching = 0, attempting = 0;
+    for (std::size_t i = 0; i < len; ++i) {
+      if (redo[i] == 0.0) continue;
+      if (redo[i] == 1.0) {
+        scalar_draw(i);
+        continue;
+      }
+      if (redo[i] == 3.0) {
+        brow[attempting] = static_cast<std::uint32_t>(i);
+        bn[attempting] = nb[i];
+        bp[attempting] = pb[i];
+        bv[attempting] = ub[2 * i];
+        bu1[attempting] = ub[2 * i + 1];
+        ++attempting;
+        continue;
+      }
+      row_of[searching] = static_cast<std::uint32_t>(i);
+      su0[searching] = ub[2 * i];
+      sa[searching] = inv_a[i];
+      ss[searching] = inv_s[i];
+      sbound[searching] = inv_bound[i];
+      sk[searching] = 0.0;
+      sf[searching] = f0[i];
+      sc[searching] = f0[i];
+      ++searching;
+    }
+    // BTRD's first attempt past step 1, as Sampler::sample_rows does it, with each pixel's constants.
+    if (level >= 2) detail::binomial_pixels_attempt_avx512(bn, bp, bv, bu1, attempting, bk, bw, blo, bhi, bstate);
+    else detail::binomial_pixels_attempt_avx2(bn, bp, bv, bu1, attempting, bk, bw, blo, bhi, bstate);
+    detail::vec_log(bw, blog_w, attempting);
+    for (std::size_t j = 0; j < attempting; ++j) {
+      const std::size_t i = brow[j];
+      double st = bstate[j];
+      if (st == 2.0) {  // the squeeze on the vector log, with sample_rows' proven margin
+        const double margin = 0x1.0p-40 * std::abs(blog_w[j]);
+        st = blog_w[j] < blo[j] - margin ? 0.0 : (blog_w[j] > bhi[j] + margin ? 1.0 : 2.0);
+      }
+      if (st == 0.0) {  // accepted: the reflection, then the fractional facet from the second block
+        const double mi = m[i], g = (nb[i] - mi) * pb[i];
+        const double integer = pb[i] > 0.5 ? mi - bk[j] : bk[j];
+        if (g == 0.0) {
+          ob[i] = integer;
+        } else {
+          auto rng = CounterRng::for_index(seed, first_index + b + i, stream);
+          rng.skip_blocks(1);
+          ob[i] = integer + (rng.uniform() < g ? 1.0 : 0.0);
+        }
+      } else if (st == 1.0) {  // rejected: BTRD starts afresh from the second block
+        auto rng = CounterRng::for_index(seed, first_index + b + i, stream);
+        rng.skip_blocks(1);
+        ob[i] = Sampler(nb[i], pb[i])(rng);
+      } else {  // within the squeeze's margin: the scalar Sampler from the start
+        scalar_draw(i);
+      }
+    }
+    // The search, eight steps at a time, on the pixels not settled yet.
+    while (searching > 0) {
+      if (level >= 2) detail::binomial_inversion_steps_avx512(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
+      else detail::binomial_inversion_steps_avx2(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
+      std::size_t still = 0;
+      for (std::size_t j = 0; j < searching; ++j) {
+        const std::size_t i = row_of[j];
+        if (sstate[j] == 0.0) {
+          // K proved; then the reflection and the fractional facet (the next uniform: u1).
+          const double mi = m[i], g = (nb[i] - mi) * pb[i], k = sk[j];
+          const double integer = pb[i] > 0.5 ? mi - k : k;
+          ob[i] = g == 0.0 ? integer : integer + (ub[2 * i + 1] < g ? 1.0 : 0.0);
+        } else if (sstate[j] == 1.0) {
+          scalar_draw(i);
+        } else {
+          row_of[still] = row_of[j];
+          su0[still] = su0[j];
+          sa[still] = sa[j];
+          ss[still] = ss[j];
+          sbound[still] = sbound[j];
+          sk[still] = sk[j];
+          sf[still] = sf[j];
+          sc[still] = sc[j];
+          ++still;
+        }
+      }
+      searching = still;
+    }
+  }
+}
 
 }  // namespace binomial
 

@@ -16,6 +16,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "glintlab/distribution.hpp"
 #include "glintlab/inversion.hpp"
@@ -43,15 +44,12 @@ Distribution distribution(double n, double p, std::size_t max_support = kDefault
 class PrefetchedRng {
  public:
   PrefetchedRng(const double* first_two, std::uint64_t seed, std::uint64_t index, std::uint16_t stream)
-      : first_{first_two[0], first_two[1]}, rng_(CounterRng::for_index(seed, index, stream)) {}
+      : first_{first_two[0], first_two[1]}, rng_(CounterRng::for_index(seed, index, stream)) {
+    rng_.skip_blocks(1);  // the prefetched one
+  }
   double uniform() {
     if (pos_ < 2) return first_[pos_++];
-    if (pos_ == 2) {  // past the prefetched block: the scalar generator, its first block skipped
-      rng_.uniform();
-      rng_.uniform();
-      pos_ = 3;
-    }
-    return rng_.uniform();
+    return rng_.uniform();  // past the prefetched block: the scalar generator, from its second block
   }
 
  private:
@@ -71,11 +69,26 @@ class Sampler {
   Sampler(double n, double p, bool tabulate = false);
   double operator()(CounterRng& rng) const;
   double operator()(PrefetchedRng& rng) const;  // the same draw on a prefetched generator
+  // Samples first_index .. first_index + rows - 1 of `stream`, given their first two uniforms as rows
+  // u[2 r], u[2 r + 1] (detail::philox_uniform_rows with k = 2): out[r] is, bit for bit,
+  // (*this)(PrefetchedRng(u + 2 r, seed, first_index + r, stream)). In BTRD's regime (AVX2 and
+  // AVX-512 levels), the first attempt runs across samples as vector code: step 1 on every row,
+  // steps 2-3.2 on the rows step 1 left; the scalar code finishes only the attempts that were
+  // rejected (from the second Philox block on: 11 to 22 % of the samples) or whose squeeze is
+  // undecided (its own final test).
+  void sample_rows(const double* u, std::uint64_t seed, std::uint64_t first_index, std::uint16_t stream,
+                   std::size_t rows, double* out) const;
+  // For long batches in BTRD's regime: tabulates BTRD's final test value log f(k) - log f(mode) over
+  // mode +- (8.5 sd + 16) if that takes at most max_entries values (the same values, computed
+  // ahead: draws are unchanged). Worth it when the batch is many times longer than the table.
+  void tabulate_log_ratios(std::size_t max_entries);
 
  private:
   template <class Rng> double draw(Rng& rng) const;
   template <class Rng> double draw_integer_part(Rng& rng) const;
   template <class Rng> double btrd(Rng& rng) const;
+  // BTRD's step 3.2 for an attempt at k, km = |k - mode| > 15, v scaled by step 3: true to accept.
+  bool btrd_far_accepts(double k, double km, double v) const;
 
   enum class Method { kConstant, kInversion, kBtrd } method_;
   double m_ = 0, g_ = 0;  // integer part of n; probability of the fractional facet (f p)
@@ -87,7 +100,19 @@ class Sampler {
   double b_ = 0, a_ = 0, c_ = 0, alpha_ = 0, vr_ = 0, inv_vr_ = 0, urvr_ = 0, mode_ = 0, r_ = 0, nr_ = 0,
          npq_ = 0;
   special::BinomialLogRatio log_ratio_;  // log f(k) - log f(mode)
+  std::vector<double> log_ratio_table_;  // log_ratio_(k) for k = log_ratio_lo_, ... (tabulate_log_ratios)
+  double log_ratio_lo_ = 0;
+  double log_ratio(double k) const;
 };
+
+// Samples with their own (n, p) each (a renderer's pixels), first two uniforms as rows u as above:
+// out[r] is, bit for bit, Sampler(n[r], p[r])(PrefetchedRng(u + 2 r, seed, first_index + r, stream)),
+// and bad parameters raise the Sampler's errors. The per-pixel setup and the first step of each
+// method (BTRD's step 1; the inversion's search, from a vector P(K = 0) and with a guard band
+// around every comparison) run as vector code across pixels; the pixels they cannot settle get the
+// scalar Sampler.
+void sample_pixels(const double* n, const double* p, const double* u, std::uint64_t seed, std::uint64_t first_index,
+                   std::uint16_t stream, std::size_t count, double* out);
 
 }  // namespace glintlab::binomial
 

@@ -33,8 +33,8 @@ std::string precision_name(Precision precision);
 using LawParams = std::map<std::string, ParamValue>;
 
 // Per-(n, p) state for a long batch at one (n, p): hoisted constants and inversion tables, built
-// once per sample_many() call and shared by its threads. sample_range must give exactly what
-// CountingLaw::sample_range gives (the tables are an optimization, never a different law).
+// once per sample_many() call and shared by its threads. sample_range must give exactly what the
+// law's sample_range gives (the tables are an optimization, never a different law).
 class BatchSampler {
  public:
   virtual ~BatchSampler() = default;

@@ -56,6 +56,11 @@ class CounterRng {
     return (static_cast<double>(bits >> 11) + 0.5) * 0x1.0p-53;
   }
 
+  // Skips the next `blocks` Philox blocks without computing them (they were taken elsewhere, e.g.
+  // from the vectorized rows); only at a block boundary (before the first uniform() or after an
+  // even number of them), where the next uniform() starts a block.
+  void skip_blocks(std::uint32_t blocks) { ctr_.v[0] += blocks; }
+
   // Raw Philox4x32-10 block for (counter, key): exposed for known-answer tests.
   static std::array<std::uint32_t, 4> block(const std::array<std::uint32_t, 4>& counter,
                                             const std::array<std::uint32_t, 2>& key) {
