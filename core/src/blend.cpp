@@ -5,6 +5,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 
 #include "glintlab/binomial.hpp"
@@ -33,6 +34,35 @@ std::array<double, 2> snap_trials(std::array<double, 2> t) {
   }
   return t;
 }
+
+// Fixed evaluators of the (n, p) pairs that whole chunks share (runs of equal P and p in arrays),
+// kept for the chunks that follow, since a run usually spans several. Shared by the threads of one
+// call; a few entries, the oldest replaced.
+class FixedEvaluatorCache {
+ public:
+  std::shared_ptr<const FixedEvaluator> get(const InnerLaw& inner, double n, double p, std::size_t rows) {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      for (const auto& e : entries_)
+        if (e.n == n && e.p == p) return e.evaluator;
+    }
+    std::shared_ptr<const FixedEvaluator> made = inner.fixed_evaluator(n, p, rows);
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (entries_.size() < kEntries) entries_.push_back({n, p, made});
+    else entries_[next_++ % kEntries] = {n, p, made};
+    return made;
+  }
+
+ private:
+  static constexpr std::size_t kEntries = 8;
+  struct Entry {
+    double n, p;
+    std::shared_ptr<const FixedEvaluator> evaluator;
+  };
+  std::mutex mutex_;
+  std::vector<Entry> entries_;
+  std::size_t next_ = 0;
+};
 
 }  // namespace
 
@@ -82,6 +112,7 @@ InnerLaw InnerLaw::from_law(std::shared_ptr<const CountingLaw> law) {
   inner.evaluate = [raw](const double* n, const double* p, const double* u, std::size_t m, double* out) {
     raw->evaluate_pixels(n, p, u, m, out);
   };
+  inner.fixed_evaluator = [raw](double n, double p, std::size_t rows) { return raw->fixed_evaluator(n, p, rows); };
   inner.law = std::move(law);
   return inner;
 }
@@ -174,6 +205,79 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
 
   const std::size_t k = static_cast<std::size_t>(inner_.n_uniforms);
   const bool thins = rule_->thins();
+  // Sample i's cells are (i mod 2^32, i >> 32) at every level (sample(), not sample_at()): the
+  // level's uniforms are then rows of the vectorized Philox keyed at that level (the same numbers as
+  // one CounterRng per cell).
+  constexpr bool kIndexCells = requires { CellOf::kIndexCells; };
+  auto check_finite = [&](const double* kk, std::size_t rows, const double* n, const double* pp) {
+    for (std::size_t q = 0; q < rows; ++q)
+      if (!std::isfinite(kk[q]))
+        throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
+                                    format_value(n[q]) + ", p = " + format_value(pp[q]));
+  };
+  // The level counts into K; the facet streams only for rules that thin (roulette).
+  auto combine_rows = [&](std::size_t i0, std::size_t m, const LevelBracket* brackets, std::size_t bracket_step,
+                          const double* k_lo, const double* k_hi) {
+    std::array<CounterRng, 2> facets = {CounterRng(seed, 0, 0), CounterRng(seed, 0, 0)};
+    for (std::size_t r = 0; r < m; ++r) {
+      const std::size_t i = i0 + r;
+      const LevelBracket& b = brackets[r * bracket_step];
+      if (thins) {
+        for (int j = 0; j < 2; ++j) {
+          const auto [cx, cy] = cell_of(i, j == 0 ? b.area_lo : b.area_hi);
+          facets[static_cast<std::size_t>(j)] = CounterRng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
+        }
+      }
+      out[i] = rule_->combine(area[i], b, k_lo[r], k_hi[r], facets);
+    }
+  };
+
+  // One footprint area and one p for the whole batch (a flat patch, a study at one P): one bracket,
+  // one pair of trial counts, and each drawn level at one (n, p), evaluated by the inner law's fixed
+  // evaluator (a table built once for the batch where the law has one) instead of per pixel.
+  if (area.size == 1 && p.size == 1) {
+    const LevelBracket b = ladder_.bracket(area[0]);
+    const auto trials = snap_trials(rule_->trials(density, area[0], b));
+    std::unique_ptr<FixedEvaluator> evaluators[2];
+    for (int j = 0; j < 2; ++j)
+      if (trials[j] > 0 && inner_.fixed_evaluator) evaluators[j] = inner_.fixed_evaluator(trials[j], p[0], count);
+    auto chunk_body = [&](std::size_t i0, std::size_t i1) {
+      const std::size_t m = i1 - i0;
+      std::vector<double> u(m * k), k_level[2], n_rows, p_rows;
+      for (int j = 0; j < 2; ++j) {
+        k_level[j].assign(m, 0.0);
+        if (!(trials[j] > 0)) continue;
+        const int level = b.lo + j;
+        if constexpr (kIndexCells) {
+          if (k > 0)
+            detail::philox_uniform_rows_level(seed, level_key(level), kStreamLevelCount, i0, m, static_cast<int>(k),
+                                              u.data());
+        } else {
+          for (std::size_t r = 0; r < m; ++r) {
+            const auto [cx, cy] = cell_of(i0 + r, j == 0 ? b.area_lo : b.area_hi);
+            CounterRng rng(seed, cx, cy, level_key(level), kStreamLevelCount);
+            for (std::size_t d = 0; d < k; ++d) u[r * k + d] = rng.uniform();
+          }
+        }
+        n_rows.assign(m, trials[j]);
+        p_rows.assign(m, p[0]);
+        if (evaluators[j]) evaluators[j]->evaluate(u.data(), m, k_level[j].data());
+        else inner_.evaluate(n_rows.data(), p_rows.data(), u.data(), m, k_level[j].data());
+        check_finite(k_level[j].data(), m, n_rows.data(), p_rows.data());
+      }
+      combine_rows(i0, m, &b, 0, k_level[0].data(), k_level[1].data());
+    };
+    if (inner_.thread_safe) {
+      detail::parallel_chunks(count, kChunk, kChunk, chunk_body);
+    } else {
+      for (std::size_t i0 = 0; i0 < count; i0 += kChunk) chunk_body(i0, std::min(count, i0 + kChunk));
+    }
+    return;
+  }
+
+  // Arrays: per-sample brackets. A level whose rows in a chunk all share one (n, p) (runs of equal P
+  // and p) gets a fixed evaluator, kept for the following chunks of the run.
+  FixedEvaluatorCache cache;
   auto chunk_body = [&](std::size_t i0, std::size_t i1) {
     const std::size_t m = i1 - i0;
     std::vector<LevelBracket> brackets(m);
@@ -187,10 +291,6 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       pp[j].reserve(m);
       u[j].reserve(m * k);
     }
-    // Sample i's cells are (i mod 2^32, i >> 32) at every level (sample(), not sample_at()): the
-    // level's uniforms are then rows of the vectorized Philox keyed at that level, generated for
-    // the chunk's few distinct levels (the same numbers as one CounterRng per cell).
-    constexpr bool kIndexCells = requires { CellOf::kIndexCells; };
     constexpr std::size_t kMaxVectorLevels = 6;
     std::vector<int> levels;  // distinct levels drawn in this chunk (index cells only)
     bool vector_rows = kIndexCells && k > 0;
@@ -241,27 +341,18 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       }
     }
     for (int j = 0; j < 2; ++j) {
-      kk[j].resize(rows[j].size());
-      if (!rows[j].empty()) inner_.evaluate(n[j].data(), pp[j].data(), u[j].data(), rows[j].size(), kk[j].data());
-      for (std::size_t q = 0; q < rows[j].size(); ++q) {
-        if (!std::isfinite(kk[j][q]))
-          throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[j][q]) + " at n = " +
-                                      format_value(n[j][q]) + ", p = " + format_value(pp[j][q]));
-        k_level[j][rows[j][q]] = kk[j][q];
-      }
+      const std::size_t drawn = rows[j].size();
+      kk[j].resize(drawn);
+      if (drawn == 0) continue;
+      const bool one_np = inner_.fixed_evaluator && drawn >= kTabulateMinBatch &&
+                          std::all_of(n[j].begin(), n[j].end(), [&](double v) { return v == n[j][0]; }) &&
+                          std::all_of(pp[j].begin(), pp[j].end(), [&](double v) { return v == pp[j][0]; });
+      if (one_np) cache.get(inner_, n[j][0], pp[j][0], drawn)->evaluate(u[j].data(), drawn, kk[j].data());
+      else inner_.evaluate(n[j].data(), pp[j].data(), u[j].data(), drawn, kk[j].data());
+      check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data());
+      for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
     }
-    for (std::size_t r = 0; r < m; ++r) {
-      const std::size_t i = i0 + r;
-      const LevelBracket& b = brackets[r];
-      std::array<CounterRng, 2> facets = {CounterRng(seed, 0, 0), CounterRng(seed, 0, 0)};
-      if (thins) {
-        for (int j = 0; j < 2; ++j) {
-          const auto [cx, cy] = cell_of(i, j == 0 ? b.area_lo : b.area_hi);
-          facets[static_cast<std::size_t>(j)] = CounterRng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
-        }
-      }
-      out[i] = rule_->combine(area[i], b, k_level[0][r], k_level[1][r], facets);
-    }
+    combine_rows(i0, m, brackets.data(), 1, k_level[0].data(), k_level[1].data());
   };
   if (inner_.thread_safe) {
     detail::parallel_chunks(count, kChunk, kChunk, chunk_body);

@@ -70,6 +70,10 @@ struct InnerLaw {
   // out[i] = K for (n[i], p[i]) on uniforms u[i * n_uniforms ...]; called from one thread.
   std::function<void(const double* n, const double* p, const double* u, std::size_t m, double* out)> evaluate;
   std::shared_ptr<const CountingLaw> law;  // set for built-in laws: domain checks and exact pmfs
+  // Optional (set for built-in laws): an evaluator of about `rows` rows at one (n, p), the same
+  // results as evaluate (CountingLaw::fixed_evaluator: a table where the law has one). Used when every
+  // row of a level shares (n, p): one footprint area, runs of equal P.
+  std::function<std::unique_ptr<FixedEvaluator>(double n, double p, std::size_t rows)> fixed_evaluator;
 
   static InnerLaw from_law(std::shared_ptr<const CountingLaw> law);
 };
