@@ -1,7 +1,9 @@
 #include "glintlab/blend.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -75,16 +77,24 @@ LevelLadder::LevelLadder(double ratio, double base_area) : ratio_(ratio), base_a
   areas_.resize(2 * kTabulated + 1);
   for (int l = -kTabulated; l <= kTabulated; ++l)
     areas_[static_cast<std::size_t>(l + kTabulated)] = base_area_ * std::pow(ratio_, l);
-}
-
-double LevelLadder::area(int level) const {
-  if (level >= -kTabulated && level <= kTabulated) return areas_[static_cast<std::size_t>(level + kTabulated)];
-  return base_area_ * std::pow(ratio_, level);
+  increasing_ = std::adjacent_find(areas_.begin(), areas_.end(), std::greater_equal<double>()) == areas_.end();
 }
 
 LevelBracket LevelLadder::bracket(double footprint_area) const {
   const double a = footprint_area;
   if (!(a > 0.0) || !std::isfinite(a)) throw_invalid("blended_law", "P", a, "a finite footprint area > 0");
+  if (increasing_ && a >= areas_.front() && a < areas_.back()) {
+    // Inside the table the level is its unique A_lo <= P < A_hi (the areas increase strictly), the
+    // one the logarithm and the settling steps below find: a branch-free bisection finds it without
+    // the logarithm.
+    std::size_t at = 0, span = areas_.size() - 1;  // areas_[at] <= a < areas_[at + span]
+    while (span > 1) {
+      const std::size_t half = span / 2;
+      at = areas_[at + half] <= a ? at + half : at;
+      span -= half;
+    }
+    return bracket_at(a, static_cast<int>(at) - kTabulated);
+  }
   const double guess = std::floor(std::log(a / base_area_) / log_ratio_);
   if (!(std::abs(guess) < 32767))
     throw_invalid("blended_law", "P", a, "an area within 32767 levels of base_area (level index is 16 bits)");
@@ -92,6 +102,10 @@ LevelBracket LevelLadder::bracket(double footprint_area) const {
   // The logarithm can land one level off near a level's area: settle A_lo <= P < A_hi exactly.
   while (area(lo) > a) --lo;
   while (area(lo + 1) <= a) ++lo;
+  return bracket_at(a, lo);
+}
+
+LevelBracket LevelLadder::bracket_at(double a, int lo) const {
   LevelBracket b;
   b.lo = lo;
   b.area_lo = area(lo);
@@ -192,15 +206,31 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   }
   for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
   if (inner_.law) {
-    const std::size_t m = std::max(area.size, p.size);
-    for (std::size_t i = 0; i < m; ++i) {
+    auto check_trials = [&](std::size_t i) {
       const LevelBracket b = ladder_.bracket(area[i]);
       const auto trials = snap_trials(rule_->trials(density, area[i], b));
       for (double t : trials)
         if (t > 0 && !inner_.law->accepts(t, p[i]))
           throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(t) +
                                       " at p = " + format_value(p[i]) + " (P = " + format_value(area[i]) + ")");
-    }
+    };
+    // On every thread; the lowest bad index is then checked again to throw its own message, as a
+    // serial pass would.
+    const std::size_t m = std::max(area.size, p.size);
+    std::atomic<std::size_t> first_bad{m};
+    detail::parallel_chunks(m, kChunk, kChunk, [&](std::size_t i0, std::size_t i1) {
+      for (std::size_t i = i0; i < i1; ++i) {
+        try {
+          check_trials(i);
+        } catch (const std::exception&) {
+          std::size_t seen = first_bad.load();
+          while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
+          }
+          return;
+        }
+      }
+    });
+    if (first_bad.load() < m) check_trials(first_bad.load());
   }
 
   const std::size_t k = static_cast<std::size_t>(inner_.n_uniforms);

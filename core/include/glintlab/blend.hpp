@@ -19,6 +19,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -48,7 +49,10 @@ class LevelLadder {
   LevelLadder(double ratio, double base_area);
   double ratio() const { return ratio_; }
   double base_area() const { return base_area_; }
-  double area(int level) const;
+  double area(int level) const {
+    if (level >= -kTabulated && level <= kTabulated) return areas_[static_cast<std::size_t>(level + kTabulated)];
+    return base_area_ * std::pow(ratio_, level);
+  }
   // P finite > 0 whose level index fits 16 bits (|l| < 32768); otherwise std::invalid_argument.
   LevelBracket bracket(double footprint_area) const;
 
@@ -56,8 +60,10 @@ class LevelLadder {
   // area(l) for |l| <= kTabulated, computed once by the same expression (a per-sample bracket then
   // costs two logarithms instead of three and four pow calls; the same bits).
   static constexpr int kTabulated = 256;
+  LevelBracket bracket_at(double footprint_area, int lo) const;  // the bracket once lo is settled
   double ratio_, base_area_, log_ratio_;
   std::vector<double> areas_;
+  bool increasing_ = false;  // areas_ strictly increasing: bracket() may bisect it
 };
 
 // The inner law as the blend sees it: a vectorized evaluation on explicit uniforms, so that a
