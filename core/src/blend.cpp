@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <map>
@@ -74,6 +76,7 @@ LevelLadder::LevelLadder(double ratio, double base_area) : ratio_(ratio), base_a
   if (!(base_area > 0.0) || !std::isfinite(base_area))
     throw_invalid("blended_law", "base_area", base_area, "a finite area > 0");
   log_ratio_ = std::log(ratio_);
+  inv_log2_ratio_ = std::log(2.0) / log_ratio_;
   areas_.resize(2 * kTabulated + 1);
   for (int l = -kTabulated; l <= kTabulated; ++l)
     areas_[static_cast<std::size_t>(l + kTabulated)] = base_area_ * std::pow(ratio_, l);
@@ -84,16 +87,19 @@ LevelBracket LevelLadder::bracket(double footprint_area) const {
   const double a = footprint_area;
   if (!(a > 0.0) || !std::isfinite(a)) throw_invalid("blended_law", "P", a, "a finite footprint area > 0");
   if (increasing_ && a >= areas_.front() && a < areas_.back()) {
-    // Inside the table the level is its unique A_lo <= P < A_hi (the areas increase strictly), the
-    // one the logarithm and the settling steps below find: a branch-free bisection finds it without
-    // the logarithm.
-    std::size_t at = 0, span = areas_.size() - 1;  // areas_[at] <= a < areas_[at + span]
-    while (span > 1) {
-      const std::size_t half = span / 2;
-      at = areas_[at + half] <= a ? at + half : at;
-      span -= half;
-    }
-    return bracket_at(a, static_cast<int>(at) - kTabulated);
+    // Inside the table the level is its unique A_lo <= P < A_hi (the areas increase strictly), which
+    // the logarithm's guess below settles on; a guess from P's binary exponent and mantissa
+    // (log2 within 0.09) settled the same way finds it without a logarithm, in a step or two.
+    const double x = a / base_area_;
+    std::uint64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    const double rough_log2 = static_cast<double>(static_cast<std::int64_t>(bits >> 52) - 1023) +
+                              static_cast<double>(bits & ((std::uint64_t{1} << 52) - 1)) * 0x1p-52;
+    const double rough = std::floor(rough_log2 * inv_log2_ratio_);
+    int lo = static_cast<int>(std::clamp(rough, static_cast<double>(-kTabulated), static_cast<double>(kTabulated - 1)));
+    while (areas_[static_cast<std::size_t>(lo + kTabulated)] > a) --lo;
+    while (areas_[static_cast<std::size_t>(lo + 1 + kTabulated)] <= a) ++lo;
+    return bracket_at(a, lo);
   }
   const double guess = std::floor(std::log(a / base_area_) / log_ratio_);
   if (!(std::abs(guess) < 32767))
@@ -311,74 +317,126 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   auto chunk_body = [&](std::size_t i0, std::size_t i1) {
     const std::size_t m = i1 - i0;
     std::vector<LevelBracket> brackets(m);
-    // Per level: the rows it is drawn for (compacted), their trials, p, uniforms and counts.
-    std::vector<std::size_t> rows[2];
+    // Per level slot: the rows it is drawn for (compacted), their trials, p, uniforms and counts.
+    std::vector<std::size_t> rows[2] = {std::vector<std::size_t>(m), std::vector<std::size_t>(m)};
     std::vector<double> n[2], pp[2], u[2], kk[2];
     std::vector<double> k_level[2] = {std::vector<double>(m, 0.0), std::vector<double>(m, 0.0)};
+    std::size_t drawn_at[2] = {0, 0};
     for (int j = 0; j < 2; ++j) {
-      rows[j].reserve(m);
-      n[j].reserve(m);
-      pp[j].reserve(m);
-      u[j].reserve(m * k);
+      n[j].resize(m);
+      pp[j].resize(m);
     }
-    constexpr std::size_t kMaxVectorLevels = 6;
-    std::vector<int> levels;  // distinct levels drawn in this chunk (index cells only)
-    bool vector_rows = kIndexCells && k > 0;
+    int level_min = std::numeric_limits<int>::max(), level_max = std::numeric_limits<int>::min();
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
       brackets[r] = ladder_.bracket(area[i]);
       const auto trials = snap_trials(rule_->trials(density, area[i], brackets[r]));
       for (int j = 0; j < 2; ++j) {
         if (!(trials[j] > 0)) continue;
-        const int level = brackets[r].lo + j;
-        rows[j].push_back(r);
-        n[j].push_back(trials[j]);
-        pp[j].push_back(p[i]);
-        if (vector_rows) {
-          if (std::find(levels.begin(), levels.end(), level) == levels.end()) levels.push_back(level);
-          vector_rows = levels.size() <= kMaxVectorLevels;
-        }
+        const std::size_t q = drawn_at[j]++;
+        rows[j][q] = r;
+        n[j][q] = trials[j];
+        pp[j][q] = p[i];
+        level_min = std::min(level_min, brackets[r].lo + j);
+        level_max = std::max(level_max, brackets[r].lo + j);
       }
     }
-    if (vector_rows) {
-      // One block of rows per distinct level (uninitialized: every row is written), then one pass per
-      // level slot j picking each row's level.
+    for (int j = 0; j < 2; ++j) {
+      rows[j].resize(drawn_at[j]);
+      n[j].resize(drawn_at[j]);
+      pp[j].resize(drawn_at[j]);
+      u[j].resize(drawn_at[j] * k);
+    }
+    // A chunk whose levels span a few indices (footprints within a few levels of each other): one
+    // block of vectorized Philox rows per level of the span (uninitialized: every row is written),
+    // each row then picking its level's block.
+    constexpr int kMaxVectorLevels = 6;
+    if (kIndexCells && k > 0 && level_min <= level_max && level_max - level_min < kMaxVectorLevels) {
       const std::size_t stride = m * k;
-      const std::unique_ptr<double[]> blocks(new double[levels.size() * stride]);
-      for (std::size_t l = 0; l < levels.size(); ++l)
-        detail::philox_uniform_rows_level(seed, level_key(levels[l]), kStreamLevelCount, i0, m, static_cast<int>(k),
-                                          blocks.get() + l * stride);
+      const auto span = static_cast<std::size_t>(level_max - level_min + 1);
+      const std::unique_ptr<double[]> blocks(new double[span * stride]);
+      for (std::size_t l = 0; l < span; ++l)
+        detail::philox_uniform_rows_level(seed, level_key(level_min + static_cast<int>(l)), kStreamLevelCount, i0, m,
+                                          static_cast<int>(k), blocks.get() + l * stride);
       for (int j = 0; j < 2; ++j) {
-        u[j].resize(rows[j].size() * k);
+        double* dst = u[j].data();
         for (std::size_t q = 0; q < rows[j].size(); ++q) {
           const std::size_t r = rows[j][q];
-          const int level = brackets[r].lo + j;
-          std::size_t l = 0;
-          while (levels[l] != level) ++l;
+          const auto l = static_cast<std::size_t>(brackets[r].lo + j - level_min);
           const double* src = blocks.get() + l * stride + r * k;
-          for (std::size_t d = 0; d < k; ++d) u[j][q * k + d] = src[d];
+          for (std::size_t d = 0; d < k; ++d) dst[q * k + d] = src[d];
         }
       }
     } else {
       for (int j = 0; j < 2; ++j) {
-        for (const std::size_t r : rows[j]) {
-          const std::size_t i = i0 + r;
+        for (std::size_t q = 0; q < rows[j].size(); ++q) {
+          const std::size_t r = rows[j][q], i = i0 + r;
           const int level = brackets[r].lo + j;
           const auto [cx, cy] = cell_of(i, j == 0 ? brackets[r].area_lo : brackets[r].area_hi);
           CounterRng rng(seed, cx, cy, level_key(level), kStreamLevelCount);
-          for (std::size_t d = 0; d < k; ++d) u[j].push_back(rng.uniform());
+          for (std::size_t d = 0; d < k; ++d) u[j][q * k + d] = rng.uniform();
         }
       }
     }
+    std::vector<std::uint8_t> group_of;
+    std::vector<std::size_t> order;
+    std::vector<double> group_u, group_k;
     for (int j = 0; j < 2; ++j) {
       const std::size_t drawn = rows[j].size();
       kk[j].resize(drawn);
       if (drawn == 0) continue;
-      const bool one_np = inner_.fixed_evaluator && drawn >= kTabulateMinBatch &&
-                          std::all_of(n[j].begin(), n[j].end(), [&](double v) { return v == n[j][0]; }) &&
-                          std::all_of(pp[j].begin(), pp[j].end(), [&](double v) { return v == pp[j][0]; });
-      if (one_np) cache.get(inner_, n[j][0], pp[j][0], drawn)->evaluate(u[j].data(), drawn, kk[j].data());
-      else inner_.evaluate(n[j].data(), pp[j].data(), u[j].data(), drawn, kk[j].data());
+      // Rows of a level taking a few distinct (n, p) are evaluated group by group with a fixed
+      // evaluator, kept for the whole call: every rule but distributed draws N A_l trials, one n per
+      // level index, so with one p a level's rows form a group per level index (and runs of equal P
+      // do too). Otherwise the per-pixel path.
+      constexpr std::size_t kMaxGroups = 4;
+      std::array<double, kMaxGroups> group_n, group_p;
+      group_n.fill(std::numeric_limits<double>::quiet_NaN());  // matches nothing
+      group_p.fill(std::numeric_limits<double>::quiet_NaN());
+      std::size_t groups = 0;
+      bool grouped = inner_.fixed_evaluator != nullptr && drawn >= kTabulateMinBatch;
+      if (grouped) {
+        group_of.resize(drawn);
+        for (std::size_t q = 0; q < drawn; ++q) {
+          // Which group matches, without a branch per candidate (rows of different levels interleave
+          // at random): a new group is the rare, predictable branch.
+          unsigned match = 0;
+          for (std::size_t g = 0; g < kMaxGroups; ++g)
+            match |= static_cast<unsigned>(group_n[g] == n[j][q] && group_p[g] == pp[j][q]) << g;
+          if (match == 0) [[unlikely]] {
+            if (groups == kMaxGroups) {
+              grouped = false;
+              break;
+            }
+            group_n[groups] = n[j][q];
+            group_p[groups] = pp[j][q];
+            match = 1u << groups++;
+          }
+          group_of[q] = static_cast<std::uint8_t>(std::countr_zero(match));
+        }
+      }
+      if (grouped && groups == 1) {
+        cache.get(inner_, group_n[0], group_p[0], count)->evaluate(u[j].data(), drawn, kk[j].data());
+      } else if (grouped) {
+        // Rows ordered by group (a counting sort: no branch per row), each group's uniforms contiguous.
+        std::array<std::size_t, kMaxGroups + 1> first{};
+        for (std::size_t q = 0; q < drawn; ++q) ++first[group_of[q] + 1u];
+        for (std::size_t g = 0; g < kMaxGroups; ++g) first[g + 1] += first[g];
+        std::array<std::size_t, kMaxGroups> next;
+        std::copy(first.begin(), first.end() - 1, next.begin());
+        order.resize(drawn);
+        for (std::size_t q = 0; q < drawn; ++q) order[next[group_of[q]]++] = q;
+        group_u.resize(drawn * k);
+        group_k.resize(drawn);
+        for (std::size_t t = 0; t < drawn; ++t)
+          for (std::size_t d = 0; d < k; ++d) group_u[t * k + d] = u[j][order[t] * k + d];
+        for (std::size_t g = 0; g < groups; ++g)
+          cache.get(inner_, group_n[g], group_p[g], count)
+              ->evaluate(group_u.data() + first[g] * k, first[g + 1] - first[g], group_k.data() + first[g]);
+        for (std::size_t t = 0; t < drawn; ++t) kk[j][order[t]] = group_k[t];
+      } else {
+        inner_.evaluate(n[j].data(), pp[j].data(), u[j].data(), drawn, kk[j].data());
+      }
       check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data());
       for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
     }

@@ -61,7 +61,7 @@ class LevelLadder {
   // costs two logarithms instead of three and four pow calls; the same bits).
   static constexpr int kTabulated = 256;
   LevelBracket bracket_at(double footprint_area, int lo) const;  // the bracket once lo is settled
-  double ratio_, base_area_, log_ratio_;
+  double ratio_, base_area_, log_ratio_, inv_log2_ratio_ = 1;
   std::vector<double> areas_;
   bool increasing_ = false;  // areas_ strictly increasing: bracket() may bisect it
 };
