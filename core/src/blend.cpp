@@ -211,9 +211,15 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       throw_invalid(where, indexed_name("P", i, area.size > 1), a, "a finite footprint area > 0");
   }
   for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
+  // The brackets the validation computes, kept for the draws when P is an array of a size worth keeping
+  // (one bracket per sample instead of two: a logarithm and the level's settling).
+  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 22;
+  std::vector<LevelBracket> kept_brackets;
+  if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax) kept_brackets.resize(count);
   if (inner_.law) {
     auto check_trials = [&](std::size_t i) {
       const LevelBracket b = ladder_.bracket(area[i]);
+      if (!kept_brackets.empty()) kept_brackets[i] = b;
       const auto trials = snap_trials(rule_->trials(density, area[i], b));
       for (double t : trials)
         if (t > 0 && !inner_.law->accepts(t, p[i]))
@@ -329,7 +335,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     int level_min = std::numeric_limits<int>::max(), level_max = std::numeric_limits<int>::min();
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
-      brackets[r] = ladder_.bracket(area[i]);
+      brackets[r] = kept_brackets.empty() ? ladder_.bracket(area[i]) : kept_brackets[i];
       const auto trials = snap_trials(rule_->trials(density, area[i], brackets[r]));
       for (int j = 0; j < 2; ++j) {
         if (!(trials[j] > 0)) continue;
