@@ -211,9 +211,9 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       throw_invalid(where, indexed_name("P", i, area.size > 1), a, "a finite footprint area > 0");
   }
   for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
-  // The brackets the validation computes, kept for the draws when P is an array of a size worth keeping
+  // The brackets the validation computes, kept for the draws when P is an array of at most 2^20 samples
   // (one bracket per sample instead of two: a logarithm and the level's settling).
-  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 22;
+  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 20;  // 40 MiB of brackets at most
   std::vector<LevelBracket> kept_brackets;
   if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax) kept_brackets.resize(count);
   if (inner_.law) {
