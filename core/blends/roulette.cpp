@@ -20,6 +20,7 @@
 #include <boost/math/quadrature/gauss_kronrod.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "glintlab/blend.hpp"
@@ -44,11 +45,29 @@ std::array<double, 2> roulette_moments(double weight, double eps) {
   std::sort(cuts.begin(), cuts.end());
   std::array<double, 2> m = {0.0, 0.0};
   using Gk = boost::math::quadrature::gauss_kronrod<double, 31>;
+  // The second integral visits the first's nodes in the same order: R there is replayed from the
+  // first pass (checked node by node; a node that differs is evaluated), the same bits at half the
+  // evaluations of R.
+  constexpr std::size_t kNodes = 64;
+  std::array<double, kNodes> nodes{}, keeps{};
   for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
     const double a = std::clamp(cuts[i], 0.0, 1.0), b = std::clamp(cuts[i + 1], 0.0, 1.0);
     if (!(b > a)) continue;
-    m[0] += Gk::integrate([&](double r) { return roulette_keep(r, weight, eps); }, a, b, 0);
-    m[1] += Gk::integrate([&](double r) { const double v = roulette_keep(r, weight, eps); return v * v; }, a, b, 0);
+    std::size_t recorded = 0, replayed = 0;
+    m[0] += Gk::integrate([&](double r) {
+      const double v = roulette_keep(r, weight, eps);
+      if (recorded < kNodes) {
+        nodes[recorded] = r;
+        keeps[recorded] = v;
+      }
+      ++recorded;
+      return v;
+    }, a, b, 0);
+    m[1] += Gk::integrate([&](double r) {
+      const std::size_t at = replayed++;
+      const double v = at < kNodes && at < recorded && nodes[at] == r ? keeps[at] : roulette_keep(r, weight, eps);
+      return v * v;
+    }, a, b, 0);
   }
   return m;
 }
@@ -58,6 +77,23 @@ std::array<double, 2> roulette_moments(double weight, double eps) {
 namespace {
 
 constexpr double kExplicitFacets = 64;
+
+// roulette_moments at the weights this thread asked for last: a batch at one footprint area asks for
+// the same two (1 - w below, w above) at every sample. A pure function, so the same bits.
+std::array<double, 2> recent_roulette_moments(double weight, double eps) {
+  struct Entry {
+    double weight = -1, eps = -1;
+    std::array<double, 2> moments{};
+  };
+  thread_local Entry entries[2];
+  thread_local std::size_t next = 0;
+  for (const Entry& e : entries)
+    if (e.weight == weight && e.eps == eps) return e.moments;
+  Entry& e = entries[next];
+  next ^= 1;
+  e = {weight, eps, blend_detail::roulette_moments(weight, eps)};
+  return e.moments;
+}
 
 class Roulette final : public BlendRule {
  public:
@@ -83,7 +119,7 @@ class Roulette final : public BlendRule {
       if (part > 0) sum += part * blend_detail::roulette_keep(facets.uniform(), weight, eps_);
       return sum;
     }
-    const auto m = blend_detail::roulette_moments(weight, eps_);
+    const auto m = recent_roulette_moments(weight, eps_);
     const double sd = std::sqrt(std::max(0.0, k * (m[1] - m[0] * m[0])));
     return std::clamp(k * m[0] + sd * normal::quantile(facets.uniform()), 0.0, k);
   }

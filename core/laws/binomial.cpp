@@ -20,6 +20,15 @@ class BinomialLaw final : public CountingLaw {
   double evaluate(double n, double p, const double* u) const override {
     return binomial::quantile(u[0], n, p);
   }
+  // Many rows at one (n, p) on given uniforms (a blend's level at one footprint area): quantile on a
+  // table of the distribution functions it compares against (binomial::QuantileTable), bit for bit.
+  std::unique_ptr<FixedEvaluator> fixed_evaluator(double n, double p, std::size_t rows) const override {
+    auto table = std::make_shared<const binomial::QuantileTable>(n, p, rows);
+    if (!table->tabulated()) return CountingLaw::fixed_evaluator(n, p, rows);
+    return make_fixed_evaluator([table](const double* u, std::size_t count, double* out) {
+      for (std::size_t r = 0; r < count; ++r) out[r] = (*table)(u[r]);
+    });
+  }
   bool samples_by_evaluate() const override { return false; }
   // Sample i's first Philox block (two uniforms: all that most draws use) comes from the vectorized
   // rows, the rest from its scalar generator (PrefetchedRng): the same numbers as before. The

@@ -134,6 +134,24 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
     }
   }
 
+  // Many rows at one (n, p) on given uniforms (a blend's level at one footprint area): the batch's
+  // StepInversion on those rows, the same values as eval (the table's construction guarantees it).
+  std::unique_ptr<FixedEvaluator> fixed_evaluator(double n, double p, std::size_t rows) const override {
+    const GatedConstants<double> c(n, p);
+    auto steps = rows >= kTabulateMinBatch
+                     ? floor_gaussian_steps(c.mu, c.sigma, 0.0, c.top, std::max<std::size_t>(rows / 4, 64))
+                     : std::nullopt;
+    if (!steps) return CountingLaw::fixed_evaluator(n, p, rows);
+    StepInversion::Affine f;
+    f.a = 1;
+    f.gate_col = 0;
+    f.gate_below = c.p1;
+    return make_fixed_evaluator([this, n, p, f, table = std::move(*steps)](const double* u, std::size_t count,
+                                                                             double* out) {
+      table.sample_rows(u, 2, 1, count, f, out, [&](const double* row) { return eval<double>(n, p, row); });
+    });
+  }
+
   // A batch at one (n, p): constants once, and the Gaussian count by table inversion.
   std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
     const GatedConstants<double> c(n, p);

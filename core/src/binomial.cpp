@@ -141,6 +141,95 @@ double quantile(double u, double n, double p) {
       [&](double k) { return sf(k, n, p); });
 }
 
+QuantileTable::QuantileTable(double n, double p, std::size_t rows) : n_(n), p_(p) {
+  check_np("binomial.quantile", n, p);
+  if (p == 0.0) return;  // quantile answers 0 before looking at u
+  const double m = std::floor(n), hi = (n > m && p > 0) ? m + 1 : m;
+  // The window holds about 17 sd + 40 counts, each costing two tail evaluations (a few of quantile's
+  // ~20): tabulate only when that is well below `rows` quantiles.
+  const double sd = std::sqrt(std::max(m * p * (1 - p), 0.25));
+  const double expected = 17.0 * sd + 40.0;
+  if (expected > 0.5 * static_cast<double>(rows) || expected > static_cast<double>(1 << 20)) return;
+  // Down from the mean to the first k with cdf(k) < 2^-54 (or 0), up to the first with sf(k) <= 2^-54
+  // (or hi). Outside the window the predicate is then settled: every u' >= 2^-53 sees cdf < u' and
+  // sf > 1/2 > 1 - u' below it, cdf >= 1/2 and sf <= 1 - u' above it; the factor 2 between the
+  // window's end values and 2^-53 covers the tails' relative error (computed directly, special.hpp),
+  // so a count beyond the window cannot cross the clamped u' where its neighbour in the window did not.
+  const double limit = 4.0 * expected + 100.0;
+  const double start = std::clamp(std::floor(n * p), 0.0, hi);
+  double lo = start, top = start;
+  while (lo > 0 && cdf(lo, n, p) >= 0.5 * kMinU && start - lo < limit) lo -= 1;
+  while (top < hi && sf(top, n, p) > 0.5 * kMinU && top - start < limit) top += 1;
+  if (start - lo >= limit || top - start >= limit) return;
+  const std::size_t size = static_cast<std::size_t>(top - lo) + 1;
+  std::vector<double> c(size), s(size);
+  for (std::size_t i = 0; i < size; ++i) {
+    c[i] = cdf(lo + static_cast<double>(i), n, p);
+    s[i] = sf(lo + static_cast<double>(i), n, p);
+    if (!std::isfinite(c[i]) || !std::isfinite(s[i])) return;
+  }
+  // Where the computed cdf decreases (c[j] < c[i], i < j), u' in (c[j], c[i]] is reached at i but not
+  // at j: the search's answer depends on its path. Same for sf increasing, 1 - u' in [s[i], s[j]).
+  // One interval each covers all such u' (usually none: then empty).
+  double run_max = c[0], run_min = s[0];
+  for (std::size_t j = 1; j < size; ++j) {
+    if (c[j] < run_max) {
+      cdf_bad_lo_ = std::min(cdf_bad_lo_, c[j]);
+      cdf_bad_hi_ = std::max(cdf_bad_hi_, run_max);
+    }
+    if (s[j] > run_min) {
+      sf_bad_lo_ = std::min(sf_bad_lo_, run_min);
+      sf_bad_hi_ = std::max(sf_bad_hi_, s[j]);
+    }
+    run_max = std::max(run_max, c[j]);
+    run_min = std::min(run_min, s[j]);
+  }
+  // Cells of u: a power of 2, about 4 per count. Start points are lower bounds of the answer for every
+  // u of the cell (first i with c >= the cell's left edge <= first i with c >= u).
+  std::size_t cells = 64;
+  while (cells < 4 * size && cells < (std::size_t{1} << 16)) cells *= 2;
+  cells_ = static_cast<double>(cells);
+  start_lo_.resize(cells / 2 + 1);
+  start_hi_.resize(cells / 2 + 1);
+  // Edges grow with q (tail edges shrink), so each first index only moves forward.
+  std::size_t first_c = 0, first_s = 0;
+  for (std::size_t q = 0; q <= cells / 2; ++q) {
+    const double edge = static_cast<double>(q) / cells_;                         // u >= edge in cell q
+    const double tail_edge = 1.0 - static_cast<double>(cells / 2 + q) / cells_;  // 1 - u <= tail_edge
+    while (first_c < size && c[first_c] < edge) ++first_c;
+    while (first_s < size && s[first_s] > tail_edge) ++first_s;
+    start_lo_[q] = static_cast<std::uint32_t>(first_c);
+    start_hi_[q] = static_cast<std::uint32_t>(first_s);
+  }
+  first_k_ = lo;
+  window_reaches_zero_ = lo == 0;
+  cdf_ = std::move(c);
+  sf_ = std::move(s);
+}
+
+double QuantileTable::operator()(double u) const {
+  if (p_ == 0.0) return 0.0;
+  if (cdf_.empty()) return fallback(u);
+  // quantile's rule on its clamped u', step by step (discrete_inverse): the smallest k with
+  // cdf(k) >= u' when u' <= 1/2, else the smallest k with sf(k) <= 1 - u'.
+  const double uu = std::clamp(u, kMinU, kMaxU);
+  const std::size_t size = cdf_.size();
+  std::size_t i;
+  if (!(uu > 0.5)) {
+    if (uu > cdf_bad_lo_ && uu <= cdf_bad_hi_) return fallback(u);
+    i = start_lo_[static_cast<std::size_t>(uu * cells_)];
+    while (i < size && cdf_[i] < uu) ++i;
+  } else {
+    const double tail = 1.0 - uu;
+    if (tail >= sf_bad_lo_ && tail < sf_bad_hi_) return fallback(u);
+    i = start_hi_[static_cast<std::size_t>(uu * cells_) - static_cast<std::size_t>(cells_ / 2)];
+    while (i < size && sf_[i] > tail) ++i;
+  }
+  // An answer at the window's start (when it is not 0) or past its end is not proven by the table.
+  if (i == size || (i == 0 && !window_reaches_zero_)) return fallback(u);
+  return first_k_ + static_cast<double>(i);
+}
+
 Distribution distribution(double n, double p, std::size_t max_support) {
   check_np("binomial.distribution", n, p);
   const double m = std::floor(n);

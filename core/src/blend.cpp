@@ -1,10 +1,15 @@
 #include "glintlab/blend.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <bit>
 #include <cmath>
+#include <cstring>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 
 #include "glintlab/binomial.hpp"
@@ -34,6 +39,35 @@ std::array<double, 2> snap_trials(std::array<double, 2> t) {
   return t;
 }
 
+// Fixed evaluators of the (n, p) pairs that whole chunks share (runs of equal P and p in arrays),
+// kept for the chunks that follow, since a run usually spans several. Shared by the threads of one
+// call; a few entries, the oldest replaced.
+class FixedEvaluatorCache {
+ public:
+  std::shared_ptr<const FixedEvaluator> get(const InnerLaw& inner, double n, double p, std::size_t rows) {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      for (const auto& e : entries_)
+        if (e.n == n && e.p == p) return e.evaluator;
+    }
+    std::shared_ptr<const FixedEvaluator> made = inner.fixed_evaluator(n, p, rows);
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (entries_.size() < kEntries) entries_.push_back({n, p, made});
+    else entries_[next_++ % kEntries] = {n, p, made};
+    return made;
+  }
+
+ private:
+  static constexpr std::size_t kEntries = 8;
+  struct Entry {
+    double n, p;
+    std::shared_ptr<const FixedEvaluator> evaluator;
+  };
+  std::mutex mutex_;
+  std::vector<Entry> entries_;
+  std::size_t next_ = 0;
+};
+
 }  // namespace
 
 LevelLadder::LevelLadder(double ratio, double base_area) : ratio_(ratio), base_area_(base_area), log_ratio_(0.0) {
@@ -42,19 +76,31 @@ LevelLadder::LevelLadder(double ratio, double base_area) : ratio_(ratio), base_a
   if (!(base_area > 0.0) || !std::isfinite(base_area))
     throw_invalid("blended_law", "base_area", base_area, "a finite area > 0");
   log_ratio_ = std::log(ratio_);
+  inv_log2_ratio_ = std::log(2.0) / log_ratio_;
   areas_.resize(2 * kTabulated + 1);
   for (int l = -kTabulated; l <= kTabulated; ++l)
     areas_[static_cast<std::size_t>(l + kTabulated)] = base_area_ * std::pow(ratio_, l);
-}
-
-double LevelLadder::area(int level) const {
-  if (level >= -kTabulated && level <= kTabulated) return areas_[static_cast<std::size_t>(level + kTabulated)];
-  return base_area_ * std::pow(ratio_, level);
+  increasing_ = std::adjacent_find(areas_.begin(), areas_.end(), std::greater_equal<double>()) == areas_.end();
 }
 
 LevelBracket LevelLadder::bracket(double footprint_area) const {
   const double a = footprint_area;
   if (!(a > 0.0) || !std::isfinite(a)) throw_invalid("blended_law", "P", a, "a finite footprint area > 0");
+  if (increasing_ && a >= areas_.front() && a < areas_.back()) {
+    // Inside the table the level is its unique A_lo <= P < A_hi (the areas increase strictly), which
+    // the logarithm's guess below settles on; a guess from P's binary exponent and mantissa
+    // (log2 within 0.09) settled the same way finds it without a logarithm, in a step or two.
+    const double x = a / base_area_;
+    std::uint64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    const double rough_log2 = static_cast<double>(static_cast<std::int64_t>(bits >> 52) - 1023) +
+                              static_cast<double>(bits & ((std::uint64_t{1} << 52) - 1)) * 0x1p-52;
+    const double rough = std::floor(rough_log2 * inv_log2_ratio_);
+    int lo = static_cast<int>(std::clamp(rough, static_cast<double>(-kTabulated), static_cast<double>(kTabulated - 1)));
+    while (areas_[static_cast<std::size_t>(lo + kTabulated)] > a) --lo;
+    while (areas_[static_cast<std::size_t>(lo + 1 + kTabulated)] <= a) ++lo;
+    return bracket_at(a, lo);
+  }
   const double guess = std::floor(std::log(a / base_area_) / log_ratio_);
   if (!(std::abs(guess) < 32767))
     throw_invalid("blended_law", "P", a, "an area within 32767 levels of base_area (level index is 16 bits)");
@@ -62,6 +108,10 @@ LevelBracket LevelLadder::bracket(double footprint_area) const {
   // The logarithm can land one level off near a level's area: settle A_lo <= P < A_hi exactly.
   while (area(lo) > a) --lo;
   while (area(lo + 1) <= a) ++lo;
+  return bracket_at(a, lo);
+}
+
+LevelBracket LevelLadder::bracket_at(double a, int lo) const {
   LevelBracket b;
   b.lo = lo;
   b.area_lo = area(lo);
@@ -82,6 +132,7 @@ InnerLaw InnerLaw::from_law(std::shared_ptr<const CountingLaw> law) {
   inner.evaluate = [raw](const double* n, const double* p, const double* u, std::size_t m, double* out) {
     raw->evaluate_pixels(n, p, u, m, out);
   };
+  inner.fixed_evaluator = [raw](double n, double p, std::size_t rows) { return raw->fixed_evaluator(n, p, rows); };
   inner.law = std::move(law);
   return inner;
 }
@@ -160,108 +211,242 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       throw_invalid(where, indexed_name("P", i, area.size > 1), a, "a finite footprint area > 0");
   }
   for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
+  // The brackets the validation computes, kept for the draws when P is an array of at most 2^20 samples
+  // (one bracket per sample instead of two: a logarithm and the level's settling).
+  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 20;  // 40 MiB of brackets at most
+  std::vector<LevelBracket> kept_brackets;
+  if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax) kept_brackets.resize(count);
   if (inner_.law) {
-    const std::size_t m = std::max(area.size, p.size);
-    for (std::size_t i = 0; i < m; ++i) {
+    auto check_trials = [&](std::size_t i) {
       const LevelBracket b = ladder_.bracket(area[i]);
+      if (!kept_brackets.empty()) kept_brackets[i] = b;
       const auto trials = snap_trials(rule_->trials(density, area[i], b));
       for (double t : trials)
         if (t > 0 && !inner_.law->accepts(t, p[i]))
           throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(t) +
                                       " at p = " + format_value(p[i]) + " (P = " + format_value(area[i]) + ")");
-    }
+    };
+    // On every thread; the lowest bad index is then checked again to throw its own message, as a
+    // serial pass would.
+    const std::size_t m = std::max(area.size, p.size);
+    std::atomic<std::size_t> first_bad{m};
+    detail::parallel_chunks(m, kChunk, kChunk, [&](std::size_t i0, std::size_t i1) {
+      for (std::size_t i = i0; i < i1; ++i) {
+        try {
+          check_trials(i);
+        } catch (const std::exception&) {
+          std::size_t seen = first_bad.load();
+          while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
+          }
+          return;
+        }
+      }
+    });
+    if (first_bad.load() < m) check_trials(first_bad.load());
   }
 
   const std::size_t k = static_cast<std::size_t>(inner_.n_uniforms);
   const bool thins = rule_->thins();
-  auto chunk_body = [&](std::size_t i0, std::size_t i1) {
-    const std::size_t m = i1 - i0;
-    std::vector<LevelBracket> brackets(m);
-    // Per level: the rows it is drawn for (compacted), their trials, p, uniforms and counts.
-    std::vector<std::size_t> rows[2];
-    std::vector<double> n[2], pp[2], u[2], kk[2];
-    std::vector<double> k_level[2] = {std::vector<double>(m, 0.0), std::vector<double>(m, 0.0)};
-    for (int j = 0; j < 2; ++j) {
-      rows[j].reserve(m);
-      n[j].reserve(m);
-      pp[j].reserve(m);
-      u[j].reserve(m * k);
-    }
-    // Sample i's cells are (i mod 2^32, i >> 32) at every level (sample(), not sample_at()): the
-    // level's uniforms are then rows of the vectorized Philox keyed at that level, generated for
-    // the chunk's few distinct levels (the same numbers as one CounterRng per cell).
-    constexpr bool kIndexCells = requires { CellOf::kIndexCells; };
-    constexpr std::size_t kMaxVectorLevels = 6;
-    std::vector<int> levels;  // distinct levels drawn in this chunk (index cells only)
-    bool vector_rows = kIndexCells && k > 0;
+  // Sample i's cells are (i mod 2^32, i >> 32) at every level (sample(), not sample_at()): the
+  // level's uniforms are then rows of the vectorized Philox keyed at that level (the same numbers as
+  // one CounterRng per cell).
+  constexpr bool kIndexCells = requires { CellOf::kIndexCells; };
+  auto check_finite = [&](const double* kk, std::size_t rows, const double* n, const double* pp) {
+    for (std::size_t q = 0; q < rows; ++q)
+      if (!std::isfinite(kk[q]))
+        throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
+                                    format_value(n[q]) + ", p = " + format_value(pp[q]));
+  };
+  // The level counts into K; the facet streams only for rules that thin (roulette).
+  auto combine_rows = [&](std::size_t i0, std::size_t m, const LevelBracket* brackets, std::size_t bracket_step,
+                          const double* k_lo, const double* k_hi) {
+    std::array<CounterRng, 2> facets = {CounterRng(seed, 0, 0), CounterRng(seed, 0, 0)};
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
-      brackets[r] = ladder_.bracket(area[i]);
-      const auto trials = snap_trials(rule_->trials(density, area[i], brackets[r]));
-      for (int j = 0; j < 2; ++j) {
-        if (!(trials[j] > 0)) continue;
-        const int level = brackets[r].lo + j;
-        rows[j].push_back(r);
-        n[j].push_back(trials[j]);
-        pp[j].push_back(p[i]);
-        if (vector_rows) {
-          if (std::find(levels.begin(), levels.end(), level) == levels.end()) levels.push_back(level);
-          vector_rows = levels.size() <= kMaxVectorLevels;
-        }
-      }
-    }
-    if (vector_rows) {
-      // One block of rows per distinct level (uninitialized: every row is written), then one pass per
-      // level slot j picking each row's level.
-      const std::size_t stride = m * k;
-      const std::unique_ptr<double[]> blocks(new double[levels.size() * stride]);
-      for (std::size_t l = 0; l < levels.size(); ++l)
-        detail::philox_uniform_rows_level(seed, level_key(levels[l]), kStreamLevelCount, i0, m, static_cast<int>(k),
-                                          blocks.get() + l * stride);
-      for (int j = 0; j < 2; ++j) {
-        u[j].resize(rows[j].size() * k);
-        for (std::size_t q = 0; q < rows[j].size(); ++q) {
-          const std::size_t r = rows[j][q];
-          const int level = brackets[r].lo + j;
-          std::size_t l = 0;
-          while (levels[l] != level) ++l;
-          const double* src = blocks.get() + l * stride + r * k;
-          for (std::size_t d = 0; d < k; ++d) u[j][q * k + d] = src[d];
-        }
-      }
-    } else {
-      for (int j = 0; j < 2; ++j) {
-        for (const std::size_t r : rows[j]) {
-          const std::size_t i = i0 + r;
-          const int level = brackets[r].lo + j;
-          const auto [cx, cy] = cell_of(i, j == 0 ? brackets[r].area_lo : brackets[r].area_hi);
-          CounterRng rng(seed, cx, cy, level_key(level), kStreamLevelCount);
-          for (std::size_t d = 0; d < k; ++d) u[j].push_back(rng.uniform());
-        }
-      }
-    }
-    for (int j = 0; j < 2; ++j) {
-      kk[j].resize(rows[j].size());
-      if (!rows[j].empty()) inner_.evaluate(n[j].data(), pp[j].data(), u[j].data(), rows[j].size(), kk[j].data());
-      for (std::size_t q = 0; q < rows[j].size(); ++q) {
-        if (!std::isfinite(kk[j][q]))
-          throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[j][q]) + " at n = " +
-                                      format_value(n[j][q]) + ", p = " + format_value(pp[j][q]));
-        k_level[j][rows[j][q]] = kk[j][q];
-      }
-    }
-    for (std::size_t r = 0; r < m; ++r) {
-      const std::size_t i = i0 + r;
-      const LevelBracket& b = brackets[r];
-      std::array<CounterRng, 2> facets = {CounterRng(seed, 0, 0), CounterRng(seed, 0, 0)};
+      const LevelBracket& b = brackets[r * bracket_step];
       if (thins) {
         for (int j = 0; j < 2; ++j) {
           const auto [cx, cy] = cell_of(i, j == 0 ? b.area_lo : b.area_hi);
           facets[static_cast<std::size_t>(j)] = CounterRng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
         }
       }
-      out[i] = rule_->combine(area[i], b, k_level[0][r], k_level[1][r], facets);
+      out[i] = rule_->combine(area[i], b, k_lo[r], k_hi[r], facets);
     }
+  };
+
+  // One footprint area and one p for the whole batch (a flat patch, a study at one P): one bracket,
+  // one pair of trial counts, and each drawn level at one (n, p), evaluated by the inner law's fixed
+  // evaluator (a table built once for the batch where the law has one) instead of per pixel.
+  if (area.size == 1 && p.size == 1) {
+    const LevelBracket b = ladder_.bracket(area[0]);
+    const auto trials = snap_trials(rule_->trials(density, area[0], b));
+    std::unique_ptr<FixedEvaluator> evaluators[2];
+    for (int j = 0; j < 2; ++j)
+      if (trials[j] > 0 && inner_.fixed_evaluator) evaluators[j] = inner_.fixed_evaluator(trials[j], p[0], count);
+    auto chunk_body = [&](std::size_t i0, std::size_t i1) {
+      const std::size_t m = i1 - i0;
+      std::vector<double> u(m * k), k_level[2], n_rows, p_rows;
+      for (int j = 0; j < 2; ++j) {
+        k_level[j].assign(m, 0.0);
+        if (!(trials[j] > 0)) continue;
+        const int level = b.lo + j;
+        if constexpr (kIndexCells) {
+          if (k > 0)
+            detail::philox_uniform_rows_level(seed, level_key(level), kStreamLevelCount, i0, m, static_cast<int>(k),
+                                              u.data());
+        } else {
+          for (std::size_t r = 0; r < m; ++r) {
+            const auto [cx, cy] = cell_of(i0 + r, j == 0 ? b.area_lo : b.area_hi);
+            CounterRng rng(seed, cx, cy, level_key(level), kStreamLevelCount);
+            for (std::size_t d = 0; d < k; ++d) u[r * k + d] = rng.uniform();
+          }
+        }
+        n_rows.assign(m, trials[j]);
+        p_rows.assign(m, p[0]);
+        if (evaluators[j]) evaluators[j]->evaluate(u.data(), m, k_level[j].data());
+        else inner_.evaluate(n_rows.data(), p_rows.data(), u.data(), m, k_level[j].data());
+        check_finite(k_level[j].data(), m, n_rows.data(), p_rows.data());
+      }
+      combine_rows(i0, m, &b, 0, k_level[0].data(), k_level[1].data());
+    };
+    if (inner_.thread_safe) {
+      detail::parallel_chunks(count, kChunk, kChunk, chunk_body);
+    } else {
+      for (std::size_t i0 = 0; i0 < count; i0 += kChunk) chunk_body(i0, std::min(count, i0 + kChunk));
+    }
+    return;
+  }
+
+  // Arrays: per-sample brackets. A level whose rows in a chunk all share one (n, p) (runs of equal P
+  // and p) gets a fixed evaluator, kept for the following chunks of the run.
+  FixedEvaluatorCache cache;
+  auto chunk_body = [&](std::size_t i0, std::size_t i1) {
+    const std::size_t m = i1 - i0;
+    std::vector<LevelBracket> brackets(m);
+    // Per level slot: the rows it is drawn for (compacted), their trials, p, uniforms and counts.
+    std::vector<std::size_t> rows[2] = {std::vector<std::size_t>(m), std::vector<std::size_t>(m)};
+    std::vector<double> n[2], pp[2], u[2], kk[2];
+    std::vector<double> k_level[2] = {std::vector<double>(m, 0.0), std::vector<double>(m, 0.0)};
+    std::size_t drawn_at[2] = {0, 0};
+    for (int j = 0; j < 2; ++j) {
+      n[j].resize(m);
+      pp[j].resize(m);
+    }
+    int level_min = std::numeric_limits<int>::max(), level_max = std::numeric_limits<int>::min();
+    for (std::size_t r = 0; r < m; ++r) {
+      const std::size_t i = i0 + r;
+      brackets[r] = kept_brackets.empty() ? ladder_.bracket(area[i]) : kept_brackets[i];
+      const auto trials = snap_trials(rule_->trials(density, area[i], brackets[r]));
+      for (int j = 0; j < 2; ++j) {
+        if (!(trials[j] > 0)) continue;
+        const std::size_t q = drawn_at[j]++;
+        rows[j][q] = r;
+        n[j][q] = trials[j];
+        pp[j][q] = p[i];
+        level_min = std::min(level_min, brackets[r].lo + j);
+        level_max = std::max(level_max, brackets[r].lo + j);
+      }
+    }
+    for (int j = 0; j < 2; ++j) {
+      rows[j].resize(drawn_at[j]);
+      n[j].resize(drawn_at[j]);
+      pp[j].resize(drawn_at[j]);
+      u[j].resize(drawn_at[j] * k);
+    }
+    // A chunk whose levels span a few indices (footprints within a few levels of each other): one
+    // block of vectorized Philox rows per level of the span (uninitialized: every row is written),
+    // each row then picking its level's block.
+    constexpr int kMaxVectorLevels = 6;
+    if (kIndexCells && k > 0 && level_min <= level_max && level_max - level_min < kMaxVectorLevels) {
+      const std::size_t stride = m * k;
+      const auto span = static_cast<std::size_t>(level_max - level_min + 1);
+      const std::unique_ptr<double[]> blocks(new double[span * stride]);
+      for (std::size_t l = 0; l < span; ++l)
+        detail::philox_uniform_rows_level(seed, level_key(level_min + static_cast<int>(l)), kStreamLevelCount, i0, m,
+                                          static_cast<int>(k), blocks.get() + l * stride);
+      for (int j = 0; j < 2; ++j) {
+        double* dst = u[j].data();
+        for (std::size_t q = 0; q < rows[j].size(); ++q) {
+          const std::size_t r = rows[j][q];
+          const auto l = static_cast<std::size_t>(brackets[r].lo + j - level_min);
+          const double* src = blocks.get() + l * stride + r * k;
+          for (std::size_t d = 0; d < k; ++d) dst[q * k + d] = src[d];
+        }
+      }
+    } else {
+      for (int j = 0; j < 2; ++j) {
+        for (std::size_t q = 0; q < rows[j].size(); ++q) {
+          const std::size_t r = rows[j][q], i = i0 + r;
+          const int level = brackets[r].lo + j;
+          const auto [cx, cy] = cell_of(i, j == 0 ? brackets[r].area_lo : brackets[r].area_hi);
+          CounterRng rng(seed, cx, cy, level_key(level), kStreamLevelCount);
+          for (std::size_t d = 0; d < k; ++d) u[j][q * k + d] = rng.uniform();
+        }
+      }
+    }
+    std::vector<std::uint8_t> group_of;
+    std::vector<std::size_t> order;
+    std::vector<double> group_u, group_k;
+    for (int j = 0; j < 2; ++j) {
+      const std::size_t drawn = rows[j].size();
+      kk[j].resize(drawn);
+      if (drawn == 0) continue;
+      // Rows of a level taking a few distinct (n, p) are evaluated group by group with a fixed
+      // evaluator, kept for the whole call: every rule but distributed draws N A_l trials, one n per
+      // level index, so with one p a level's rows form a group per level index (and runs of equal P
+      // do too). Otherwise the per-pixel path.
+      constexpr std::size_t kMaxGroups = 4;
+      std::array<double, kMaxGroups> group_n, group_p;
+      group_n.fill(std::numeric_limits<double>::quiet_NaN());  // matches nothing
+      group_p.fill(std::numeric_limits<double>::quiet_NaN());
+      std::size_t groups = 0;
+      bool grouped = inner_.fixed_evaluator != nullptr && drawn >= kTabulateMinBatch;
+      if (grouped) {
+        group_of.resize(drawn);
+        for (std::size_t q = 0; q < drawn; ++q) {
+          // Which group matches, without a branch per candidate (rows of different levels interleave
+          // at random): a new group is the rare, predictable branch.
+          unsigned match = 0;
+          for (std::size_t g = 0; g < kMaxGroups; ++g)
+            match |= static_cast<unsigned>(group_n[g] == n[j][q] && group_p[g] == pp[j][q]) << g;
+          if (match == 0) [[unlikely]] {
+            if (groups == kMaxGroups) {
+              grouped = false;
+              break;
+            }
+            group_n[groups] = n[j][q];
+            group_p[groups] = pp[j][q];
+            match = 1u << groups++;
+          }
+          group_of[q] = static_cast<std::uint8_t>(std::countr_zero(match));
+        }
+      }
+      if (grouped && groups == 1) {
+        cache.get(inner_, group_n[0], group_p[0], count)->evaluate(u[j].data(), drawn, kk[j].data());
+      } else if (grouped) {
+        // Rows ordered by group (a counting sort: no branch per row), each group's uniforms contiguous.
+        std::array<std::size_t, kMaxGroups + 1> first{};
+        for (std::size_t q = 0; q < drawn; ++q) ++first[group_of[q] + 1u];
+        for (std::size_t g = 0; g < kMaxGroups; ++g) first[g + 1] += first[g];
+        std::array<std::size_t, kMaxGroups> next;
+        std::copy(first.begin(), first.end() - 1, next.begin());
+        order.resize(drawn);
+        for (std::size_t q = 0; q < drawn; ++q) order[next[group_of[q]]++] = q;
+        group_u.resize(drawn * k);
+        group_k.resize(drawn);
+        for (std::size_t t = 0; t < drawn; ++t)
+          for (std::size_t d = 0; d < k; ++d) group_u[t * k + d] = u[j][order[t] * k + d];
+        for (std::size_t g = 0; g < groups; ++g)
+          cache.get(inner_, group_n[g], group_p[g], count)
+              ->evaluate(group_u.data() + first[g] * k, first[g + 1] - first[g], group_k.data() + first[g]);
+        for (std::size_t t = 0; t < drawn; ++t) kk[j][order[t]] = group_k[t];
+      } else {
+        inner_.evaluate(n[j].data(), pp[j].data(), u[j].data(), drawn, kk[j].data());
+      }
+      check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data());
+      for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
+    }
+    combine_rows(i0, m, brackets.data(), 1, k_level[0].data(), k_level[1].data());
   };
   if (inner_.thread_safe) {
     detail::parallel_chunks(count, kChunk, kChunk, chunk_body);

@@ -37,6 +37,33 @@ double sf(double k, double n, double p);        // P(K > k)
 double quantile(double u, double n, double p);
 Distribution distribution(double n, double p, std::size_t max_support = kDefaultMaxSupport);
 
+// quantile(u, n, p) at one (n, p) for many u, bit for bit: the distribution functions quantile
+// compares u against (cdf, and sf in the upper half) tabulated once over the window where its answers
+// lie, and its decision rule ("the smallest k with cdf(k) >= u", or "with sf(k) <= 1 - u" above 1/2)
+// applied to the table. A blend at one footprint area draws every sample of a level at one (n, p).
+// Where the table cannot prove the rule's answer (a u where the computed functions are not monotone,
+// or an answer outside the window) the call is quantile itself.
+class QuantileTable {
+ public:
+  // Tabulates when the table costs less than about `rows` quantiles; otherwise every call is quantile.
+  QuantileTable(double n, double p, std::size_t rows);
+  double operator()(double u) const;
+  bool tabulated() const { return !cdf_.empty(); }
+
+ private:
+  double fallback(double u) const { return quantile(u, n_, p_); }
+  double n_, p_;
+  double first_k_ = 0;                   // the window's first count
+  bool window_reaches_zero_ = false;     // first_k_ == 0: an answer at the window's start is final
+  std::vector<double> cdf_, sf_;         // cdf(k), sf(k) for k = first_k_ + i
+  std::vector<std::uint32_t> start_lo_;  // per cell of u <= 1/2: first i with cdf_[i] >= cell's left edge
+  std::vector<std::uint32_t> start_hi_;  // per cell of u >= 1/2: first i with sf_[i] <= 1 - cell's left edge
+  double cells_ = 0;                     // cells per unit of u (a power of 2: u * cells_ is exact)
+  // u (lower rule) or 1 - u (upper rule) where the computed functions are not monotone, so that the
+  // rule's answer depends on quantile's search path: those calls are quantile's own.
+  double cdf_bad_lo_ = 1, cdf_bad_hi_ = 0, sf_bad_lo_ = 1, sf_bad_hi_ = 0;
+};
+
 // The generator of sample `index` of a batch (CounterRng::for_index(seed, index, stream)) whose first
 // two uniforms were computed ahead, as a row of the vectorized Philox (detail::philox_uniform_rows
 // with k = 2): the same numbers in the same order, at a fraction of the scalar Philox's cost for the

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -48,7 +49,10 @@ class LevelLadder {
   LevelLadder(double ratio, double base_area);
   double ratio() const { return ratio_; }
   double base_area() const { return base_area_; }
-  double area(int level) const;
+  double area(int level) const {
+    if (level >= -kTabulated && level <= kTabulated) return areas_[static_cast<std::size_t>(level + kTabulated)];
+    return base_area_ * std::pow(ratio_, level);
+  }
   // P finite > 0 whose level index fits 16 bits (|l| < 32768); otherwise std::invalid_argument.
   LevelBracket bracket(double footprint_area) const;
 
@@ -56,8 +60,10 @@ class LevelLadder {
   // area(l) for |l| <= kTabulated, computed once by the same expression (a per-sample bracket then
   // costs two logarithms instead of three and four pow calls; the same bits).
   static constexpr int kTabulated = 256;
-  double ratio_, base_area_, log_ratio_;
+  LevelBracket bracket_at(double footprint_area, int lo) const;  // the bracket once lo is settled
+  double ratio_, base_area_, log_ratio_, inv_log2_ratio_ = 1;
   std::vector<double> areas_;
+  bool increasing_ = false;  // areas_ strictly increasing: bracket() may bisect it
 };
 
 // The inner law as the blend sees it: a vectorized evaluation on explicit uniforms, so that a
@@ -70,6 +76,10 @@ struct InnerLaw {
   // out[i] = K for (n[i], p[i]) on uniforms u[i * n_uniforms ...]; called from one thread.
   std::function<void(const double* n, const double* p, const double* u, std::size_t m, double* out)> evaluate;
   std::shared_ptr<const CountingLaw> law;  // set for built-in laws: domain checks and exact pmfs
+  // Optional (set for built-in laws): an evaluator of about `rows` rows at one (n, p), the same
+  // results as evaluate (CountingLaw::fixed_evaluator: a table where the law has one). Used when every
+  // row of a level shares (n, p): one footprint area, runs of equal P.
+  std::function<std::unique_ptr<FixedEvaluator>(double n, double p, std::size_t rows)> fixed_evaluator;
 
   static InnerLaw from_law(std::shared_ptr<const CountingLaw> law);
 };

@@ -50,6 +50,16 @@ struct NumericDomain {
   std::string note = "counts above 2^53 (9.007e15) are not consecutive doubles";
 };
 
+// Evaluations at one fixed (n, p) on rows of given uniforms, prepared once for many rows (see
+// CountingLaw::fixed_evaluator). evaluate() is const and may run on several threads at once.
+class FixedEvaluator {
+ public:
+  virtual ~FixedEvaluator() = default;
+  // out[r] = CountingLaw::evaluate(n, p, u + r * n_uniforms) for r < rows, bit for bit, for
+  // uniforms in (0, 1) (those of fill_uniforms and CounterRng).
+  virtual void evaluate(const double* u, std::size_t rows, double* out) const = 0;
+};
+
 class CountingLaw {
  public:
   virtual ~CountingLaw() = default;
@@ -72,6 +82,12 @@ class CountingLaw {
     const auto k = static_cast<std::size_t>(n_uniforms());
     for (std::size_t r = 0; r < rows; ++r) out[r] = evaluate(n, p, u + r * k);
   }
+  // An evaluator of about `rows` evaluations at one (n, p) on given uniforms, built once: what a
+  // blend needs when every sample of a level has the same trial count (one footprint area). The
+  // default calls evaluate_rows; laws whose per-(n, p) table pays for `rows` evaluations (gated:
+  // the batch's StepInversion; binomial: its CDF tabulated) override it. Same results as evaluate.
+  // (n, p) are already accepted.
+  virtual std::unique_ptr<FixedEvaluator> fixed_evaluator(double n, double p, std::size_t rows) const;
   virtual bool supports(Precision precision) const { return precision == Precision::kFloat64; }
   // `count` evaluations with their own (n, p) each, as a renderer's pixels have:
   // out[i] = evaluate(n[i], p[i], u + i * n_uniforms()), bit for bit, for uniforms in (0, 1) (those of
@@ -249,6 +265,22 @@ std::unique_ptr<BatchSampler> make_row_batch_sampler(int k, F f) {
   return make_block_batch_sampler(k, [kk, f = std::move(f)](const double* u, std::size_t rows, double* out) {
     for (std::size_t r = 0; r < rows; ++r) out[r] = f(u + r * kk);
   });
+}
+
+// A FixedEvaluator from f(const double* u, std::size_t rows, double* out).
+template <class F>
+std::unique_ptr<FixedEvaluator> make_fixed_evaluator(F f) {
+  struct Evaluator final : FixedEvaluator {
+    explicit Evaluator(F g) : f(std::move(g)) {}
+    void evaluate(const double* u, std::size_t rows, double* out) const override { f(u, rows, out); }
+    F f;
+  };
+  return std::make_unique<Evaluator>(std::move(f));
+}
+
+inline std::unique_ptr<FixedEvaluator> CountingLaw::fixed_evaluator(double n, double p, std::size_t) const {
+  return make_fixed_evaluator(
+      [this, n, p](const double* u, std::size_t rows, double* out) { evaluate_rows(n, p, u, rows, out); });
 }
 
 // Batches at least this long amortize a per-(n, p) table (e.g. inversion tables); results must not
