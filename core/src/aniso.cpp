@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <numbers>
 #include <stdexcept>
@@ -150,7 +151,8 @@ std::array<double, 4> barycentric(const std::array<double, 3>& q, const std::arr
   return w;
 }
 
-int spatial_vertices(Spatial spatial, double X, double Y, Vertex2* out) {
+// Inlined into the counter's per-term loop (a call per term and lattice cost more than the work).
+inline int spatial_vertices_inline(Spatial spatial, double X, double Y, Vertex2* out) {
   const double fx0 = std::floor(X), fy0 = std::floor(Y);
   const auto i = static_cast<std::int64_t>(fx0), j = static_cast<std::int64_t>(fy0);
   switch (spatial) {
@@ -186,6 +188,10 @@ int spatial_vertices(Spatial spatial, double X, double Y, Vertex2* out) {
     }
   }
   return 0;
+}
+
+int spatial_vertices(Spatial spatial, double X, double Y, Vertex2* out) {
+  return spatial_vertices_inline(spatial, X, Y, out);
 }
 
 }  // namespace weights
@@ -268,13 +274,34 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
     throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(trials) +
                                 " at p = " + format_value(p));
   };
+  // Rows a chunk can gather at most: every buffer is sized once per chunk, so the gather never
+  // reallocates (no regrowth copies) and writes by index.
+  const std::size_t rows_per_term = static_cast<std::size_t>(evaluations_per_term());
+  const std::size_t max_terms = scheme_->max_terms();
   auto chunk_body = [&](std::size_t i0, std::size_t i1) {
     std::vector<Term> terms;
-    terms.reserve(scheme_->max_terms());
+    terms.reserve(max_terms);
     // Gathered requests (laws that are not thread safe or not built in: one call per chunk).
-    std::vector<double> n, pp, u, coef, kk;
-    std::vector<std::size_t> owner;
-    double urow[kMaxRows * 16], wrow[kMaxRows];
+    const std::size_t capacity = (i1 - i0) * max_terms * rows_per_term;
+    std::vector<double> n(capacity), pp(capacity), u(capacity * nu), coef(capacity), kk;
+    std::vector<std::size_t> owner(capacity);
+    std::size_t gathered = 0;
+    double wrow[kMaxRows];
+    // Memo of the last term angle's cosine and sine (direct mapped on the angle's bits): the schemes
+    // use a few grid orientations, so nearly every term reuses a value std::cos / std::sin already
+    // gave for the same argument (the same bits, at a fraction of a libm call).
+    struct TrigMemo {
+      std::uint64_t bits = 0;  // the angle +0.0
+      double c = 1.0, s = 0.0;   // std::cos(+0.0), std::sin(+0.0) exactly
+    };
+    std::array<TrigMemo, 64> trig;
+    // Memo of each term slot's grid key: neighbouring pixels mostly read the same grids.
+    struct GridMemo {
+      GridId grid{};
+      std::uint64_t seed = 0, key = 0;
+      bool set = false;
+    };
+    std::vector<GridMemo> grid_memo(max_terms);
     for (std::size_t i = i0; i < i1; ++i) {
       Pixel px;
       Shape shape;
@@ -287,18 +314,27 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
       }
       terms.clear();
       const bool clamped = scheme_->terms(shape, density, terms);
+      if (gathered + terms.size() * rows_per_term > n.size()) {  // a scheme beyond its max_terms()
+        const std::size_t grown = 2 * (gathered + terms.size() * rows_per_term);
+        n.resize(grown), pp.resize(grown), u.resize(grown * nu), coef.resize(grown), owner.resize(grown);
+      }
+      if (terms.size() > grid_memo.size()) grid_memo.resize(terms.size());
       if (status_out) status_out[i] = static_cast<std::uint8_t>(clamped ? ShapeStatus::kClamped : shape.status);
       std::int32_t evaluations = 0;
       for (std::size_t ti = 0; ti < terms.size(); ++ti) {
         const Term& t = terms[ti];
         if (inner_.law && t.trials > 0 && !inner_.law->accepts(t.trials, px.p)) refuse(t.trials, px.p);
         const double x = px.u + t.dx, y = px.v + t.dy;
-        const double c = std::cos(t.angle), s = std::sin(t.angle);
+        std::uint64_t angle_bits;
+        std::memcpy(&angle_bits, &t.angle, sizeof angle_bits);
+        TrigMemo& memo = trig[(angle_bits ^ (angle_bits >> 29) ^ (angle_bits >> 47)) & (trig.size() - 1)];
+        if (memo.bits != angle_bits) memo = {angle_bits, std::cos(t.angle), std::sin(t.angle)};
+        const double c = memo.c, s = memo.s;
         // Grid coordinates: across the long side (X) and along it (Y), in cells.
         const double X = (-x * s + y * c) / t.cell_minor, Y = (x * c + y * s) / t.cell_major;
         weights::Vertex2 sv[4], av[4];
-        int ns = weights::spatial_vertices(options_.spatial, X, Y, sv);
-        int na = weights::spatial_vertices(angular_lattice, px.su, px.sv, av);
+        int ns = weights::spatial_vertices_inline(options_.spatial, X, Y, sv);
+        int na = weights::spatial_vertices_inline(angular_lattice, px.su, px.sv, av);
         if (select) {
           // One vertex with probability v_j (inversion of the running sum), for each lattice.
           const CellUniforms pick_u(px.select_seed, static_cast<std::int64_t>(i), static_cast<std::int64_t>(ti));
@@ -315,8 +351,13 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
           pick(av, na, pick_u(1));
           ns = na = 1;
         }
+        GridMemo& gm = grid_memo[ti];
+        if (!gm.set || gm.seed != px.grid_seed || gm.grid.scale != t.grid.scale || gm.grid.ratio != t.grid.ratio ||
+            gm.grid.orientation != t.grid.orientation)
+          gm = {t.grid, px.grid_seed, grid_key(px.grid_seed, t.grid), true};
+        const std::uint64_t gkey = gm.key;
         std::size_t rows = 0;
-        const std::uint64_t gkey = grid_key(px.grid_seed, t.grid);
+        double* urow = u.data() + gathered * nu;
         for (int b = 0; b < na; ++b) {
           const std::uint64_t key = texel_key(gkey, av[b].i, av[b].j);
           for (int a = 0; a < ns; ++a, ++rows) {
@@ -329,20 +370,19 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
         // Every evaluation of the chunk is gathered and made in one call of the inner law's per-pixel
         // path (vector code for the laws that have it), then summed per pixel in term order: the
         // same operations in the same order as summing each term as it comes, so the same bits.
-        for (std::size_t q = 0; q < rows; ++q) {
-          n.push_back(t.trials);
-          pp.push_back(px.p);
-          u.insert(u.end(), urow + q * nu, urow + (q + 1) * nu);
-          coef.push_back(wrow[q]);
-          owner.push_back(i);
+        for (std::size_t q = 0; q < rows; ++q, ++gathered) {
+          n[gathered] = t.trials;
+          pp[gathered] = px.p;
+          coef[gathered] = wrow[q];
+          owner[gathered] = i;
         }
       }
       if (evals_out) evals_out[i] = evaluations;
     }
-    if (n.empty()) return;
-    kk.resize(n.size());
-    inner_.evaluate(n.data(), pp.data(), u.data(), n.size(), kk.data());
-    for (std::size_t q = 0; q < n.size(); ++q) {
+    if (gathered == 0) return;
+    kk.resize(gathered);
+    inner_.evaluate(n.data(), pp.data(), u.data(), gathered, kk.data());
+    for (std::size_t q = 0; q < gathered; ++q) {
       if (!std::isfinite(kk[q]))
         throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
                                     format_value(n[q]) + ", p = " + format_value(pp[q]));
