@@ -25,6 +25,7 @@ class Zk16Aniso final : public GridScheme {
     blend_ = reader.text("blend", "zk16_linear", {"zk16_linear", "distributed"});
     reader.finish();
     ladder_ = LevelLadder(level_ratio, base_area);
+    blend_outputs_ = blend_ == "zk16_linear";
     if (!(max_aniso_ >= 1 && max_aniso_ <= 1024) || max_aniso_ != std::round(max_aniso_))
       throw_invalid("zk16_aniso", "max_aniso", max_aniso_, "an integer in [1, 1024]");
     params_ = {{"level_ratio", level_ratio}, {"base_area", base_area}, {"max_aniso", max_aniso_}, {"blend", blend_}};
@@ -58,7 +59,7 @@ class Zk16Aniso final : public GridScheme {
         t.cell_area = cell;
         t.dx = offset * c;
         t.dy = offset * s;
-        if (blend_ == "zk16_linear") {
+        if (blend_outputs_) {
           t.weight = lv == 0 ? 1 - br.w_lod : br.w_lod;
           t.trials = density * cell;
           t.scale = area * t.weight / cell;
@@ -76,6 +77,7 @@ class Zk16Aniso final : public GridScheme {
   LevelLadder ladder_;
   double max_aniso_ = 16;
   std::string blend_;
+  bool blend_outputs_ = true;  // blend_ == "zk16_linear", compared once rather than per term
   LawParams params_;
 };
 
