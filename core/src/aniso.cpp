@@ -300,6 +300,8 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
       GridId grid{};
       std::uint64_t seed = 0, key = 0;
       bool set = false;
+      std::int64_t texel_i = 0, texel_j = 0;  // the last angular texel read on this grid, and its key
+      std::uint64_t texel = 0;
     };
     std::vector<GridMemo> grid_memo(max_terms);
     for (std::size_t i = i0; i < i1; ++i) {
@@ -335,8 +337,9 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
         weights::Vertex2 sv[4], av[4];
         int ns = weights::spatial_vertices_inline(options_.spatial, X, Y, sv);
         int na = weights::spatial_vertices_inline(angular_lattice, px.su, px.sv, av);
-        if (select) {
-          // One vertex with probability v_j (inversion of the running sum), for each lattice.
+        if (select && (ns > 1 || na > 1)) {
+          // One vertex with probability v_j (inversion of the running sum), for each lattice. (A
+          // single vertex is its own pick: its uniforms would go unread, so they are not drawn.)
           const CellUniforms pick_u(px.select_seed, static_cast<std::int64_t>(i), static_cast<std::int64_t>(ti));
           auto pick = [](weights::Vertex2* v, int count, double r) {
             double acc = 0;
@@ -354,12 +357,16 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
         GridMemo& gm = grid_memo[ti];
         if (!gm.set || gm.seed != px.grid_seed || gm.grid.scale != t.grid.scale || gm.grid.ratio != t.grid.ratio ||
             gm.grid.orientation != t.grid.orientation)
-          gm = {t.grid, px.grid_seed, grid_key(px.grid_seed, t.grid), true};
-        const std::uint64_t gkey = gm.key;
+        {
+          const std::uint64_t key = grid_key(px.grid_seed, t.grid);
+          gm = {t.grid, px.grid_seed, key, true, av[0].i, av[0].j, texel_key(key, av[0].i, av[0].j)};
+        }
         std::size_t rows = 0;
         double* urow = u.data() + gathered * nu;
         for (int b = 0; b < na; ++b) {
-          const std::uint64_t key = texel_key(gkey, av[b].i, av[b].j);
+          if (av[b].i != gm.texel_i || av[b].j != gm.texel_j)
+            gm.texel_i = av[b].i, gm.texel_j = av[b].j, gm.texel = texel_key(gm.key, av[b].i, av[b].j);
+          const std::uint64_t key = gm.texel;
           for (int a = 0; a < ns; ++a, ++rows) {
             const CellUniforms cell(key, sv[a].i, sv[a].j);
             for (std::size_t d = 0; d < nu; ++d) urow[rows * nu + d] = cell(d);
