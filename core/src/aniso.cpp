@@ -227,6 +227,27 @@ struct CellUniforms {
   }
 };
 constexpr std::size_t kChunk = 256;
+// The requests a chunk gathers for the inner law: per thread, kept between chunks and calls, so a
+// chunk neither zero-fills nor page-faults fresh buffers. Only grows (a chunk's rows are filled in
+// order, so growing keeps what was gathered).
+struct Gathered {
+  std::vector<double> n, p, u, coef, k;
+  std::vector<std::size_t> owner;
+  bool in_use = false;
+  void ensure_rows(std::size_t rows, std::size_t nu) {
+    if (n.size() < rows) {
+      rows = std::max(rows, 2 * n.size());
+      n.resize(rows), p.resize(rows), coef.resize(rows), k.resize(rows), owner.resize(rows);
+    }
+    if (u.size() < n.size() * nu) u.resize(n.size() * nu);
+  }
+};
+// Beyond this many rows a thread gives its buffers back after the chunk (a wide scheme's one-off).
+constexpr std::size_t kKeptRows = std::size_t{1} << 16;
+Gathered& thread_gathered() {
+  thread_local Gathered gathered;
+  return gathered;
+}
 constexpr std::size_t kMaxRows = 16;  // 4 spatial x 4 angular
 }  // namespace
 
@@ -281,10 +302,24 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
   auto chunk_body = [&](std::size_t i0, std::size_t i1) {
     std::vector<Term> terms;
     terms.reserve(max_terms);
-    // Gathered requests (laws that are not thread safe or not built in: one call per chunk).
-    const std::size_t capacity = (i1 - i0) * max_terms * rows_per_term;
-    std::vector<double> n(capacity), pp(capacity), u(capacity * nu), coef(capacity), kk;
-    std::vector<std::size_t> owner(capacity);
+    // Gathered requests (laws that are not thread safe or not built in: one call per chunk). A call
+    // made from inside the inner law (a Python law counting an image) finds the thread's buffers in
+    // use and gets its own.
+    std::unique_ptr<Gathered> own;
+    Gathered* g = &thread_gathered();
+    if (g->in_use) {
+      own = std::make_unique<Gathered>();
+      g = own.get();
+    }
+    struct Release {
+      Gathered* g;
+      ~Release() {
+        g->in_use = false;
+        if (g->n.size() > kKeptRows) *g = Gathered{};
+      }
+    } release{g};
+    g->in_use = true;
+    g->ensure_rows((i1 - i0) * std::min<std::size_t>(max_terms, 8) * rows_per_term, nu);
     std::size_t gathered = 0;
     double wrow[kMaxRows];
     // Memo of the last term angle's cosine and sine (direct mapped on the angle's bits): the schemes
@@ -316,10 +351,11 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
       }
       terms.clear();
       const bool clamped = scheme_->terms(shape, density, terms);
-      if (gathered + terms.size() * rows_per_term > n.size()) {  // a scheme beyond its max_terms()
-        const std::size_t grown = 2 * (gathered + terms.size() * rows_per_term);
-        n.resize(grown), pp.resize(grown), u.resize(grown * nu), coef.resize(grown), owner.resize(grown);
-      }
+      g->ensure_rows(gathered + terms.size() * rows_per_term, nu);
+      double* const n = g->n.data();
+      double* const pp = g->p.data();
+      double* const coef = g->coef.data();
+      std::size_t* const owner = g->owner.data();
       if (terms.size() > grid_memo.size()) grid_memo.resize(terms.size());
       if (status_out) status_out[i] = static_cast<std::uint8_t>(clamped ? ShapeStatus::kClamped : shape.status);
       std::int32_t evaluations = 0;
@@ -362,7 +398,7 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
           gm = {t.grid, px.grid_seed, key, true, av[0].i, av[0].j, texel_key(key, av[0].i, av[0].j)};
         }
         std::size_t rows = 0;
-        double* urow = u.data() + gathered * nu;
+        double* urow = g->u.data() + gathered * nu;
         for (int b = 0; b < na; ++b) {
           if (av[b].i != gm.texel_i || av[b].j != gm.texel_j)
             gm.texel_i = av[b].i, gm.texel_j = av[b].j, gm.texel = texel_key(gm.key, av[b].i, av[b].j);
@@ -387,8 +423,9 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
       if (evals_out) evals_out[i] = evaluations;
     }
     if (gathered == 0) return;
-    kk.resize(gathered);
-    inner_.evaluate(n.data(), pp.data(), u.data(), gathered, kk.data());
+    const double *n = g->n.data(), *pp = g->p.data(), *coef = g->coef.data(), *kk = g->k.data();
+    const std::size_t* owner = g->owner.data();
+    inner_.evaluate(n, pp, g->u.data(), gathered, g->k.data());
     for (std::size_t q = 0; q < gathered; ++q) {
       if (!std::isfinite(kk[q]))
         throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
