@@ -218,14 +218,32 @@ std::uint64_t texel_key(std::uint64_t grid, std::int64_t ax, std::int64_t ay) {
 // generator) cost a few ns each, where a Philox block per cell would dominate an image's cost.
 struct CellUniforms {
   std::uint64_t h;
-  CellUniforms(std::uint64_t key, std::int64_t cx, std::int64_t cy)
-      : h(mix64(key + static_cast<std::uint64_t>(cx) * 0xD1B54A32D192ED03ULL +
-                static_cast<std::uint64_t>(cy) * 0xABC98388FB8FAC03ULL)) {}
-  double operator()(std::size_t d) const {
-    const std::uint64_t x = d == 0 ? h : mix64(h + d * 0x8CB92BA72F3D8DD7ULL);
-    return (static_cast<double>(x >> 11) + 0.5) * 0x1.0p-53;  // open (0, 1), as CounterRng
+  CellUniforms(std::uint64_t key, std::int64_t cx, std::int64_t cy) : h(mix64(cell_input(key, cx, cy))) {}
+  static std::uint64_t cell_input(std::uint64_t key, std::int64_t cx, std::int64_t cy) {
+    return key + static_cast<std::uint64_t>(cx) * 0xD1B54A32D192ED03ULL +
+           static_cast<std::uint64_t>(cy) * 0xABC98388FB8FAC03ULL;
   }
+  static double unit(std::uint64_t x) { return (static_cast<double>(x >> 11) + 0.5) * 0x1.0p-53; }  // open (0, 1), as CounterRng
+  double operator()(std::size_t d) const { return unit(d == 0 ? h : mix64(h + d * 0x8CB92BA72F3D8DD7ULL)); }
 };
+// The uniforms of gathered cells: rows[r] holds CellUniforms::cell_input of row r, u gets row r's nu
+// uniforms at u[r * nu]. A pass of its own (not in the per-term code): the rows are independent, so
+// the hash chains overlap instead of waiting on each term's geometry.
+void cell_uniform_rows(const std::uint64_t* rows, std::size_t count, std::size_t nu, double* u) {
+  if (nu == 2) {  // the gated and binomial-family laws
+    for (std::size_t r = 0; r < count; ++r) {
+      const std::uint64_t h = mix64(rows[r]);
+      u[2 * r] = CellUniforms::unit(h);
+      u[2 * r + 1] = CellUniforms::unit(mix64(h + 0x8CB92BA72F3D8DD7ULL));
+    }
+    return;
+  }
+  for (std::size_t r = 0; r < count; ++r) {
+    const std::uint64_t h = mix64(rows[r]);
+    for (std::size_t d = 0; d < nu; ++d)
+      u[r * nu + d] = CellUniforms::unit(d == 0 ? h : mix64(h + d * 0x8CB92BA72F3D8DD7ULL));
+  }
+}
 constexpr std::size_t kChunk = 256;
 // The requests a chunk gathers for the inner law: per thread, kept between chunks and calls, so a
 // chunk neither zero-fills nor page-faults fresh buffers. Only grows (a chunk's rows are filled in
@@ -233,11 +251,12 @@ constexpr std::size_t kChunk = 256;
 struct Gathered {
   std::vector<double> n, p, u, coef, k;
   std::vector<std::size_t> owner;
+  std::vector<std::uint64_t> cell;  // CellUniforms::cell_input of each row
   bool in_use = false;
   void ensure_rows(std::size_t rows, std::size_t nu) {
     if (n.size() < rows) {
       rows = std::max(rows, 2 * n.size());
-      n.resize(rows), p.resize(rows), coef.resize(rows), k.resize(rows), owner.resize(rows);
+      n.resize(rows), p.resize(rows), coef.resize(rows), k.resize(rows), owner.resize(rows), cell.resize(rows);
     }
     if (u.size() < n.size() * nu) u.resize(n.size() * nu);
   }
@@ -398,14 +417,13 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
           gm = {t.grid, px.grid_seed, key, true, av[0].i, av[0].j, texel_key(key, av[0].i, av[0].j)};
         }
         std::size_t rows = 0;
-        double* urow = g->u.data() + gathered * nu;
+        std::uint64_t* cell_row = g->cell.data() + gathered;
         for (int b = 0; b < na; ++b) {
           if (av[b].i != gm.texel_i || av[b].j != gm.texel_j)
             gm.texel_i = av[b].i, gm.texel_j = av[b].j, gm.texel = texel_key(gm.key, av[b].i, av[b].j);
           const std::uint64_t key = gm.texel;
           for (int a = 0; a < ns; ++a, ++rows) {
-            const CellUniforms cell(key, sv[a].i, sv[a].j);
-            for (std::size_t d = 0; d < nu; ++d) urow[rows * nu + d] = cell(d);
+            cell_row[rows] = CellUniforms::cell_input(key, sv[a].i, sv[a].j);
             wrow[rows] = t.scale * sv[a].w * av[b].w;
           }
         }
@@ -425,6 +443,7 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
     if (gathered == 0) return;
     const double *n = g->n.data(), *pp = g->p.data(), *coef = g->coef.data(), *kk = g->k.data();
     const std::size_t* owner = g->owner.data();
+    cell_uniform_rows(g->cell.data(), gathered, nu, g->u.data());
     inner_.evaluate(n, pp, g->u.data(), gathered, g->k.data());
     for (std::size_t q = 0; q < gathered; ++q) {
       if (!std::isfinite(kk[q]))
