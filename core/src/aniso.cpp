@@ -228,8 +228,9 @@ struct CellUniforms {
 };
 // The uniforms of gathered cells: rows[r] holds CellUniforms::cell_input of row r, u gets row r's nu
 // uniforms at u[r * nu]. A pass of its own (not in the per-term code): the rows are independent, so
-// the hash chains overlap instead of waiting on each term's geometry.
-void cell_uniform_rows(const std::uint64_t* rows, std::size_t count, std::size_t nu, double* u) {
+// the hash chains overlap instead of waiting on each term's geometry. Integer hashing and exact
+// conversions only (x >> 11 < 2^53), so the vector clones give the same bits as the scalar one.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void cell_uniform_rows(const std::uint64_t* rows, std::size_t count, std::size_t nu, double* u) {
   if (nu == 2) {  // the gated and binomial-family laws
     for (std::size_t r = 0; r < count; ++r) {
       const std::uint64_t h = mix64(rows[r]);
