@@ -49,13 +49,14 @@ class Zk16Aniso final : public GridScheme {
     const LevelBracket br = ladder_.bracket(area);
     const double c = std::cos(shape.angle), s = std::sin(shape.angle);
     const auto n = static_cast<int>(probes);
+    const double side[2] = {std::sqrt(br.area_lo), std::sqrt(br.area_hi)};  // once per footprint, not per probe
     for (int q = 0; q < n; ++q) {
       const double offset = ((q + 0.5) / probes - 0.5) * 2 * shape.major;
       for (int lv = 0; lv < 2; ++lv) {
         Term t;
         const double cell = lv == 0 ? br.area_lo : br.area_hi;
         t.grid = {br.lo + lv, 0, 0};
-        t.cell_minor = t.cell_major = std::sqrt(cell);
+        t.cell_minor = t.cell_major = side[lv];
         t.cell_area = cell;
         t.dx = offset * c;
         t.dy = offset * s;
