@@ -1,6 +1,7 @@
 // DB23's anisotropic virtual grids (§5.2 trilinear, §6.1 tetrahedral): see aniso.hpp for how the
 // grids are laid out. Here: which grids a footprint's count is distributed over, and with what weights.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -43,6 +44,14 @@ class Db23Grids final : public GridScheme {
       throw_invalid(name, "max_ratio", max_ratio_, "a power of two in [2, 2^30]");
     max_level_ = static_cast<int>(levels);
     orientations1_ = static_cast<std::int64_t>(per_half_turn);
+    area_scale_weights_ = scale_weights_ == "area";
+    linear_ratio_weights_ = ratio_weights_ == "linear";
+    // Per ratio level (0 to max_level_ + 1): 2^k and the orientation step, tabulated with the same
+    // expressions terms() used per term (ldexp is exact, so the table holds the same bits).
+    for (int level = 0; level <= max_level_ + 1; ++level) {
+      pow2_[static_cast<std::size_t>(level)] = std::ldexp(1.0, level);
+      step_[static_cast<std::size_t>(level)] = level >= 1 ? std::ldexp(step_deg_ * std::numbers::pi / 180.0, 1 - level) : 0.0;
+    }
     params_ = {{"level_ratio", level_ratio}, {"base_area", base_area}, {"scale_weights", scale_weights_},
                {"ratio_weights", ratio_weights_}, {"orientation_step", step_deg_}, {"max_ratio", max_ratio_}};
     name_ = name;
@@ -63,22 +72,23 @@ class Db23Grids final : public GridScheme {
     const double r = std::min(shape.major / minor, max_ratio_);
     // Scale coordinate from the equivalent rectangle's minor side m = sqrt(π) b.
     const LevelBracket br = ladder_.bracket(std::numbers::pi * minor * minor);
-    const double z = scale_weights_ == "area" ? br.w_area : br.w_lod;
+    const double z = area_scale_weights_ ? br.w_area : br.w_lod;
     // Ratio cell [2^k, 2^(k+1)).
     int k = std::max(0, static_cast<int>(std::floor(std::log2(r))));
-    while (k > 0 && std::ldexp(1.0, k) > r) --k;
-    while (std::ldexp(1.0, k + 1) <= r) ++k;
+    k = std::min(k, max_level_);  // r <= max_ratio_ = 2^max_level_: only rounding can land above
+    while (k > 0 && pow2(k) > r) --k;
+    while (k < max_level_ && pow2(k + 1) <= r) ++k;
     double y;
     if (k >= max_level_) {
       k = max_level_ - 1;
       y = 1.0;
     } else {
-      y = ratio_weights_ == "linear" ? r / std::ldexp(1.0, k) - 1.0 : std::log2(r) - k;
+      y = linear_ratio_weights_ ? r / pow2(k) - 1.0 : std::log2(r) - k;
     }
     y = std::clamp(y, 0.0, 1.0);
     // Orientation bin of the cell's lower face (level 1 for the isotropic cell).
     const int face = std::max(k, 1);
-    const double step = orientation_step(face);
+    const double step = step_[static_cast<std::size_t>(face)];
     const double a = shape.angle / step;
     std::int64_t j = static_cast<std::int64_t>(std::floor(a));
     double x = std::clamp(a - static_cast<double>(j), 0.0, 1.0);
@@ -119,9 +129,10 @@ class Db23Grids final : public GridScheme {
           w[m] = y * (x2 - 1), used[m++] = 4;
         }
       }
+      const LevelSides sides(br);
       for (int s = 0; s < 2; ++s)
         for (int q = 0; q < m; ++q)
-          push(out, br, s, pv[used[q]], w[q] * (s == 0 ? 1 - z : z), density);
+          push(out, br, sides, s, pv[used[q]], w[q] * (s == 0 ? 1 - z : z), density);
       return clamped;
     }
     // Tetrahedral: the triangle of the plane holding (px, y), its prism over z in [0, 1] cut into 3
@@ -159,28 +170,37 @@ class Db23Grids final : public GridScheme {
     // Rounding can leave -1e-16: clamp and renormalize so the weights stay a partition of unity.
     double sum = 0;
     for (double& w : best_w) sum += (w = std::max(0.0, w));
+    const LevelSides sides(br);
     for (int v = 0; v < 4; ++v)
-      push(out, br, kTets[best][v][1], pv[tri[kTets[best][v][0]]], best_w[static_cast<std::size_t>(v)] / sum, density);
+      push(out, br, sides, kTets[best][v][1], pv[tri[kTets[best][v][0]]], best_w[static_cast<std::size_t>(v)] / sum, density);
     return clamped;
   }
 
  private:
-  double orientation_step(int level) const {  // radians, level >= 1
-    return std::ldexp(step_deg_ * std::numbers::pi / 180.0, 1 - level);
-  }
+  double pow2(int level) const { return pow2_[static_cast<std::size_t>(level)]; }
   std::int64_t orientations(int level) const { return orientations1_ << (level - 1); }
+  // The isotropic cell sides of a bracket's two scale levels (one square root each per footprint).
+  struct LevelSides {
+    double lo, hi;
+    explicit LevelSides(const LevelBracket& br) : lo(std::sqrt(br.area_lo)), hi(std::sqrt(br.area_hi)) {}
+  };
 
-  void push(std::vector<Term>& out, const LevelBracket& br, int upper, const PlaneVertex& v, double weight,
-            double density) const {
+  void push(std::vector<Term>& out, const LevelBracket& br, const LevelSides& sides, int upper, const PlaneVertex& v,
+            double weight, double density) const {
     Term t;
     const int scale = br.lo + upper;
     const std::int64_t count = v.ratio == 0 ? 1 : orientations(v.ratio);
-    t.grid = {scale, v.ratio, v.ratio == 0 ? 0 : ((v.orientation % count) + count) % count};
-    t.angle = v.ratio == 0 ? 0.0 : static_cast<double>(t.grid.orientation) * orientation_step(v.ratio);
+    // The orientation modulo count; the cells' vertices lie in [0, 2 count], so the division is rare.
+    std::int64_t orientation = v.orientation;
+    if (orientation >= count && orientation < 2 * count) orientation -= count;
+    else if (orientation < 0 || orientation >= count) orientation = ((orientation % count) + count) % count;
+    t.grid = {scale, v.ratio, v.ratio == 0 ? 0 : orientation};
+    t.angle = v.ratio == 0 ? 0.0 : static_cast<double>(t.grid.orientation) * step_[static_cast<std::size_t>(v.ratio)];
     const double area = upper ? br.area_hi : br.area_lo;
-    t.cell_minor = std::sqrt(area);
-    t.cell_major = std::ldexp(t.cell_minor, v.ratio);
-    t.cell_area = std::ldexp(area, v.ratio);
+    // Multiplying by 2^ratio is exact, as ldexp: the same bits.
+    t.cell_minor = upper ? sides.hi : sides.lo;
+    t.cell_major = t.cell_minor * pow2(v.ratio);
+    t.cell_area = area * pow2(v.ratio);
     t.weight = weight;
     t.trials = weight * density * t.cell_area;
     out.push_back(t);
@@ -192,6 +212,8 @@ class Db23Grids final : public GridScheme {
   double step_deg_ = 22.5, max_ratio_ = 1048576.0;
   int max_level_ = 20;
   std::int64_t orientations1_ = 8;
+  bool area_scale_weights_ = true, linear_ratio_weights_ = true;
+  std::array<double, 32> pow2_{}, step_{};  // per ratio level 0 .. max_level_ + 1 (max_level_ <= 30)
   LawParams params_;
 };
 

@@ -25,6 +25,7 @@ class Zk16Aniso final : public GridScheme {
     blend_ = reader.text("blend", "zk16_linear", {"zk16_linear", "distributed"});
     reader.finish();
     ladder_ = LevelLadder(level_ratio, base_area);
+    blend_outputs_ = blend_ == "zk16_linear";
     if (!(max_aniso_ >= 1 && max_aniso_ <= 1024) || max_aniso_ != std::round(max_aniso_))
       throw_invalid("zk16_aniso", "max_aniso", max_aniso_, "an integer in [1, 1024]");
     params_ = {{"level_ratio", level_ratio}, {"base_area", base_area}, {"max_aniso", max_aniso_}, {"blend", blend_}};
@@ -48,17 +49,18 @@ class Zk16Aniso final : public GridScheme {
     const LevelBracket br = ladder_.bracket(area);
     const double c = std::cos(shape.angle), s = std::sin(shape.angle);
     const auto n = static_cast<int>(probes);
+    const double side[2] = {std::sqrt(br.area_lo), std::sqrt(br.area_hi)};  // once per footprint, not per probe
     for (int q = 0; q < n; ++q) {
       const double offset = ((q + 0.5) / probes - 0.5) * 2 * shape.major;
       for (int lv = 0; lv < 2; ++lv) {
         Term t;
         const double cell = lv == 0 ? br.area_lo : br.area_hi;
         t.grid = {br.lo + lv, 0, 0};
-        t.cell_minor = t.cell_major = std::sqrt(cell);
+        t.cell_minor = t.cell_major = side[lv];
         t.cell_area = cell;
         t.dx = offset * c;
         t.dy = offset * s;
-        if (blend_ == "zk16_linear") {
+        if (blend_outputs_) {
           t.weight = lv == 0 ? 1 - br.w_lod : br.w_lod;
           t.trials = density * cell;
           t.scale = area * t.weight / cell;
@@ -76,6 +78,7 @@ class Zk16Aniso final : public GridScheme {
   LevelLadder ladder_;
   double max_aniso_ = 16;
   std::string blend_;
+  bool blend_outputs_ = true;  // blend_ == "zk16_linear", compared once rather than per term
   LawParams params_;
 };
 

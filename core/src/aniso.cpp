@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <numbers>
 #include <stdexcept>
@@ -150,7 +151,8 @@ std::array<double, 4> barycentric(const std::array<double, 3>& q, const std::arr
   return w;
 }
 
-int spatial_vertices(Spatial spatial, double X, double Y, Vertex2* out) {
+// Inlined into the counter's per-term loop (a call per term and lattice cost more than the work).
+inline int spatial_vertices_inline(Spatial spatial, double X, double Y, Vertex2* out) {
   const double fx0 = std::floor(X), fy0 = std::floor(Y);
   const auto i = static_cast<std::int64_t>(fx0), j = static_cast<std::int64_t>(fy0);
   switch (spatial) {
@@ -188,6 +190,10 @@ int spatial_vertices(Spatial spatial, double X, double Y, Vertex2* out) {
   return 0;
 }
 
+int spatial_vertices(Spatial spatial, double X, double Y, Vertex2* out) {
+  return spatial_vertices_inline(spatial, X, Y, out);
+}
+
 }  // namespace weights
 
 // ---------------------------------------------------------------------------------------------
@@ -212,15 +218,56 @@ std::uint64_t texel_key(std::uint64_t grid, std::int64_t ax, std::int64_t ay) {
 // generator) cost a few ns each, where a Philox block per cell would dominate an image's cost.
 struct CellUniforms {
   std::uint64_t h;
-  CellUniforms(std::uint64_t key, std::int64_t cx, std::int64_t cy)
-      : h(mix64(key + static_cast<std::uint64_t>(cx) * 0xD1B54A32D192ED03ULL +
-                static_cast<std::uint64_t>(cy) * 0xABC98388FB8FAC03ULL)) {}
-  double operator()(std::size_t d) const {
-    const std::uint64_t x = d == 0 ? h : mix64(h + d * 0x8CB92BA72F3D8DD7ULL);
-    return (static_cast<double>(x >> 11) + 0.5) * 0x1.0p-53;  // open (0, 1), as CounterRng
+  CellUniforms(std::uint64_t key, std::int64_t cx, std::int64_t cy) : h(mix64(cell_input(key, cx, cy))) {}
+  static std::uint64_t cell_input(std::uint64_t key, std::int64_t cx, std::int64_t cy) {
+    return key + static_cast<std::uint64_t>(cx) * 0xD1B54A32D192ED03ULL +
+           static_cast<std::uint64_t>(cy) * 0xABC98388FB8FAC03ULL;
+  }
+  static double unit(std::uint64_t x) { return (static_cast<double>(x >> 11) + 0.5) * 0x1.0p-53; }  // open (0, 1), as CounterRng
+  double operator()(std::size_t d) const { return unit(d == 0 ? h : mix64(h + d * 0x8CB92BA72F3D8DD7ULL)); }
+};
+// The uniforms of gathered cells: rows[r] holds CellUniforms::cell_input of row r, u gets row r's nu
+// uniforms at u[r * nu]. A pass of its own (not in the per-term code): the rows are independent, so
+// the hash chains overlap instead of waiting on each term's geometry. Integer hashing and exact
+// conversions only (x >> 11 < 2^53), so the vector clones give the same bits as the scalar one.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void cell_uniform_rows(const std::uint64_t* rows, std::size_t count, std::size_t nu, double* u) {
+  if (nu == 2) {  // the gated and binomial-family laws
+    for (std::size_t r = 0; r < count; ++r) {
+      const std::uint64_t h = mix64(rows[r]);
+      u[2 * r] = CellUniforms::unit(h);
+      u[2 * r + 1] = CellUniforms::unit(mix64(h + 0x8CB92BA72F3D8DD7ULL));
+    }
+    return;
+  }
+  for (std::size_t r = 0; r < count; ++r) {
+    const std::uint64_t h = mix64(rows[r]);
+    for (std::size_t d = 0; d < nu; ++d)
+      u[r * nu + d] = CellUniforms::unit(d == 0 ? h : mix64(h + d * 0x8CB92BA72F3D8DD7ULL));
+  }
+}
+constexpr std::size_t kChunk = 256;
+// The requests a chunk gathers for the inner law: per thread, kept between chunks and calls, so a
+// chunk neither zero-fills nor page-faults fresh buffers. Only grows (a chunk's rows are filled in
+// order, so growing keeps what was gathered).
+struct Gathered {
+  std::vector<double> n, p, u, coef, k;
+  std::vector<std::size_t> owner;
+  std::vector<std::uint64_t> cell;  // CellUniforms::cell_input of each row
+  bool in_use = false;
+  void ensure_rows(std::size_t rows, std::size_t nu) {
+    if (n.size() < rows) {
+      rows = std::max(rows, 2 * n.size());
+      n.resize(rows), p.resize(rows), coef.resize(rows), k.resize(rows), owner.resize(rows), cell.resize(rows);
+    }
+    if (u.size() < n.size() * nu) u.resize(n.size() * nu);
   }
 };
-constexpr std::size_t kChunk = 256;
+// Beyond this many rows a thread gives its buffers back after the chunk (a wide scheme's one-off).
+constexpr std::size_t kKeptRows = std::size_t{1} << 16;
+Gathered& thread_gathered() {
+  thread_local Gathered gathered;
+  return gathered;
+}
 constexpr std::size_t kMaxRows = 16;  // 4 spatial x 4 angular
 }  // namespace
 
@@ -268,13 +315,50 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
     throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(trials) +
                                 " at p = " + format_value(p));
   };
+  // Rows a chunk can gather at most: every buffer is sized once per chunk, so the gather never
+  // reallocates (no regrowth copies) and writes by index.
+  const std::size_t rows_per_term = static_cast<std::size_t>(evaluations_per_term());
+  const std::size_t max_terms = scheme_->max_terms();
   auto chunk_body = [&](std::size_t i0, std::size_t i1) {
     std::vector<Term> terms;
-    terms.reserve(scheme_->max_terms());
-    // Gathered requests (laws that are not thread safe or not built in: one call per chunk).
-    std::vector<double> n, pp, u, coef, kk;
-    std::vector<std::size_t> owner;
-    double urow[kMaxRows * 16], wrow[kMaxRows];
+    terms.reserve(max_terms);
+    // Gathered requests (laws that are not thread safe or not built in: one call per chunk). A call
+    // made from inside the inner law (a Python law counting an image) finds the thread's buffers in
+    // use and gets its own.
+    std::unique_ptr<Gathered> own;
+    Gathered* g = &thread_gathered();
+    if (g->in_use) {
+      own = std::make_unique<Gathered>();
+      g = own.get();
+    }
+    struct Release {
+      Gathered* g;
+      ~Release() {
+        g->in_use = false;
+        if (g->n.size() > kKeptRows) *g = Gathered{};
+      }
+    } release{g};
+    g->in_use = true;
+    g->ensure_rows((i1 - i0) * std::min<std::size_t>(max_terms, 8) * rows_per_term, nu);
+    std::size_t gathered = 0;
+    double wrow[kMaxRows];
+    // Memo of the last term angle's cosine and sine (direct mapped on the angle's bits): the schemes
+    // use a few grid orientations, so nearly every term reuses a value std::cos / std::sin already
+    // gave for the same argument (the same bits, at a fraction of a libm call).
+    struct TrigMemo {
+      std::uint64_t bits = 0;  // the angle +0.0
+      double c = 1.0, s = 0.0;   // std::cos(+0.0), std::sin(+0.0) exactly
+    };
+    std::array<TrigMemo, 64> trig;
+    // Memo of each term slot's grid key: neighbouring pixels mostly read the same grids.
+    struct GridMemo {
+      GridId grid{};
+      std::uint64_t seed = 0, key = 0;
+      bool set = false;
+      std::int64_t texel_i = 0, texel_j = 0;  // the last angular texel read on this grid, and its key
+      std::uint64_t texel = 0;
+    };
+    std::vector<GridMemo> grid_memo(max_terms);
     for (std::size_t i = i0; i < i1; ++i) {
       Pixel px;
       Shape shape;
@@ -287,20 +371,31 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
       }
       terms.clear();
       const bool clamped = scheme_->terms(shape, density, terms);
+      g->ensure_rows(gathered + terms.size() * rows_per_term, nu);
+      double* const n = g->n.data();
+      double* const pp = g->p.data();
+      double* const coef = g->coef.data();
+      std::size_t* const owner = g->owner.data();
+      if (terms.size() > grid_memo.size()) grid_memo.resize(terms.size());
       if (status_out) status_out[i] = static_cast<std::uint8_t>(clamped ? ShapeStatus::kClamped : shape.status);
       std::int32_t evaluations = 0;
       for (std::size_t ti = 0; ti < terms.size(); ++ti) {
         const Term& t = terms[ti];
         if (inner_.law && t.trials > 0 && !inner_.law->accepts(t.trials, px.p)) refuse(t.trials, px.p);
         const double x = px.u + t.dx, y = px.v + t.dy;
-        const double c = std::cos(t.angle), s = std::sin(t.angle);
+        std::uint64_t angle_bits;
+        std::memcpy(&angle_bits, &t.angle, sizeof angle_bits);
+        TrigMemo& memo = trig[(angle_bits ^ (angle_bits >> 29) ^ (angle_bits >> 47)) & (trig.size() - 1)];
+        if (memo.bits != angle_bits) memo = {angle_bits, std::cos(t.angle), std::sin(t.angle)};
+        const double c = memo.c, s = memo.s;
         // Grid coordinates: across the long side (X) and along it (Y), in cells.
         const double X = (-x * s + y * c) / t.cell_minor, Y = (x * c + y * s) / t.cell_major;
         weights::Vertex2 sv[4], av[4];
-        int ns = weights::spatial_vertices(options_.spatial, X, Y, sv);
-        int na = weights::spatial_vertices(angular_lattice, px.su, px.sv, av);
-        if (select) {
-          // One vertex with probability v_j (inversion of the running sum), for each lattice.
+        int ns = weights::spatial_vertices_inline(options_.spatial, X, Y, sv);
+        int na = weights::spatial_vertices_inline(angular_lattice, px.su, px.sv, av);
+        if (select && (ns > 1 || na > 1)) {
+          // One vertex with probability v_j (inversion of the running sum), for each lattice. (A
+          // single vertex is its own pick: its uniforms would go unread, so they are not drawn.)
           const CellUniforms pick_u(px.select_seed, static_cast<std::int64_t>(i), static_cast<std::int64_t>(ti));
           auto pick = [](weights::Vertex2* v, int count, double r) {
             double acc = 0;
@@ -315,13 +410,21 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
           pick(av, na, pick_u(1));
           ns = na = 1;
         }
+        GridMemo& gm = grid_memo[ti];
+        if (!gm.set || gm.seed != px.grid_seed || gm.grid.scale != t.grid.scale || gm.grid.ratio != t.grid.ratio ||
+            gm.grid.orientation != t.grid.orientation)
+        {
+          const std::uint64_t key = grid_key(px.grid_seed, t.grid);
+          gm = {t.grid, px.grid_seed, key, true, av[0].i, av[0].j, texel_key(key, av[0].i, av[0].j)};
+        }
         std::size_t rows = 0;
-        const std::uint64_t gkey = grid_key(px.grid_seed, t.grid);
+        std::uint64_t* cell_row = g->cell.data() + gathered;
         for (int b = 0; b < na; ++b) {
-          const std::uint64_t key = texel_key(gkey, av[b].i, av[b].j);
+          if (av[b].i != gm.texel_i || av[b].j != gm.texel_j)
+            gm.texel_i = av[b].i, gm.texel_j = av[b].j, gm.texel = texel_key(gm.key, av[b].i, av[b].j);
+          const std::uint64_t key = gm.texel;
           for (int a = 0; a < ns; ++a, ++rows) {
-            const CellUniforms cell(key, sv[a].i, sv[a].j);
-            for (std::size_t d = 0; d < nu; ++d) urow[rows * nu + d] = cell(d);
+            cell_row[rows] = CellUniforms::cell_input(key, sv[a].i, sv[a].j);
             wrow[rows] = t.scale * sv[a].w * av[b].w;
           }
         }
@@ -329,20 +432,21 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
         // Every evaluation of the chunk is gathered and made in one call of the inner law's per-pixel
         // path (vector code for the laws that have it), then summed per pixel in term order: the
         // same operations in the same order as summing each term as it comes, so the same bits.
-        for (std::size_t q = 0; q < rows; ++q) {
-          n.push_back(t.trials);
-          pp.push_back(px.p);
-          u.insert(u.end(), urow + q * nu, urow + (q + 1) * nu);
-          coef.push_back(wrow[q]);
-          owner.push_back(i);
+        for (std::size_t q = 0; q < rows; ++q, ++gathered) {
+          n[gathered] = t.trials;
+          pp[gathered] = px.p;
+          coef[gathered] = wrow[q];
+          owner[gathered] = i;
         }
       }
       if (evals_out) evals_out[i] = evaluations;
     }
-    if (n.empty()) return;
-    kk.resize(n.size());
-    inner_.evaluate(n.data(), pp.data(), u.data(), n.size(), kk.data());
-    for (std::size_t q = 0; q < n.size(); ++q) {
+    if (gathered == 0) return;
+    const double *n = g->n.data(), *pp = g->p.data(), *coef = g->coef.data(), *kk = g->k.data();
+    const std::size_t* owner = g->owner.data();
+    cell_uniform_rows(g->cell.data(), gathered, nu, g->u.data());
+    inner_.evaluate(n, pp, g->u.data(), gathered, g->k.data());
+    for (std::size_t q = 0; q < gathered; ++q) {
       if (!std::isfinite(kk[q]))
         throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
                                     format_value(n[q]) + ", p = " + format_value(pp[q]));
