@@ -23,6 +23,7 @@
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
 #include "glintlab/templated_law.hpp"
+#include "../src/pixel_blocks.hpp"
 #include "../src/simd_math.hpp"
 
 namespace glintlab {
@@ -120,22 +121,10 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
   void evaluate_pixels(const double* n, const double* p, const double* u, std::size_t count,
                        double* out) const override {
     constexpr std::size_t kB = 256;
-    const int simd = detail::simd_level();
-    if (simd >= 2 || (simd >= 1 && detail::cpu_has_fma())) {
-      // The whole block at the CPU's ISA (head_cf_pixels_body.inc), then eval where flagged.
-      alignas(64) double redo[kB];
-      for (std::size_t s = 0; s < count; s += kB) {
-        const std::size_t mcount = std::min(kB, count - s);
-        const double *nn = n + s, *pp = p + s, *uu = u + 2 * s;
-        double* oo = out + s;
-        const bool any = simd >= 2 ? detail::head_cf_pixels_block_avx512(nn, pp, uu, mcount, oo, redo)
-                                   : detail::head_cf_pixels_block_avx2(nn, pp, uu, mcount, oo, redo);
-        if (any)
-          for (std::size_t i = 0; i < mcount; ++i)
-            if (redo[i] != 0.0) oo[i] = eval<double>(nn[i], pp[i], uu + 2 * i);
-      }
+    // The whole block at the CPU's ISA (head_cf_pixels_body.inc), then eval where flagged.
+    if (detail::run_pixel_blocks(detail::head_cf_pixels_block_avx512, detail::head_cf_pixels_block_avx2, n, p, u, count,
+                                 out, [this](double nv, double pv, const double* row) { return eval<double>(nv, pv, row); }))
       return;
-    }
     alignas(64) double a[kB], e[kB], lt[kB];
     for (std::size_t s = 0; s < count; s += kB) {
       const std::size_t mcount = std::min(kB, count - s);
