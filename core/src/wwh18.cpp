@@ -180,6 +180,7 @@ Wwh18Ndf::Wwh18Ndf(const Wwh18Params& params) : p_(params) {
   s0_ = std::sqrt(p_.flakes_per_cell / p_.density);
   cos_gamma_ = std::cos(p_.gamma_deg * kDeg);
   cone_solid_angle_ = 2.0 * kPi * (1.0 - cos_gamma_);
+  build_cells();
   if (p_.dpf == WwhDpf::table) {
     build_table();
     if (p_.lod_deg > 0.0) blur_table();
@@ -216,22 +217,38 @@ double Wwh18Ndf::cone_mass(const double hin[3]) const {
   return std::clamp(GK::integrate(outer, 0.0, gamma, 12, 1e-11), 0.0, 1.0);
 }
 
+void Wwh18Ndf::build_cells() {
+  // The hemisphere grid of the 1-degree (table_res) table: bands of theta_m, cells of phi_m; a cell's
+  // mass is its band's mass (closed-form CDF of theta_m) times its share of 2 pi.
+  const int nt = static_cast<int>(std::lround(90.0 / p_.table_res_deg));
+  const int nphi = 4 * nt;
+  const double res = p_.table_res_deg * kDeg;
+  band_ct_.resize(nt);
+  band_st_.resize(nt);
+  band_mass_.resize(nt);
+  for (int k = 0; k < nt; ++k) {
+    const double tc = (k + 0.5) * res;
+    band_ct_[k] = std::cos(tc);
+    band_st_[k] = std::sin(tc);
+    band_mass_[k] = band_mass(k * res, (k + 1) * res) / nphi;
+  }
+}
+
 double Wwh18Ndf::accumulated(const double hin[3]) const {
   double h[3];
   normalise(hin, h);
-  const double th = std::acos(std::clamp(h[2], -1.0, 1.0));
+  const double ch = std::clamp(h[2], -1.0, 1.0), sh = std::sqrt(std::max(0.0, 1.0 - ch * ch));
+  const double th = std::acos(ch);
   const double ph = std::atan2(h[1], h[0]);
-  const double ch = std::cos(th), sh = std::sin(th);
   const double res = p_.table_res_deg * kDeg, gamma = p_.gamma_deg * kDeg;
-  const int nt = static_cast<int>(std::lround(90.0 / p_.table_res_deg));
-  const int nphi = 4 * nt;
-  const double cell_phi_share = 1.0 / nphi;
+  const int nt = static_cast<int>(band_ct_.size());
+  const long nphi = 4L * nt;  // phi cells per band
   double sum = 0.0;
   const int k0 = std::max(0, static_cast<int>(std::floor((th - gamma) / res - 0.5)) - 1);
   const int k1 = std::min(nt - 1, static_cast<int>(std::ceil((th + gamma) / res - 0.5)) + 1);
   for (int k = k0; k <= k1; ++k) {
-    const double tc = (k + 0.5) * res, ct = std::cos(tc), st = std::sin(tc);
-    // Cells of band k whose centre (tc, phi) lies within gamma of h: cos(phi - ph) >= c.
+    const double ct = band_ct_[k], st = band_st_[k];
+    // Cells of band k whose centre (theta_c, phi) lies within gamma of h: cos(phi - phi_h) >= c.
     double half_width;
     if (sh * st == 0.0) {
       half_width = ct * ch >= cos_gamma_ ? kPi : -1.0;
@@ -240,19 +257,15 @@ double Wwh18Ndf::accumulated(const double hin[3]) const {
       half_width = c <= -1.0 ? kPi : (c > 1.0 ? -1.0 : std::acos(c));
     }
     if (half_width < 0.0) continue;
-    const double mass = band_mass(k * res, (k + 1) * res) * cell_phi_share;
-    if (half_width >= kPi) {
-      // The whole band, checked cell by cell only where the window might miss some (it cannot here).
-      sum += mass * nphi;
+    if (half_width >= kPi) {  // the whole band
+      sum += band_mass_[k] * static_cast<double>(nphi);
       continue;
     }
-    const auto l0 = static_cast<long>(std::floor((ph - half_width) / res - 0.5)) - 1;
-    const auto l1 = static_cast<long>(std::ceil((ph + half_width) / res - 0.5)) + 1;
-    const long span = std::min<long>(l1 - l0 + 1, nphi);
-    for (long l = l0; l < l0 + span; ++l) {
-      const double pc = (l + 0.5) * res;
-      if (st * sh * std::cos(pc - ph) + ct * ch >= cos_gamma_) sum += mass;
-    }
+    // The cells inside are those whose centre angle (l + 1/2) res lies in [phi_h - w, phi_h + w]: a
+    // contiguous run of indices (2 w < 2 pi here), counted without visiting them.
+    const double lo = std::ceil((ph - half_width) / res - 0.5), hi = std::floor((ph + half_width) / res - 0.5);
+    const double inside = std::clamp(hi - lo + 1.0, 0.0, static_cast<double>(nphi));
+    sum += band_mass_[k] * inside;
   }
   return std::min(sum, 1.0);
 }
@@ -375,11 +388,12 @@ double Wwh18Ndf::model_p(const double hin[3], const double* wiin) const {
 
 double Wwh18Ndf::lambda(std::uint64_t seed, int level, std::int64_t i, std::int64_t j, std::uint32_t k) const {
   if (p_.rng == WwhRng::tea) {
-    // TEA as JHY14 and WWH18 use it: the node id (i, j) is the block, the seed, level and flake index
-    // the key, so neighbouring node ids differ only in the block's low bits.
-    std::uint32_t v0 = static_cast<std::uint32_t>(i), v1 = static_cast<std::uint32_t>(j);
+    // TEA as JHY14 and WWH18 use it: a 32-bit node id and the flake index as the 64-bit block, the seed
+    // and the level as the key. The node id packs (i, j) as i + 2^16 j (wrapping: nodes 2^16 apart may
+    // share an id, as with a renderer's 32-bit ids), so horizontally adjacent nodes have adjacent ids.
+    std::uint32_t v0 = static_cast<std::uint32_t>(i) + (static_cast<std::uint32_t>(j) << 16), v1 = k;
     const std::uint32_t key[4] = {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32),
-                                  static_cast<std::uint32_t>(level), k};
+                                  static_cast<std::uint32_t>(level), 0x9e3779b9u};
     tea_encrypt(v0, v1, key, p_.tea_rounds);
     return unit32(v0);
   }

@@ -85,9 +85,10 @@ TEST_CASE("WWH18 is deterministic across thread counts", "[wwh18]") {
   const std::size_t m = 200;
   std::vector<double> uv(2 * m), jac(4 * m), h(3 * m);
   for (std::size_t i = 0; i < m; ++i) {
-    uv[2 * i] = 0.013 * i;
-    uv[2 * i + 1] = 0.007 * i;
-    jac[4 * i] = 0.01 + 1e-4 * i;
+    const auto x = static_cast<double>(i);
+    uv[2 * i] = 0.013 * x;
+    uv[2 * i + 1] = 0.007 * x;
+    jac[4 * i] = 0.01 + 1e-4 * x;
     jac[4 * i + 1] = 0.002;
     jac[4 * i + 2] = -0.001;
     jac[4 * i + 3] = 0.012;

@@ -40,8 +40,10 @@ H = np.array([0.15, -0.05, 1.0])
 
 
 def make(**kw):
+    # Philox for lambda: 4-round TEA correlates neighbouring ids (test_tea_adjacent_node_ids), which
+    # would mix the generator's error into every other check.
     base = dict(density=DENSITY, alpha=0.3, gamma=10, dpf="exact", threshold_test="flipped",
-                lambda_seeding="flake", T=math.inf)
+                lambda_seeding="flake", T=math.inf, rng="philox")
     base.update(kw)
     return gl.glinty_ndf("wwh18", **base)
 
@@ -71,7 +73,7 @@ def test_truth_count_is_poisson_and_a_wrong_law_is_rejected():
     k = w.reference_counts(uv, J, h, seed=11)
     assert np.all(k == np.round(k))
     mu = float(w.expected_count(J[:1], h[:1])[0])
-    assert 3 < mu < 20
+    assert 3 < mu < 60
     assert gl.chi2_test(k, poisson_dist(mu)).pvalue > ALPHA_P
     # The wrong variant: the law of a cone 10% wider (its own p_gamma by quadrature) is rejected.
     wider = make(gamma=11)
@@ -80,9 +82,9 @@ def test_truth_count_is_poisson_and_a_wrong_law_is_rejected():
 
 
 def test_cone_mass_is_the_flake_normals_share():
-    # A footprint holding ~2e5 flakes: the truth's count / (N |A|) estimates p_gamma(h) within 4.5 sd.
+    # A footprint holding ~65000 flakes: the truth's count / (N |A|) estimates p_gamma(h) within 4.5 sd.
     w = make(gamma=6)
-    J = np.array([[0.25, 0.0, 0.0, 0.25]])
+    J = np.array([[2.0, 0.0, 0.0, 2.0]])
     for hv in ([0, 0, 1], [0.5, 0.2, 1.0]):
         h = np.array([hv], float)
         k = w.reference_counts([[3.0, 3.0]], J, h, seed=2)[0]
@@ -105,7 +107,7 @@ def test_model_law_on_whole_cells_by_reading():
     k = good.counts(uv, J, h, seed=5)
     assert np.all(k == np.round(k))
     assert gl.chi2_test(k, dist).pvalue > ALPHA_P
-    for wrong in (make(threshold_test="printed"), make(lambda_seeding="node"), make(lambda_seeding="node", rng="philox")):
+    for wrong in (make(threshold_test="printed"), make(lambda_seeding="node"), make(rng="tea", tea_rounds=4)):
         kw = wrong.counts(uv, J, h, seed=5)
         assert gl.chi2_test(kw, dist).pvalue < ALPHA_P
 
@@ -211,7 +213,8 @@ def test_table2_level_choice():
 
 def test_tea_adjacent_node_ids():
     # lambda of horizontally adjacent node ids (i, j), (i + 1, j): Philox and 32-round TEA show no
-    # correlation beyond 4.5 / sqrt(n); 1-round TEA (a deliberately weak generator) does.
+    # correlation beyond 4.5 / sqrt(n); 1-round TEA (a deliberately weak generator) does, and so does the
+    # 4-round TEA of the default (measured: about 0.54; docs/math/wwh18.md#wwh18-tea).
     n = 20000
     i = np.arange(n, dtype=np.int64)
     j = np.zeros(n, dtype=np.int64)
@@ -219,8 +222,9 @@ def test_tea_adjacent_node_ids():
     for kw in (dict(rng="philox"), dict(rng="tea", tea_rounds=32)):
         lam = make(**kw).lambdas(7, 0, i, j)
         assert abs(np.corrcoef(lam[:-1], lam[1:])[0, 1]) < bound, kw
-    weak = make(rng="tea", tea_rounds=1).lambdas(7, 0, i, j)
-    assert abs(np.corrcoef(weak[:-1], weak[1:])[0, 1]) > bound
+    for rounds in (1, 4):
+        weak = make(rng="tea", tea_rounds=rounds).lambdas(7, 0, i, j)
+        assert abs(np.corrcoef(weak[:-1], weak[1:])[0, 1]) > bound, rounds
 
 
 def test_deterministic_per_seed():

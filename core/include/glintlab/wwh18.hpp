@@ -106,6 +106,7 @@ class Wwh18Ndf {
                    double p) const;
   double traverse(const Footprint& fp, std::uint64_t seed, double p) const;
   double band_mass(double t0, double t1) const;  // mass of D(m)(m.n) with theta_m in [t0, t1], radians
+  void build_cells();
   void build_table();
   void blur_table();
 
@@ -113,6 +114,7 @@ class Wwh18Ndf {
   double s0_ = 0.0, cos_gamma_ = 1.0, cone_solid_angle_ = 0.0;
   int dims_[3] = {0, 0, 0};
   std::vector<double> table_;
+  std::vector<double> band_ct_, band_st_, band_mass_;  // the hemisphere grid's bands (mass per cell)
 };
 
 // TEA (Wheeler and Needham 1995) on the block (v0, v1) with the 128-bit key k, `rounds` Feistel cycles.
