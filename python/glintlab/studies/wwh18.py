@@ -30,10 +30,10 @@ from .base import Context, Tables
 NAME = "wwh18"
 TITLE = "WWH18's filterable model against its discrete-flake truth, reading by reading"
 MEANING = ("On the same flakes, WWH18's printed threshold test H(lambda - P) counts the flakes that should not "
-           "reflect (mean x (1 - P) / P) and its per-node lambda inflates the variance; the flipped test with a "
-           "per-flake lambda is exact on whole cells and unbiased with fractional overlaps.")
-DEFAULTS = {"pixels": 2500, "alpha": 0.3, "gamma": 6.0, "cells_per_side": 4.0, "table_res": 2.0,
-            "table_pairs": 300, "filtered_pixels": 1500, "tea_pairs": 100000, "seed_offset": 0}
+           "reflect (mean x (1 - P) / P), its per-node lambda and 4-round TEA inflate the variance; the flipped "
+           "test with a per-flake lambda is exact on whole cells and unbiased with fractional overlaps.")
+DEFAULTS = {"pixels": 1600, "alpha": 0.3, "gamma": 6.0, "cells_per_side": 4.0, "table_res": 2.0,
+            "table_pairs": 200, "filtered_pixels": 1200, "tea_pairs": 50000}
 QUICK = {"pixels": 400, "table_pairs": 60, "filtered_pixels": 300, "tea_pairs": 20000}
 NOTEBOOK = "wwh18.ipynb"
 TABLE = {"wwh18_readings": ["footprints", "reading", "mean_ratio", "var_ratio", "tv", "chi2_p"],
@@ -44,17 +44,19 @@ TABLE = {"wwh18_readings": ["footprints", "reading", "mean_ratio", "var_ratio", 
 S0 = 1.0 / 64  # base cell side: a power of two, so whole-cell footprints are exact in binary
 H = np.array([0.15, -0.05, 1.0])
 
-# (label, options) of the model; "truth" is the control row.
+# (label, options) of the model, each approximation on its own, then as printed; "truth" is the control
+# row. Philox draws lambda unless the row is about TEA (4-round TEA correlates neighbouring ids).
+_EXACT = dict(threshold_test="flipped", lambda_seeding="flake", dpf="exact", rng="philox")
 READINGS = [
-    ("as printed: H(lambda - P), lambda per node, table", dict(threshold_test="printed", lambda_seeding="node", dpf="table")),
-    ("H(lambda - P), lambda per flake, table", dict(threshold_test="printed", lambda_seeding="flake", dpf="table")),
-    ("H(P - lambda), lambda per node, table", dict(threshold_test="flipped", lambda_seeding="node", dpf="table")),
-    ("H(P - lambda), lambda per flake, table", dict(threshold_test="flipped", lambda_seeding="flake", dpf="table")),
-    ("H(P - lambda), lambda per flake, exact P", dict(threshold_test="flipped", lambda_seeding="flake", dpf="exact")),
-    ("H(P - lambda), lambda per flake, exact P, error_eps 0.25",
-     dict(threshold_test="flipped", lambda_seeding="flake", dpf="exact", error_eps=0.25)),
-    ("H(P - lambda), per flake, exact P, philox", dict(threshold_test="flipped", lambda_seeding="flake", dpf="exact", rng="philox")),
-    ("filtered model everywhere (T -> 0), exact P", dict(threshold_test="flipped", lambda_seeding="flake", dpf="exact", T=1e-12)),
+    ("traversal alone: H(P - lambda), lambda per flake, exact P", _EXACT),
+    ("+ error criterion: nodes up to 0.25 |A| fractional", {**_EXACT, "error_eps": 0.25}),
+    ("+ P from the table (Table 2 level)", {**_EXACT, "dpf": "table"}),
+    ("+ 4-round TEA for lambda", {**_EXACT, "dpf": "table", "rng": "tea"}),
+    ("lambda per node (printed), exact P", {**_EXACT, "lambda_seeding": "node"}),
+    ("H(lambda - P) (printed), exact P", {**_EXACT, "threshold_test": "printed"}),
+    ("as printed: H(lambda - P), lambda per node, table, TEA",
+     dict(threshold_test="printed", lambda_seeding="node", dpf="table", rng="tea")),
+    ("filtered model everywhere (T -> 0), exact P", {**_EXACT, "T": 1e-12}),
 ]
 
 
@@ -87,7 +89,7 @@ def compute(params: dict, ctx: Context) -> Tables:
     alpha, gamma, side = float(params["alpha"]), float(params["gamma"]), float(params["cells_per_side"])
     density = 4.0 / S0**2
     common = dict(density=density, alpha=alpha, gamma=gamma, T=math.inf, table_res=float(params["table_res"]))
-    seed = ctx.seed + int(params["seed_offset"])
+    seed = ctx.seed
     kinds = {
         # Rotated squares straddling cells (fractional overlaps), and squares of whole cells.
         "straddling": _grid(rows, side * 1.1, (0.37, 0.81), 0.4),
@@ -157,8 +159,7 @@ def compute(params: dict, ctx: Context) -> Tables:
     ref = truth_model.reference_counts(uv, J, h, seed=seed)
     filt_rows = []
     for T in (math.inf, 64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0):
-        w = WWH18(density=density, alpha=alpha, gamma=gamma, dpf="exact", threshold_test="flipped",
-                  lambda_seeding="flake", T=T)
+        w = WWH18(density=density, alpha=alpha, gamma=gamma, **{**_EXACT, "T": T})
         d = w.counts_detail(uv, J, h, seed=seed)
         filtered = d["mode"] == 2
         # kept spread: the model's count sd relative to the truth's among pixels of similar mean
@@ -187,9 +188,9 @@ def compute(params: dict, ctx: Context) -> Tables:
                          "chi2_pairs_p": float(chi2_dist.sf(stat, 255))})
     tea = pd.DataFrame(tea_rows)
 
-    printed = readings[(readings.footprints == "straddling") & (readings.reading == READINGS[0][0])].iloc[0]
-    flipped = readings[(readings.footprints == "whole cells") & (readings.reading == READINGS[4][0])].iloc[0]
-    stats = {"P (exact cone mass at h)": P,
+    printed = readings[(readings.footprints == "straddling") & (readings.reading == READINGS[6][0])].iloc[0]
+    flipped = readings[(readings.footprints == "whole cells") & (readings.reading == READINGS[0][0])].iloc[0]
+    stats = {"P (exact cone mass at h)": P, "mean flakes-in-cone per pixel (straddling)": float(readings.iloc[0]["mean"]),
              "as printed: mean ratio (straddling)": float(printed.mean_ratio),
              "as printed: variance ratio (straddling)": float(printed.var_ratio),
              "flipped, per flake, exact P: chi2 p on whole cells": float(flipped.chi2_p),
