@@ -8,6 +8,8 @@ Four tables, every model configuration on the same flakes as the truth:
   of whole cells): the mean ratio model / truth's exact mean (the bias), the variance ratio, the TV
   distance and the chi-square p-value of the model's counts (rounded) against the truth's exact
   Poisson law, and the same numbers for the truth's own counts as the control row.
+- ``wwh18_neighbours``: correlation of the counts of touching footprints (pixels that share base
+  cells), the truth's (independent: about 0) beside the model's readings.
 - ``wwh18_table``: the directional probability table's relative error against p_gamma(h) by quadrature,
   over random (wi, wo) pairs of the hemisphere, for the accumulation alone and per blur level.
 - ``wwh18_filtered``: the filtered model (eq. 10) against T: share of pixels filtered, relative mean
@@ -37,6 +39,7 @@ DEFAULTS = {"pixels": 1600, "alpha": 0.3, "gamma": 6.0, "cells_per_side": 4.0, "
 QUICK = {"pixels": 400, "table_pairs": 60, "filtered_pixels": 300, "tea_pairs": 20000}
 NOTEBOOK = "wwh18.ipynb"
 TABLE = {"wwh18_readings": ["footprints", "reading", "mean_ratio", "var_ratio", "tv", "chi2_p"],
+         "wwh18_neighbours": ["reading", "corr_neighbours"],
          "wwh18_table": ["what", "lod_deg", "rel_err_median", "rel_err_p90", "abs_err_over_mean"],
          "wwh18_filtered": ["T", "filtered_share", "rel_abs_diff", "kept_rel_sd"],
          "wwh18_tea": ["generator", "corr_adjacent", "chi2_pairs_p"]}
@@ -110,6 +113,28 @@ def compute(params: dict, ctx: Context) -> Tables:
             rows_out.append({"footprints": kind, "reading": label, "mean": mu,
                              **dict(zip(("mean_ratio", "var_ratio", "tv", "chi2_p"), _compare(c, mu)))})
     readings = pd.DataFrame(rows_out)
+
+    # Neighbouring pixels: footprints tiling the plane (rows of touching squares, 2.5 cells a side, so
+    # base cells straddle two pixels). The truth's counts of disjoint footprints are independent (a
+    # Poisson process); the model shares a straddling cell's passing flakes between its pixels.
+    ctx.progress("wwh18 neighbours")
+    tside, trows = 2.5, max(8, int(math.isqrt(pixels)))
+    g = (np.arange(trows) * tside + 0.3) * S0
+    u, v = np.meshgrid(g, (np.arange(trows) * 3 * tside + 0.6) * S0, indexing="ij")  # rows apart in v
+    tuv = np.stack([u.ravel(), v.ravel()], -1)
+    tJ = np.tile([tside * S0, 0.0, 0.0, tside * S0], (len(tuv), 1))
+    th = np.tile(H, (len(tuv), 1))
+
+    def neighbour_corr(c):
+        c = c.reshape(trows, trows)  # [x, y]: x neighbours touch
+        return float(np.corrcoef(c[:-1].ravel(), c[1:].ravel())[0, 1])
+
+    neighbours = [{"reading": "truth (control)", "corr_neighbours": neighbour_corr(
+        truth_model.reference_counts(tuv, tJ, th, seed=seed))}]
+    for label, opts in READINGS[:1] + READINGS[3:5] + READINGS[6:7]:
+        w = WWH18(**{**common, **opts})
+        neighbours.append({"reading": label, "corr_neighbours": neighbour_corr(w.counts(tuv, tJ, th, seed=seed))})
+    neighbours = pd.DataFrame(neighbours)
 
     # The table against quadrature over random (wi, wo) pairs (theta up to 80 degrees).
     ctx.progress("wwh18 table")
@@ -195,7 +220,10 @@ def compute(params: dict, ctx: Context) -> Tables:
              "as printed: variance ratio (straddling)": float(printed.var_ratio),
              "flipped, per flake, exact P: chi2 p on whole cells": float(flipped.chi2_p),
              "pixels per row": len(kinds["straddling"][0])}
-    return Tables({"wwh18_readings": readings, "wwh18_table": table, "wwh18_filtered": filt, "wwh18_tea": tea}, stats)
+    stats["neighbour correlation, truth / as printed"] = (
+        f"{neighbours.corr_neighbours.iloc[0]:.3f} / {neighbours.corr_neighbours.iloc[-1]:.3f}")
+    return Tables({"wwh18_readings": readings, "wwh18_neighbours": neighbours, "wwh18_table": table,
+                   "wwh18_filtered": filt, "wwh18_tea": tea}, stats)
 
 
 def figures(tables: Tables, ctx: Context) -> list:
