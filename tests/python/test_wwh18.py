@@ -64,10 +64,11 @@ def test_registered_and_parameters():
         w.reference_counts([[np.nan, 0]], [[0.1, 0, 0, 0.1]], [H])
 
 
-def test_truth_count_is_poisson_and_a_wrong_law_is_rejected():
+@pytest.mark.parametrize("target", ["beckmann", "ggx"])
+def test_truth_count_is_poisson_and_a_wrong_law_is_rejected(target):
     # Poisson process thinned by the footprint and the cone: Poisson(N |A| p_gamma(h)), rotated
-    # footprints straddling cells as well as aligned ones.
-    w = make()
+    # footprints straddling cells.
+    w = make(target=target)
     uv, J = pixel_grid(5.3, 50, offset=(0.37, 0.81), angle=0.4)
     h = np.tile(H, (len(uv), 1))
     k = w.reference_counts(uv, J, h, seed=11)
@@ -76,9 +77,29 @@ def test_truth_count_is_poisson_and_a_wrong_law_is_rejected():
     assert 3 < mu < 60
     assert gl.chi2_test(k, poisson_dist(mu)).pvalue > ALPHA_P
     # The wrong variant: the law of a cone 10% wider (its own p_gamma by quadrature) is rejected.
-    wider = make(gamma=11)
+    wider = make(target=target, gamma=11)
     mu_wrong = float(wider.expected_count(J[:1], h[:1])[0])
     assert gl.chi2_test(k, poisson_dist(mu_wrong)).pvalue < ALPHA_P
+
+
+def test_neighbouring_pixels():
+    # Touching footprints (2.5 cells a side, so cells straddle two pixels): the truth's counts are
+    # independent (|corr| within 4.5 / sqrt(pairs)); the model with 4-round TEA (neighbouring cells,
+    # neighbouring ids) is not.
+    rows = 40
+    g = (np.arange(rows) * 2.5 + 0.3) * S0
+    u, v = np.meshgrid(g, (np.arange(rows) * 8 + 0.6) * S0, indexing="ij")
+    uv = np.stack([u.ravel(), v.ravel()], -1)
+    J = np.tile([2.5 * S0, 0, 0, 2.5 * S0], (len(uv), 1))
+    h = np.tile(H, (len(uv), 1))
+
+    def corr(c):
+        c = c.reshape(rows, rows)
+        return np.corrcoef(c[:-1].ravel(), c[1:].ravel())[0, 1]
+
+    bound = 4.5 / math.sqrt(rows * (rows - 1))
+    assert abs(corr(make().reference_counts(uv, J, h, seed=9))) < bound
+    assert corr(make(rng="tea", tea_rounds=4).counts(uv, J, h, seed=9)) > bound
 
 
 def test_cone_mass_is_the_flake_normals_share():
@@ -166,6 +187,7 @@ def test_filtered_switch_above_T():
     h = np.tile(H, (2, 1))
     d = w.counts_detail([[0.5, 0.5], [2.0, 2.0]], J, h, seed=1)
     mu = w.expected_count(J, h)
+    assert d["p"] == pytest.approx(w.cone_mass(h), rel=1e-12)
     assert d["mode"].tolist() == [1, 2]
     assert mu[0] <= 16 < mu[1]
     assert d["count"][1] == pytest.approx(mu[1], rel=1e-12)
@@ -203,6 +225,22 @@ def test_table_against_quadrature_and_a_wrong_table():
     assert np.median(np.abs(wrong.dpf(wi, wi) / exact - 1)) > 0.1
     assert w.table_shape == (91, 91, 181)
     assert w.table_bytes == 91 * 91 * 181 * 4
+
+
+def test_light_direction_picks_the_table_entry():
+    # With wi, P = dpf(wi, reflect(wi, h)); without, wi = wo = h.
+    w = make(dpf="table", table_res=3, lod="none")
+    h = np.array([[0.2, 0.1, 1.0]])
+    hn = h / np.linalg.norm(h)
+    wi = np.array([[-0.5, 0.3, 0.8]])
+    wi_n = wi / np.linalg.norm(wi)
+    wo = 2 * (wi_n @ hn[0]) * hn - wi_n
+    J = [[0.05, 0, 0, 0.05]]
+    assert w.counts_detail([[0.5, 0.5]], J, h, wi=wi)["p"][0] == pytest.approx(w.dpf(wi_n, wo)[0], rel=1e-12)
+    assert w.counts_detail([[0.5, 0.5]], J, h)["p"][0] == pytest.approx(w.dpf(hn, hn)[0], rel=1e-12)
+    assert w.p(h)[0] == pytest.approx(w.dpf(hn, hn)[0], rel=1e-12)
+    with pytest.raises(ValueError, match="wi"):
+        w.counts([[0.5, 0.5]], J, h, wi=[[1.0, 0.0]])
 
 
 def test_table2_level_choice():
