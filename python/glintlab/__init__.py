@@ -57,3 +57,4 @@ __all__ = [
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
     "ShaderLaw", "shader_law", "shipped_shader", "vulkan_devices",
 ]
+__all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)

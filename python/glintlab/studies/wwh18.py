@@ -60,6 +60,7 @@ READINGS = [
     ("as printed: H(lambda - P), lambda per node, table, TEA",
      dict(threshold_test="printed", lambda_seeding="node", dpf="table", rng="tea")),
     ("filtered model everywhere (T -> 0), exact P", {**_EXACT, "T": 1e-12}),
+    ("filtered model everywhere (T -> 0), table P", {**_EXACT, "T": 1e-12, "dpf": "table"}),
 ]
 
 
