@@ -62,6 +62,11 @@ def test_registered_and_parameters():
         w.counts([[0, 0]], [[1, 2, 2, 4]], [H])  # det J = 0
     with pytest.raises(ValueError, match="uv"):
         w.reference_counts([[np.nan, 0]], [[0.1, 0, 0, 0.1]], [H])
+    for bad_h in ([[0.0, 0.0, 0.0]], [[np.inf, 0.0, 1.0]]):
+        with pytest.raises(ValueError, match="h"):
+            w.cone_mass(bad_h)
+        with pytest.raises(ValueError, match="h"):
+            w.counts([[0, 0]], [[0.1, 0, 0, 0.1]], bad_h)
 
 
 @pytest.mark.parametrize("target", ["beckmann", "ggx"])

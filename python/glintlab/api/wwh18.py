@@ -57,6 +57,18 @@ def table2_lod(alpha: float) -> float:
     return below[-1] if below else LOD_LEVELS[0]
 
 
+def _directions(name, x):
+    """A contiguous float array of shape (..., 3) of finite, nonzero vectors (ValueError otherwise)."""
+    x = np.ascontiguousarray(V.as_float_array(name, x))
+    if x.ndim < 1 or x.shape[-1] != 3:
+        V.fail(name, f"an array of shape {x.shape}", "an array of shape (..., 3)")
+    if not np.isfinite(x).all():
+        V.fail(name, x[~np.isfinite(x)][0], "finite directions")
+    if np.any(np.linalg.norm(x, axis=-1) == 0):
+        V.fail(name, "a zero vector", "nonzero directions")
+    return x
+
+
 def _choice(name, value, options):
     if not isinstance(value, str) or value not in options:
         V.fail(name, value, "one of " + ", ".join(repr(o) for o in options))
@@ -120,7 +132,7 @@ class WWH18(GlintyNDF):
         uv, J, h, shape = _arrays(uv, J, h)
         w = None
         if wi is not None:
-            w = np.ascontiguousarray(V.as_float_array("wi", wi))
+            w = _directions("wi", wi)
             if w.shape != shape + (3,):
                 V.fail("wi", f"an array of shape {w.shape}", f"an array of shape {shape + (3,)}")
             w = w.reshape(-1)
@@ -151,9 +163,7 @@ class WWH18(GlintyNDF):
     # --- exact quantities ---------------------------------------------------------------------------
     def cone_mass(self, h) -> np.ndarray:
         """p_gamma(h): the mass of D(m)(m.n) in the cone of half-angle gamma around h (quadrature)."""
-        h = np.ascontiguousarray(V.as_float_array("h", h))
-        if h.ndim < 1 or h.shape[-1] != 3:
-            V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
+        h = _directions("h", h)
         return self._core.cone_mass(h.reshape(-1)).reshape(h.shape[:-1])
 
     def expected_count(self, J, h) -> np.ndarray:
@@ -165,20 +175,20 @@ class WWH18(GlintyNDF):
 
     def p(self, h) -> np.ndarray:
         """The P the model uses for half vectors ``h`` (table look-up with wi = h, or p_gamma)."""
-        h = np.ascontiguousarray(V.as_float_array("h", h))
+        h = _directions("h", h)
         return self._core.model_p(h.reshape(-1)).reshape(h.shape[:-1])
 
     def dpf(self, wi, wo) -> np.ndarray:
         """P(wi, wo) from the (blurred) table by trilinear interpolation (0 without a table)."""
-        wi = np.ascontiguousarray(V.as_float_array("wi", wi))
-        wo = np.ascontiguousarray(V.as_float_array("wo", wo))
-        if wi.shape != wo.shape or wi.shape[-1] != 3:
+        wi = _directions("wi", wi)
+        wo = _directions("wo", wo)
+        if wi.shape != wo.shape:
             V.fail("wo", f"an array of shape {wo.shape}", f"the shape of wi, {wi.shape}, ending in 3")
         return self._core.dpf(wi.reshape(-1), wo.reshape(-1)).reshape(wi.shape[:-1])
 
     def accumulated(self, h) -> np.ndarray:
         """Sec. 4.2's accumulation at h itself: the table cells' masses within gamma of h (no interpolation)."""
-        h = np.ascontiguousarray(V.as_float_array("h", h))
+        h = _directions("h", h)
         return self._core.accumulated(h.reshape(-1)).reshape(h.shape[:-1])
 
     def lambdas(self, seed: int, level: int, i, j, k: int = 0) -> np.ndarray:
