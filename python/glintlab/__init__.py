@@ -14,6 +14,7 @@ from ._core import Chi2Result, Distribution, __version__
 from .api.blends import BlendedLaw, blend_summaries, blended_law, blends, roulette_keep_moments, zk16_variance_ratio
 from .api.exact import binomial, poisson
 from .api.glinty_ndf import GlintyNDF, glinty_ndf, glinty_ndfs
+from .api.wwh18 import WWH18  # registers the "wwh18" glinty NDF (docs/math/wwh18.md)
 from .api.grids import AnisoCounter, aniso_counter, footprint_shapes, grid_schemes
 from .api.laws import (CustomLaw, Law, custom_law, law, law_label, law_summaries, law_traits, law_variants, laws,
                        parse_law_label, uniforms)
@@ -56,3 +57,4 @@ __all__ = [
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
     "ShaderLaw", "shader_law", "shipped_shader", "vulkan_devices",
 ]
+__all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)
