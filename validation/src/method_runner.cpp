@@ -96,9 +96,8 @@ std::shared_ptr<Kernel> method_kernel(KernelSpec spec) {
   if (spec.language != "hlsl" && spec.language != "glsl")
     throw std::invalid_argument("language = '" + spec.language + "' is invalid; expected 'hlsl' or 'glsl'");
   spec.n_uniforms = 0;
-  spec.wrapper = method_wrapper_source(spec.language, spec.entry, spec.source_name);
-  spec.signature = method_signature(spec.language, spec.entry);
-  return std::make_shared<Kernel>(spec);
+  return std::make_shared<Kernel>(spec, method_wrapper_source(spec.language, spec.entry, spec.source_name),
+                                  method_signature(spec.language, spec.entry));
 }
 
 void run_method(const Kernel& kernel, const float* in, std::size_t count, float* out, double timeout_s) {

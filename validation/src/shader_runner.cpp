@@ -298,12 +298,13 @@ shaderc::CompileOptions options(const KernelSpec& spec) {
   return o;
 }
 
-[[noreturn]] void compile_failure(const KernelSpec& spec, const std::string& messages) {
+[[noreturn]] void compile_failure(const KernelSpec& spec, const std::string& messages,
+                                  const std::string& signature = "") {
   // An error inside glintlab's wrapper means the call to the entry did not match.
   if (messages.find(wrapper_name(spec.language) + ":") != std::string::npos)
     throw std::invalid_argument("shader " + spec.source_name + ": no function " + spec.entry +
                                 " with the expected signature " +
-                                (spec.signature.empty() ? expected_signature(spec.language, spec.entry) : spec.signature) +
+                                (signature.empty() ? expected_signature(spec.language, spec.entry) : signature) +
                                 " (" + spec.language + "); the compiler says:\n" + messages);
   throw std::invalid_argument("shader " + spec.source_name + " does not compile (" + spec.language +
                               "); the compiler says:\n" + messages);
@@ -442,7 +443,10 @@ struct Kernel::Impl {
   int n_uniforms = 0;
 };
 
-Kernel::Kernel(const KernelSpec& spec) : impl_(std::make_shared<Impl>()) {
+Kernel::Kernel(const KernelSpec& spec) : Kernel(spec, "", "") {}
+
+Kernel::Kernel(const KernelSpec& spec, const std::string& custom_wrapper, const std::string& signature)
+    : impl_(std::make_shared<Impl>()) {
   if (spec.language != "hlsl" && spec.language != "glsl")
     throw std::invalid_argument("language = '" + spec.language + "' is invalid; expected 'hlsl' or 'glsl'");
   if (!is_identifier(spec.entry))
@@ -459,14 +463,15 @@ Kernel::Kernel(const KernelSpec& spec) : impl_(std::make_shared<Impl>()) {
   impl_->n_uniforms = spec.n_uniforms;
 
   const std::string wrapper =
-      spec.wrapper.empty() ? wrapper_source(spec.language, spec.entry, spec.source_name) : spec.wrapper;
+      custom_wrapper.empty() ? wrapper_source(spec.language, spec.entry, spec.source_name) : custom_wrapper;
   shaderc::Compiler compiler;
   const shaderc_shader_kind kind = shaderc_glsl_compute_shader;
   const char* entry_point = spec.language == "hlsl" ? "glintlab_main" : "main";
   // The cache key is the preprocessed text (the user's code with its #includes and defines expanded),
   // so an edited included file is a new kernel.
   auto pre = compiler.PreprocessGlsl(wrapper, kind, wrapper_name(spec.language).c_str(), options(spec));
-  if (pre.GetCompilationStatus() != shaderc_compilation_status_success) compile_failure(spec, pre.GetErrorMessage());
+  if (pre.GetCompilationStatus() != shaderc_compilation_status_success)
+    compile_failure(spec, pre.GetErrorMessage(), signature);
   const std::string text(pre.cbegin(), pre.cend());
   std::ostringstream key;
   key << spec.language << '|' << spec.entry << '|' << spec.n_uniforms << '|' << fnv1a(text) << '|' << text.size();
@@ -476,7 +481,8 @@ Kernel::Kernel(const KernelSpec& spec) : impl_(std::make_shared<Impl>()) {
     return;
   }
   auto res = compiler.CompileGlslToSpv(wrapper, kind, wrapper_name(spec.language).c_str(), entry_point, options(spec));
-  if (res.GetCompilationStatus() != shaderc_compilation_status_success) compile_failure(spec, res.GetErrorMessage());
+  if (res.GetCompilationStatus() != shaderc_compilation_status_success)
+    compile_failure(spec, res.GetErrorMessage(), signature);
   auto pl = std::make_shared<Pipeline>();
   pl->spirv.assign(res.cbegin(), res.cend());
 

@@ -78,6 +78,12 @@ def pixel_arrays(uv, J, h, unit_h: bool = False):
     return uv, J, h, shape
 
 
+def _cos_theta(h):
+    n = np.linalg.norm(h, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, h[..., 2] / np.where(n > 0, n, 1.0), 0.0)
+
+
 def footprint_area(J) -> np.ndarray:
     """P = |det J| per pixel: the footprint's area in texture units (DB23 eq. 3)."""
     return np.abs(J[..., 0] * J[..., 3] - J[..., 1] * J[..., 2])

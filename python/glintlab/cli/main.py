@@ -15,6 +15,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from .._core import __version__
@@ -29,6 +30,8 @@ from ..report.sections import SECTIONS
 from ..resources import data_path
 from ..studies.aniso import write_report as write_aniso_report
 from ..studies.scene_images import write_images
+from ..api.method_shaders import shader_method
+from ..validation.scene_images import Material, frame_inputs, make_method, with_directional_light
 from ..studies.scenes import write_profiles
 from ..studies.shaders import write_verdict
 from ..studies.speed_accuracy import write_bench
@@ -394,20 +397,16 @@ def _check_method_shaders(args, scenes, params) -> int:
     """``images --method FILE``: compiles each user method shader (a compile error is bad input, exit 2),
     adds it to the methods (beside the truth and the smooth image unless --methods names others) and
     checks that it returns finite values on the first frame of every scene (exit 1 otherwise)."""
-    import numpy as np
-
-    from ..api.method_shaders import shader_method
-    from ..validation.scene_images import render_image
     names = []
     for path in args.method:
         names.append(shader_method(path).name)
     base = args.methods or "truth,smooth"
     params["methods"] = params["animation_methods"] = ",".join(dict.fromkeys(base.split(",") + names))
     for sc in scenes:
+        small = with_directional_light(sc.scaled(args.scale, keep_n=True))
+        inp = frame_inputs(small)
         for name in names:
-            img = render_image(name, sc, seed=args.seed, scale=args.scale)
-            hit = ~np.isnan(img) if img.ndim == 2 else ~np.isnan(img).all(-1)
-            vals = img[hit]
+            vals = make_method(name, Material.of(small)).image(inp, seed=args.seed)[inp.hit]
             if not np.isfinite(vals).all():
                 print(f"method {name}: non-finite values on {int((~np.isfinite(vals)).sum())} of {vals.size} "
                       f"hit pixel values of scene {sc.name} (frame 0)", file=sys.stderr)

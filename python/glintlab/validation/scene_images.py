@@ -30,7 +30,7 @@ import pandas as pd
 from ..api import checks as V
 from ..api.glinty_ndf import (ANGULAR_TEXEL, BUILTIN_IMAGE_METHODS, IMAGE_METHODS, ImageMethod, Material,  # noqa: F401
                               SmoothNDF, image_methods, make_method, register_image_method)
-from .scene import Scene, _unit
+from .scene import SCENES_DIR, Scene, _unit, load_scene
 
 TAU = 2.0             # a pixel shows a glint when its NDF value exceeds TAU x D(h) (docs/math/glint_images.md#glint-pops)
 
@@ -180,10 +180,8 @@ def _scene_of(scene) -> Scene:
     if isinstance(scene, Scene):
         return scene
     if isinstance(scene, str) and "\n" not in scene and "{" not in scene:
-        from .scene import SCENES_DIR, load_scene
         named = SCENES_DIR / f"{scene}.json"
         return load_scene(named if named.is_file() else scene)
-    from .scene import load_scene
     return load_scene(scene)
 
 

@@ -58,11 +58,6 @@ struct KernelSpec {
   // "auto" (a GPU when there is one, else the CPU device), "gpu", "cpu", or a device index ("0") or
   // a substring of a device name.
   std::string device = "auto";
-  // A method shader (glintlab/validation/method_shader.hpp) brings its own wrapper kernel: when
-  // non-empty, `wrapper` replaces the counting-law wrapper (same bindings 0..3 and push constants) and
-  // `signature` names the entry's expected signature in compile errors.
-  std::string wrapper;
-  std::string signature;
 };
 
 class Kernel {
@@ -70,6 +65,10 @@ class Kernel {
   // Compiles (or finds in the cache) and builds the pipeline. Throws std::invalid_argument with the
   // compiler's messages (file:line) for code that does not compile or lacks the expected entry.
   explicit Kernel(const KernelSpec& spec);
+  // A kernel with its own wrapper (method shaders, glintlab/validation/method_shader.hpp): `wrapper`
+  // replaces the counting-law wrapper (same bindings 0..3 and push constants) and `signature` names the
+  // entry's expected signature in compile errors.
+  Kernel(const KernelSpec& spec, const std::string& wrapper, const std::string& signature);
   ~Kernel();
   Kernel(const Kernel&) = delete;
   Kernel& operator=(const Kernel&) = delete;
