@@ -40,7 +40,7 @@ WB16_SHADER = "wb16.glsl"
 #: WB16's parameters (the shader's -D defaults; the paper gives no values).
 WB16_DEFAULTS = {"WB16_SPARKLE_SIZE": 0.9, "WB16_SPARKLE_DENSITY": 30.0, "WB16_VIEW_DEP": 1.0,
                  "WB16_NOISE_AMOUNT": 1.0, "WB16_NOISE_DENSITY": 1.0, "WB16_UNIT": 10.0, "WB16_SHAPE": 0,
-                 "WB16_SHOPF_K": 8.0, "WB16_NOISE": 0, "WB16_ANISOTROPIC": 1, "WB16_KERNEL_SCALE": 1.0}
+                 "WB16_SHOPF_K": 3.0, "WB16_NOISE": 0, "WB16_ANISOTROPIC": 1, "WB16_KERNEL_SCALE": 1.0}
 
 
 def pack_inputs(m: int, **fields) -> np.ndarray:
@@ -203,6 +203,9 @@ def _wb16(defines: tuple) -> ShaderMethod:
     return shader_method(wb16_shader(), language="glsl", name="wb16", defines=dict(defines), register=False)
 
 
+_WB16_SWITCHES = ("WB16_SHAPE", "WB16_NOISE", "WB16_ANISOTROPIC")
+
+
 def wb16_method(**params) -> ShaderMethod:
     """WB16's sparkle shader, compiled once per parameter set: ``params`` are its defines without the
     ``WB16_`` prefix, lower case (``sparkle_size=0.9``, ``shape=1`` for Shopf's star, ``noise=1`` for
@@ -212,7 +215,12 @@ def wb16_method(**params) -> ShaderMethod:
         macro = "WB16_" + str(key).upper()
         if macro not in WB16_DEFAULTS:
             V.fail(key, value, f"a WB16 parameter among {', '.join(k[5:].lower() for k in WB16_DEFAULTS)}")
-        defines[macro] = V.real(key, value)
+        if macro in _WB16_SWITCHES:
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value not in (0, 1):
+                V.fail(key, value, "0 or 1")
+            defines[macro] = int(value)
+        else:
+            defines[macro] = V.real(key, value)
     return _wb16(tuple(sorted(defines.items())))
 
 
@@ -220,11 +228,13 @@ def _f32(x):
     return np.float32(x)
 
 
-def wb16_twin(rows, **params) -> np.ndarray:
+def wb16_twin(rows, return_lookup: bool = False, **params):
     """WB16's Code 2 in numpy float32, line for line as ``wb16.glsl`` computes it, on packed rows
-    (:func:`pack_inputs`; the shader reads the same float32 values). Returns (m,) float32. The two agree
-    pixel by pixel except where a last-place difference of a transcendental (log2, pow, sqrt) or of a
-    fused multiply-add moves a value across a floor (docs/math/glint_images.md#glint-wb16)."""
+    (:func:`pack_inputs`; the shader reads the same float32 values). Returns (m,) float32, and with
+    ``return_lookup`` also the lookup positions ``pos`` (m, 3), whose float32 spacing bounds how far
+    the two may differ. They agree pixel by pixel except where a last-place difference of a
+    transcendental (log2, pow, sqrt) or of a fused multiply-add moves a value across a floor
+    (docs/math/glint_images.md#glint-wb16)."""
     prm = dict(WB16_DEFAULTS)
     for key, value in params.items():
         macro = "WB16_" + str(key).upper()
@@ -258,7 +268,8 @@ def wb16_twin(rows, **params) -> np.ndarray:
         if int(prm["WB16_SHAPE"]) == 1:
             p = _fract(pos)
             p = p * (f(1.0) - p)
-            return np.clip(f(1.0) - f(prm["WB16_SHOPF_K"]) * (p[:, 0] + p[:, 1] + p[:, 2]), f(0), f(1))
+            out = np.clip(f(1.0) - f(prm["WB16_SHOPF_K"]) * (p[:, 0] + p[:, 1] + p[:, 2]), f(0), f(1))
+            return (out, pos) if return_lookup else out
         g_index = np.floor(pos)
         P_c = g_index / sparkle_dens[:, None]
         if lookup_jitter:
@@ -275,7 +286,8 @@ def wb16_twin(rows, **params) -> np.ndarray:
         dist2 = dot(P_x, P_x)
         thresh = (f(1.0) - f(prm["WB16_SPARKLE_SIZE"])) * f(prm["WB16_KERNEL_SCALE"])
         # NaN compares false, as in the shader: NaN > thresh is false, so 1 - NaN / thresh = NaN.
-        return np.where(dist2 > thresh, f(0.0), f(1.0) - dist2 / thresh).astype(np.float32)
+        out = np.where(dist2 > thresh, f(0.0), f(1.0) - dist2 / thresh).astype(np.float32)
+        return (out, pos) if return_lookup else out
 
 
 def _fract(x):

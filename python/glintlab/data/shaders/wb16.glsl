@@ -27,7 +27,7 @@
 #define WB16_SHAPE 0               // 0: WB16's round kernel (lines 42-44); 1: Shopf's star (Code 1)
 #endif
 #ifndef WB16_SHOPF_K
-#define WB16_SHOPF_K 8.0           // Code 1's k (sparkle size of the star)
+#define WB16_SHOPF_K 3.0           // Code 1's k (the star's size: it is lit where the three p(1 - p) sum below 1 / k)
 #endif
 #ifndef WB16_NOISE
 #define WB16_NOISE 0               // 0: noise jitters the grid centres (lines 31-33); 1: Shopf's lookup jitter
