@@ -116,8 +116,15 @@ def test_frame_inputs_carry_the_world_fields_and_render_is_nan_off_the_surface()
         rows, cols = np.nonzero(~np.isnan(img))
         np.testing.assert_array_equal(img[rows, cols], cols + 1000.0 * rows + 1.5)
         assert "test_pixels" in gl.image_methods()
+        colour = gl.shader_method("vec3 glint(GlintInput g) { return vec3(g.uv, float(g.seed)); }", language="glsl",
+                                  name="test_colour")
+        img = gl.render(colour, sc, seed=5)
+        assert img.shape == (sc.height, sc.width, 3) and np.array_equal(np.isnan(img).all(-1), ~hit)
+        np.testing.assert_array_equal(img[hit][:, :2], inp.uv[hit].astype(np.float32))
+        assert (img[hit][:, 2] == 5).all()
     finally:
         IMAGE_METHODS._items.pop("test_pixels")
+        IMAGE_METHODS._items.pop("test_colour", None)
     with pytest.raises(ValueError, match="frame"):
         gl.render("smooth", sc, frame=8)
 

@@ -80,10 +80,14 @@ def frame_rows(inputs, seed: int = 0, frame: int = 0):
     if inputs.world_pos is None:
         V.fail("inputs", "frame inputs without world-space fields", "FrameInputs from frame_inputs(scene)")
     row, col = np.nonzero(hit)
-    rows = pack_inputs(row.size, world_pos=inputs.world_pos[hit], uv=inputs.uv[hit], J=inputs.J[hit], n=inputs.n[hit],
-                       t=inputs.t[hit], b=inputs.b[hit], view=inputs.view[hit], light=inputs.light[hit],
-                       h=inputs.h_world[hit], pixel=np.stack([col, row], axis=1).astype(np.uint32),
-                       frame=np.uint32(V.seed(frame)), seed=np.uint32(V.seed(seed)))
+    # One float32 block of the 27 float words, masked once (the fields in GLINT_INPUT_FIELDS order).
+    floats = np.concatenate([np.asarray(a, np.float32) for a in (inputs.world_pos, inputs.uv, inputs.J, inputs.n,
+                                                                 inputs.t, inputs.b, inputs.view, inputs.light,
+                                                                 inputs.h_world)], axis=-1)[hit]
+    rows = np.zeros((row.size, _core.METHOD_INPUT_WORDS), np.uint32)
+    rows[:, :27] = floats.view(np.uint32)
+    rows[:, 27], rows[:, 28] = col, row
+    rows[:, 29], rows[:, 30] = V.seed(frame), V.seed(seed)
     return rows, hit
 
 
