@@ -239,7 +239,7 @@ class FacetNDF(GlintyNDF):
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D_P per pixel; 0 where the footprint is empty or K unknown."""
         uv, J, hn, _ = pixel_arrays(uv, J, h, unit_h=True)
-        p = np.minimum(self.R * self.smooth_ndf.D(hn[..., 2]) / self.smooth_ndf.D_normal, 1.0)
+        p, _ = self.smooth_ndf.success_probability(hn[..., 2], self.R)
         slope = np.clip(angular_slope(hn) / self.angular_texel, -1e9, 1e9)
         d = self.d_p(self.counts(uv, J, p, slope, V.seed(seed)), footprint_area(J), self.R)
         return np.where(np.isfinite(d), d, 0.0)
