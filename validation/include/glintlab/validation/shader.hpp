@@ -65,6 +65,10 @@ class Kernel {
   // Compiles (or finds in the cache) and builds the pipeline. Throws std::invalid_argument with the
   // compiler's messages (file:line) for code that does not compile or lacks the expected entry.
   explicit Kernel(const KernelSpec& spec);
+  // A kernel with its own wrapper (method shaders, glintlab/validation/method_shader.hpp): `wrapper`
+  // replaces the counting-law wrapper (same bindings 0..3 and push constants) and `signature` names the
+  // entry's expected signature in compile errors.
+  Kernel(const KernelSpec& spec, const std::string& wrapper, const std::string& signature);
   ~Kernel();
   Kernel(const Kernel&) = delete;
   Kernel& operator=(const Kernel&) = delete;
@@ -79,6 +83,12 @@ class Kernel {
   // count; u holds count rows of n_uniforms() uniforms. timeout_s bounds each submission.
   void run(const double* n, std::size_t n_size, const double* p, std::size_t p_size, const double* u,
            std::size_t count, float* out, double timeout_s) const;
+
+  // Raw rows, for kernels with their own wrapper: binding 0 holds count rows of in_stride 32-bit
+  // words, binding 3 receives count rows of out_stride floats; the push constants are (rows,
+  // in_stride, out_stride, 0); bindings 1 and 2 are one-word placeholders.
+  void run_rows(const float* in, std::size_t in_stride, std::size_t count, float* out, std::size_t out_stride,
+                double timeout_s) const;
 
   struct Impl;
 
