@@ -321,15 +321,21 @@ class Includer final : public shaderc::CompileOptions::IncluderInterface {
  private:
   std::string limit_message(const std::string& next, bool depth) const {
     const auto& chain = state_->chain;
-    std::size_t first = chain.size();  // the latest opening of `next`: the shortest cycle
-    for (std::size_t i = chain.size(); i-- > 0;)
-      if (chain[i] == next) { first = i; break; }
+    // The cycle: through `next` (its latest opening), else the latest file open twice in the chain
+    // (the limit may trip on a leaf included from inside a cycle).
+    std::vector<std::string> full = chain;
+    full.push_back(next);
+    for (std::size_t end = full.size(); end-- > 1;)
+      for (std::size_t i = end; i-- > 0;)
+        if (full[i] == full[end]) {
+          std::string cycle;
+          for (std::size_t k = i; k <= end; ++k) cycle += (k > i ? " -> " : "") + short_name(full[k]);
+          return "#include cycle " + cycle + " (" + full[end] + " includes itself through this chain; #pragma "
+                 "once is not honoured by the shader compiler: guard the file with #ifndef/#define or remove "
+                 "the include)";
+        }
     std::string path;
-    for (std::size_t i = first < chain.size() ? first : 0; i < chain.size(); ++i) path += short_name(chain[i]) + " -> ";
-    path += short_name(next);
-    if (first < chain.size())
-      return "#include cycle " + path + " (" + next + " includes itself through this chain; #pragma once is not "
-             "honoured by the shader compiler: guard the file with #ifndef/#define or remove the include)";
+    for (const auto& f : full) path += (path.empty() ? "" : " -> ") + short_name(f);
     if (depth)
       return "#include nested deeper than " + std::to_string(kMaxIncludeDepth) + " files (" + path + ")";
     return "more than " + std::to_string(kMaxIncludes) + " #include directives processed (last: " + path + ")";
@@ -471,10 +477,13 @@ std::vector<DeviceInfo> vulkan_devices() {
 std::string wrapper_source(const std::string& language, const std::string& entry, const std::string& include_name) {
   std::ostringstream s;
   // Bindings: 0 n, 1 p (one float per row, or one for all: stride 0), 2 u (float4 per row), 3 counts.
+  // HLSL's push constant is a ConstantBuffer<>: glslang puts a plain global struct marked
+  // [[vk::push_constant]] into the "$Global" uniform buffer at set 0, binding 0 instead (where n's
+  // storage buffer is bound), which the resource check below refuses.
   if (language == "hlsl") {
     s << "#include \"" << include_name << "\"\n"
       << "struct GlintlabPush { uint count; uint n_stride; uint p_stride; uint pad; };\n"
-      << "[[vk::push_constant]] GlintlabPush glintlab_push;\n"
+      << "[[vk::push_constant]] ConstantBuffer<GlintlabPush> glintlab_push;\n"
       << "[[vk::binding(0, 0)]] StructuredBuffer<float> glintlab_n;\n"
       << "[[vk::binding(1, 0)]] StructuredBuffer<float> glintlab_p;\n"
       << "[[vk::binding(2, 0)]] StructuredBuffer<float4> glintlab_u;\n"
