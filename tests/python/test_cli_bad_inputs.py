@@ -91,7 +91,7 @@ CASES = [
     (["shader", "{a_file}", "--out", "{a_file}"], "--out"),
     (["shader", "typo.txt", "--out", "{folder}/s"], "source = 'typo.txt'"),
     (["shader", "{folder}", "--out", "{folder}/s"], "not a folder"),
-    (["shader", "{latin1_shader}", "--out", "{folder}/s"], "byte 0xe9 at offset 7"),
+    (["shader", "{latin1_shader}", "--out", "{folder}/s"], "byte 0xe9 at offset 6"),
     (["shader", "{set1_shader}", "--out", "{folder}/s"], "'X' (storage buffer, set 1, binding 0)"),
     (["shader", "{cycle_shader}", "--out", "{folder}/s"], "#include cycle cycle.hlsl -> cycle.hlsl"),
     (["shader", "{bad_shader}", "--samples", "1.5", "--out", "{folder}/s"], "--samples"),

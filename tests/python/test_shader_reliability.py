@@ -336,7 +336,9 @@ def test_any_bytes_in_a_file_give_a_law_or_a_value_error(parts, tmp_path_factory
 
 
 @BUDGET
-@given(text=st.text(alphabet=st.characters(blacklist_categories=()), max_size=40))
+@given(text=st.text(alphabet=st.characters(blacklist_categories=()) | st.characters(min_codepoint=0xD800,
+                                                                                   max_codepoint=0xDFFF),
+                    max_size=40))
 def test_any_string_gives_a_law_or_a_value_error(text):
     try:
         shader_law(text + "\n" + COUNT, name="test_random_text")
