@@ -250,6 +250,10 @@ def test_a_byte_that_is_not_utf8_names_the_file_and_offset(tmp_path):
     src.write_bytes(b"// r\xe9sum\xe9\n" + COUNT.encode())
     with pytest.raises(ValueError, match=r"latin1\.hlsl.*byte 0xe9 at offset 4 \(line 1\) is not UTF-8"):
         shader_law(src, name="test_latin1")
+    (tmp_path / "lib.hlsli").write_bytes(b"// ok\n// caf\xe9\n")  # in an included file too
+    src.write_text('#include "lib.hlsli"\n' + COUNT)
+    with pytest.raises(ValueError, match=r"lib\.hlsli: byte 0xe9 at offset 12 \(line 2\) is not UTF-8"):
+        shader_law(src, name="test_latin1_inc")
 
 
 def test_a_lone_surrogate_is_a_value_error():

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -235,6 +236,30 @@ std::string strip_bom(std::string text) {  // Visual Studio saves UTF-8 with a b
   return text;
 }
 
+// The offset of the first byte that is not part of well-formed UTF-8 (RFC 3629: no overlong forms, no
+// surrogates, nothing above U+10FFFF), or npos. Shader files are UTF-8, included ones too: a byte of
+// another encoding is refused naming its offset rather than passed to the compiler as a guess.
+std::size_t invalid_utf8(const std::string& text) {
+  const auto* b = reinterpret_cast<const unsigned char*>(text.data());
+  const std::size_t n = text.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned c = b[i];
+    std::size_t len = 0;
+    unsigned lo = 0x80, hi = 0xBF;  // the allowed range of the second byte
+    if (c < 0x80) { ++i; continue; }
+    if (c >= 0xC2 && c <= 0xDF) len = 2;
+    else if (c >= 0xE0 && c <= 0xEF) { len = 3; if (c == 0xE0) lo = 0xA0; if (c == 0xED) hi = 0x9F; }
+    else if (c >= 0xF0 && c <= 0xF4) { len = 4; if (c == 0xF0) lo = 0x90; if (c == 0xF4) hi = 0x8F; }
+    else return i;
+    if (i + len > n) return i;
+    if (b[i + 1] < lo || b[i + 1] > hi) return i;
+    for (std::size_t k = 2; k < len; ++k)
+      if (b[i + k] < 0x80 || b[i + k] > 0xBF) return i;
+    i += len;
+  }
+  return std::string::npos;
+}
+
 std::string read_file(const std::filesystem::path& path) {
   std::ifstream f(path, std::ios::binary);
   std::ostringstream s;
@@ -291,9 +316,16 @@ class Includer final : public shaderc::CompileOptions::IncluderInterface {
         std::error_code ec;
         if (std::filesystem::is_regular_file(c, ec)) { found = c.string(); content = read_file(c); break; }
       }
+      const std::size_t bad = found.empty() ? std::string::npos : invalid_utf8(content);
       if (found.empty()) {
         r->content = std::string("cannot find include file '") + requested + "'" +
                      (is_sealed_ ? " among the files recorded when the law was first compiled" : "");
+      } else if (bad != std::string::npos) {
+        char hex[8];
+        std::snprintf(hex, sizeof hex, "0x%02x", static_cast<unsigned char>(content[bad]));
+        r->content = found + ": byte " + hex + " at offset " + std::to_string(bad) + " (line " +
+                     std::to_string(1 + std::count(content.begin(), content.begin() + static_cast<std::ptrdiff_t>(bad), '\n')) +
+                     ") is not UTF-8; expected a UTF-8 file (save it as UTF-8)";
       } else if (static_cast<int>(depth) > kMaxIncludeDepth || ++st.count > kMaxIncludes) {
         st.failure = limit_message(found, static_cast<int>(depth) > kMaxIncludeDepth);
         r->content = st.failure;
