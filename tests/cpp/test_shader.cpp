@@ -103,6 +103,8 @@ TEST_CASE("shader runner: a kernel past its timeout throws, and the device serve
   CHECK_THROWS_AS(slow.run(&n, 1, &p, 1, u.data(), rows, out.data(), 0.05), ShaderTimeout);
   const Kernel fast(spec("float count(float n, float p, vec4 u) { return n; }"));
   float one = 0;
+  // Behind the slow kernel, a short timeout says the device is busy (this kernel never ran).
+  CHECK_THROWS_AS(fast.run(&n, 1, &p, 1, u.data(), 1, &one, 0.001), ShaderDeviceBusy);
   fast.run(&n, 1, &p, 1, u.data(), 1, &one, 60.0);
   CHECK(one == 60000.0f);
 }
