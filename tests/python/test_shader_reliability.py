@@ -262,6 +262,16 @@ def test_a_lone_surrogate_is_a_value_error():
         shader_law("// \ud800\n" + COUNT, name="test_surrogate")
     with pytest.raises(ValueError, match="defines"):
         shader_law(COUNT, name="test_surrogate2", defines={"X": "\udc80"})
+    with pytest.raises(ValueError, match="name"):
+        shader_law(COUNT, name="bad\udc80")
+
+
+def test_a_file_name_that_is_not_utf8_is_a_value_error(tmp_path):
+    raw = os.fsencode(tmp_path) + b"/caf\xe9.hlsl"  # Python decodes it with a surrogate
+    with open(raw, "wb") as f:
+        f.write(COUNT.encode())
+    with pytest.raises(ValueError, match="source"):
+        shader_law(os.fsdecode(raw), name="test_non_utf8_name")
 
 
 def test_paths_are_never_compiled_as_code(tmp_path):

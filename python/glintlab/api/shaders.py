@@ -105,6 +105,9 @@ def _read_source(source, language):
             v.fail("source", str(source), "a shader file, not a folder")
         if not path.is_file():
             v.fail("source", str(source), "an existing shader file or the shader code as a string")
+        # A file name that is not UTF-8 (decoded by Python with surrogates) cannot name the file to
+        # the compiler, whose messages and #include resolution use it.
+        _utf8("source", str(path.resolve()))
         code = _decode(path)
         if language is None:
             language = _EXTENSIONS.get(path.suffix.lower())
@@ -289,6 +292,7 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
         name = Path(source_name).name if source_name != "<string>" else "shader"
     if not isinstance(name, str) or not name:
         v.fail("name", name, "a non-empty string")
+    _utf8("name", name)
     if name in {n for n, _ in _core.law_infos()}:
         v.fail("name", name, "a name that no built-in law uses")
     defines = dict(defines or {})

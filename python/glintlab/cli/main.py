@@ -532,7 +532,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "DB23's Figure 9 points, a TV map over the standard grid, row-by-row agreement "
                                    "with --twin, the extremes suite, ns per evaluation. Exit 0: every check passes; "
                                    "1: one fails; 2: bad input (a compile error, an unknown law).")
-    p.add_argument("file", help="the shader source (.hlsl, .glsl, ...)")
+    p.add_argument("file", help="the shader source file (.hlsl, .glsl, ...; always a path, never code)")
     p.add_argument("--entry", default="count", help="the counting function (default: count)")
     p.add_argument("--lang", choices=["hlsl", "glsl"], help="the language (default: from the extension)")
     p.add_argument("--uniforms", type=int, default=2, help="uniforms the function reads, 0 to 4 (default: 2)")
