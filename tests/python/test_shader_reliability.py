@@ -192,11 +192,14 @@ def test_nan_at_a_figure9_point_is_a_failed_check_with_a_report(tmp_path, capsys
 def test_cli_default_against_binomial_end_to_end(tmp_path, capsys):
     """Before: every check ran, then exit 2 "binomial: precision = 'float32' is invalid" (the speed
     step timed the baseline in float32), and nothing was written."""
+    # head_cf approximates the binomial closely enough to pass at 10^4 samples (fixed seeds: the
+    # verdict is reproducible); the point here is that the default runs to its verdict.
     rc = main(["shader", str(S.shipped_shader("head_cf")), "--out", str(tmp_path / "v")] + SMALL)
     err = capsys.readouterr().err
-    assert rc in (0, 1) and "precision" not in err, err
+    assert rc == 0 and "precision" not in err, err
     summary = json.loads((tmp_path / "v" / "verdict.json").read_text())
-    assert summary["against"] == "binomial" and summary["baseline_precision"] == "float64" and summary["ratio"] > 0
+    assert summary["passed"] and summary["against"] == "binomial" and summary["gpu_faithful"]
+    assert summary["baseline_precision"] == "float64" and summary["ratio"] > 0
 
 
 @pytest.mark.parametrize("against,precision", [("poisson", "float64"), ("zk16", "float32")])
