@@ -401,7 +401,8 @@ shaderc::CompileOptions options(const KernelSpec& spec, std::shared_ptr<IncludeS
   return o;
 }
 
-[[noreturn]] void compile_failure(const KernelSpec& spec, const std::string& messages) {
+[[noreturn]] void compile_failure(const KernelSpec& spec, const std::string& messages,
+                                  const std::string& signature = "") {
   // Only when every error is inside glintlab's wrapper did the call to the entry not match; an error
   // in the user's code (a missing `;`) also breaks the wrapper's call, and is the one to show.
   const std::string wrapper = wrapper_name(spec.language) + ":";
@@ -413,7 +414,8 @@ shaderc::CompileOptions options(const KernelSpec& spec, std::shared_ptr<IncludeS
       wrapper_only = false;
   if (wrapper_only)
     throw std::invalid_argument("shader " + spec.source_name + ": no function " + spec.entry +
-                                " with the expected signature " + expected_signature(spec.language, spec.entry) +
+                                " with the expected signature " +
+                                (signature.empty() ? expected_signature(spec.language, spec.entry) : signature) +
                                 " (" + spec.language + "); the compiler says:\n" + messages);
   throw std::invalid_argument("shader " + spec.source_name + " does not compile (" + spec.language +
                               "); the compiler says:\n" + messages);
@@ -486,8 +488,33 @@ struct Job {
   }
 };
 
+void reap(Device& d);
+
+// With d.mutex held, before a submission: an earlier kernel that passed its timeout and still runs
+// would delay this call's kernel, and a timeout then would blame this one. Waits for the earlier one
+// within this call's timeout, else throws ShaderDeviceBusy.
+void wait_for_retired(Device& d, double timeout_s);
+
 void reap(Device& d) {  // with d.mutex held
   std::erase_if(d.retired, [&](const std::unique_ptr<Job>& j) { return vkGetFenceStatus(d.dev, j->fence) == VK_SUCCESS; });
+}
+
+void wait_for_retired(Device& d, double timeout_s) {
+  reap(d);
+  if (d.retired.empty()) return;
+  std::vector<VkFence> fences;
+  for (const auto& j : d.retired) fences.push_back(j->fence);
+  const auto timeout_ns = static_cast<std::uint64_t>(std::min(timeout_s, 1e9) * 1e9);
+  const VkResult w = vkWaitForFences(d.dev, static_cast<std::uint32_t>(fences.size()), fences.data(), VK_TRUE, timeout_ns);
+  if (w == VK_TIMEOUT) {
+    std::ostringstream msg;
+    msg << "device '" << d.name << "' is still busy with an earlier kernel that passed its own timeout; this "
+        << "call waited timeout = " << timeout_s << " s for it and its kernel never ran (retry later, with a "
+        << "longer timeout, or in a new process)";
+    throw ShaderDeviceBusy(msg.str());
+  }
+  check(w, "vkWaitForFences");
+  reap(d);
 }
 
 struct Push {
@@ -566,22 +593,24 @@ void validate_spec(const KernelSpec& spec) {
 }
 
 std::string preprocess(const KernelSpec& spec, const std::string& wrapper,
-                       std::vector<std::pair<std::string, std::string>>* included) {
+                       std::vector<std::pair<std::string, std::string>>* included, const std::string& signature) {
   auto state = std::make_shared<IncludeState>();
   state->included = included;
   shaderc::Compiler compiler;
   auto pre = compiler.PreprocessGlsl(wrapper, shaderc_glsl_compute_shader, wrapper_name(spec.language).c_str(),
                                      options(spec, state));
-  if (pre.GetCompilationStatus() != shaderc_compilation_status_success) compile_failure(spec, pre.GetErrorMessage());
+  if (pre.GetCompilationStatus() != shaderc_compilation_status_success)
+    compile_failure(spec, pre.GetErrorMessage(), signature);
   return std::string(pre.cbegin(), pre.cend());
 }
 
 std::vector<std::uint32_t> compile_spirv(const KernelSpec& spec, const std::string& wrapper,
-                                         const std::string& entry_point) {
+                                         const std::string& entry_point, const std::string& signature) {
   shaderc::Compiler compiler;
   auto res = compiler.CompileGlslToSpv(wrapper, shaderc_glsl_compute_shader, wrapper_name(spec.language).c_str(),
                                        entry_point.c_str(), options(spec, std::make_shared<IncludeState>()));
-  if (res.GetCompilationStatus() != shaderc_compilation_status_success) compile_failure(spec, res.GetErrorMessage());
+  if (res.GetCompilationStatus() != shaderc_compilation_status_success)
+    compile_failure(spec, res.GetErrorMessage(), signature);
   return std::vector<std::uint32_t>(res.cbegin(), res.cend());
 }
 
@@ -800,18 +829,23 @@ struct Kernel::Impl {
   std::vector<std::pair<std::string, std::string>> included;
 };
 
-Kernel::Kernel(const KernelSpec& spec) : impl_(std::make_shared<Impl>()) {
+Kernel::Kernel(const KernelSpec& spec) : Kernel(spec, "", "") {}
+
+Kernel::Kernel(const KernelSpec& spec, const std::string& custom_wrapper, const std::string& signature,
+               const std::vector<SpirvResource>& allowed)
+    : impl_(std::make_shared<Impl>()) {
   validate_spec(spec);
   const int index = choose_device(spec.device);
   Device& d = device(index);
   impl_->device = &d;
   impl_->n_uniforms = spec.n_uniforms;
 
-  const std::string wrapper = wrapper_source(spec.language, spec.entry, spec.source_name);
+  const std::string wrapper =
+      custom_wrapper.empty() ? wrapper_source(spec.language, spec.entry, spec.source_name) : custom_wrapper;
   const std::string entry_point = spec.language == "hlsl" ? "glintlab_main" : "main";
   // The cache key is the preprocessed text (the user's code with its #includes and defines expanded),
   // so an edited included file is a new kernel.
-  const std::string text = preprocess(spec, wrapper, &impl_->included);
+  const std::string text = preprocess(spec, wrapper, &impl_->included, signature);
   std::ostringstream key;
   key << spec.language << '|' << spec.entry << '|' << spec.n_uniforms << '|' << fnv1a(text) << '|' << text.size();
   std::lock_guard<std::mutex> lock(d.mutex);
@@ -820,10 +854,11 @@ Kernel::Kernel(const KernelSpec& spec) : impl_(std::make_shared<Impl>()) {
     return;
   }
   auto pl = std::make_shared<Pipeline>();
-  pl->spirv = compile_spirv(spec, wrapper, entry_point);
+  pl->spirv = compile_spirv(spec, wrapper, entry_point, signature);
   // Before the driver sees it: a resource the pipeline layout lacks (descriptor set 1) crashes lavapipe.
-  require_resources(pl->spirv, wrapper_resources(), spec.source_name,
-                    "only the arguments of " + expected_signature(spec.language, spec.entry) +
+  require_resources(pl->spirv, allowed.empty() ? wrapper_resources() : allowed, spec.source_name,
+                    "only the arguments of " +
+                        (signature.empty() ? expected_signature(spec.language, spec.entry) : signature) +
                         " (glintlab's own buffers at set 0, bindings 0-3, and its push constant); pass data "
                         "through the uniforms or as constants and defines");
   pl->unbounded_loops = shader::unbounded_loops(pl->spirv);
@@ -886,23 +921,7 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
   const std::size_t k = static_cast<std::size_t>(impl_->n_uniforms);
   const auto timeout_ns = static_cast<std::uint64_t>(std::min(timeout_s, 1e9) * 1e9);
   std::lock_guard<std::mutex> lock(d.mutex);
-  reap(d);
-  if (!d.retired.empty()) {
-    // An earlier kernel passed its timeout and still runs: this call's kernel would queue behind it,
-    // and a timeout then would blame this one. Wait for the earlier one within this call's timeout.
-    std::vector<VkFence> fences;
-    for (const auto& j : d.retired) fences.push_back(j->fence);
-    const VkResult w = vkWaitForFences(d.dev, static_cast<std::uint32_t>(fences.size()), fences.data(), VK_TRUE, timeout_ns);
-    if (w == VK_TIMEOUT) {
-      std::ostringstream msg;
-      msg << "device '" << d.name << "' is still busy with an earlier kernel that passed its own timeout; this "
-          << "call waited timeout = " << timeout_s << " s for it and its kernel never ran (retry later, with a "
-          << "longer timeout, or in a new process)";
-      throw ShaderDeviceBusy(msg.str());
-    }
-    check(w, "vkWaitForFences");
-    reap(d);
-  }
+  wait_for_retired(d, timeout_s);
 
   const std::size_t chunk = std::min(count, kChunkRows);
   auto job = std::make_unique<Job>(d);
@@ -998,6 +1017,102 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
     }
     check(r, "vkWaitForFences");
     std::memcpy(out + base, kb, rows * sizeof(float));
+  }
+}
+
+// Method shaders' rows (glintlab/validation/method_shader.hpp): the same pipeline layout, one input
+// buffer of in_stride words per row and one output buffer of out_stride floats per row.
+void Kernel::run_rows(const float* in, std::size_t in_stride, std::size_t count, float* out, std::size_t out_stride,
+                      double timeout_s) const {
+  if (count == 0) return;
+  if (!(timeout_s > 0) || !std::isfinite(timeout_s))
+    throw std::invalid_argument("timeout = " + std::to_string(timeout_s) + " is invalid; expected seconds > 0");
+  if (in_stride == 0 || out_stride == 0) throw std::invalid_argument("run_rows: strides must be > 0");
+  Device& d = *impl_->device;
+  const Pipeline& pl = *impl_->pipeline;
+  std::lock_guard<std::mutex> lock(d.mutex);
+  wait_for_retired(d, timeout_s);
+  const std::size_t chunk = std::min(count, kChunkRows / 4);
+  auto job = std::make_unique<Job>(d);
+  job->make_buffer(0, chunk * in_stride * sizeof(float), false);
+  job->make_buffer(1, 4 * sizeof(float), false);
+  job->make_buffer(2, 4 * sizeof(float), false);
+  job->make_buffer(3, chunk * out_stride * sizeof(float), true);
+  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4};
+  VkDescriptorPoolCreateInfo pool{};
+  pool.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  pool.maxSets = 1;
+  pool.poolSizeCount = 1;
+  pool.pPoolSizes = &size;
+  check(vkCreateDescriptorPool(d.dev, &pool, nullptr, &job->descriptor_pool), "vkCreateDescriptorPool");
+  VkDescriptorSetAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  alloc.descriptorPool = job->descriptor_pool;
+  alloc.descriptorSetCount = 1;
+  alloc.pSetLayouts = &pl.set_layout;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+  check(vkAllocateDescriptorSets(d.dev, &alloc, &set), "vkAllocateDescriptorSets");
+  VkDescriptorBufferInfo infos[4];
+  VkWriteDescriptorSet writes[4]{};
+  for (int i = 0; i < 4; ++i) {
+    infos[i] = {job->buffers[i].buffer, 0, VK_WHOLE_SIZE};
+    writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    writes[i].dstSet = set;
+    writes[i].dstBinding = static_cast<std::uint32_t>(i);
+    writes[i].descriptorCount = 1;
+    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    writes[i].pBufferInfo = &infos[i];
+  }
+  vkUpdateDescriptorSets(d.dev, 4, writes, 0, nullptr);
+  VkCommandBufferAllocateInfo cmd{};
+  cmd.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+  cmd.commandPool = d.pool;
+  cmd.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cmd.commandBufferCount = 1;
+  check(vkAllocateCommandBuffers(d.dev, &cmd, &job->command), "vkAllocateCommandBuffers");
+  VkFenceCreateInfo fence{};
+  fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+  check(vkCreateFence(d.dev, &fence, nullptr, &job->fence), "vkCreateFence");
+  auto* ib = static_cast<float*>(job->buffers[0].mapped);
+  const auto* ob = static_cast<const float*>(job->buffers[3].mapped);
+  const auto timeout_ns = static_cast<std::uint64_t>(std::min(timeout_s, 1e9) * 1e9);
+  for (std::size_t base = 0; base < count; base += chunk) {
+    const std::size_t rows = std::min(chunk, count - base);
+    std::memcpy(ib, in + base * in_stride, rows * in_stride * sizeof(float));
+    const Push push{static_cast<std::uint32_t>(rows), static_cast<std::uint32_t>(in_stride),
+                    static_cast<std::uint32_t>(out_stride), 0u};
+    check(vkResetCommandBuffer(job->command, 0), "vkResetCommandBuffer");
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    check(vkBeginCommandBuffer(job->command, &begin), "vkBeginCommandBuffer");
+    vkCmdBindPipeline(job->command, VK_PIPELINE_BIND_POINT_COMPUTE, pl.pipeline);
+    vkCmdBindDescriptorSets(job->command, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout, 0, 1, &set, 0, nullptr);
+    vkCmdPushConstants(job->command, pl.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &push);
+    vkCmdDispatch(job->command, static_cast<std::uint32_t>((rows + kGroupSize - 1) / kGroupSize), 1, 1);
+    VkMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(job->command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &barrier, 0, nullptr, 0, nullptr);
+    check(vkEndCommandBuffer(job->command), "vkEndCommandBuffer");
+    check(vkResetFences(d.dev, 1, &job->fence), "vkResetFences");
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &job->command;
+    check(vkQueueSubmit(d.queue, 1, &submit, job->fence), "vkQueueSubmit");
+    const VkResult r = vkWaitForFences(d.dev, 1, &job->fence, VK_TRUE, timeout_ns);
+    if (r == VK_TIMEOUT) {
+      d.retired.push_back(std::move(job));
+      std::ostringstream msg;
+      msg << "shader kernel ran longer than timeout = " << timeout_s << " s on '" << d.name << "' (rows " << base
+          << " .. " << base + rows << "); its buffers are released when the device finishes";
+      throw ShaderTimeout(msg.str());
+    }
+    check(r, "vkWaitForFences");
+    std::memcpy(out + base * out_stride, ob, rows * out_stride * sizeof(float));
   }
 }
 

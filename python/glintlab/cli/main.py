@@ -15,6 +15,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from .._core import __version__
@@ -29,6 +30,8 @@ from ..report.sections import SECTIONS
 from ..resources import data_path
 from ..studies.aniso import write_report as write_aniso_report
 from ..studies.scene_images import write_images
+from ..api.method_shaders import shader_method
+from ..validation.scene_images import Material, frame_inputs, make_method, with_directional_light
 from ..studies.scenes import write_profiles
 from ..studies.shaders import write_verdict
 from ..studies.speed_accuracy import write_bench
@@ -400,6 +403,10 @@ def _cmd_images(args) -> int:
     if args.methods:
         params["methods"] = args.methods
         params["animation_methods"] = args.methods
+    if args.method:
+        bad = _check_method_shaders(args, scenes, params)
+        if bad:
+            return bad
     t0 = time.perf_counter()
     paths, tables = write_images(scenes, args.out, seed=args.seed, **params)
     if not args.quiet:
@@ -408,6 +415,27 @@ def _cmd_images(args) -> int:
         _print_table(tables["scene_images_timing"], args.quiet)
         print(f"\nwrote {', '.join(str(p) for p in paths)} and CSV tables in {args.out} "
               f"({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def _check_method_shaders(args, scenes, params) -> int:
+    """``images --method FILE``: compiles each user method shader (a compile error is bad input, exit 2),
+    adds it to the methods (beside the truth and the smooth image unless --methods names others) and
+    checks that it returns finite values on the first frame of every scene (exit 1 otherwise)."""
+    names = []
+    for path in args.method:
+        names.append(shader_method(path).name)
+    base = args.methods or "truth,smooth"
+    params["methods"] = params["animation_methods"] = ",".join(dict.fromkeys(base.split(",") + names))
+    for sc in scenes:
+        small = with_directional_light(sc.scaled(args.scale, keep_n=True))
+        inp = frame_inputs(small)
+        for name in names:
+            vals = make_method(name, Material.of(small)).image(inp, seed=args.seed)[inp.hit]
+            if not np.isfinite(vals).all():
+                print(f"method {name}: non-finite values on {int((~np.isfinite(vals)).sum())} of {vals.size} "
+                      f"hit pixel values of scene {sc.name} (frame 0)", file=sys.stderr)
+                return 1
     return 0
 
 
@@ -597,6 +625,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="facet density x this (default: 1/16, sparse glints; 1: the files' N)")
     p.add_argument("--tau", type=float, default=2.0, help="glint threshold in units of D(h) (default: 2)")
     p.add_argument("--methods", help="comma-separated image methods (default: all registered; must include truth)")
+    p.add_argument("--method", action="append", metavar="FILE.hlsl",
+                   help="your own method shader (float glint(GlintInput g), docs/guide/shaders.md), rendered "
+                        "beside the truth and the smooth image; repeatable")
     p.add_argument("--timing-scale", type=float, default=1.0,
                    help="resolution factor of the timed image of the first scene (default: 1, 1920 x 1080)")
     p.add_argument("--seed", type=int, default=1)

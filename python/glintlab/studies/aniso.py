@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from ..api import checks as V
-from ..api.grids import CONFIGS, IMAGE_CONFIGS, aniso_counter, configured_counter
+from ..api.grids import CONFIGS, IMAGE_CONFIGS, configured_counter
 from ..api.metrics import chi2_test, distance
 from ..api.spatial import Ellipse, ground_truth
 from ..validation.rows import row_seed, tv_noise
@@ -316,9 +316,9 @@ def write_report(out, full: bool = False, samples: int | None = None, seed: int 
         V.fail("samples", samples, "an integer >= 1 (draws per footprint)")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    res = study_tables(grid or (FULL_GRID if full else QUICK_GRID), (40_000 if full else 10_000) if samples is None else int(samples),
-                      seed,
-                       image, map_resolution=80 if not full else 160, progress=progress)
+    samples = (40_000 if full else 10_000) if samples is None else int(samples)
+    res = study_tables(grid or (FULL_GRID if full else QUICK_GRID), samples, seed, image,
+                       map_resolution=80 if not full else 160, progress=progress)
     paths = figures(res, Context(out, seed))
     written = {"aniso_study": res.extra["aniso_study"], **res.tables, **res.extra}
     for name, df in written.items():

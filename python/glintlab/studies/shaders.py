@@ -146,4 +146,3 @@ def write_verdict(out, verdict: dict, law, against: str, twin: str | None) -> Pa
     path = out / "verdict.md"
     path.write_text("\n".join(lines))
     return path
-

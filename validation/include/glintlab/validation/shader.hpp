@@ -72,11 +72,26 @@ struct KernelSpec {
   std::string device = "auto";
 };
 
+// A resource a SPIR-V module declares: a variable in the UniformConstant (samplers, images),
+// Uniform (uniform or storage blocks), StorageBuffer or PushConstant storage class.
+struct SpirvResource {
+  std::string name;   // the variable's name, else its block's type name, else "%<id>"
+  std::string kind;   // "storage buffer", "uniform buffer", "push constant", "sampler or image"
+  int set = -1;       // DescriptorSet decoration (-1: none)
+  int binding = -1;   // Binding decoration (-1: none)
+};
+
 class Kernel {
  public:
   // Compiles (or finds in the cache) and builds the pipeline. Throws std::invalid_argument with the
   // compiler's messages (file:line) for code that does not compile or lacks the expected entry.
   explicit Kernel(const KernelSpec& spec);
+  // A kernel with its own wrapper (method shaders, glintlab/validation/method_shader.hpp): `wrapper`
+  // replaces the counting-law wrapper (same bindings 0..3 and push constants) and `signature` names the
+  // entry's expected signature in compile errors. `allowed`: the wrapper's own resources (empty: those
+  // of wrapper_source); the SPIR-V may declare no other (require_resources).
+  Kernel(const KernelSpec& spec, const std::string& wrapper, const std::string& signature,
+         const std::vector<SpirvResource>& allowed = {});
   ~Kernel();
   Kernel(const Kernel&) = delete;
   Kernel& operator=(const Kernel&) = delete;
@@ -95,6 +110,12 @@ class Kernel {
   // count; u holds count rows of n_uniforms() uniforms. timeout_s bounds each submission.
   void run(const double* n, std::size_t n_size, const double* p, std::size_t p_size, const double* u,
            std::size_t count, float* out, double timeout_s) const;
+
+  // Raw rows, for kernels with their own wrapper: binding 0 holds count rows of in_stride 32-bit
+  // words, binding 3 receives count rows of out_stride floats; the push constants are (rows,
+  // in_stride, out_stride, 0); bindings 1 and 2 are one-word placeholders.
+  void run_rows(const float* in, std::size_t in_stride, std::size_t count, float* out, std::size_t out_stride,
+                double timeout_s) const;
 
   struct Impl;
 
@@ -122,20 +143,14 @@ void validate_spec(const KernelSpec& spec);
 constexpr int kMaxIncludeDepth = 32;
 constexpr int kMaxIncludes = 4096;
 std::string preprocess(const KernelSpec& spec, const std::string& wrapper,
-                       std::vector<std::pair<std::string, std::string>>* included = nullptr);
+                       std::vector<std::pair<std::string, std::string>>* included = nullptr,
+                       const std::string& signature = "");
 
-// The wrapper compiled to SPIR-V (entry point `entry_point`). Throws as preprocess does.
+// The wrapper compiled to SPIR-V (entry point `entry_point`). Throws as preprocess does (`signature`:
+// the entry's expected signature, for the message when the wrapper's call does not match).
 std::vector<std::uint32_t> compile_spirv(const KernelSpec& spec, const std::string& wrapper,
-                                         const std::string& entry_point);
+                                         const std::string& entry_point, const std::string& signature = "");
 
-// A resource a SPIR-V module declares: a variable in the UniformConstant (samplers, images),
-// Uniform (uniform or storage blocks), StorageBuffer or PushConstant storage class.
-struct SpirvResource {
-  std::string name;   // the variable's name, else its block's type name, else "%<id>"
-  std::string kind;   // "storage buffer", "uniform buffer", "push constant", "sampler or image"
-  int set = -1;       // DescriptorSet decoration (-1: none)
-  int binding = -1;   // Binding decoration (-1: none)
-};
 std::vector<SpirvResource> spirv_resources(const std::vector<std::uint32_t>& spirv);
 
 // Throws std::invalid_argument naming the first resource of `spirv` that is not in `allowed` (same
