@@ -42,7 +42,7 @@ void bind_shaders(py::module_& m) {
                        const std::vector<std::string>& include_dirs, const std::string& device,
                        const std::vector<std::pair<std::string, std::string>>& include_files) {
              shader::KernelSpec spec{source, source_name, entry, language, n_uniforms, defines, include_dirs,
-                                     include_files, device};
+                                     device, include_files};
              glintlab::bindings::LongCall release;
              return std::make_shared<Kernel>(spec);
            }),

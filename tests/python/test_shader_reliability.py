@@ -389,3 +389,16 @@ def test_any_include_graph_compiles_or_is_refused_quickly(edges, guarded, tmp_pa
         assert refused is None, refused
     else:
         assert refused is not None and "#include cycle" in refused
+
+
+@pytest.mark.parametrize("language,code", [
+    ("glsl", "layout(std430, set = 1, binding = 0) buffer Extra { float extra[]; };\n"
+             "float glint(GlintInput g) { return extra[0] * g.uv.x; }"),
+    ("hlsl", "cbuffer Params : register(b0) { float scale; };\nfloat glint(GlintInput g) { return scale * g.uv.x; }"),
+])
+def test_method_shaders_share_the_resource_check(language, code):
+    """The per-pixel method contract reuses the compile path: its own buffers pass, others are refused."""
+    with pytest.raises(ValueError, match="is not bound by glintlab") as e:
+        gl.shader_method(code, language=language, register=False)
+    assert "GlintInput" in str(e.value)
+    gl.shader_method("float glint(GlintInput g) { return g.uv.x; }", language=language, register=False)  # passes

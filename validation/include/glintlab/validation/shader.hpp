@@ -63,13 +63,13 @@ struct KernelSpec {
   int n_uniforms = 2;             // 0 .. 4
   std::vector<std::pair<std::string, std::string>> defines;  // -D NAME=VALUE
   std::vector<std::string> include_dirs;                     // searched after the source's folder
+  // "auto" (a GPU when there is one, else the CPU device), "gpu", "cpu", or a device index ("0") or
+  // a substring of a device name.
+  std::string device = "auto";
   // When not empty, #include "x" is served from these (path as resolved, content) only, never from
   // the disk: the files a kernel read when it was first compiled (Kernel::included_files), so that a
   // pickled law compiles the same code anywhere, whatever happened to the files since.
   std::vector<std::pair<std::string, std::string>> include_files;
-  // "auto" (a GPU when there is one, else the CPU device), "gpu", "cpu", or a device index ("0") or
-  // a substring of a device name.
-  std::string device = "auto";
 };
 
 // A resource a SPIR-V module declares: a variable in the UniformConstant (samplers, images),
