@@ -285,6 +285,9 @@ def test_paths_are_never_compiled_as_code(tmp_path):
         shader_law(str(tmp_path))
     with pytest.raises(ValueError, match="not a folder"):
         shader_law(tmp_path)
+    (tmp_path / "count.hlsl").write_text(COUNT)  # one preprocessor line is code, not a path
+    law = shader_law(f'#include "{tmp_path / "count.hlsl"}"', name="test_include_line", binning="none")
+    assert law.evaluate(8, 0.5, [[0.5, 0.5]])[0] == 4
 
 
 def test_a_missing_semicolon_shows_the_compiler_line(tmp_path):

@@ -88,9 +88,10 @@ def _decode(path: Path) -> str:
 
 def _is_path_text(text: str) -> bool:
     """The rule that tells a path from code in a string: an existing file or folder is a path, and so
-    is a single line with none of ``( { ; }`` (every shader defining a function has them), whatever
-    its extension, so a mistyped file name is reported as missing and never compiled as code."""
-    if "\n" in text or "\0" in text:
+    is a single line with none of ``( { ; }`` (every shader defining a function has them) that is not
+    a preprocessor line (``#include "count.hlsl"`` is code), whatever its extension, so a mistyped
+    file name is reported as missing and never compiled as code."""
+    if "\n" in text or "\0" in text or text.lstrip().startswith("#"):  # '#include "x.hlsl"' is code
         return False
     return not any(c in text for c in "({;}") or os.path.exists(text)
 
