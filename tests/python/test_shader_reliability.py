@@ -116,6 +116,11 @@ def test_include_cycles_are_refused_within_seconds(tmp_path):
     ("glsl", "float k = 0.0; for (int i = 0; i < 1000; ++i) k += u.x * float(i); return k;", 0),
     ("hlsl", "float k = 0.0; for (int i = 3; i < 20000; i += 2) k += u.y * float(i); return k;", 0),
     ("hlsl", "return n * p;", 0),
+    ("hlsl", "float k = 0.0; for (int i = 1000; i > 0; --i) k += u.y * float(i); return k;", 0),
+    ("hlsl", "float k = 0.0; for (int i = 0; i < 1000; --i) k += u.y * float(i); return k;", 1),
+    ("glsl", "float k = 0.0; for (int i = 0; i != 1000; i += 3) k += u.y * float(i); return k;", 1),
+    ("glsl", "float k = 0.0; for (int i = 0; i < 1000; i += int(n)) k += u.x; return k;", 1),
+    ("glsl", "float k = 0.0; for (int i = 0; i < 100; i += 1) { k += u.x; if (k > n) i -= 2; } return k;", 1),
 ])
 def test_loops_whose_trip_count_is_not_a_small_constant_are_found(language, body, unbounded):
     vec = "vec4" if language == "glsl" else "float4"

@@ -621,7 +621,8 @@ namespace spv {
 constexpr std::uint32_t kMagic = 0x07230203;
 enum Op : std::uint32_t {
   Name = 5, TypeInt = 21, TypeFloat = 22, TypeStruct = 30, TypePointer = 32, Constant = 43, Variable = 59,
-  Decorate = 71, IAdd = 128, FAdd = 129, ISub = 130, FSub = 131, IEqual = 170, FUnordGreaterThanEqual = 191,
+  Decorate = 71, IAdd = 128, FAdd = 129, ISub = 130, FSub = 131, IEqual = 170, INotEqual = 171, FOrdEqual = 180,
+  FUnordNotEqual = 183, FUnordGreaterThanEqual = 191,
   Phi = 245, LoopMerge = 246, Label = 248, Branch = 249, BranchConditional = 250,
 };
 enum Storage : std::uint32_t { UniformConstant = 0, Uniform = 2, PushConstant = 9, StorageBuffer = 12 };
@@ -814,6 +815,12 @@ int unbounded_loops(const std::vector<std::uint32_t>& spirv) {
       else return false;
     }
     if (!have_start || !have_inc || std::abs(inc) < 1) return false;
+    // A counter stepping away from its bound (i < 1000; --i), or stepping over it where the test is an
+    // equality (i != 1000 from 0 by 3), runs until its type overflows, if ever: not bounded here.
+    if ((limit - start) * inc < 0) return false;
+    const bool equality = cmp.op == spv::IEqual || cmp.op == spv::INotEqual ||
+                          (cmp.op >= spv::FOrdEqual && cmp.op <= spv::FUnordNotEqual);
+    if (equality && std::fmod(limit - start, inc) != 0) return false;
     // Iterations: |limit - start| / |step|, one more for <= (+1 kept as margin for either).
     return std::abs(limit - start) / std::abs(inc) + 1.0 <= 65535.0;
   };
