@@ -35,7 +35,7 @@ import numpy as np
 
 from .. import _core
 from . import checks as V
-from .glinty_ndf import GLINTY_NDFS, GlintyNDF, _arrays
+from .glinty_ndf import GLINTY_NDFS, GlintyNDF, pixel_arrays
 
 # The paper's Table 2: the blur level (degrees) used for each roughness.
 TABLE2_LOD = ((0.05, 1.0), (0.1, 2.0), (0.5, 10.0), (0.8, 30.0))
@@ -119,7 +119,7 @@ class WWH18(GlintyNDF):
     # --- counts -------------------------------------------------------------------------------------
     def reference_counts(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """The discrete-flake truth's count per pixel (integers; law Poisson(``expected_count``))."""
-        uv, J, h, shape = _arrays(uv, J, h)
+        uv, J, h, shape = pixel_arrays(uv, J, h)
         return self._core.reference_counts(uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed)).reshape(shape)
 
     def counts(self, uv, J, h, seed: int = 0, wi=None) -> np.ndarray:
@@ -129,7 +129,7 @@ class WWH18(GlintyNDF):
 
     def counts_detail(self, uv, J, h, seed: int = 0, wi=None) -> dict:
         """``counts`` with, per pixel, ``mode`` (0 zero, 1 traversal, 2 filtered) and the ``p`` used."""
-        uv, J, h, shape = _arrays(uv, J, h)
+        uv, J, h, shape = pixel_arrays(uv, J, h)
         w = None
         if wi is not None:
             w = _directions("wi", wi)
@@ -146,7 +146,7 @@ class WWH18(GlintyNDF):
 
     def evaluate(self, uv, J, h, seed: int = 0, wi=None) -> np.ndarray:
         """The model's D-hat: ``counts`` / (N abs(det J) sigma(gamma) h.n); 0 below the horizon."""
-        _, Jc, hc, _ = _arrays(uv, J, h)
+        _, Jc, hc, _ = pixel_arrays(uv, J, h)
         norm, hz = self._norm(Jc, hc)
         c = self.counts(uv, J, h, seed, wi)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -154,7 +154,7 @@ class WWH18(GlintyNDF):
 
     def reference(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """The truth's D-hat: ``reference_counts`` / (N abs(det J) sigma(gamma) h.n); 0 below the horizon."""
-        _, Jc, hc, _ = _arrays(uv, J, h)
+        _, Jc, hc, _ = pixel_arrays(uv, J, h)
         norm, hz = self._norm(Jc, hc)
         c = self.reference_counts(uv, J, h, seed)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -168,7 +168,7 @@ class WWH18(GlintyNDF):
 
     def expected_count(self, J, h) -> np.ndarray:
         """The truth's exact mean N abs(det J) p_gamma(h) (its law is Poisson with this mean)."""
-        _, J, h, shape = _arrays(None, J, h)
+        _, J, h, shape = pixel_arrays(None, J, h)
         area = np.abs(J[..., 0] * J[..., 3] - J[..., 1] * J[..., 2])
         hz = h[..., 2]
         return np.where(hz > 0, self.density * area * self.cone_mass(h), 0.0)
