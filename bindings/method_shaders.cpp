@@ -29,7 +29,7 @@ void bind_method_shaders(py::module_& m) {
       .def(py::init([](const std::string& source, const std::string& source_name, const std::string& entry,
                        const std::string& language, const std::vector<std::pair<std::string, std::string>>& defines,
                        const std::vector<std::string>& include_dirs, const std::string& device) {
-             shader::KernelSpec spec{source, source_name, entry, language, 0, defines, include_dirs, device};
+             shader::KernelSpec spec{source, source_name, entry, language, 0, defines, include_dirs, device, {}};
              glintlab::bindings::LongCall release;
              return MethodKernel{shader::method_kernel(spec)};
            }),

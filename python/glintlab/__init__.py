@@ -24,6 +24,7 @@ from .api.metrics import METRICS, chi2_test, chi2_test_two_sample, distance, sid
 from .api.ndf import NDF, ndf
 from .api.plugins import load_plugin, loaded_plugins
 from .api.shaders import ShaderLaw, shader_law, shipped_shader, vulkan_devices
+from .api.shaders import ShaderDeviceBusy, ShaderOutputError
 from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 from .report.html import write_extremes_report
 from .validation.advisor import Advice, advise
@@ -60,5 +61,6 @@ __all__ = [
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
     "ShaderLaw", "shader_law", "shipped_shader", "vulkan_devices",
     "image_methods", "ShaderMethod", "shader_method", "render",
+    "ShaderDeviceBusy", "ShaderOutputError",
 ]
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)

@@ -51,7 +51,9 @@ std::string method_wrapper_source(const std::string& language, const std::string
     s << "#include \"glintlab_method_hlsl.h\"\n"
       << "#include \"" << include_name << "\"\n"
       << "struct GlintlabPush { uint count; uint in_stride; uint out_stride; uint pad; };\n"
-      << "[[vk::push_constant]] GlintlabPush glintlab_push;\n"
+      // A ConstantBuffer<>: a plain struct marked [[vk::push_constant]] becomes glslang's "$Global"
+      // uniform buffer at set 0, binding 0 (over glintlab_in), not a push constant.
+      << "[[vk::push_constant]] ConstantBuffer<GlintlabPush> glintlab_push;\n"
       << "[[vk::binding(0, 0)]] StructuredBuffer<uint> glintlab_in;\n"
       << "[[vk::binding(3, 0)]] RWStructuredBuffer<float> glintlab_out;\n"
       << "void glintlab_store(uint o, float v) { glintlab_out[o] = v; glintlab_out[o + 1u] = v; "
@@ -96,8 +98,15 @@ std::shared_ptr<Kernel> method_kernel(KernelSpec spec) {
   if (spec.language != "hlsl" && spec.language != "glsl")
     throw std::invalid_argument("language = '" + spec.language + "' is invalid; expected 'hlsl' or 'glsl'");
   spec.n_uniforms = 0;
+  // The wrapper's own resources (HLSL names its variables, GLSL its blocks); a method shader may
+  // declare no other (Kernel refuses it by name before the driver sees it).
+  const std::vector<SpirvResource> allowed{{"glintlab_push", "push constant", -1, -1},
+                                           {"glintlab_in", "storage buffer", 0, 0},
+                                           {"GlintlabIn", "storage buffer", 0, 0},
+                                           {"glintlab_out", "storage buffer", 0, 3},
+                                           {"GlintlabOut", "storage buffer", 0, 3}};
   return std::make_shared<Kernel>(spec, method_wrapper_source(spec.language, spec.entry, spec.source_name),
-                                  method_signature(spec.language, spec.entry));
+                                  method_signature(spec.language, spec.entry), allowed);
 }
 
 void run_method(const Kernel& kernel, const float* in, std::size_t count, float* out, double timeout_s) {
