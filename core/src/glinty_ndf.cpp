@@ -5,6 +5,7 @@
 #include <boost/math/quadrature/gauss_kronrod.hpp>
 #include <boost/math/special_functions/erf.hpp>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -83,9 +84,15 @@ std::string element(const char* name, std::size_t i, int c) {
   return std::string(name) + "[" + std::to_string(i) + ", " + std::to_string(c) + "]";
 }
 std::string row_name(const char* name, std::size_t i) { return std::string(name) + "[" + std::to_string(i) + ", :]"; }
+// Ten significant digits: enough to recognise the caller's numbers (3.16, not 3.1600000000000001).
+std::string short_value(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", x);
+  return buf;
+}
 std::string row_value(const double* x, int n) {
   std::string s = "[";
-  for (int c = 0; c < n; ++c) s += (c ? ", " : "") + format_value(x[c]);
+  for (int c = 0; c < n; ++c) s += (c ? ", " : "") + short_value(x[c]);
   return s + "]";
 }
 
@@ -447,7 +454,7 @@ void Kpt25Ndf::footprint(GlintPixel& px, const double* jac, std::size_t i) const
   const double det = f2 * f2 * detj * detj;
   if (!(det > 0.0) || !(det > 1e-24 * suu * svv))
     throw_invalid(kWhere, row_name("J", i), row_value(J, 4),
-                  "a footprint with det J != 0 (here " + format_value(detj) +
+                  "a footprint with det J != 0 (here " + short_value(detj) +
                       ") and anisotropy below 1e12 (mask pixels that do not see the surface)");
   px.inv_a = svv / det;
   px.inv_b = -suv / det;
@@ -462,7 +469,7 @@ void Kpt25Ndf::footprint(GlintPixel& px, const double* jac, std::size_t i) const
   px.lambda = std::log2(res_ * 2.0 * kFilterRadius * major);
   if (!(px.lambda <= kGlintMaxLevel))
     throw_invalid(kWhere, row_name("J", i), row_value(J, 4),
-                  "a footprint small enough for the density (MIP level " + format_value(px.lambda) + " > " +
+                  "a footprint small enough for the density (MIP level " + short_value(px.lambda) + " > " +
                       std::to_string(kGlintMaxLevel) + "; lower the density or the footprint)");
   px.lambda = std::max(0.0, px.lambda);
   const int l0 = static_cast<int>(std::floor(px.lambda));
