@@ -335,8 +335,8 @@ double gaussian_in_disk_rect(double cx, double cy, double sigma, double x0, doub
 Kpt25Ndf::Kpt25Ndf(const Kpt25Params& params) : p_(params) {
   if (!(p_.density > 0.0 && p_.density <= 1e18)) throw_invalid(kWhere, "density", p_.density, "a number in (0, 1e18]");
   if (!(p_.alpha > 0.0 && std::isfinite(p_.alpha))) throw_invalid(kWhere, "alpha", p_.alpha, "a finite number > 0");
-  if (!(p_.alpha_star > 0.0 && std::isfinite(p_.alpha_star)))
-    throw_invalid(kWhere, "alpha_star", p_.alpha_star, "a finite number > 0");
+  if (!(p_.alpha_star >= 1e-30 && std::isfinite(p_.alpha_star)))
+    throw_invalid(kWhere, "alpha_star", p_.alpha_star, "a finite number >= 1e-30");
   if (!(p_.k == 1 || p_.k == 4 || p_.k == 9 || p_.k == 16))
     throw_invalid(kWhere, "k", static_cast<double>(p_.k), "1, 4, 9 or 16 (a square block of angular cells)");
   if (!(p_.epsilon >= 0.0 && p_.epsilon <= 0.5)) throw_invalid(kWhere, "epsilon", p_.epsilon, "a number in [0, 0.5]");
@@ -496,6 +496,10 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
   px.ya = m[1];
   px.D = m[2];
   px.sigma = p_.alpha_star * std::sqrt(px.D);
+  // Where sigma^2 underflows (D(h) < 1e-240 at alpha_star >= 1e-30: the far grazing tail of Beckmann)
+  // the lobes' 1 / (2 pi sigma^2) would give 0 x inf; the value D(h) x (a mass <= 1) is below 1e-240
+  // there, and is returned as 0, the limit at grazing (docs/math/glinty_ndf.md#glinty-map).
+  if (!(px.sigma * px.sigma > 1e-300)) px.D = 0.0;
   return px;
 }
 
@@ -695,7 +699,7 @@ double Kpt25Ndf::level_pdf(const GlintPixel& px, int level, double u, double v, 
   for_points(p_, res_, px, level, px.weights[level == px.levels[0] ? 0 : 1], u, v, seed, a0, a1, b0, b1,
              [&](std::int64_t a, std::int64_t b, double mx, double my, double w) {
                const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
-               if (!(sg > 0.0)) return;
+               if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
                const double ex = x - mx, ey = y - my;
                const double g = w * std::exp(-0.5 * (ex * ex + ey * ey) / (sg * sg)) / (2.0 * kPi * sg * sg);
                double mxs[4], mys[4];
@@ -801,7 +805,7 @@ void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std
         for_points(p_, res_, px, level, px.weights[li], u, v, seed, a0, a1, b0, b1,
                    [&](std::int64_t, std::int64_t, double mx, double my, double w) {
                      const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
-                     if (!(sg > 0.0)) return;
+                     if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
                      const double wi = w * mass_1d(mx, sg, bx0, bx1) * mass_1d(my, sg, by0, by1);
                      if (!(wi > 0.0)) return;
                      total += wi;

@@ -301,6 +301,11 @@ def test_grazing_and_rescaled_half_vectors():
                 np.testing.assert_allclose(b, a, rtol=1e-14)
         with pytest.raises(ValueError, match="nonzero"):
             nd.evaluate(uv, J, [[0.0, 0.0, 0.0]])
+    # D(h) = 5e-323 (a denormal): its lobe's sigma^2 underflows; the value is 0, not NaN.
+    nd = gl.glinty_ndf("kpt25", density=1e6, alpha=0.5, alpha_star=0.05, compensation="disk")
+    h = [[1.82973211, 0.18888493, 0.13408654]]
+    assert nd.evaluate([[0.0, 0.0]], [[0.01, 0, 0, 0.01]], h)[0] == 0.0
+    assert np.all(np.isfinite(nd.expected([[0.01, 0, 0, 0.01]], h)))
 
 
 def test_disk_integrals_are_fast_and_accurate():
