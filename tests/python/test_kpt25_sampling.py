@@ -174,6 +174,12 @@ def test_samples_follow_their_pdf_and_wrong_pdfs_are_rejected(case):
     # Wrong: the lobes 10 % wider (the same realization: the points do not depend on alpha_star).
     wide = gl.glinty_ndf("kpt25", **{**kw, "alpha_star": 1.1 * kw["alpha_star"]})
     assert chi2_pvalue(obs, lost, expected_per_bin(wide, uv, J, 5, edges), N) < ALPHA_P
+    # Wrong: the pdf without the Jacobian (pi / 4) D(h) (h.n) of T^-1.
+    def no_jacobian(hh):
+        m = len(hh)
+        return nd.pdf(np.tile(uv, (m, 1)), np.tile(J, (m, 1)), hh, seed=5) / (0.25 * math.pi * nd.smooth(hh) * hh[:, 2])
+
+    assert chi2_pvalue(obs, lost, expected_per_bin(nd, uv, J, 5, edges, pdf_fn=no_jacobian), N) < ALPHA_P
     # Wrong: another realization's pdf (seed 6) for the draws of seed 5.
     assert chi2_pvalue(obs, lost, expected_per_bin(nd, uv, J, 6, edges), N) < ALPHA_P
 
