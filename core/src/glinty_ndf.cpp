@@ -725,8 +725,14 @@ double Kpt25Ndf::level_pdf(const GlintPixel& px, int level, double u, double v, 
                for (int bx = 0; bx < nbx; ++bx)
                  for (int by = 0; by < nby; ++by)
                    if (mxs[bx] >= 0.0 && mys[by] >= 0.0) {
-                     G[bx][by] += g;
-                     W[bx][by] += w * mxs[bx] * mys[by];
+                     const double mass = mxs[bx] * mys[by];
+                     if (p_.sample_lobe_mass) {  // chosen with weight w M_i(B), sampled from N_i 1_B / M_i(B)
+                       G[bx][by] += g;
+                       W[bx][by] += w * mass;
+                     } else if (mass > 0.0) {  // chosen with weight w, sampled from N_i 1_B / M_i(B)
+                       G[bx][by] += g / mass;
+                       W[bx][by] += w;
+                     }
                    }
              });
   std::int64_t cx0, cx1, cy0, cy1;  // the block x_a = (x, y) would choose (the fallback's support)
@@ -811,7 +817,8 @@ void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std
                    [&](std::int64_t, std::int64_t, double mx, double my, double w) {
                      const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
                      if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
-                     const double wi = w * mass_1d(mx, sg, bx0, bx1) * mass_1d(my, sg, by0, by1);
+                     const double mass = mass_1d(mx, sg, bx0, bx1) * mass_1d(my, sg, by0, by1);
+                     const double wi = p_.sample_lobe_mass ? w * mass : (mass > 0.0 ? w : 0.0);
                      if (!(wi > 0.0)) return;
                      total += wi;
                      if (rng.uniform() * total < wi) {

@@ -121,7 +121,7 @@ def draw(nd, uv, J, seed, N, draw_seed=1):
 
 # (NDF parameters, uv, J): levels 1-2 with blocks of 2 x 2 cells; single cells and a defensive smooth
 # share; blocks of 3 x 3 cells; levels 2-3 with about 10 points per footprint (most blocks empty: the
-# fallback to x_a); 4 x 4 blocks with GGX.
+# fallback to x_a); 4 x 4 blocks with GGX; the printed reservoir weight.
 PIXELS = [
     (dict(density=4e3, target="beckmann", alpha=0.5, alpha_star=0.05, k=4), (0.31, 0.57), (0.03, 0.004, -0.006, 0.025)),
     (dict(density=1e3, target="ggx", alpha=0.4, alpha_star=0.08, k=1, sample_smooth=0.2), (1.7, -0.4),
@@ -130,6 +130,8 @@ PIXELS = [
      (0.012, 0.0, 0.003, 0.01)),
     (dict(density=1e6, target="beckmann", alpha=0.5, alpha_star=0.02, k=4), (0.123, 0.456), (0.003, 0, 0.0005, 0.0025)),
     (dict(density=1e6, target="ggx", alpha=0.2, alpha_star=0.03, k=16), (3.3, 0.1), (0.002, 0, 0, 0.002)),
+    (dict(density=4e3, target="beckmann", alpha=0.5, alpha_star=0.05, k=4, sample_weight="printed"), (0.31, 0.57),
+     (0.03, 0.004, -0.006, 0.025)),
 ]
 
 
@@ -174,6 +176,7 @@ def test_samples_follow_their_pdf_and_wrong_pdfs_are_rejected(case):
     # Wrong: the lobes 10 % wider (the same realization: the points do not depend on alpha_star).
     wide = gl.glinty_ndf("kpt25", **{**kw, "alpha_star": 1.1 * kw["alpha_star"]})
     assert chi2_pvalue(obs, lost, expected_per_bin(wide, uv, J, 5, edges), N) < ALPHA_P
+
     # Wrong: the pdf without the Jacobian (pi / 4) D(h) (h.n) of T^-1.
     def no_jacobian(hh):
         m = len(hh)
@@ -244,6 +247,8 @@ def test_sample_bad_input_is_refused_by_name():
         nd.sample(uv, J, wo=[0.0, 0.0, float("nan")])
     with pytest.raises(ValueError, match="wo"):
         nd.sample(uv, J, wo=[0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="sample_weight"):
+        gl.glinty_ndf("kpt25", sample_weight="lobe")
     with pytest.raises(ValueError, match="sample_smooth"):
         gl.glinty_ndf("kpt25", sample_smooth=1.5)
     with pytest.raises(ValueError, match=r"J\[0\] = \[0\.001, 0\.001, 0\.001, 0\.001\]"):
@@ -342,7 +347,9 @@ def test_disk_integrals_are_fast_and_accurate():
         def g(x):
             c = math.sqrt(max(0.0, 0.25 - (x - 0.5) ** 2))
             lo, hi = max(y0, 0.5 - c), min(y1, 0.5 + c)
-            return 0.0 if hi <= lo else stats.norm.pdf(x, cx, s) * (stats.norm.cdf(hi, cy, s) - stats.norm.cdf(lo, cy, s))
+            if hi <= lo:
+                return 0.0
+            return stats.norm.pdf(x, cx, s) * (stats.norm.cdf(hi, cy, s) - stats.norm.cdf(lo, cy, s))
 
         ref, _ = integrate.quad(g, max(x0, cx - 12 * s, 0), min(x1, cx + 12 * s, 1), epsabs=1e-15, epsrel=1e-13,
                                 limit=500, points=[cx])
@@ -374,7 +381,8 @@ def test_error_messages_name_the_element_and_its_value():
         nd.evaluate(uv, badJ, h)
     # An image-shaped input: the multi-index of the caller's array.
     with pytest.raises(ValueError, match=r"J\[0, 1\] = \[3\.16, 0, 0, 3\.16\].*MIP level"):
-        gl.glinty_ndf("kpt25", density=1e12).evaluate(uv.reshape(1, 5, 2)[:, :2], np.array([[[1e-3, 0, 0, 1e-3], [3.16, 0, 0, 3.16]]]),
+        gl.glinty_ndf("kpt25", density=1e12).evaluate(uv.reshape(1, 5, 2)[:, :2],
+                                                      np.array([[[1e-3, 0, 0, 1e-3], [3.16, 0, 0, 3.16]]]),
                                                       h.reshape(1, 5, 3)[:, :2])
     badh = h.copy()
     badh[4, 1] = float("inf")

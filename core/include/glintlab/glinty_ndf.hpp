@@ -47,6 +47,11 @@ struct Kpt25Params {
   // D(h)(h.n) instead of the lobes (a defensive mixture; 0 = the paper, whose sampler leaves the
   // compensation term out). docs/math/glinty_ndf.md#glinty-sampling.
   double sample_smooth = 0.0;
+  // Algorithm 2's reservoir weight of a point (line 12's integral, read two ways): true = the mass of
+  // the point's own lobe inside the block B (the default: the block's conditional density is then
+  // proportional to eq. 11's explicit terms), false = R f alone, as printed (the integral names the
+  // Gaussian at x_a - x, the same for every point), lobes with no mass in B left out.
+  bool sample_lobe_mass = true;
 };
 
 // Maximum MIP level: the angular grid has 2^l x 2^l cells, l <= 15 (the random-number layout's limit).

@@ -121,7 +121,9 @@ class KPT25(GlintyNDF):
     ("square": eq. 10 as the paper does; "disk": eq. 9 exactly; "none"; "square_flipped": a deliberately
     wrong sign, for the tests), ``blend`` ("roulette" or "linear") and ``sample_smooth`` (Algorithm 2:
     the probability beta that a draw samples the smooth target instead of the lobes; 0 = the paper,
-    which does not sample the compensation term; docs/math/glinty_ndf.md#glinty-sampling).
+    which does not sample the compensation term) and ``sample_weight`` (Algorithm 2's reservoir weight
+    of a point: "lobe_mass", its lobe's mass in the block, or "printed", the filter and roulette weight
+    alone; docs/math/glinty_ndf.md#glinty-sampling).
 
     >>> nd = KPT25(density=1e4, alpha=0.5, alpha_star=0.05)
     >>> h, pdf = nd.sample([[0.3, 0.7]] * 2, [[0.01, 0, 0, 0.01]] * 2, seed=1)
@@ -135,21 +137,24 @@ class KPT25(GlintyNDF):
 
     def __init__(self, density: float = 1e6, target: str = "beckmann", alpha: float = 0.5, alpha_star: float = 0.02,
                  k: int = 4, epsilon: float = 0.1, filter: float = 0.5 / math.sqrt(math.pi),
-                 compensation: str = "square", blend: str = "roulette", sample_smooth: float = 0.0):
+                 compensation: str = "square", blend: str = "roulette", sample_smooth: float = 0.0,
+                 sample_weight: str = "lobe_mass"):
         super().__init__(target, alpha, density)
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or int(k) not in (1, 4, 9, 16):
             V.fail("k", k, "1, 4, 9 or 16")
-        for pname, value in (("compensation", compensation), ("blend", blend)):
+        for pname, value in (("compensation", compensation), ("blend", blend), ("sample_weight", sample_weight)):
             if not isinstance(value, str):
                 V.fail(pname, value, "a string")
         self._core = _core.Kpt25Ndf(self.density, target, self.alpha, V.real("alpha_star", alpha_star), int(k),
                                     V.real("epsilon", epsilon), V.real("filter", filter), compensation, blend,
-                                    V.real("sample_smooth", sample_smooth))
+                                    V.real("sample_smooth", sample_smooth), sample_weight)
         self.params = {"density": self.density, "target": target, "alpha": self.alpha,
                        "alpha_star": float(alpha_star), "k": int(k), "epsilon": float(epsilon),
                        "filter": float(filter), "compensation": compensation, "blend": blend}
         if sample_smooth:
             self.params["sample_smooth"] = float(sample_smooth)
+        if sample_weight != "lobe_mass":
+            self.params["sample_weight"] = sample_weight
 
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D^f per pixel by Algorithm 1 (B(k) per level, compensation, two levels with the roulette).
