@@ -128,8 +128,10 @@ class Kpt25Ndf {
 };
 
 // The integral over the rectangle [x0, x1] x [y0, y1] intersected with the disk U (centre (1/2, 1/2),
-// radius 1/2) of the normalised isotropic 2D Gaussian of std sigma centred at (cx, cy). Adaptive
-// Gauss-Kronrod over x of differences of normal CDFs in y; absolute error below about 1e-10.
+// radius 1/2) of the normalised isotropic 2D Gaussian of std sigma centred at (cx, cy). A product of
+// normal CDF differences when the disk does not cut the lobe; otherwise globally adaptive Gauss-Kronrod
+// over the angle theta, x = (1 - cos theta) / 2, of the normal mass on the chord, at most 60 halvings
+// (bounded cost; relative error about 1e-13 in the tests, docs/math/glinty_ndf.md#glinty-algorithm1).
 double gaussian_in_disk_rect(double cx, double cy, double sigma, double x0, double x1, double y0, double y1);
 
 // The area of the rectangle [x0, x1] x [y0, y1] intersected with the disk U (closed form).
