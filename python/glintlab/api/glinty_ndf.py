@@ -28,6 +28,7 @@ here; h_z <= 0 gives 0). The result has shape (...).
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from typing import Callable
 
@@ -76,6 +77,32 @@ def pixel_arrays(uv, J, h, unit_h: bool = False):
             V.fail("h", "an array with a zero vector", "non-zero half vectors")
         h = h / norm
     return uv, J, h, shape
+
+
+_ELEMENT = re.compile(r"\b(uv|J|h|wo)\[(\d+), (\d+|:)\]")
+
+
+def _core_call(shape, fn, *args):
+    """Call the core; its errors name an element as [pixel, component] of the flattened pixels: rewrite
+    the pixel as the multi-index of the caller's array of shape ``shape`` + (components,)."""
+    try:
+        return fn(*args)
+    except ValueError as e:
+        def sub(m):
+            name, i, c = m.group(1), int(m.group(2)), m.group(3)
+            idx = [str(int(k)) for k in np.unravel_index(i, shape)] if shape and i < math.prod(shape) else []
+            if not shape and i:
+                idx = [str(i)]
+            parts = idx + ([] if c == ":" else [c])
+            return f"{name}[{', '.join(parts)}]" if parts else name
+        raise ValueError(_ELEMENT.sub(sub, str(e))) from None
+
+
+def _seed(name, value):
+    try:
+        return V.seed(value)
+    except ValueError:
+        V.fail(name, value, "an integer in [0, 2^64), a numpy SeedSequence or Generator, or None")
 
 
 def _cos_theta(h):
@@ -253,30 +280,49 @@ class KPT25(GlintyNDF):
     (eq. 8's mollification; 0 = exact roulette), ``filter`` (Gaussian pixel filter std in pixels; the
     default 1 / (2 sqrt(pi)) gives an effective area abs(det J), DB23's footprint), ``compensation``
     ("square": eq. 10 as the paper does; "disk": eq. 9 exactly; "none"; "square_flipped": a deliberately
-    wrong sign, for the tests) and ``blend`` ("roulette" or "linear")."""
+    wrong sign, for the tests), ``blend`` ("roulette" or "linear") and ``sample_smooth`` (Algorithm 2:
+    the probability beta that a draw samples the smooth target instead of the lobes; 0 = the paper,
+    which does not sample the compensation term) and ``sample_weight`` (Algorithm 2's reservoir weight
+    of a point: "lobe_mass", its lobe's mass in the block, or "printed", the filter and roulette weight
+    alone; docs/math/glinty_ndf.md#glinty-sampling).
+
+    >>> nd = KPT25(density=1e4, alpha=0.5, alpha_star=0.05)
+    >>> h, pdf = nd.sample([[0.3, 0.7]] * 2, [[0.01, 0, 0, 0.01]] * 2, seed=1)
+    >>> h.shape, pdf.shape, bool(np.allclose(nd.pdf([[0.3, 0.7]] * 2, [[0.01, 0, 0, 0.01]] * 2, h, seed=1), pdf))
+    ((2, 3), (2,), True)
+    >>> nd.map([0.0, 0.0, 1.0]).tolist()
+    [0.5, 0.5]
+    """
 
     name = "kpt25"
 
     def __init__(self, density: float = 1e6, target: str = "beckmann", alpha: float = 0.5, alpha_star: float = 0.02,
                  k: int = 4, epsilon: float = 0.1, filter: float = 0.5 / math.sqrt(math.pi),
-                 compensation: str = "square", blend: str = "roulette"):
+                 compensation: str = "square", blend: str = "roulette", sample_smooth: float = 0.0,
+                 sample_weight: str = "lobe_mass"):
         super().__init__(target, alpha, density)
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or int(k) not in (1, 4, 9, 16):
             V.fail("k", k, "1, 4, 9 or 16")
-        for pname, value in (("compensation", compensation), ("blend", blend)):
+        for pname, value in (("compensation", compensation), ("blend", blend), ("sample_weight", sample_weight)):
             if not isinstance(value, str):
                 V.fail(pname, value, "a string")
         self._core = _core.Kpt25Ndf(self.density, target, self.alpha, V.real("alpha_star", alpha_star), int(k),
-                                    V.real("epsilon", epsilon), V.real("filter", filter), compensation, blend)
+                                    V.real("epsilon", epsilon), V.real("filter", filter), compensation, blend,
+                                    V.real("sample_smooth", sample_smooth), sample_weight)
         self.params = {"density": self.density, "target": target, "alpha": self.alpha,
                        "alpha_star": float(alpha_star), "k": int(k), "epsilon": float(epsilon),
                        "filter": float(filter), "compensation": compensation, "blend": blend}
+        if sample_smooth:
+            self.params["sample_smooth"] = float(sample_smooth)
+        if sample_weight != "lobe_mass":
+            self.params["sample_weight"] = sample_weight
 
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D^f per pixel by Algorithm 1 (B(k) per level, compensation, two levels with the roulette).
         Constant time per pixel; the same realization as ``reference`` for the same ``seed``."""
         uv, J, h, shape = pixel_arrays(uv, J, h)
-        return self._core.evaluate(uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed)).reshape(shape)
+        return _core_call(shape, self._core.evaluate, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
+                          V.seed(seed)).reshape(shape)
 
     def reference(self, uv, J, h, seed: int = 0, return_points: bool = False):
         """The full sum of eq. 11's first term over every point of the same realization whose position
@@ -284,21 +330,128 @@ class KPT25(GlintyNDF):
         ``return_points``, also the number of points summed per pixel. Its cost grows with the number
         of points in the footprint."""
         uv, J, h, shape = pixel_arrays(uv, J, h)
-        d, pts = self._core.reference(uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed))
+        d, pts = _core_call(shape, self._core.reference, uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed))
         return (d.reshape(shape), pts.reshape(shape)) if return_points else d.reshape(shape)
 
     def expected(self, J, h) -> tuple[np.ndarray, np.ndarray]:
         """Exact expectations over realizations, (E[reference], E[evaluate]), per footprint and half
         vector: D(h) times the lobe's mass in the disk, and the same with B(k) and the compensation."""
         _, J, h, shape = pixel_arrays(None, J, h)
-        er, ea = self._core.expected(J.reshape(-1), h.reshape(-1))
+        er, ea = _core_call(shape, self._core.expected, J.reshape(-1), h.reshape(-1))
         return er.reshape(shape), ea.reshape(shape)
 
     def pixel(self, J, h) -> dict:
         """The set-up of one pixel: D(h), T(h) = (xa, ya), the angular std sigma, the fractional MIP level
         lambda, its levels and weights, the filter's box half widths."""
         _, J, h, _ = pixel_arrays(None, np.reshape(J, (1, 4)), np.reshape(h, (1, 3)))
-        return self._core.pixel(J.reshape(-1), h.reshape(-1))
+        return _core_call((), self._core.pixel, J.reshape(-1), h.reshape(-1))
+
+    def sample(self, uv, J, seed: int = 0, draw_seed: int = 0, wo=None):
+        """KPT25's Algorithm 2: one half vector per pixel (row) drawn from the pdf of that pixel
+        (docs/math/glinty_ndf.md#glinty-sampling). ``uv`` (..., 2), ``J`` (..., 4); ``seed`` selects the
+        realization (the point process, as in ``evaluate``), ``draw_seed`` and the row's flat index
+        select the draw, so M copies of one pixel give M independent draws from its pdf.
+
+        Returns ``(h, pdf)``: half vectors (..., 3) and their density per steradian of h (the value
+        ``pdf`` returns for them); a draw whose lobe point falls outside the disk U is lost: h = NaN
+        and pdf = 0. With ``wo`` (3,) or (..., 3) (normalised here), returns ``(h, pdf, wi)`` with
+        wi = 2 (wo.h) h - wo the reflected directions; the density of wi is pdf / (4 |wo.h|)."""
+        uv = np.ascontiguousarray(V.as_float_array("uv", uv))
+        if uv.ndim < 1 or uv.shape[-1] != 2:
+            V.fail("uv", f"an array of shape {uv.shape}", "an array of shape (..., 2)")
+        shape = uv.shape[:-1]
+        J = np.ascontiguousarray(V.as_float_array("J", J))
+        if J.shape != shape + (4,):
+            V.fail("J", f"an array of shape {J.shape}", f"an array of shape {shape + (4,)}")
+        w = None
+        if wo is not None:
+            w = V.as_float_array("wo", wo)
+            if w.shape not in ((3,), shape + (3,)):
+                V.fail("wo", f"an array of shape {w.shape}", f"an array of shape (3,) or {shape + (3,)}")
+            w = np.ascontiguousarray(np.broadcast_to(w, shape + (3,))).reshape(-1)
+        h, pdf, wi = _core_call(shape, self._core.sample, uv.reshape(-1), J.reshape(-1), V.seed(seed),
+                                _seed("draw_seed", draw_seed), w)
+        h, pdf = h.reshape(shape + (3,)), pdf.reshape(shape)
+        return (h, pdf) if wo is None else (h, pdf, wi.reshape(shape + (3,)))
+
+    def pdf(self, uv, J, h, seed: int = 0) -> np.ndarray:
+        """The density per steradian of h with which ``sample`` draws h at each pixel, for the
+        realization ``seed`` (0 below the horizon). Shapes as ``evaluate``."""
+        uv, J, h, shape = pixel_arrays(uv, J, h)
+        return _core_call(shape, self._core.pdf, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
+                          V.seed(seed)).reshape(shape)
+
+    def map(self, h) -> np.ndarray:
+        """T(h) of docs/math/glinty_ndf.md#glinty-map for half vectors (..., 3): points (..., 2) of the unit
+        square, the disk U centred at (1/2, 1/2) with radius 1/2 being the image of the hemisphere
+        (NaN for h_z <= 0; h need not be normalised)."""
+        h = np.ascontiguousarray(V.as_float_array("h", h))
+        if h.ndim < 1 or h.shape[-1] != 3:
+            V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
+        shape = h.shape[:-1]
+        return _core_call(shape, self._core.map, h.reshape(-1)).reshape(shape + (2,))
+
+    def pixel_sampler(self, uv, J, seed: int = 0, wo=None) -> "PixelSampler":
+        """Algorithm 2 at one pixel as a direction sampler: ``.sample(size, seed)`` returns
+        ``(directions (size, 3), pdf (size,))`` and ``.pdf(directions)`` the density, ``.domain`` says
+        where the directions live ("hemisphere": half vectors; "sphere" with ``wo``: reflected
+        directions wi and their density per steradian of wi)."""
+        return PixelSampler(self, uv, J, seed, wo)
+
+
+class PixelSampler:
+    """One pixel of a KPT25 NDF as a direction sampler (``KPT25.pixel_sampler``)."""
+
+    def __init__(self, ndf: "KPT25", uv, J, seed=0, wo=None):
+        self.ndf = ndf
+        self.uv = np.asarray(V.as_float_array("uv", uv), float).reshape(-1)
+        self.J = np.asarray(V.as_float_array("J", J), float).reshape(-1)
+        if self.uv.shape != (2,):
+            V.fail("uv", uv, "one texture position (2 numbers)")
+        if self.J.shape != (4,):
+            V.fail("J", J, "one footprint (4 numbers)")
+        self.seed = V.seed(seed)
+        self.wo = None
+        if wo is not None:
+            w = np.asarray(V.as_float_array("wo", wo), float).reshape(-1)
+            if w.shape != (3,) or not np.all(np.isfinite(w)) or not np.any(w):
+                V.fail("wo", wo, "one nonzero finite direction (3 numbers)")
+            w = w / np.abs(w).max()  # scaled first: no overflow or underflow in the norm
+            self.wo = w / np.linalg.norm(w)
+        self.domain = "hemisphere" if wo is None else "sphere"
+
+    def _tile(self, n):
+        return np.tile(self.uv, (n, 1)), np.tile(self.J, (n, 1))
+
+    def sample(self, size: int, seed=0):
+        """``size`` independent draws: (directions (size, 3), pdf (size,)); lost draws are NaN with pdf 0."""
+        size = int(size)
+        uv, J = self._tile(size)
+        if self.wo is None:
+            return self.ndf.sample(uv, J, seed=self.seed, draw_seed=seed)
+        h, pdf, wi = self.ndf.sample(uv, J, seed=self.seed, draw_seed=seed, wo=self.wo)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return wi, np.where(pdf > 0, pdf / (4 * np.abs(h @ self.wo)), 0.0)
+
+    def pdf(self, directions) -> np.ndarray:
+        """The density at ``directions`` (..., 3): per steradian of h, or of wi with ``wo``."""
+        d = np.asarray(V.as_float_array("directions", directions), float)
+        shape = d.shape[:-1]
+        d = d.reshape(-1, 3)
+        uv, J = self._tile(d.shape[0])
+        if self.wo is None:
+            return self.ndf.pdf(uv, J, d, seed=self.seed).reshape(shape)
+        wi = d / np.linalg.norm(d, axis=1, keepdims=True)
+        h = wi + self.wo
+        n = np.linalg.norm(h, axis=1)
+        ok = n > 1e-12
+        h = np.where(ok[:, None], h / np.where(ok, n, 1.0)[:, None], [0.0, 0.0, 1.0])
+        p = self.ndf.pdf(uv, J, h, seed=self.seed)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(ok, p / (4 * np.abs(np.sum(wi * h, axis=1))), 0.0).reshape(shape)
+
+    def __repr__(self):
+        return f"<KPT25 pixel sampler uv={self.uv.tolist()} J={self.J.tolist()} domain={self.domain!r}>"
 
 
 class DB23(GlintyNDF):
