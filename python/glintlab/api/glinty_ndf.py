@@ -30,24 +30,12 @@ GLINTY_NDFS = Registry("glinty NDF")
 
 
 def _arrays(uv, J, h):
-    h = np.ascontiguousarray(V.as_float_array("h", h))
-    if h.ndim < 1 or h.shape[-1] != 3:
-        V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
-    shape = h.shape[:-1]
-    J = np.ascontiguousarray(V.as_float_array("J", J))
-    if J.shape != shape + (4,):
-        V.fail("J", f"an array of shape {J.shape}", f"an array of shape {shape + (4,)}")
-    if uv is not None:
-        uv = np.ascontiguousarray(V.as_float_array("uv", uv))
-        if uv.shape != shape + (2,):
-            V.fail("uv", f"an array of shape {uv.shape}", f"an array of shape {shape + (2,)}")
-    return uv, J, h, shape
+    # One bad-input contract for every glinty NDF and image method (docs/math/glinty_ndf.md#glinty-inputs).
+    return V.pixel_arrays(uv, J, h)
 
 
 def _cos_theta(h):
-    n = np.linalg.norm(h, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(n > 0, h[..., 2] / np.where(n > 0, n, 1.0), 0.0)
+    return V.unit_vectors(h)[..., 2]
 
 
 class GlintyNDF:
@@ -178,7 +166,8 @@ class DB23(GlintyNDF):
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D_P per pixel; 0 where the footprint is degenerate (status in ``counts``) or h below the horizon."""
         uv, J, h, shape = _arrays(uv, J, h)
-        c = _cos_theta(h)
+        h = V.unit_vectors(h)
+        c = h[..., 2]
         p, _ = self.smooth_ndf.success_probability(c, self.R)
         with np.errstate(invalid="ignore", divide="ignore"):
             slope = np.where(c[..., None] > 0, h[..., :2] / np.where(c > 0, h[..., 2], 1.0)[..., None], 0.0)

@@ -71,16 +71,11 @@ def _pixels(uv, J):
     return uv, J, uv.shape[:-1]
 
 
-def _half_vectors(h, shape):
-    h = np.asarray(V.as_float_array("h", h))
-    if h.shape != shape + (3,):
-        V.fail("h", f"an array of shape {h.shape}", f"an array of shape {shape + (3,)}")
-    if not np.isfinite(h).all():
-        V.fail("h", "an array with non-finite entries", "finite half vectors")
-    norm = np.linalg.norm(h, axis=-1, keepdims=True)
-    if (norm <= 0).any():
-        V.fail("h", "an array with a zero vector", "non-zero half vectors")
-    return h / norm
+def _method_inputs(uv, J, h):
+    """(uv, J, unit h, shape) under the one bad-input contract of every glinty NDF and image method
+    (``checks.pixel_arrays``, docs/math/glinty_ndf.md#glinty-inputs)."""
+    uv, J, h, shape = V.pixel_arrays(uv, J, h)
+    return uv, J, V.unit_vectors(h), shape
 
 
 class SmoothNDF:
@@ -96,9 +91,9 @@ class SmoothNDF:
 
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D(h) per pixel (uv, J and seed are accepted for the common signature and unused)."""
-        _, _, shape = _pixels(uv, J)
+        _, _, hn, _ = _method_inputs(uv, J, h)
         V.seed(seed)
-        return self.ndf.D(_half_vectors(h, shape)[..., 2])
+        return self.ndf.D(hn[..., 2])
 
 
 class _CountingNDF:
@@ -119,8 +114,7 @@ class _CountingNDF:
 
     def inputs(self, uv, J, h):
         """(uv, J, p, slope in texels, P = |det J|, shape) of the pixels."""
-        uv, J, shape = _pixels(uv, J)
-        hn = _half_vectors(h, shape)
+        uv, J, hn, shape = _method_inputs(uv, J, h)
         cos = hn[..., 2]
         p = np.minimum(self.R * self.ndf.D(cos) / self.ndf.D_normal, 1.0)
         with np.errstate(divide="ignore", invalid="ignore"):

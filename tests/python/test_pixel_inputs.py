@@ -1,0 +1,93 @@
+"""One bad-input contract for every glinty NDF and every image method (issue 31, item 10;
+docs/math/glinty_ndf.md#glinty-inputs): NaN or infinity in uv, J or h, a zero h and a singular J are
+refused with a ValueError naming the array, the element's multi-index and its value; h below the
+horizon gives 0. The cases iterate the registries, so a new NDF or image method is covered without an
+edit here."""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import glintlab as gl
+from glintlab.api.glinty_ndf import GLINTY_NDFS
+from glintlab.validation.scene_images import IMAGE_METHODS, Material, make_method
+
+# Small densities keep every method cheap at three pixels.
+MATERIAL = Material(density=1e4, target="beckmann", alpha=0.5, R=0.5)
+
+
+def _evaluators():
+    for name in GLINTY_NDFS.names():
+        yield f"glinty_ndf:{name}", (lambda name=name: gl.glinty_ndf(name, density=1e4))
+    for name in IMAGE_METHODS.names():
+        yield f"image_method:{name}", (lambda name=name: make_method(name, MATERIAL))
+
+
+EVALUATORS = dict(_evaluators())
+
+
+def _good():
+    uv = np.array([[0.1, 0.2], [0.3, 0.4], [0.5, 0.6]])
+    J = np.tile([0.01, 0.002, -0.001, 0.012], (3, 1))
+    h = np.array([[0.1, 0.0, 1.0], [0.0, 0.2, 1.0], [0.3, -0.1, 0.9]])
+    return uv, J, h
+
+
+def _bad(case):
+    """(uv, J, h, expected message pattern) with one bad element at pixel 1."""
+    uv, J, h = _good()
+    if case == "nan_uv":
+        uv[1, 0] = np.nan
+        return uv, J, h, r"uv\[1, 0\] = nan"
+    if case == "inf_J":
+        J[1, 2] = -np.inf
+        return uv, J, h, r"J\[1, 2\] = -inf"
+    if case == "nan_h":
+        h[1, 1] = np.nan
+        return uv, J, h, r"h\[1, 1\] = nan"
+    if case == "inf_h":
+        h[2, 2] = np.inf
+        return uv, J, h, r"h\[2, 2\] = inf"
+    if case == "zero_h":
+        h[1] = 0.0
+        return uv, J, h, r"h\[1\] = \(0\.0, 0\.0, 0\.0\).*nonzero"
+    if case == "singular_J":
+        J[1] = [0.01, 0.02, 0.005, 0.01]  # rows proportional: det J = 0
+        return uv, J, h, r"J\[1\] = \(0\.01, 0\.02, 0\.005, 0\.01\).*det J"
+    raise AssertionError(case)
+
+
+CASES = ["nan_uv", "inf_J", "nan_h", "inf_h", "zero_h", "singular_J"]
+
+
+@pytest.mark.parametrize("method", sorted(EVALUATORS))
+def test_every_glinty_ndf_and_image_method_shares_one_bad_input_contract(method):
+    ev = EVALUATORS[method]()
+    uv, J, h = _good()
+    good = ev.evaluate(uv, J, h, seed=1)
+    assert good.shape == (3,) and np.all(np.isfinite(good)) and np.all(good >= 0), (method, good)
+    # Below the horizon: a defined 0, not an error.
+    low = h.copy()
+    low[0, 2] = -0.5
+    assert ev.evaluate(uv, J, low, seed=1)[0] == 0.0, method
+    # A multi-dimensional batch names the element by its multi-index.
+    uv2, J2, h2 = (a.reshape(1, 3, -1) for a in _good())
+    h2[0, 2, 0] = np.nan
+    with pytest.raises(ValueError, match=re.escape("h[0, 2, 0] = nan")):
+        ev.evaluate(uv2, J2, h2, seed=1)
+    for case in CASES:
+        uv, J, h, pattern = _bad(case)
+        with pytest.raises(ValueError, match=pattern):
+            ev.evaluate(uv, J, h, seed=1)
+
+
+def test_the_contract_scales_with_h():
+    # A valid direction at any scale: h = 1e-200 (whose plain norm underflows to 0) is the same
+    # half vector as h = 1, not a "zero" one.
+    ndf = gl.glinty_ndf("db23", density=1e4, inner="binomial")
+    uv, J, h = _good()
+    a = ndf.evaluate(uv, J, h, seed=3)
+    np.testing.assert_array_equal(ndf.evaluate(uv, J, h * 1e-200, seed=3), a)
+    np.testing.assert_array_equal(ndf.evaluate(uv, J, h * 1e200, seed=3), a)
