@@ -56,7 +56,7 @@ endforeach()
 # after the prefix is moved.
 file(GLOB_RECURSE targets_files "${prefix}/*/glintlabTargets*.cmake")
 foreach(f IN LISTS targets_files)
-  file(STRINGS "${f}" absolute REGEX "(^|[\";(])/[A-Za-z]")
+  file(STRINGS "${f}" absolute REGEX "(^|[\";(:])/[A-Za-z]")
   if(absolute)
     message(FATAL_ERROR "install test: ${f} names absolute paths (not relocatable):\n${absolute}")
   endif()
