@@ -82,3 +82,19 @@ def test_chi2_result_pickles_its_resolution():
     import pickle
     r = gl.chi2_test(np.full(8, 520.0), gl.law("binomial").pmf(1000, 0.5))
     assert pickle.loads(pickle.dumps(r)).resolution == r.resolution > 0
+
+
+def test_glintlab_check_does_not_pass_a_minimum_below_the_pvalue_resolution():
+    # A chi2_pvalue bound of 1e-6 on 8 samples at n = 1000: the small-sample test runs by Monte Carlo
+    # (resolution 1e-4). A law stuck at 520 gets p = 1e-4, which used to pass the bound; now the check
+    # says the p-value cannot show p >= 1e-6. The binomial's own samples still pass.
+    import json
+
+    from glintlab.validation.bounds import DEFAULT_BOUNDS, check
+    doc = json.loads(DEFAULT_BOUNDS.read_text())
+    bound = {"id": "coarse", "law": "binomial", "metric": "chi2_pvalue", "minimum": 1e-6, "samples": 8, "seed": 2,
+             "regime": {"n": [1000], "p": [0.5]}, "reference": {"law": "binomial"}}
+    stuck = gl.custom_law(lambda n, p, u: 0 * u[:, 0] + 520.0, n_uniforms=1, name="stuck_at_520_resolution_test")
+    bad = check(dict(doc, bounds=[bound]), substitute={"binomial": stuck})
+    assert not bad.ok.iloc[0] and "resolution" in bad.note.iloc[0], bad.to_string()
+    assert check(dict(doc, bounds=[bound])).ok.iloc[0]
