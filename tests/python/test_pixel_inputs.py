@@ -83,11 +83,50 @@ def test_every_glinty_ndf_and_image_method_shares_one_bad_input_contract(method)
             ev.evaluate(uv, J, h, seed=1)
 
 
-def test_the_contract_scales_with_h():
-    # A valid direction at any scale: h = 1e-200 (whose plain norm underflows to 0) is the same
-    # half vector as h = 1, not a "zero" one.
-    ndf = gl.glinty_ndf("db23", density=1e4, inner="binomial")
+@pytest.mark.parametrize("method", sorted(EVALUATORS))
+def test_the_contract_scales_with_h(method):
+    # A valid direction at any scale: h 2^-700 (whose plain norm underflows to 0) is the same half
+    # vector as h, not a "zero" one, and h 2^700 is not an overflow: scales by a power of two are
+    # exact, so the results are equal bit for bit. Other scales move the direction by an ulp, which
+    # can flip a glint (counts jump with h): they must only be accepted.
+    ev = EVALUATORS[method]()
     uv, J, h = _good()
-    a = ndf.evaluate(uv, J, h, seed=3)
-    np.testing.assert_array_equal(ndf.evaluate(uv, J, h * 1e-200, seed=3), a)
-    np.testing.assert_array_equal(ndf.evaluate(uv, J, h * 1e200, seed=3), a)
+    a = ev.evaluate(uv, J, h, seed=3)
+    np.testing.assert_array_equal(ev.evaluate(uv, J, h * 2.0**-700, seed=3), a)
+    np.testing.assert_array_equal(ev.evaluate(uv, J, h * 2.0**700, seed=3), a)
+    for s in (1e-200, 1e200):
+        out = ev.evaluate(uv, J, h * s, seed=3)
+        assert out.shape == a.shape and np.all(np.isfinite(out)) and np.all(out >= 0), (method, s, out)
+
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+BUDGET = settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+_BUILT = {}
+
+
+def _method(name):
+    if name not in _BUILT:
+        _BUILT[name] = EVALUATORS[name]()
+    return _BUILT[name]
+
+
+@BUDGET
+@given(method=st.sampled_from(sorted(EVALUATORS)), array=st.sampled_from(["uv", "J", "h"]),
+       pixel=st.integers(0, 2), component=st.integers(0, 3), value=st.sampled_from([np.nan, np.inf, -np.inf]),
+       scale=st.sampled_from([1e-150, 1e-3, 1.0, 1e150]))
+def test_property_a_non_finite_element_is_named_by_its_index(method, array, pixel, component, value, scale):
+    """Any one NaN or infinity anywhere in uv, J or h: a ValueError naming exactly that element; any
+    scale of h is accepted otherwise."""
+    uv, J, h = _good()
+    h = h * scale
+    arrays = {"uv": uv, "J": J, "h": h}
+    a = arrays[array]
+    component %= a.shape[1]
+    ev = _method(method)
+    out = ev.evaluate(uv, J, h, seed=1)
+    assert np.all(np.isfinite(out)) and np.all(out >= 0), (method, out)
+    a[pixel, component] = value
+    with pytest.raises(ValueError, match=re.escape(f"{array}[{pixel}, {component}] = {value!r}")):
+        ev.evaluate(uv, J, h, seed=1)

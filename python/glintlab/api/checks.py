@@ -157,7 +157,9 @@ def pixel_arrays(uv, J, h):
     """The per-pixel inputs of every glinty NDF and image method, checked by one contract
     (docs/math/glinty_ndf.md#glinty-inputs): ``uv`` (..., 2) texture positions (or None when a method
     takes none), ``J`` (..., 4) footprint Jacobians (du/dx, dv/dx, du/dy, dv/dy), ``h`` (..., 3) half
-    vectors. Returns (uv, J, h, shape) as C-contiguous float64 arrays, h unchanged (not normalised).
+    vectors. Returns (uv, J, h, shape) as C-contiguous float64 arrays; each h is scaled by the power of
+    two that brings its largest component into [0.5, 1): an exact operation (the direction, and any
+    normalisation of it, is unchanged bit for bit), so 1e-200 h and 1e200 h reach a method as h does.
 
     ValueError, naming the array, the element's multi-index and its value, for: a wrong shape, a NaN or
     infinite entry (``J[3, 0] = nan``), a zero half vector (``h[2] = (0.0, 0.0, 0.0)``) and a singular
@@ -187,6 +189,8 @@ def pixel_arrays(uv, J, h):
     if zero.any():
         idx = np.unravel_index(int(np.argmax(zero)), shape)
         fail(_element("h", idx), tuple(float(c) for c in h[idx]), "a nonzero half vector")
+    _, exponent = np.frexp(np.abs(h).max(axis=-1, keepdims=True))
+    h = np.ascontiguousarray(np.ldexp(h, -exponent))
     # det J = 0 as computed in double: the products compared, not their difference against a tolerance
     # (a footprint's scale is the caller's: 1e-8 texels per pixel is a valid magnification).
     singular = J[..., 0] * J[..., 3] == J[..., 1] * J[..., 2]
