@@ -202,10 +202,11 @@ def pixel_arrays(uv, J, h):
 
 
 def unit_vectors(h):
-    """``h`` (..., 3) normalised without underflow or overflow (scaled by its largest component first),
-    for half vectors checked by :func:`pixel_arrays`."""
+    """``h`` (..., 3) normalised without underflow or overflow: scaled first by the power of two that
+    brings its largest component into [0.5, 1) (exact), so for ordinary vectors the result is h / |h|
+    bit for bit. Zero vectors stay zero (:func:`pixel_arrays` refuses them)."""
     h = np.asarray(h, dtype=np.float64)
-    big = np.abs(h).max(axis=-1, keepdims=True)
-    s = h / np.where(big > 0, big, 1.0)
+    _, exponent = np.frexp(np.abs(h).max(axis=-1, keepdims=True))
+    s = np.ldexp(h, -exponent)
     n = np.linalg.norm(s, axis=-1, keepdims=True)
     return s / np.where(n > 0, n, 1.0)

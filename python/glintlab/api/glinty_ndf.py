@@ -166,8 +166,7 @@ class DB23(GlintyNDF):
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D_P per pixel; 0 where the footprint is degenerate (status in ``counts``) or h below the horizon."""
         uv, J, h, shape = _arrays(uv, J, h)
-        h = V.unit_vectors(h)
-        c = h[..., 2]
+        c = _cos_theta(h)
         p, _ = self.smooth_ndf.success_probability(c, self.R)
         with np.errstate(invalid="ignore", divide="ignore"):
             slope = np.where(c[..., None] > 0, h[..., :2] / np.where(c > 0, h[..., 2], 1.0)[..., None], 0.0)
