@@ -325,6 +325,8 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("upper", [](const Chi2Result& r) { return to_numpy(r.upper); })
       .def_property_readonly("observed", [](const Chi2Result& r) { return to_numpy(r.observed); })
       .def_property_readonly("expected", [](const Chi2Result& r) { return to_numpy(r.expected); })
+      .def_readonly("resolution", &Chi2Result::resolution,
+                    "the p-value's resolution: 0 when computed, 1 / (1 + draws) for a Monte Carlo estimate")
       .def(py::init([](double statistic, int dof, double pvalue, std::size_t samples, std::string note,
                        std::vector<double> lower, std::vector<double> upper, std::vector<double> observed,
                        std::vector<double> expected) {
@@ -351,10 +353,11 @@ PYBIND11_MODULE(_core, m) {
       .def(py::pickle(
           [](const Chi2Result& r) {
             return py::make_tuple(r.statistic, r.dof, r.pvalue, r.samples, r.lower, r.upper, r.observed, r.expected,
-                                  r.note);
+                                  r.note, r.resolution);
           },
           [](const py::tuple& t) {
-            if (t.size() != 9) throw std::invalid_argument("Chi2Result: a pickled state of 9 items was expected");
+            if (t.size() != 9 && t.size() != 10)
+              throw std::invalid_argument("Chi2Result: a pickled state of 9 or 10 items was expected");
             Chi2Result r;
             r.statistic = t[0].cast<double>();
             r.dof = t[1].cast<int>();
@@ -365,14 +368,15 @@ PYBIND11_MODULE(_core, m) {
             r.observed = t[6].cast<std::vector<double>>();
             r.expected = t[7].cast<std::vector<double>>();
             r.note = t[8].cast<std::string>();
+            if (t.size() == 10) r.resolution = t[9].cast<double>();
             return r;
           }));
   m.def("chi2_test", [](const Array& samples, const Distribution& law, double min_expected,
-                        int fitted_params) {
+                        int fitted_params, double alpha) {
     LongCall release;
     return chi2_test(samples.data(), static_cast<std::size_t>(samples.size()), law, min_expected,
-                     fitted_params);
-  }, py::arg("samples"), py::arg("law"), py::arg("min_expected"), py::arg("fitted_params"));
+                     fitted_params, alpha);
+  }, py::arg("samples"), py::arg("law"), py::arg("min_expected"), py::arg("fitted_params"), py::arg("alpha") = 0.0);
   m.def("sidak_alpha", &sidak_alpha, py::arg("alpha"), py::arg("tests"));
 
   m.def("uniforms", [](std::size_t start, std::size_t count, int k, std::uint64_t s, int stream) {

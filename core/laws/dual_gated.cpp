@@ -5,8 +5,12 @@
 //   n >= 2:  K = n                                   if theta0 < p^n           (every facet reflects)
 //            K = 0                                   if theta0 >= 1 - (1-p)^n  (none does)
 //            K = clamp(1 + (n-2)p + sd z, 1, n - 1)  otherwise, sd^2 = (n-2) p (1-p), z = Phi^-1(theta1)
-//   The central Gaussian is that of one reflecting facet, one non-reflecting facet and a binomial on
-//   the n - 2 others: the binomial conditioned on 1 <= K <= n - 1, moment-matched.
+//   The central part is the normal approximation of 1 + Binomial(n - 2, p): one facet that reflects,
+//   one that does not, and a binomial on the n - 2 others (mean 1 + (n - 2) p, variance (n - 2) p q).
+//   It stands in for the binomial conditioned on 1 <= K <= n - 1 but is not that law's moment match:
+//   the two agree for n <= 3 only (n = 4, p = 0.1: central mean 1.2, conditional mean 1.1623). This
+//   is the law of KK25's construction and of the shipped shaders (data/shaders/dual_gated.*), so the
+//   sampler, the exact pmf below and docs/math/laws.md#law-dual-gated all use 1 + (n - 2) p.
 //
 //   n < 2 (their continuous extension, a mixture that is exact at n = 1 and n = 2):
 //            weight s = clamp(n - 1, 0, 1) on two facets and t = max(0, 1 - |1 - n|) on one:

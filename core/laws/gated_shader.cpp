@@ -20,16 +20,18 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <cstring>
 #include <vector>
 
 #include "glintlab/errors.hpp"
+#include "glintlab/float16.hpp"
 #include "glintlab/templated_law.hpp"
 
 namespace glintlab {
 namespace {
 
-inline float to_half(float x) { return static_cast<float>(static_cast<_Float16>(x)); }
+// A shader's half(x): round to nearest even half, back to float (glintlab/float16.hpp: integer bit
+// manipulation, identical to a _Float16 conversion, and portable to compilers without _Float16).
+inline float to_half(float x) { return round_to_half(x); }
 
 // Giles, "Approximating the erfinv function" (GPU Computing Gems, 2010), single-precision version.
 float erfinv_giles(float x) {
@@ -94,10 +96,7 @@ const Cells& uniform_cells() {
     Cells c;
     std::vector<float> v;
     for (unsigned bits = 0; bits <= 0x3C00u; ++bits) {  // +0 .. 1.0 in half precision
-      _Float16 h;
-      const unsigned short b = static_cast<unsigned short>(bits);
-      std::memcpy(&h, &b, sizeof h);
-      v.push_back(static_cast<float>(h));
+      v.push_back(half_bits_to_float(static_cast<std::uint16_t>(bits)));
     }
     for (std::size_t i = 0; i < v.size(); ++i) {
       const double lo = i == 0 ? 0.0 : 0.5 * (static_cast<double>(v[i - 1]) + v[i]);

@@ -532,7 +532,16 @@ Distribution AnisoCounter::pmf(double density, double p, const Shape& shape, std
   Distribution total({0.0}, {1.0});
   for (const Term& t : ts) {
     if (!(t.trials > 0)) continue;
-    total = convolve(total, inner_.law->pmf(t.trials, p, max_support), max_support, where);
+    const Distribution term = inner_.law->pmf(t.trials, p, max_support);
+    // A law whose output is integer in its regime can leave it: "threshold" above its T returns the
+    // mean n p, a point mass at a real number. A sum of such terms has no exact law on integer
+    // counts; say so by name rather than let the convolution fail on a non-integer value.
+    for (const double v : term.support())
+      if (v != std::floor(v))
+        throw not_implemented(where + ": no exact distribution: the inner law returns the non-integer value " +
+                              format_value(v) + " at n = " + format_value(t.trials) + ", p = " + format_value(p) +
+                              " (a count law's exact sum needs integer values; sample it instead)");
+    total = convolve(total, term, max_support, where);
   }
   return total;
 }

@@ -10,7 +10,9 @@
 #include <immintrin.h>
 
 // GCC 12's AVX-512 intrinsics start from an undefined vector and trip -Wmaybe-uninitialized.
+#if defined(__GNUC__) && !defined(__clang__)  // a GCC-only warning (Clang has no such group)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 
 std::size_t glintlab::detail::binomial_compact_avx512(const double* redo, const double* u, std::size_t rows,
                                                       std::uint32_t* row_of, double* v, double* u1) {

@@ -4,7 +4,9 @@
 
 // GCC 12 sees the block functions' scratch arrays passed to the SLEEF loops, which read only the
 // elements written just before, and warns that they may be uninitialized.
+#if defined(__GNUC__) && !defined(__clang__)  // a GCC-only warning (Clang has no such group)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 
 #define GLINTLAB_VEC_MATH glintlab::detail::vec_math_avx512
 #define GLINTLAB_GATED_KERNEL glintlab::detail::gated_pixels_avx512

@@ -92,7 +92,8 @@ std::size_t count_equal_neighbours(ParamArray n, ParamArray p, std::size_t a, st
   if (n.size > 1 && p.size > 1) {
     equal = count_equal_pairs(n.data, p.data, a, b);
   } else {
-    for (std::size_t j = a + 1; j < b; ++j) equal += (n[j] == n[j - 1]) & (p[j] == p[j - 1]);
+    for (std::size_t j = a + 1; j < b; ++j)  // branch-free: & of two 0/1 integers
+      equal += static_cast<std::size_t>(n[j] == n[j - 1]) & static_cast<std::size_t>(p[j] == p[j - 1]);
   }
   return equal;
 }

@@ -6,7 +6,9 @@
 #include <immintrin.h>
 
 // GCC 12's AVX-512 intrinsics start from an undefined vector and trip -Wmaybe-uninitialized.
+#if defined(__GNUC__) && !defined(__clang__)  // a GCC-only warning (Clang has no such group)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 
 #include <algorithm>
 #include <atomic>

@@ -116,10 +116,14 @@ TEST_CASE("chi-square test: too few samples for merged bins get the exact likeli
   CHECK_THAT(r.note, Contains("exact likelihood-ratio"));
   CHECK(r.pvalue > 0.05);
   CHECK(chi2_test(typical.data(), typical.size(), law).pvalue == r.pvalue);  // a fixed key
-  // Six samples on the value of mass 0.05 (probability 1.6e-8): merging hid this, the exact test
-  // rejects it at its resolution 1 / (1 + 9999).
+  // Six samples on the value of mass 0.05: merging hid this. The 84 possible count vectors are
+  // enumerated, and no other one has a G as large, so the p-value is exactly 0.05^6 = 1.5625e-8 (a
+  // Monte Carlo estimate could not go below its resolution 1 / (1 + 9999)).
   const std::vector<double> rare(6, 3.0);
-  CHECK(chi2_test(rare.data(), rare.size(), law).pvalue == Approx(1e-4));
+  const auto rr = chi2_test(rare.data(), rare.size(), law);
+  CHECK(rr.pvalue == Approx(std::pow(0.05, 6)).epsilon(1e-12));
+  CHECK(rr.resolution == 0.0);
+  CHECK_THAT(rr.note, Contains("enumeration of all 84 outcomes"));
   // No degrees of freedom after fitted parameters: no test, a NaN p-value.
   CHECK(std::isnan(chi2_test(typical.data(), typical.size(), law, 5.0, 3).pvalue));
 }

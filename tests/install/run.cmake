@@ -51,6 +51,20 @@ foreach(header glintlab/law.hpp glintlab/rng.hpp glintlab/normal.hpp glintlab/pl
   endif()
 endforeach()
 
+# Relocatable: the exported targets name no absolute path (a library of the building machine, such as
+# libsleef, is an imported target that glintlabConfig.cmake finds again), and the package still works
+# after the prefix is moved.
+file(GLOB_RECURSE targets_files "${prefix}/*/glintlabTargets*.cmake")
+foreach(f IN LISTS targets_files)
+  file(STRINGS "${f}" absolute REGEX "(^|[\";(:])/[A-Za-z]")
+  if(absolute)
+    message(FATAL_ERROR "install test: ${f} names absolute paths (not relocatable):\n${absolute}")
+  endif()
+endforeach()
+set(moved "${WORK_DIR}/moved-prefix")
+file(RENAME "${prefix}" "${moved}")
+set(prefix "${moved}")
+
 set(configure_args -S "${CONSUMER_DIR}" -B "${consumer_build}"
     "-DCMAKE_PREFIX_PATH=${prefix}"
     # No user package registry entry (the glintlab_DIR check below catches any other stray one).

@@ -102,7 +102,7 @@ def test_same_seed_same_image_whatever_the_threads_and_bad_input_refused():
         SmoothNDF("phong", 0.5)
     with pytest.raises(ValueError, match="J = "):
         f.evaluate(uv, np.zeros((1, 3)), h)
-    with pytest.raises(ValueError, match="h = "):
+    with pytest.raises(ValueError, match=r"h\[0\] = \(0\.0, 0\.0, 0\.0\)"):  # one contract: tests/python/test_pixel_inputs.py
         f.evaluate(uv, J, np.zeros((1, 3)))
     with pytest.raises(ValueError, match="seed"):
         f.evaluate(uv, J, h, seed=-1)

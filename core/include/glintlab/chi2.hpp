@@ -24,10 +24,17 @@ struct Chi2Result {
   // Merged bins: [lower, upper] support values, observed and expected counts; for failure plots.
   std::vector<double> lower, upper, observed, expected;
   std::string note;  // why the test is degenerate or failed outright; empty otherwise
+  // The p-value's resolution: 0 when it is computed (Boost.Math's tail, an exact enumeration, a bound),
+  // 1 / (1 + draws) when it is a Monte Carlo estimate (it can be no smaller than that).
+  double resolution = 0.0;
 };
 
+// `alpha` (0: not given) is the level the p-value will be compared with. The small-sample exact test
+// (fewer than two merged bins) then never leaves the decision p <= alpha to a p-value coarser than
+// alpha: it enumerates every outcome when they are few, else uses the method-of-types bound or draws
+// more Monte Carlo samples until the decision is clear (docs/math/metrics.md#metric-chi2-test).
 Chi2Result chi2_test(const double* samples, std::size_t count, const Distribution& law,
-                     double min_expected = 5.0, int fitted_params = 0);
+                     double min_expected = 5.0, int fitted_params = 0, double alpha = 0.0);
 
 // Per-test significance that keeps the family-wise false-failure rate at `alpha` over `tests`
 // independent tests (Šidák): 1 - (1 - alpha)^(1/tests).

@@ -166,3 +166,68 @@ def out_array(out, shape):
     if not out.flags.writeable:
         raise ValueError("out is read-only; expected a writeable float64 array")
     return out.reshape(-1)
+
+
+def _element(name, index):
+    """``name[i, j, ...]`` for a multi-index (just ``name`` for a scalar)."""
+    index = tuple(int(i) for i in index)
+    return f"{name}[{', '.join(map(str, index))}]" if index else name
+
+
+def pixel_arrays(uv, J, h):
+    """The per-pixel inputs of every glinty NDF and image method, checked by one contract
+    (docs/math/glinty_ndf.md#glinty-inputs): ``uv`` (..., 2) texture positions (or None when a method
+    takes none), ``J`` (..., 4) footprint Jacobians (du/dx, dv/dx, du/dy, dv/dy), ``h`` (..., 3) half
+    vectors. Returns (uv, J, h, shape) as C-contiguous float64 arrays; each h is scaled by the power of
+    two that brings its largest component into [0.5, 1): an exact operation (the direction, and any
+    normalisation of it, is unchanged bit for bit), so 1e-200 h and 1e200 h reach a method as h does.
+
+    ValueError, naming the array, the element's multi-index and its value, for: a wrong shape, a NaN or
+    infinite entry (``J[3, 0] = nan``), a zero half vector (``h[2] = (0.0, 0.0, 0.0)``) and a singular
+    footprint, det J = 0 (``J[1, 4] = (...)``: a pixel that does not see the surface must be masked
+    out by the caller, not evaluated). A half vector below the horizon (h_z <= 0) is valid input: every
+    method returns 0 there."""
+    h = np.ascontiguousarray(as_float_array("h", h))
+    if h.ndim < 1 or h.shape[-1] != 3:
+        fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
+    shape = h.shape[:-1]
+    J = np.ascontiguousarray(as_float_array("J", J))
+    if J.shape != shape + (4,):
+        fail("J", f"an array of shape {J.shape}", f"an array of shape {shape + (4,)}")
+    arrays = [("J", J), ("h", h)]
+    if uv is not None:
+        uv = np.ascontiguousarray(as_float_array("uv", uv))
+        if uv.shape != shape + (2,):
+            fail("uv", f"an array of shape {uv.shape}", f"an array of shape {shape + (2,)}")
+        arrays.insert(0, ("uv", uv))
+    for name, a in arrays:
+        bad = ~np.isfinite(a)
+        if bad.any():
+            idx = np.unravel_index(int(np.argmax(bad)), a.shape)
+            fail(_element(name, idx), float(a[idx]), "a finite number (NaN and infinities are refused)")
+    # Zero means every component exactly 0: a norm would underflow for h ~ 1e-200 (a valid direction).
+    zero = ~(h != 0).any(axis=-1)
+    if zero.any():
+        idx = np.unravel_index(int(np.argmax(zero)), shape)
+        fail(_element("h", idx), tuple(float(c) for c in h[idx]), "a nonzero half vector")
+    _, exponent = np.frexp(np.abs(h).max(axis=-1, keepdims=True))
+    h = np.ascontiguousarray(np.ldexp(h, -exponent))
+    # det J = 0 as computed in double: the products compared, not their difference against a tolerance
+    # (a footprint's scale is the caller's: 1e-8 texels per pixel is a valid magnification).
+    singular = J[..., 0] * J[..., 3] == J[..., 1] * J[..., 2]
+    if singular.any():
+        idx = np.unravel_index(int(np.argmax(singular)), shape)
+        fail(_element("J", idx), tuple(float(c) for c in J[idx]),
+             "a footprint with det J = du/dx dv/dy - dv/dx du/dy != 0 (mask pixels that do not see the surface)")
+    return uv, J, h, shape
+
+
+def unit_vectors(h):
+    """``h`` (..., 3) normalised without underflow or overflow: scaled first by the power of two that
+    brings its largest component into [0.5, 1) (exact), so for ordinary vectors the result is h / |h|
+    bit for bit. Zero vectors stay zero (:func:`pixel_arrays` refuses them)."""
+    h = np.asarray(h, dtype=np.float64)
+    _, exponent = np.frexp(np.abs(h).max(axis=-1, keepdims=True))
+    s = np.ldexp(h, -exponent)
+    n = np.linalg.norm(s, axis=-1, keepdims=True)
+    return s / np.where(n > 0, n, 1.0)

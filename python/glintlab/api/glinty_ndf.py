@@ -48,35 +48,27 @@ FACET_STATUS = {0: "ok", 1: "degenerate", 2: "non_finite", 4: "too_large"}
 
 
 def pixel_arrays(uv, J, h, unit_h: bool = False):
-    """The one check of a glinty NDF's per-pixel arrays: ``h`` (..., 3), ``J`` (..., 4) and ``uv`` (..., 2)
-    of one shape (the shape read from ``h``, or from ``uv`` when ``h`` is None; ``uv`` may be None);
-    returns contiguous float64 (uv, J, h, shape). With ``unit_h`` the half vectors must be finite and
-    non-zero and are returned normalised (the evaluators written in Python need that; the C++ ones
-    check each entry themselves, naming it)."""
-    if h is not None:
-        h = np.ascontiguousarray(V.as_float_array("h", h))
-        if h.ndim < 1 or h.shape[-1] != 3:
-            V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
-        shape = h.shape[:-1]
-    if uv is not None:
+    """The one check of a glinty NDF's per-pixel arrays (docs/math/glinty_ndf.md#glinty-inputs):
+    ``h`` (..., 3), ``J`` (..., 4) and ``uv`` (..., 2) of one shape (read from ``h``, or from ``uv`` when
+    ``h`` is None; ``uv`` may be None), checked by :func:`checks.pixel_arrays` (NaN, infinities, zero h
+    and singular J refused by element); returns contiguous float64 (uv, J, h, shape), h scaled by an
+    exact power of two. With ``unit_h`` the half vectors are returned normalised (the evaluators written
+    in Python need that; the C++ ones normalise themselves)."""
+    if h is None:  # a method of the footprint alone (facet counts): uv and J checked as with an h
         uv = np.ascontiguousarray(V.as_float_array("uv", uv))
-        if h is None:
-            if uv.ndim < 1 or uv.shape[-1:] != (2,):
-                V.fail("uv", f"an array of shape {uv.shape}", "an array of shape (..., 2)")
-            shape = uv.shape[:-1]
-    J = np.ascontiguousarray(V.as_float_array("J", J))
-    if J.shape != shape + (4,):
-        V.fail("J", f"an array of shape {J.shape}", f"an array of shape {shape + (4,)}")
-    if uv is not None and uv.shape != shape + (2,):
-        V.fail("uv", f"an array of shape {uv.shape}", f"an array of shape {shape + (2,)}")
+        if uv.ndim < 1 or uv.shape[-1:] != (2,):
+            V.fail("uv", f"an array of shape {uv.shape}", "an array of shape (..., 2)")
+        uv, J, _, shape = V.pixel_arrays(uv, J, np.broadcast_to([0.0, 0.0, 1.0], uv.shape[:-1] + (3,)))
+        return uv, J, None, shape
+    uv, J, h, shape = V.pixel_arrays(uv, J, h)
     if unit_h:
-        if not np.isfinite(h).all():
-            V.fail("h", "an array with non-finite entries", "finite half vectors")
-        norm = np.linalg.norm(h, axis=-1, keepdims=True)
-        if (norm <= 0).any():
-            V.fail("h", "an array with a zero vector", "non-zero half vectors")
-        h = h / norm
+        h = V.unit_vectors(h)
     return uv, J, h, shape
+
+
+def _arrays(uv, J, h):
+    # The name the first glinty NDFs used; kept for code written against it.
+    return pixel_arrays(uv, J, h)
 
 
 _ELEMENT = re.compile(r"\b(uv|J|h|wo)\[(\d+), (\d+|:)\]")
@@ -106,9 +98,7 @@ def _seed(name, value):
 
 
 def _cos_theta(h):
-    n = np.linalg.norm(h, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(n > 0, h[..., 2] / np.where(n > 0, n, 1.0), 0.0)
+    return V.unit_vectors(h)[..., 2]
 
 
 def footprint_area(J) -> np.ndarray:

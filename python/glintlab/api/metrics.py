@@ -32,13 +32,19 @@ def distance(a, b, metric: str = "tv") -> float:
     return _core.distance(_as_distribution("a", a), _as_distribution("b", b), metric)
 
 
-def chi2_test(samples, dist: Distribution, min_expected: float = 5.0, fitted_params: int = 0):
+def chi2_test(samples, dist: Distribution, min_expected: float = 5.0, fitted_params: int = 0, alpha=None):
     """Pearson chi-square test of samples against an exact law.
 
     Support points are merged left to right until every bin expects >= ``min_expected`` samples;
     dof = bins - 1 - fitted_params; the p-value is P(chi2_dof >= statistic). Samples the law cannot
     produce make the test fail outright (statistic inf, p-value 0, see ``.note``). The result also
     carries the merged bins (``lower``, ``upper``, ``observed``, ``expected``) for plotting.
+
+    Too few samples for two bins: an exact likelihood-ratio test (docs/math/metrics.md#metric-chi2-test),
+    enumerated when the outcomes are few, else bounded or estimated by Monte Carlo; ``.resolution`` is
+    the p-value's resolution (0 when computed, 1 / (1 + draws) for a Monte Carlo estimate). ``alpha``,
+    the level the p-value will be compared with, makes the Monte Carlo estimate refine until the
+    decision p <= alpha is clear (NaN, with a note, if it is still open at the cap).
     """
     if not isinstance(dist, Distribution):
         v.fail("dist", dist, "a glintlab.Distribution (e.g. law.pmf(n, p))")
@@ -49,7 +55,13 @@ def chi2_test(samples, dist: Distribution, min_expected: float = 5.0, fitted_par
         v.fail("fitted_params", fitted_params, "an integer >= 0")
     # A number, not anything float() accepts ("5" is a mistake worth naming).
     min_expected = v.real("min_expected", min_expected)
-    return _core.chi2_test(np.ascontiguousarray(arr), dist, min_expected, int(fitted_params))
+    if alpha is None:
+        alpha = 0.0
+    else:
+        alpha = v.real("alpha", alpha)
+        if not 0 < alpha < 1:
+            v.fail("alpha", alpha, "a number in (0, 1) or None")
+    return _core.chi2_test(np.ascontiguousarray(arr), dist, min_expected, int(fitted_params), alpha)
 
 
 def chi2_test_two_sample(a, b, min_expected: float = 5.0) -> Chi2Result:

@@ -86,6 +86,17 @@ def check(bounds=DEFAULT_BOUNDS, substitute: dict | None = None, progress=None) 
         # probability 0 (first: 17)"): the line that explains a failed chi-square bound.
         row["note"] = str(df.chi2_note.iloc[k]) if "chi2_note" in df and isinstance(df.chi2_note.iloc[k], str) else ""
         row["ok"] = bool(np.isfinite(vals).all() and (vals.max() <= value if limit == "max" else vals.min() >= value))
+        if b["metric"] == "chi2_pvalue" and "chi2_resolution" in df and row["ok"]:
+            # A Monte Carlo p-value has a resolution r (it is never below r): above a minimum smaller
+            # than r it shows the bound holds only when it is clearly above its own noise (5 standard
+            # errors of an estimate from 1/r draws); otherwise the check cannot pass on it.
+            res = df.chi2_resolution.to_numpy(dtype=float)
+            open_ = (res > value) & (vals - 5.0 * np.sqrt(np.maximum(vals, 0.0) * res) <= value)
+            if open_.any():
+                k = int(np.argmax(open_))
+                row.update(ok=False, worst=float(vals[k]), at_n=float(df.n.iloc[k]), at_p=float(df.p.iloc[k]),
+                           note=f"Monte Carlo p-value {vals[k]:.3g} with resolution {res[k]:.3g} cannot show "
+                                f"p >= {value:g}: undecided ({df.chi2_note.iloc[k]})")
         row["seconds"] = round(time.perf_counter() - t0, 3)
         rows.append(row)
     out = pd.DataFrame(rows)

@@ -99,6 +99,8 @@ def compute_row(lw: Law, label: str, reference, n: float, p: float, metrics, sam
         test = chi2_test(x, d_ref) if reference.has_pmf else None
         row["chi2_pvalue"] = test.pvalue if test is not None else math.nan
         row["chi2_note"] = test.note if test is not None else "no exact reference: no chi-square test"
+        # A Monte Carlo p-value cannot go below its resolution: a check against a smaller alpha needs it.
+        row["chi2_resolution"] = test.resolution if test is not None else math.nan
     if "tv" in metrics:
         row["tv_noise"] = tv_noise(d_ref, samples) if reference.has_pmf else math.nan
     if "mean_rel_err" in metrics:

@@ -93,8 +93,9 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
                ``chunk`` rows per task (default: about four tasks per worker); ``timeout`` seconds
                to wait for the scheduler. The table is the same, bit for bit, with any engine.
 
-    Columns: law, n, p, the metrics, then for sampled sweeps chi2_note (with chi2_pvalue: what the test
-    said, e.g. samples on values of probability 0), tv_noise (with tv), mean_rel_err_se
+    Columns: law, n, p, the metrics, then for sampled sweeps chi2_note and chi2_resolution (with
+    chi2_pvalue: what the test said, e.g. samples on values of probability 0, and the p-value's
+    resolution, 0 unless it is a Monte Carlo estimate), tv_noise (with tv), mean_rel_err_se
     (with mean_rel_err), samples and the row's seed. ``df.attrs`` holds the configuration and, for
     stored sweeps, how many rows came from the store.
     """
