@@ -55,5 +55,6 @@ class LongCall {
 void bind_scene_images(pybind11::module_& m);  // scene_images.cpp: the glint images' ground truth
 void bind_glinty_ndf(pybind11::module_& m);  // glinty_ndf.cpp: KPT25's glinty NDF
 void bind_shaders(pybind11::module_& m);  // shaders.cpp: shader laws, the Vulkan runner
+void bind_sampler_test(pybind11::module_& m);  // sampler_test.cpp: the direction-sampler harness
 
 }  // namespace glintlab::bindings

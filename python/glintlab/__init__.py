@@ -31,6 +31,9 @@ from .validation.grid import standard_grid
 from .validation.profile import SceneProfile, profile_scene
 from .validation.scene import Scene, load_scene
 from .validation.sweep import error_table, sweep
+from .api.samplers import Sampler, sampler, samplers, wrong_sampler
+from .validation.sampler_test import SamplerTestResult, sampler_test
+from .validation.furnace import furnace
 
 
 def set_num_threads(threads: int) -> None:
@@ -55,4 +58,6 @@ __all__ = [
     "write_extremes_report", "get_num_threads", "law", "law_summaries", "laws", "poisson",
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
     "ShaderLaw", "shader_law", "shipped_shader", "vulkan_devices",
+    "Sampler", "sampler", "samplers", "wrong_sampler", "SamplerTestResult", "sampler_test",
+    "furnace",
 ]
