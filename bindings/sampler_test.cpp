@@ -50,15 +50,19 @@ void bind_sampler_test(py::module_& m) {
   py::class_<Bins>(m, "SamplerBins")
       .def(py::init([](const std::string& domain, double total, double target, int min_depth, int max_depth,
                        int max_sub_depth, double rel_tol, std::size_t max_nodes, const Array& pilot_s,
-                       const Array& pilot_t) {
+                       const Array& pilot_t, double pilot_drawn, const Array& pilot_pdf) {
              if (pilot_s.size() != pilot_t.size())
                throw std::invalid_argument("sampler_test: pilot_s and pilot_t differ in length");
-             return Bins(sampling::parse_domain(domain),
-                         options(total, target, min_depth, max_depth, max_sub_depth, rel_tol, max_nodes),
-                         pilot_s.data(), pilot_t.data(), static_cast<std::size_t>(pilot_s.size()));
+             auto o = options(total, target, min_depth, max_depth, max_sub_depth, rel_tol, max_nodes);
+             o.pilot_drawn = pilot_drawn;
+             if (pilot_pdf.size() != 0 && pilot_pdf.size() != pilot_s.size())
+               throw std::invalid_argument("sampler_test: pilot_pdf and pilot_s differ in length");
+             return Bins(sampling::parse_domain(domain), o, pilot_s.data(), pilot_t.data(),
+                         static_cast<std::size_t>(pilot_s.size()), pilot_pdf.size() ? pilot_pdf.data() : nullptr);
            }),
            py::arg("domain"), py::arg("total"), py::arg("target"), py::arg("min_depth"), py::arg("max_depth"),
-           py::arg("max_sub_depth"), py::arg("rel_tol"), py::arg("max_nodes"), py::arg("pilot_s"), py::arg("pilot_t"))
+           py::arg("max_sub_depth"), py::arg("rel_tol"), py::arg("max_nodes"), py::arg("pilot_s"), py::arg("pilot_t"),
+           py::arg("pilot_drawn"), py::arg("pilot_pdf"))
       .def_static("grid", [](const std::string& domain, double total, int max_sub_depth, double rel_tol,
                              std::size_t max_nodes, std::vector<double> s_edges, std::vector<double> t_edges) {
              return Bins(sampling::parse_domain(domain), options(total, 1.0, 0, 0, max_sub_depth, rel_tol, max_nodes),

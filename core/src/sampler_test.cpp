@@ -22,6 +22,7 @@ namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr char kWhere[] = "sampler_test";
+constexpr double kPeakRatio = 4.0;
 
 // Azimuth as a fraction of a turn in [0, 1).
 double turn(double x, double y) {
@@ -171,14 +172,24 @@ void genz_malik_integrate(const Rect& r, const double* f, double& integral, doub
 }
 
 Bins::Bins(Domain d, const BinOptions& options, const double* pilot_s, const double* pilot_t,
-           std::size_t pilot_count)
+           std::size_t pilot_count, const double* pilot_pdf)
     : domain_(d), opt_(options) {
   if (!(opt_.total >= 1.0) || !std::isfinite(opt_.total)) throw_invalid(kWhere, "samples", opt_.total, "a number >= 1");
   if (!(opt_.target > 0.0) || !std::isfinite(opt_.target)) throw_invalid(kWhere, "target", opt_.target, "a finite number > 0");
   if (opt_.max_depth < 0 || opt_.max_depth > 30) throw_invalid(kWhere, "max_depth", opt_.max_depth, "an integer in [0, 30]");
   ps_.assign(pilot_s, pilot_s + pilot_count);
   pt_.assign(pilot_t, pilot_t + pilot_count);
-  pilot_scale_ = pilot_count ? opt_.total / static_cast<double>(pilot_count) : 0.0;
+  if (pilot_pdf) {
+    pq_.resize(pilot_count);
+    for (std::size_t i = 0; i < pilot_count; ++i) {
+      if (!(pilot_pdf[i] >= 0.0) || !std::isfinite(pilot_pdf[i]))
+        throw_invalid(kWhere, "pdf(pilot point)", pilot_pdf[i], "a finite density >= 0");
+      pq_[i] = domain_measure(d) * pilot_pdf[i];
+    }
+  }
+  // Lost pilot points are not in the arrays but count in the pilot's size.
+  pilot_drawn_ = std::max(opt_.pilot_drawn, static_cast<double>(pilot_count));
+  pilot_scale_ = pilot_drawn_ > 0 ? opt_.total / pilot_drawn_ : 0.0;
   Node root;
   tree_.push_back(root);
   tree_rect_.push_back({0.0, 0.0, 1.0, 1.0});
@@ -267,7 +278,20 @@ void Bins::finish_tree_round(const std::vector<double>& value, const std::vector
     // A cell the cubature cannot yet resolve (error comparable to its mass) splits too: a spike
     // between the nodes shows only as a large |I7 - I5|.
     const bool heavy = std::max({expected, pilot, opt_.total * err[i]}) > opt_.target;
-    const bool split = task.depth < opt_.min_depth || (heavy && task.depth < opt_.max_depth && budget);
+    // The pilot and the cubature disagree beyond the pilot's Poisson noise: either the cubature has not
+    // seen a spike the pilot hit, or the sampler is wrong there. Splitting resolves the first and is
+    // harmless for the second (it stops where cells hold too few pilot points to disagree).
+    const double hits = static_cast<double>(p1 - p0), lambda = pilot_drawn_ * value[i];
+    const bool discrepant = pilot_drawn_ > 0 && std::abs(hits - lambda) > 3.0 * std::sqrt(lambda) + 3.0;
+    // A peak the cubature has not resolved: the pdf at a pilot point of the cell, times the cell's
+    // area, far above the cell's integral (a smooth integrand stays within a few times its mean; a
+    // lobe much narrower than the cell exceeds it by (cell / width)^2).
+    double peak = 0.0;
+    if (!pq_.empty())
+      for (std::size_t j = p0; j < p1; ++j) peak = std::max(peak, pq_[j]);
+    const bool peaked = peak * task.r.ws * task.r.wt > kPeakRatio * (value[i] + err[i]);
+    const bool split = task.depth < opt_.min_depth ||
+                       ((heavy || discrepant || peaked) && task.depth < opt_.max_depth && budget);
     if (!split) continue;
     // Children in the order (s low, t low), (s high, t low), (s low, t high), (s high, t high); the
     // pilot points of the cell are partitioned in place into the same order.
@@ -277,16 +301,19 @@ void Bins::finish_tree_round(const std::vector<double>& value, const std::vector
     for (std::size_t k = 0; k < idx.size(); ++k) idx[k] = p0 + k;
     auto quadrant = [&](std::size_t k) { return (ps_[k] >= ms ? 1 : 0) + (pt_[k] >= mt ? 2 : 0); };
     std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) { return quadrant(a) < quadrant(b); });
-    std::vector<double> s2(idx.size()), t2(idx.size());
+    std::vector<double> s2(idx.size()), t2(idx.size()), q2(pq_.empty() ? 0 : idx.size());
     std::size_t bounds[5] = {p0, p0, p0, p0, p0};
-    for (std::size_t k = 0; k < idx.size(); ++k) {
-      s2[k] = ps_[idx[k]];
-      t2[k] = pt_[idx[k]];
-      ++bounds[quadrant(idx[k]) + 1];
+    for (std::size_t j = 0; j < idx.size(); ++j) {
+      s2[j] = ps_[idx[j]];
+      t2[j] = pt_[idx[j]];
+      if (!pq_.empty()) q2[j] = pq_[idx[j]];
+      ++bounds[quadrant(idx[j]) + 1];
     }
     for (int q = 1; q < 5; ++q) bounds[q] += bounds[q - 1] - p0;
-    std::copy(s2.begin(), s2.end(), ps_.begin() + static_cast<std::ptrdiff_t>(p0));
-    std::copy(t2.begin(), t2.end(), pt_.begin() + static_cast<std::ptrdiff_t>(p0));
+    const auto at = static_cast<std::ptrdiff_t>(p0);
+    std::copy(s2.begin(), s2.end(), ps_.begin() + at);
+    std::copy(t2.begin(), t2.end(), pt_.begin() + at);
+    std::copy(q2.begin(), q2.end(), pq_.begin() + at);
     const auto first = static_cast<std::int64_t>(tree_.size());
     tree_[task.node].child = first;
     for (int q = 0; q < 4; ++q) {
@@ -311,6 +338,8 @@ void Bins::start_refinement() {
   ps_.shrink_to_fit();
   pt_.clear();
   pt_.shrink_to_fit();
+  pq_.clear();
+  pq_.shrink_to_fit();
   // Leaves numbered depth first, children in quadrant order (a Z-order curve): consecutive bins are
   // neighbours, so merging consecutive low-expectation bins merges nearby cells.
   std::vector<std::int64_t> stack{0};

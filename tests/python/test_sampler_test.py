@@ -21,7 +21,9 @@ import pytest
 import glintlab as gl
 from glintlab.api.ndf import NDF
 
-N = 200_000
+N = 500_000    # microfacet samplers: alpha 2 % off is a chi-square noncentrality of ~250 (GGX) here
+NS = 200_000   # the spiky pdf: 1000 samples per lobe
+NO = 100_000   # other domains
 REFERENCE = [("beckmann", {"alpha": 0.3}), ("ggx", {"alpha": 0.3}), ("ggx", {"alpha": 0.05}),
              ("ggx_vndf", {"alpha": 0.3, "wo": (0.6, 0.0, 0.8)}),
              ("ggx_vndf", {"alpha": 0.5, "wo": (0.98, 0.1, 0.17)}),
@@ -40,7 +42,7 @@ def test_reference_samplers_pass(name, params):
     res = gl.sampler_test(s, samples=N, seed=11, significance=ALPHA)
     assert res.passed, res
     assert res.mismatches == 0 and res.lost == 0
-    assert abs(res.integral - 1) <= res.integral_error + 1e-9 and res.integral_error * N < 10, res
+    assert abs(res.integral - 1) <= res.integral_error + 1e-9 and res.integral_error * N < 0.1 * N**0.5, res
     # The cubature error is far below the statistical resolution in every bin.
     assert np.all(res.expected_error <= 0.02 * np.sqrt(np.maximum(res.expected, 1)) + 1e-12)
 
@@ -60,21 +62,21 @@ def test_spiky_pdf_adaptive_bins_resolve_what_a_grid_cannot(tmp_path):
     good = gl.sampler("vmf_mixture", lobes=200, width_deg=0.3, layout="cell_centres", theta_deg=(30, 80))
     shifted = gl.sampler("vmf_mixture", lobes=200, width_deg=0.3, layout="cell_centres", theta_deg=(30, 80),
                          shift_deg=0.3)
-    ok = gl.sampler_test(good, samples=N, seed=3, significance=ALPHA)
+    ok = gl.sampler_test(good, samples=NS, seed=3, significance=ALPHA)
     assert ok.passed, ok
     # The bins follow the lobes: far more bins than a 30 x 60 grid's cells inside the lobes, and cells
     # smaller than a lobe (0.3 deg ~ 5e-3 rad: a square cell of the hemisphere map of side 2^-8 is
     # about 0.01 x 0.025 rad).
     assert ok.bins > 300
     assert (ok.rects[:, 2].min()) <= 2.0**-9
-    bad = gl.sampler_test(shifted, samples=N, seed=3, significance=ALPHA, out=tmp_path)
+    bad = gl.sampler_test(shifted, samples=NS, seed=3, significance=ALPHA, out=tmp_path)
     assert not bad.passed and bad.pvalue < POWER, bad
     assert {p.rsplit(".", 1)[1] for p in bad.files} == {"npz", "csv", "png"}
     data = np.load(bad.files[0])
-    assert data["observed"].sum() == N and data["rects"].shape == (bad.bins, 4)
+    assert data["observed"].sum() == NS and data["rects"].shape == (bad.bins, 4)
     # The fixed (theta, phi) grid of 30 x 60 cells passes both: each lobe stays inside its cell.
     for s in (good, shifted):
-        grid = gl.sampler_test(s, samples=N, seed=3, bins=(30, 60), significance=ALPHA)
+        grid = gl.sampler_test(s, samples=NS, seed=3, bins=(30, 60), significance=ALPHA)
         assert grid.passed, grid
 
 
@@ -105,19 +107,19 @@ def _square_sampler(size, seed):
 
 def test_other_domains():
     res = gl.sampler_test(_sphere_sampler, lambda p: np.full(len(p), 1 / (4 * np.pi)), domain="sphere",
-                          samples=N, seed=5, significance=ALPHA)
+                          samples=NO, seed=5, significance=ALPHA)
     assert res.passed, res
     disk_pdf = lambda p: np.full(len(p), 1 / np.pi)  # noqa: E731
-    res = gl.sampler_test(_disk_sampler(), disk_pdf, domain="disk", samples=N, seed=5, significance=ALPHA)
+    res = gl.sampler_test(_disk_sampler(), disk_pdf, domain="disk", samples=NO, seed=5, significance=ALPHA)
     assert res.passed, res
-    res = gl.sampler_test(_disk_sampler(False), disk_pdf, domain="disk", samples=N, seed=5, significance=ALPHA)
+    res = gl.sampler_test(_disk_sampler(False), disk_pdf, domain="disk", samples=NO, seed=5, significance=ALPHA)
     assert res.pvalue < POWER, res
-    res = gl.sampler_test(_square_sampler, lambda p: 4 * p[:, 0] * p[:, 1], domain="square", samples=N, seed=5,
+    res = gl.sampler_test(_square_sampler, lambda p: 4 * p[:, 0] * p[:, 1], domain="square", samples=NO, seed=5,
                           significance=ALPHA)
     assert res.passed, res
     # a pdf that forgets half of the square: the samples land where it has no mass
     res = gl.sampler_test(_square_sampler, lambda p: 8 * p[:, 0] * p[:, 1] * (p[:, 0] < 0.5), domain="square",
-                          samples=N, seed=5)
+                          samples=NO, seed=5)
     assert res.pvalue < POWER, res
 
 
@@ -126,14 +128,14 @@ def test_same_seed_same_result_whatever_the_threads():
     before = gl.get_num_threads()
     try:
         gl.set_num_threads(1)
-        a = gl.sampler_test(s, samples=N, seed=21, chunk=50_000)
+        a = gl.sampler_test(s, samples=NO, seed=21, chunk=30_000)
         gl.set_num_threads(2)
-        b = gl.sampler_test(s, samples=N, seed=21, chunk=50_000)
+        b = gl.sampler_test(s, samples=NO, seed=21, chunk=30_000)
     finally:
         gl.set_num_threads(before)
     assert a.passed
     assert a.pvalue == b.pvalue and np.array_equal(a.observed, b.observed) and np.array_equal(a.expected, b.expected)
-    c = gl.sampler_test(s, samples=N, seed=22, chunk=50_000)
+    c = gl.sampler_test(s, samples=NO, seed=22, chunk=30_000)
     assert not np.array_equal(a.observed, c.observed)
 
 
@@ -190,7 +192,7 @@ def test_smith_g1_matches_the_visible_normal_normalization():
     for name in ("beckmann", "ggx"):
         ndf = NDF(name, 0.4)
         table = gl.furnace(ndf, theta_o_deg=(0.0, 45.0, 85.0))
-        assert np.all(np.abs(table["value"][table.quantity != "furnace_g2"] - 1) < 1e-6), table
+        assert np.all(np.abs(table["value"][table.quantity != "furnace_g2"] - 1) < 1e-5), table
         g2 = table[table.quantity == "furnace_g2"]
         assert np.all(g2.value < 1) and np.all(g2.value > 0.5)
 

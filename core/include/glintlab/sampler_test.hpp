@@ -44,6 +44,7 @@ struct BinOptions {
   int max_sub_depth = 12;    // extra levels of integration cells inside a bin
   double rel_tol = 0.02;     // cubature error of a bin's count must be <= rel_tol sqrt(max(expected, 1))
   std::size_t max_nodes = 60'000'000;  // pdf evaluations before the cubature gives up (with a note)
+  double pilot_drawn = 0.0;  // points the pilot sample drew, lost ones included (0: those passed)
 };
 
 struct Rect {
@@ -52,14 +53,18 @@ struct Rect {
 
 // Bins over the unit square and their expected masses. Two constructions:
 // - adaptive: a quadtree from the root, split while a cell's expected count (cubature) or the count a
-//   pilot sample puts in it (scaled to `total`) exceeds `target`, down to max_depth;
+//   pilot sample puts in it (scaled to `total`) exceeds `target`, while the pilot's count and the
+//   cubature disagree, or while the pdf at a pilot point shows a peak the cubature has not resolved,
+//   down to max_depth;
 // - fixed: the grid of rectangles given by s_edges x t_edges (a (theta, phi) grid maps to one).
 // Then each bin's integral is refined by splitting its own integration cells until its error meets
 // rel_tol.
 class Bins {
  public:
-  // pilot_s, pilot_t: square coordinates of the pilot sample's points (lost ones left out).
-  Bins(Domain d, const BinOptions& options, const double* pilot_s, const double* pilot_t, std::size_t pilot_count);
+  // pilot_s, pilot_t: square coordinates of the pilot sample's points (lost ones left out);
+  // pilot_pdf (optional): the pdf at those points, which flags cells whose cubature missed a peak.
+  Bins(Domain d, const BinOptions& options, const double* pilot_s, const double* pilot_t, std::size_t pilot_count,
+       const double* pilot_pdf = nullptr);
   Bins(Domain d, const BinOptions& options, std::vector<double> s_edges, std::vector<double> t_edges);
 
   bool done() const { return pending_.empty(); }
@@ -121,9 +126,9 @@ class Bins {
   std::vector<Task> pending_;
   std::vector<double> nodes_;
   // pilot points, reordered so that each pending tree cell's points are contiguous
-  std::vector<double> ps_, pt_;
+  std::vector<double> ps_, pt_, pq_;
   std::vector<std::pair<std::size_t, std::size_t>> pilot_range_;  // per pending task
-  double pilot_scale_ = 0.0;
+  double pilot_scale_ = 0.0, pilot_drawn_ = 0.0;
   std::vector<Rect> leaves_;
   std::vector<int> depth_;
   std::vector<double> integral_, error_;

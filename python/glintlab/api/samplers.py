@@ -293,11 +293,11 @@ class VMFMixture(Sampler):
         out = np.zeros(len(p))
         # Only lobes within exp(-50) of their peak count; chunks keep the (points x lobes) product small.
         cut = 1.0 - 50.0 / k
-        step = max(1, 2**22 // len(self.centres))
+        step = max(1, 2**21 // len(self.centres))
         for i in range(0, len(p), step):
             d = p[i:i + step] @ self.centres.T
             rows, cols = np.nonzero(d > cut)
-            np.add.at(out[i:i + step], rows, np.exp(k * (d[rows, cols] - 1.0)))
+            out[i:i + step] = np.bincount(rows, weights=np.exp(k * (d[rows, cols] - 1.0)), minlength=len(d))
         out *= norm
         return np.where(p[:, 2] >= 0, out, 0.0)
 

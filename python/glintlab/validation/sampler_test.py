@@ -225,7 +225,7 @@ def _grid_edges(domain, grid):
 def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10**6, seed=0, bins="adaptive", *,
                  significance: float = 1e-3, min_expected: float = 5.0, target: float | None = None,
                  rtol: float = 1e-3, unit_tol: float = 1e-4, check_pdf: bool = True, pilot: int | None = None,
-                 chunk: int = 2**20, rel_tol: float = 0.02, max_depth: int = 20, max_evaluations: int = 60_000_000,
+                 chunk: int = 2**20, rel_tol: float = 0.02, max_depth: int = 16, max_evaluations: int | None = None,
                  out=None, write: str = "failure", name: str | None = None) -> SamplerTestResult:
     """Tests a direction sampler against its pdf (docs/math/sampling.md).
 
@@ -236,7 +236,7 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
     e.g. ``gl.sampler("ggx_vndf")``) may be passed as ``sample`` alone.
 
     ``bins``: ``"adaptive"`` (quadtree over the area-preserving square, split while a bin expects more
-    than ``target`` samples; default target max(8 min_expected, samples / 1000)) or a fixed grid
+    than ``target`` samples; default target max(8 min_expected, samples^(3/5))) or a fixed grid
     ``(n_theta, n_phi)``. Points that are NaN, outside the domain or (hemisphere, sphere) not unit
     within ``unit_tol`` are lost; their expected number is what the pdf does not integrate to.
     ``rtol``: the relative difference beyond which the sampler's pdf and ``pdf`` disagree.
@@ -277,10 +277,16 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
     if write not in ("failure", "always", "never"):
         V.fail("write", write, "'failure', 'always' or 'never'")
     if target is None:
-        target = max(8.0 * min_expected, samples / 1000.0)
+        # About 2 N^(2/5) bins for a smooth pdf (Mann & Wald's rule of thumb: power against smooth
+        # deviations falls as the bins multiply), more where a spiky pdf's mass forces splits.
+        target = max(8.0 * min_expected, samples ** 0.6)
     target = V.real("target", target)
     if not (target > 0 and math.isfinite(target)):
         V.fail("target", target, "a finite number > 0")
+    if max_evaluations is None:
+        # pdf evaluations the cubature may spend: enough for thousands of resolved lobes, and a stop for a
+        # pdf that is not integrable (a 1/cos singularity splits cells along the horizon forever).
+        max_evaluations = max(4_000_000, 2 * samples)
     notes = []
     times = {"sampling": 0.0, "binning": 0.0, "integration": 0.0, "pdf_check": 0.0}
     t_start = time.perf_counter()
@@ -306,8 +312,10 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
             ps, pt = np.concatenate([ps, s[lost == 0]]), np.concatenate([pt, t[lost == 0]])
             times["binning"] += time.perf_counter() - t0
         t0 = time.perf_counter()
+        # The pdf at the pilot points shows peaks the cubature's nodes may have stepped over.
+        pq = _call_pdf(pdf, _core.sampler_from_square(domain, ps, pt), dim) if len(ps) else np.zeros(0)
         b = _core.SamplerBins(domain, float(samples), target, 2, int(max_depth), 12, float(rel_tol),
-                              int(max_evaluations), ps, pt)
+                              int(max_evaluations), ps, pt, float(n_pilot), pq)
         bins_kind = "adaptive"
     else:
         s_edges, t_edges = _grid_edges(domain, bins)
