@@ -213,3 +213,16 @@ def test_furnace_of_a_glinty_ndf_is_about_one():
     assert set(table.quantity) == {"projected_area", "weak_furnace", "furnace_g2"}
     area = table[table.quantity == "projected_area"].iloc[0]
     assert abs(area.value - 1) < 0.1 + 5 * area.error
+
+
+def test_cli_exit_codes(tmp_path, capsys):
+    from glintlab.cli.main import main
+    assert main(["sampler", "ggx", "--param", "alpha=0.3", "--samples", "50000", "--quiet", "--out", str(tmp_path)]) == 0
+    assert main(["sampler", "ggx", "--param", "alpha=0.3", "--samples", "50000", "--quiet", "--wrong", "drop_0.1%",
+                 "--out", str(tmp_path)]) == 1
+    assert (tmp_path / "sampler_test_ggx_drop_0.1_.png").exists()
+    for bad in (["sampler", "nope"], ["sampler", "ggx", "--param", "alpha=-1"], ["sampler", "ggx", "--bins", "3y"],
+                ["sampler", "ggx", "--param", "beta=1"], ["sampler", "ggx", "--samples", "0"]):
+        assert main(bad) == 2, bad
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "sampler = 'nope' is invalid" in err

@@ -19,6 +19,7 @@ seed gives the same points on any machine and thread count.
 from __future__ import annotations
 
 import math
+import pathlib
 
 import numpy as np
 
@@ -323,6 +324,24 @@ def sampler(name: str, **params) -> Sampler:
         return cls(**params)
     except TypeError as exc:  # an unknown keyword: bad input, named
         raise ValueError(f"sampler {name!r}: {exc}") from None
+
+
+# Samplers from files, by file suffix (".hlsl", ".glsl", ...): a loader is a function (path, **params) ->
+# sampler object. `glintlab sampler FILE` looks the file's suffix up here; shader samplers register
+# their loader, e.g. SAMPLER_LOADERS.register(".glsl", shader_sampler).
+SAMPLER_LOADERS = Registry("sampler file type")
+
+
+def load_sampler(name_or_file: str, **params) -> Sampler:
+    """A registered sampler by name, or a sampler file through the loader of its suffix."""
+    if isinstance(name_or_file, str) and name_or_file in SAMPLERS:
+        return sampler(name_or_file, **params)
+    path = pathlib.Path(str(name_or_file))
+    if path.suffix and path.suffix in SAMPLER_LOADERS:
+        return SAMPLER_LOADERS.get(path.suffix)(str(path), **params)
+    known = ", ".join(SAMPLERS.names())
+    kinds = ", ".join(SAMPLER_LOADERS.names()) or "none registered"
+    V.fail("sampler", name_or_file, f"a sampler name ({known}) or a sampler file ({kinds})")
 
 
 def samplers() -> dict:
