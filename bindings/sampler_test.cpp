@@ -151,7 +151,6 @@ void bind_sampler_test(py::module_& m) {
     out["starts"] = py::array_t<std::size_t>(py::cast(r.starts));
     out["observed"] = py::array_t<double>(py::cast(r.observed));
     out["expected"] = py::array_t<double>(py::cast(r.expected));
-    out["lost_in_chi2"] = r.lost_in_chi2;
     out["lost_expected"] = r.lost_expected;
     out["lost_observed"] = r.lost_observed;
     out["note"] = r.note;

@@ -504,20 +504,18 @@ ChiSquare chi_square(const std::vector<double>& observed, const std::vector<doub
     r.observed.push_back(o);
     r.expected.push_back(e);
   }
-  // The lost bin: what the pdf does not integrate to. Kept apart from the merging (it is no neighbour
-  // of any cell).
+  // The lost bin: what the pdf does not integrate to. It is never merged (it is no neighbour of any
+  // cell) and never a chi-square bin: its expected count N (1 - M) is only known within the cubature's
+  // error N e of M, and the per-bin errors, each far below its own bin's noise, add up in M. So the lost
+  // count is tested exactly against every expectation the error allows: too many lost samples against
+  // the largest, lambda_hi = N (1 - M + e), too few against the smallest, lambda_lo = N (1 - M - e) (a pdf
+  // that leaves mass the sampler never loses), two-sided.
   r.lost_observed = lost;
   r.lost_expected = std::max(0.0, total * (1.0 - mass));
-  r.lost_in_chi2 = r.lost_expected >= min_expected;
-  if (r.lost_in_chi2) {
-    r.observed.push_back(lost);
-    r.expected.push_back(r.lost_expected);
-  } else if (lost > 0.0) {
-    // Exact Poisson tail P(X >= lost) at the largest loss the cubature error allows, so an
-    // integration error is never mistaken for a loss.
-    const double lambda = total * std::max(0.0, 1.0 - mass + mass_err);
-    r.pvalue_lost = lambda > 0.0 ? boost::math::gamma_p(lost, lambda) : 0.0;
-  }
+  const double hi = total * std::max(0.0, 1.0 - mass + mass_err), lo = total * std::max(0.0, 1.0 - mass - mass_err);
+  const double p_many = lost <= 0.0 ? 1.0 : (hi > 0.0 ? boost::math::gamma_p(lost, hi) : 0.0);   // P(X >= lost)
+  const double p_few = lo > 0.0 ? boost::math::gamma_q(lost + 1.0, lo) : 1.0;                     // P(X <= lost)
+  r.pvalue_lost = std::min(1.0, 2.0 * std::min(p_many, p_few));
   bool impossible = false;
   for (std::size_t k = 0; k < r.observed.size(); ++k) {
     const double d = r.observed[k] - r.expected[k];
@@ -538,10 +536,8 @@ ChiSquare chi_square(const std::vector<double>& observed, const std::vector<doub
     const boost::math::chi_squared_distribution<double> chi2(r.dof);
     r.pvalue_chi2 = boost::math::cdf(boost::math::complement(chi2, r.statistic));
   }
-  if (r.lost_in_chi2 || lost == 0.0) {
-    r.pvalue = r.pvalue_chi2;
-  } else if (std::isnan(r.pvalue_chi2)) {
-    r.pvalue = r.pvalue_lost;
+  if (std::isnan(r.pvalue_chi2)) {
+    r.pvalue = r.pvalue_lost < 1.0 ? r.pvalue_lost : r.pvalue_chi2;
   } else {
     // Two tests, one verdict: Sidak's correction of the smaller p-value.
     r.pvalue = -std::expm1(2.0 * std::log1p(-std::min(r.pvalue_chi2, r.pvalue_lost)));

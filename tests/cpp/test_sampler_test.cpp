@@ -115,12 +115,16 @@ TEST_CASE("chi_square: merged bins, the lost bin and the no-power case", "[sampl
   r = chi_square(obs2, integral, error, 1, 1000, 5);
   CHECK(r.pvalue_lost == 0.0);
   CHECK(r.pvalue == 0.0);
-  // A pdf that integrates to 0.9: 100 expected lost samples form their own chi-square bin.
+  // A pdf that integrates to 0.9: 100 expected lost samples; 100 lost pass, 0 lost and 200 lost reject.
   std::vector<double> integral3(4, 0.225), obs3{225, 225, 225, 225};
   r = chi_square(obs3, integral3, error, 100, 1000, 5);
-  CHECK(r.lost_in_chi2);
-  CHECK(r.expected.back() == Approx(100));
-  CHECK(r.statistic == Approx(0.0).margin(1e-9));
+  CHECK(r.lost_expected == Approx(100));
+  CHECK(r.pvalue_lost > 0.5);
+  CHECK(chi_square(obs3, integral3, error, 0, 1000, 5).pvalue_lost < 1e-40);
+  CHECK(chi_square(obs3, integral3, error, 200, 1000, 5).pvalue_lost < 1e-15);
+  // A cubature error of 0.01 makes 110 lost samples unremarkable.
+  std::vector<double> error3(4, 0.0025);
+  CHECK(chi_square(obs3, integral3, error3, 110, 1000, 5).pvalue_lost == Approx(1.0));
   // Too few samples: everything merges into one bin, NaN and a note.
   std::vector<double> obs4{1, 0, 1, 0};
   r = chi_square(obs4, integral, error, 0, 2, 5);

@@ -148,18 +148,17 @@ struct ChiSquare {
   int dof = 0;
   double pvalue = 1.0;          // combined (chi-square and, where separate, the lost-sample test)
   double pvalue_chi2 = 1.0;     // chi-square alone
-  double pvalue_lost = 1.0;     // lost samples alone (exact Poisson tail; 1 when inside the chi-square)
+  double pvalue_lost = 1.0;     // lost samples alone (exact two-sided Poisson test)
   std::vector<std::size_t> starts;             // first bin of each merged bin (bins in order)
-  std::vector<double> observed, expected;      // per merged bin, the lost bin last when it is one
-  bool lost_in_chi2 = false;
+  std::vector<double> observed, expected;      // per merged bin
   double lost_expected = 0.0, lost_observed = 0.0;
   std::string note;
 };
 
 // Pearson chi-square of counts per bin against total * integral per bin, bins merged as chi2_test
-// merges (merge_starts), plus the lost bin: expected total * (1 - sum integral), a bin of its own when
-// that reaches min_expected, else an exact Poisson test of the lost count against the largest loss the
-// cubature error allows; the two p-values are then combined by Sidak (min of two).
+// merges (merge_starts), and the lost bin: expected total * (1 - sum integral), tested by an exact
+// two-sided Poisson test against the range of losses the cubature error allows; the two p-values are
+// combined by Sidak (min of two).
 ChiSquare chi_square(const std::vector<double>& observed, const std::vector<double>& integral,
                      const std::vector<double>& error, double lost, double total, double min_expected);
 

@@ -32,11 +32,11 @@ DEFAULTS = {
     "alpha": 0.3,
     "wo_theta_deg": 60.0,
     "significance": 0.001,
-    "lobes": 200, "lobe_width_deg": 0.3, "lobe_shift_deg": 0.3,
-    "furnace_theta_deg": [0.0, 45.0, 75.0],
-    "kpt25_pixels": 64, "kpt25_directions": 64,
+    "spiky_samples": 100000, "lobes": 100, "lobe_width_deg": 0.3, "lobe_shift_deg": 0.3,
+    "furnace_theta_deg": [0.0, 60.0],
+    "kpt25_pixels": 32, "kpt25_directions": 64,
 }
-QUICK = {"samples": 50000, "lobes": 100, "kpt25_pixels": 16, "kpt25_directions": 32}
+QUICK = {"samples": 50000, "spiky_samples": 50000, "lobes": 50, "kpt25_pixels": 16, "kpt25_directions": 32}
 NOTEBOOK = ""
 TABLE = {"sampling_verdicts": ["sampler", "variant", "pvalue", "bins", "lost", "mismatches", "verdict", "seconds"],
          "sampling_spiky": ["sampler", "bins_kind", "bins", "pvalue", "verdict"],
@@ -54,7 +54,9 @@ def compute(params: dict, ctx: Context) -> Tables:
         for variant in ("correct",) + WRONG_KINDS:
             ctx.progress(f"{base.name} {variant}")
             s = base if variant == "correct" else wrong_sampler(base, variant)
-            r = sampler_test(s, samples=n, seed=ctx.seed + i, significance=sig)
+            # A pdf without its Jacobian may not be integrable (GGX's visible normals over cos theta): a
+            # small evaluation budget stops its cubature early; the verdict is a rejection either way.
+            r = sampler_test(s, samples=n, seed=ctx.seed + i, significance=sig, max_evaluations=500_000)
             rows.append({"sampler": base.name, "variant": variant, "pvalue": r.pvalue, "statistic": r.statistic,
                          "dof": r.dof, "bins": r.bins, "lost": r.lost, "integral": r.integral,
                          "mismatches": r.mismatches, "verdict": "pass" if r.passed else "reject",
@@ -70,7 +72,7 @@ def compute(params: dict, ctx: Context) -> Tables:
                                                        **common))):
         for bins in ("adaptive", (30, 60)):
             ctx.progress(f"{label} {bins}")
-            r = sampler_test(s, samples=n, seed=ctx.seed + 10, bins=bins, significance=sig)
+            r = sampler_test(s, samples=int(params["spiky_samples"]), seed=ctx.seed + 10, bins=bins, significance=sig)
             spiky_rows.append({"sampler": label, "bins_kind": r.bins_kind, "bins": r.bins, "dof": r.dof,
                                "pvalue": r.pvalue, "verdict": "pass" if r.passed else "reject",
                                "seconds": r.times["total"]})
@@ -89,15 +91,15 @@ def compute(params: dict, ctx: Context) -> Tables:
         bad = t[(t.quantity != "furnace_g2") & ((t.value - 1).abs() > 1e-5)]
         failures += [f"sampling: furnace of {name}: {r.quantity} = {r.value:.8f}" for r in bad.itertuples()]
     nd = glinty_ndf("kpt25", density=1e6, alpha=alpha, alpha_star=0.02)
-    t = furnace(nd, theta_o_deg=thetas[:2], pixels=int(params["kpt25_pixels"]),
+    t = furnace(nd, theta_o_deg=thetas, pixels=int(params["kpt25_pixels"]),
                 directions=int(params["kpt25_directions"]), points=(1000.0,), seed=ctx.seed)
     t.insert(0, "ndf", "kpt25 (alpha* 0.02, 1000 points)")
     parts.append(t)
     furnace_table = pd.concat(parts, ignore_index=True)
     verdicts = pd.DataFrame(rows)
-    stats = {"samples per test": n, "significance": sig,
-             "wrong variants rejected": f"{(verdicts.variant != 'correct').sum() - sum(verdicts[verdicts.variant != 'correct'].verdict == 'pass')}"
-                                        f" / {(verdicts.variant != 'correct').sum()}"}
+    wrong = verdicts[verdicts.variant != "correct"]
+    stats = {"samples per test": n, "spiky pdf samples": int(params["spiky_samples"]), "significance": sig,
+             "wrong variants rejected": f"{int((wrong.verdict == 'reject').sum())} / {len(wrong)}"}
     return Tables(tables={"sampling_verdicts": verdicts, "sampling_spiky": pd.DataFrame(spiky_rows),
                           "sampling_furnace": furnace_table},
                   stats=stats, failures=failures, data={"spiky": data})

@@ -30,12 +30,11 @@ AXES = {"hemisphere": ("cos theta", "phi / 2 pi"), "sphere": ("(cos theta + 1) /
 
 @dataclass
 class SamplerTestResult:
-    """What ``sampler_test`` measured. ``pvalue`` combines the chi-square over the bins and, when the
-    lost samples are not a chi-square bin, their exact Poisson test (Sidak); ``passed`` is
+    """What ``sampler_test`` measured. ``pvalue`` combines the chi-square over the bins and the exact
+    two-sided Poisson test of the lost samples (Sidak); ``passed`` is
     ``pvalue >= significance`` with no pdf mismatch and a converged cubature. Per bin (in the bins'
     Z order): ``rects`` (s0, t0, width_s, width_t) on the unit square, ``observed``, ``expected``,
-    ``expected_error`` (cubature error, in samples). ``merged_*``: the bins as the statistic merged them
-    (the lost bin last when it is one)."""
+    ``expected_error`` (cubature error, in samples). ``merged_*``: the bins as the statistic merged them."""
     name: str
     domain: str
     samples: int
