@@ -263,6 +263,7 @@ class VMFMixture(Sampler):
         self.centres = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], axis=1)
         self.kappa = 1.0 / math.radians(width) ** 2
         self.sample_centres = self.centres
+        self._frames = None
         if shift > 0:
             t1, t2 = _frames(self.centres)
             ang = rng.uniform(0.0, 2.0 * math.pi, lobes)
@@ -281,26 +282,64 @@ class VMFMixture(Sampler):
         w = 1.0 + np.log(u[:, 0] + (1.0 - u[:, 0]) * math.exp(-2.0 * k)) / k   # cos of the angle to the centre
         r = np.sqrt(np.maximum(0.0, 1.0 - w * w))
         phi = 2.0 * math.pi * u[:, 1]
-        mu = self.sample_centres[lobe]
-        t1, t2 = _frames(mu)
-        x = w[:, None] * mu + r[:, None] * (np.cos(phi)[:, None] * t1 + np.sin(phi)[:, None] * t2)
-        x /= np.linalg.norm(x, axis=1)[:, None]
+        # Tangent frames per lobe, computed once: x = w mu + r (cos phi t1 + sin phi t2) is unit to
+        # rounding.
+        if self._frames is None:
+            self._frames = _frames(self.sample_centres)
+        t1, t2 = self._frames
+        c, s = r * np.cos(phi), r * np.sin(phi)
+        x = w[:, None] * self.sample_centres[lobe] + c[:, None] * t1[lobe] + s[:, None] * t2[lobe]
         return x, self.pdf(x)
 
     def pdf(self, points):
         p = _points(points, 3)
         k = self.kappa
         norm = k / (2.0 * math.pi * -math.expm1(-2.0 * k)) / len(self.centres)
+        table, ns, nt = self._lookup()
+        # Each point sees only the lobes whose cap (where a lobe is within exp(-50) of its peak) meets
+        # its cell of a (cos theta, phi) grid: a few lobes instead of all of them.
+        z = np.clip(p[:, 2], 0.0, 1.0)
+        t = np.arctan2(p[:, 1], p[:, 0]) / (2.0 * math.pi) % 1.0
+        cell = np.minimum((z * ns).astype(np.int64), ns - 1) * nt + np.minimum((t * nt).astype(np.int64), nt - 1)
         out = np.zeros(len(p))
-        # Only lobes within exp(-50) of their peak count; chunks keep the (points x lobes) product small.
-        cut = 1.0 - 50.0 / k
-        step = max(1, 2**21 // len(self.centres))
-        for i in range(0, len(p), step):
-            d = p[i:i + step] @ self.centres.T
-            rows, cols = np.nonzero(d > cut)
-            out[i:i + step] = np.bincount(rows, weights=np.exp(k * (d[rows, cols] - 1.0)), minlength=len(d))
+        for col in range(table.shape[1]):
+            lobe = table[cell, col]
+            use = np.nonzero(lobe >= 0)[0]
+            if use.size == 0:
+                continue
+            d = np.einsum("ij,ij->i", p[use], self.centres[lobe[use]])
+            out[use] += np.exp(np.minimum(k * (d - 1.0), 0.0)) * (d > 1.0 - 50.0 / k)
         out *= norm
-        return np.where(p[:, 2] >= 0, out, 0.0)
+        return np.where(np.isfinite(p).all(axis=1) & (p[:, 2] >= 0), out, 0.0)
+
+    def _lookup(self):
+        """For each cell of a ns x nt grid over (cos theta, phi / 2 pi), the lobes whose cap can reach
+        it (a conservative box in cos theta and phi around each cap), padded with -1."""
+        if getattr(self, "_table", None) is not None:
+            return self._table
+        ns, nt = 128, 256
+        rho = math.acos(max(-1.0, 1.0 - 50.0 / self.kappa)) * 1.01 + 1e-9  # cap radius, with a margin
+        cells: list[list[int]] = [[] for _ in range(ns * nt)]
+        for m, c in enumerate(self.centres):
+            th = math.acos(min(1.0, max(-1.0, c[2])))
+            z0, z1 = math.cos(min(math.pi, th + rho)), math.cos(max(0.0, th - rho))
+            i0, i1 = max(0, int(z0 * ns)), min(ns - 1, int(max(z1, 0.0) * ns))
+            if th <= rho or th + rho >= math.pi or math.sin(rho) >= math.sin(th):
+                js = range(nt)
+            else:
+                dphi = math.asin(min(1.0, math.sin(rho) / math.sin(th)))
+                ph = math.atan2(c[1], c[0]) / (2.0 * math.pi)
+                j0, j1 = math.floor((ph - dphi / (2.0 * math.pi)) * nt), math.floor((ph + dphi / (2.0 * math.pi)) * nt)
+                js = [j % nt for j in range(j0, j1 + 1)]
+            for i in range(i0, i1 + 1):
+                for j in js:
+                    cells[i * nt + j].append(m)
+        width = max(1, max(len(c) for c in cells))
+        table = np.full((ns * nt, width), -1, dtype=np.int64)
+        for n, c in enumerate(cells):
+            table[n, :len(c)] = c
+        self._table = (table, ns, nt)
+        return self._table
 
 
 def _frames(mu):
