@@ -30,8 +30,8 @@ REFERENCE = [("beckmann", {"alpha": 0.3}), ("ggx", {"alpha": 0.3}), ("ggx", {"al
              ("beckmann_vndf", {"alpha": 0.3, "wo": (0.6, 0.0, 0.8)}),
              ("beckmann_vndf", {"alpha": 0.5, "wo": (0.98, 0.1, 0.17)})]
 # Runs that must pass: the reference samplers, the spiky pdf (adaptive and grid), the shifted lobes on
-# the grid, three other domains, and the determinism pair (counted once).
-N_PASS = len(REFERENCE) + 3 + 3 + 1
+# the grid, three other domains, the determinism pair (counted once) and the CLI run.
+N_PASS = len(REFERENCE) + 3 + 3 + 1 + 1
 ALPHA = gl.sidak_alpha(1e-3, N_PASS)
 POWER = 1e-6
 

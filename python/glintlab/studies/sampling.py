@@ -1,7 +1,8 @@
 """Direction samplers tested (docs/math/sampling.md): the reference microfacet samplers pass the
 harness and their wrong variants are rejected at the same sample size; a spiky pdf (von Mises-Fisher
 lobes 0.3 degree wide) whose displaced lobes the adaptive bins reject and a fixed 30 x 60 (theta, phi)
-grid passes; the furnace table of the smooth NDFs (and of KPT25's glinty NDF, Monte Carlo over pixels).
+grid passes; the furnace table of the smooth NDFs (cubature) and of KPT25's and DB23's glinty NDFs (Monte
+Carlo over pixels at 1000 expected points per footprint).
 
 Tables: ``sampling_verdicts`` (one row per sampler and variant: p-value, bins, lost samples, pdf
 mismatches, verdict, time), ``sampling_spiky`` (adaptive against fixed bins on the correct and the
@@ -90,11 +91,13 @@ def compute(params: dict, ctx: Context) -> Tables:
         parts.append(t)
         bad = t[(t.quantity != "furnace_g2") & ((t.value - 1).abs() > 1e-5)]
         failures += [f"sampling: furnace of {name}: {r.quantity} = {r.value:.8f}" for r in bad.itertuples()]
-    nd = glinty_ndf("kpt25", density=1e6, alpha=alpha, alpha_star=0.02)
-    t = furnace(nd, theta_o_deg=thetas, pixels=int(params["kpt25_pixels"]),
-                directions=int(params["kpt25_directions"]), points=(1000.0,), seed=ctx.seed)
-    t.insert(0, "ndf", "kpt25 (alpha* 0.02, 1000 points)")
-    parts.append(t)
+    for label, nd in (("kpt25 (alpha* 0.02, 1000 points)", glinty_ndf("kpt25", density=1e6, alpha=alpha, alpha_star=0.02)),
+                      ("db23 (db23_trilinear, gated, 1000 points)", glinty_ndf("db23", density=1e6, alpha=alpha))):
+        ctx.progress(f"furnace {label}")
+        t = furnace(nd, theta_o_deg=thetas, pixels=int(params["kpt25_pixels"]),
+                    directions=int(params["kpt25_directions"]), points=(1000.0,), seed=ctx.seed)
+        t.insert(0, "ndf", label)
+        parts.append(t)
     furnace_table = pd.concat(parts, ignore_index=True)
     verdicts = pd.DataFrame(rows)
     wrong = verdicts[verdicts.variant != "correct"]
