@@ -178,7 +178,7 @@ def _derived(seed: int, *keys) -> int:
 
 def _call_sample(sample, size, seed, dim):
     out = sample(size, seed)
-    if not isinstance(out, tuple) or len(out) < 1:
+    if not isinstance(out, (tuple, list)) or len(out) < 1:
         V.fail("sample", sample, "a function sample(size, seed) returning (points, pdfs)")
     pts = np.ascontiguousarray(V.as_float_array("sample(...)[0]", out[0]))
     if pts.shape != (size, dim):
