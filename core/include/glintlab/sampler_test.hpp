@@ -104,14 +104,16 @@ class Bins {
   struct SubCell {
     Rect r;
     int depth;
-    double value, err;
+    double value, err, top;  // integral, error, largest node value (density on the square)
   };
 
   void emit_nodes();
-  void finish_tree_round(const std::vector<double>& value, const std::vector<double>& err);
+  void finish_tree_round(const std::vector<double>& value, const std::vector<double>& err,
+                         const std::vector<double>& top);
   void start_refinement();
   void plan_refinement();
-  void finish_refine_round(const std::vector<double>& value, const std::vector<double>& err);
+  void finish_refine_round(const std::vector<double>& value, const std::vector<double>& err,
+                           const std::vector<double>& top);
   std::int64_t descend(double s, double t) const;
 
   Domain domain_;
@@ -121,7 +123,7 @@ class Bins {
   std::vector<double> s_edges_, t_edges_;
   std::vector<Node> tree_;
   std::vector<Rect> tree_rect_;
-  std::vector<double> tree_val_, tree_err_;
+  std::vector<double> tree_val_, tree_err_, tree_top_;
   std::vector<int> tree_depth_;
   std::vector<Task> pending_;
   std::vector<double> nodes_;
@@ -158,7 +160,7 @@ struct ChiSquare {
 // Pearson chi-square of counts per bin against total * integral per bin, bins merged as chi2_test
 // merges (merge_starts), and the lost bin: expected total * (1 - sum integral), tested by an exact
 // two-sided Poisson test against the range of losses the cubature error allows; the two p-values are
-// combined by Sidak (min of two).
+// combined by a weighted Bonferroni rule (95 % chi-square, 5 % lost samples).
 ChiSquare chi_square(const std::vector<double>& observed, const std::vector<double>& integral,
                      const std::vector<double>& error, double lost, double total, double min_expected);
 

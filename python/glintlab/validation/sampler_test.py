@@ -31,7 +31,7 @@ AXES = {"hemisphere": ("cos theta", "phi / 2 pi"), "sphere": ("(cos theta + 1) /
 @dataclass
 class SamplerTestResult:
     """What ``sampler_test`` measured. ``pvalue`` combines the chi-square over the bins and the exact
-    two-sided Poisson test of the lost samples (Sidak); ``passed`` is
+    two-sided Poisson test of the lost samples (weighted Bonferroni: 95 % / 5 %); ``passed`` is
     ``pvalue >= significance`` with no pdf mismatch and a converged cubature. Per bin (in the bins'
     Z order): ``rects`` (s0, t0, width_s, width_t) on the unit square, ``observed``, ``expected``,
     ``expected_error`` (cubature error, in samples). ``merged_*``: the bins as the statistic merged them."""
