@@ -301,7 +301,7 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
     if isinstance(bins, str):
         if bins != "adaptive":
             V.fail("bins", bins, "'adaptive' or a fixed grid (n1, n2)")
-        n_pilot = samples // 8 if pilot is None else int(pilot)
+        n_pilot = samples // 2 if pilot is None else int(pilot)
         n_pilot = max(0, min(n_pilot, samples))
         ps, pt = np.zeros(0), np.zeros(0)
         for k, start in enumerate(range(0, n_pilot, chunk)):
