@@ -50,8 +50,10 @@ bench: build
 	@$(VENV)/bin/python bench/bench_laws.py
 	@$(VENV)/bin/python bench/bench_ground_truth.py
 	@$(VENV)/bin/python bench/bench_glinty_ndf.py --out out/bench
+	@$(VENV)/bin/python bench/bench_wwh18.py --out out/bench
 	@$(VENV)/bin/python bench/bench_sampler_test.py --out out/bench
 	@$(VENV)/bin/python bench/bench_shader.py
+	@$(VENV)/bin/python bench/bench_method_shader.py
 	@$(VENV)/bin/glintlab bench --out out/bench
 	@$(VENV)/bin/python bench/bench_dask.py
 	@$(VENV)/bin/glintlab aniso --out out/bench/aniso

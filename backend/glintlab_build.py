@@ -3,8 +3,9 @@
 Why a backend of our own (pyproject.toml says the same): Debian 12 has no scikit-build(-core), the usual
 backend for a CMake project, and its meson-python (python3-mesonpy) builds Meson projects, not CMake ones;
 PyPI is out of reach here, and pip's default build isolation installs ``build-system.requires`` from the
-index, so any requirement at all (even setuptools, which Debian has) fails offline. This module needs nothing beyond the standard library (``requires = []``,
-found through ``backend-path``), so ``pip install .`` works with or without isolation and with --no-index.
+index, so any requirement at all (even setuptools, which Debian has) fails offline. This module needs
+nothing beyond the standard library (``requires = []``, found through ``backend-path``), so
+``pip install .`` works with or without isolation and with --no-index.
 
 What it does: read the ``[project]`` table of pyproject.toml and the version from the top-level
 CMakeLists.txt (``project(glintlab VERSION x.y.z)``); configure with -DGLINTLAB_PYTHON=ON and

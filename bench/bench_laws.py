@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 from pathlib import Path
 
 import numpy as np
@@ -99,7 +98,7 @@ def main(argv=None):
     print(batch.pivot(index="law", columns="n", values="speedup_vs_numpy").round(2).to_string())
     print("\n" + summary.round(3).to_string(index=False))
     print(f"\ngl.uniforms(size, 2) = {floor:.2f} ns/row (the keyed Philox4x32-10 draws, 16 bytes of output per row)")
-    print(f"numpy ns/sample: " + ", ".join(f"({n:g}, {p:g}) {v:.1f}" for (n, p), v in numpy_ns.items()))
+    print("numpy ns/sample: " + ", ".join(f"({n:g}, {p:g}) {v:.1f}" for (n, p), v in numpy_ns.items()))
     print(f"[{'PASS' if target_10x else 'FAIL'}] gated >= 10x numpy at every point: "
           + ", ".join(f"{v:.1f}x" for v in gated.speedup_vs_numpy))
     print(f"[{'PASS' if hc_batch <= 1.2 else 'FAIL'}] head_cf / gated ns, batch: {hc_batch:.2f} (bound 1.2)")

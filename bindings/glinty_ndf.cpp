@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <optional>
 #include <string>
 
 #include "bindings.hpp"
@@ -51,7 +52,8 @@ std::size_t pixels(const Array& uv, const Array* jac, const Array& h) {
 void bind_glinty_ndf(py::module_& m) {
   py::class_<Kpt25Ndf>(m, "Kpt25Ndf")
       .def(py::init([](double density, const std::string& target, double alpha, double alpha_star, int k,
-                       double epsilon, double filter, const std::string& compensation, const std::string& blend) {
+                       double epsilon, double filter, const std::string& compensation, const std::string& blend,
+                       double sample_smooth, const std::string& sample_weight) {
              Kpt25Params p;
              p.density = density;
              p.target = parse_target(target);
@@ -62,10 +64,15 @@ void bind_glinty_ndf(py::module_& m) {
              p.filter = filter;
              p.compensation = parse_compensation(compensation);
              p.blend = parse_blend(blend);
+             p.sample_smooth = sample_smooth;
+             if (sample_weight == "lobe_mass") p.sample_lobe_mass = true;
+             else if (sample_weight == "printed") p.sample_lobe_mass = false;
+             else throw_invalid(kWhere, "sample_weight", sample_weight, "\"lobe_mass\" or \"printed\"");
              return Kpt25Ndf(p);
            }),
            py::arg("density"), py::arg("target"), py::arg("alpha"), py::arg("alpha_star"), py::arg("k"),
-           py::arg("epsilon"), py::arg("filter"), py::arg("compensation"), py::arg("blend"))
+           py::arg("epsilon"), py::arg("filter"), py::arg("compensation"), py::arg("blend"),
+           py::arg("sample_smooth") = 0.0, py::arg("sample_weight") = "lobe_mass")
       .def("evaluate", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
              const std::size_t n = pixels(uv, &jac, h);
              py::array_t<double> out(static_cast<py::ssize_t>(n));
@@ -100,6 +107,45 @@ void bind_glinty_ndf(py::module_& m) {
              }
              return py::make_tuple(er, ea);
            }, py::arg("J"), py::arg("h"))
+      .def("pdf", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
+             const std::size_t n = pixels(uv, &jac, h);
+             py::array_t<double> out(static_cast<py::ssize_t>(n));
+             double* o = out.mutable_data();
+             {
+               glintlab::bindings::LongCall release;
+               g.pdf(uv.data(), jac.data(), h.data(), n, seed, o);
+             }
+             return out;
+           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
+      .def("sample", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, std::uint64_t seed, std::uint64_t draw_seed,
+                        std::optional<Array> wo) {
+             const auto n = static_cast<std::size_t>(uv.size() / 2);
+             if (static_cast<std::size_t>(uv.size()) != 2 * n || static_cast<std::size_t>(jac.size()) != 4 * n ||
+                 (wo && static_cast<std::size_t>(wo->size()) != 3 * n))
+               throw std::invalid_argument("glinty_ndf: uv, J and wo must hold 2, 4 and 3 numbers per row");
+             py::array_t<double> h(static_cast<py::ssize_t>(3 * n)), pdf(static_cast<py::ssize_t>(n));
+             py::array_t<double> wi(static_cast<py::ssize_t>(wo ? 3 * n : 0));
+             double* ph = h.mutable_data();
+             double* pp = pdf.mutable_data();
+             double* pw = wi.mutable_data();
+             const double* pwo = wo ? wo->data() : nullptr;
+             {
+               glintlab::bindings::LongCall release;
+               g.sample(uv.data(), jac.data(), pwo, n, seed, draw_seed, ph, pp, wo ? pw : nullptr);
+             }
+             return py::make_tuple(h, pdf, wi);
+           }, py::arg("uv"), py::arg("J"), py::arg("seed"), py::arg("draw_seed"), py::arg("wo"))
+      .def("map", [](const Kpt25Ndf& g, const Array& h) {
+             const auto n = static_cast<std::size_t>(h.size() / 3);
+             if (static_cast<std::size_t>(h.size()) != 3 * n) throw std::invalid_argument("glinty_ndf: h must hold 3 numbers per row");
+             py::array_t<double> xy(static_cast<py::ssize_t>(2 * n));
+             double* o = xy.mutable_data();
+             {
+               glintlab::bindings::LongCall release;
+               g.map_points(h.data(), n, o);
+             }
+             return xy;
+           }, py::arg("h"))
       .def("pixel", [](const Kpt25Ndf& g, const Array& jac, const Array& h) {
              if (jac.size() != 4 || h.size() != 3) throw std::invalid_argument("glinty_ndf: pixel takes one J and one h");
              const GlintPixel px = g.pixel(jac.data(), h.data(), 0);
@@ -120,6 +166,7 @@ void bind_glinty_ndf(py::module_& m) {
              d["half_v"] = px.half_v;
              return d;
            }, py::arg("J"), py::arg("h"));
+  m.def("rect_disk_area", &rect_disk_area, py::arg("x0"), py::arg("x1"), py::arg("y0"), py::arg("y1"));
   m.def("kpt25_roulette", &kpt25_roulette, py::arg("r"), py::arg("w"), py::arg("eps"));
   m.def("gaussian_in_disk_rect", &gaussian_in_disk_rect, py::arg("cx"), py::arg("cy"), py::arg("sigma"),
         py::arg("x0"), py::arg("x1"), py::arg("y0"), py::arg("y1"));

@@ -176,6 +176,8 @@ PYBIND11_MODULE(_core, m) {
   py::register_exception<validation::InputError>(m, "InputError", PyExc_ValueError);
   glintlab::bindings::bind_glinty_ndf(m);
   glintlab::bindings::bind_shaders(m);
+  glintlab::bindings::bind_wwh18(m);
+  glintlab::bindings::bind_method_shaders(m);
   glintlab::bindings::bind_sampler_test(m);
   m.def("parse_document", [](const std::string& kind, std::string_view text, const std::string& source) {
     return validation::parse_document(kind, text, source).dump();

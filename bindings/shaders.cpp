@@ -16,6 +16,8 @@ void bind_shaders(py::module_& m) {
   using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
   py::register_exception<shader::ShaderTimeout>(m, "ShaderTimeout", PyExc_TimeoutError);
   py::register_exception<shader::NoVulkanDevice>(m, "NoVulkanDevice", PyExc_RuntimeError);
+  // After ShaderTimeout: pybind tries the translators registered last first, so the subclass wins.
+  py::register_exception<shader::ShaderDeviceBusy>(m, "ShaderDeviceBusy", PyExc_TimeoutError);
 
   m.def("vulkan_devices", [] {
     py::list out;
@@ -37,16 +39,25 @@ void bind_shaders(py::module_& m) {
       .def(py::init([](const std::string& source, const std::string& source_name, const std::string& entry,
                        const std::string& language, int n_uniforms,
                        const std::vector<std::pair<std::string, std::string>>& defines,
-                       const std::vector<std::string>& include_dirs, const std::string& device) {
-             shader::KernelSpec spec{source, source_name, entry, language, n_uniforms, defines, include_dirs, device};
+                       const std::vector<std::string>& include_dirs, const std::string& device,
+                       const std::vector<std::pair<std::string, std::string>>& include_files) {
+             shader::KernelSpec spec{source, source_name, entry, language, n_uniforms, defines, include_dirs,
+                                     device, include_files};
              glintlab::bindings::LongCall release;
              return std::make_shared<Kernel>(spec);
            }),
            py::arg("source"), py::arg("source_name"), py::arg("entry"), py::arg("language"), py::arg("n_uniforms"),
-           py::arg("defines"), py::arg("include_dirs"), py::arg("device"))
+           py::arg("defines"), py::arg("include_dirs"), py::arg("device"),
+           py::arg("include_files") = std::vector<std::pair<std::string, std::string>>{})
       .def_property_readonly("device", &Kernel::device_name)
       .def_property_readonly("device_type", &Kernel::device_type)
       .def_property_readonly("n_uniforms", &Kernel::n_uniforms)
+      .def_property_readonly("included_files", [](const Kernel& k) {
+             py::list out;  // content as bytes: a header need not be valid UTF-8
+             for (const auto& [path, content] : k.included_files()) out.append(py::make_tuple(path, py::bytes(content)));
+             return out;
+           })
+      .def_property_readonly("unbounded_loops", &Kernel::unbounded_loops)
       .def_property_readonly("spirv", [](const Kernel& k) {
              return py::bytes(reinterpret_cast<const char*>(k.spirv().data()), k.spirv().size() * sizeof(std::uint32_t));
            })

@@ -3,10 +3,14 @@
 
 #include <algorithm>
 #include <boost/math/quadrature/gauss_kronrod.hpp>
+#include <boost/math/special_functions/erf.hpp>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "glintlab/errors.hpp"
 #include "glintlab/rng.hpp"
@@ -35,6 +39,11 @@ constexpr std::uint32_t kStreamGlintPoints = 8;
 // Phi(b) - Phi(a) for a <= b without cancellation in either tail.
 double normal_mass(double a, double b) {
   if (!(b > a)) return 0.0;
+  // Shortcuts that return what the formulas below round to (Algorithm 2 asks for many masses of
+  // narrow lobes, most of them 0 or 1): erfc(40 / sqrt 2) underflows to 0, and the tails beyond
+  // 8.5 stds add up to less than half an ulp of 1.
+  if (a > 40.0 || b < -40.0) return 0.0;
+  if (a < -8.5 && b > 8.5) return 1.0;
   if (a >= 0.0) return 0.5 * (std::erfc(a * kSqrt1_2) - std::erfc(b * kSqrt1_2));
   if (b <= 0.0) return 0.5 * (std::erfc(-b * kSqrt1_2) - std::erfc(-a * kSqrt1_2));
   return 1.0 - 0.5 * (std::erfc(-a * kSqrt1_2) + std::erfc(b * kSqrt1_2));
@@ -69,7 +78,158 @@ void block_range(double q, std::int64_t n, int side, std::int64_t& first, std::i
   last = first + side - 1;
 }
 
+// The draws of Algorithm 2: their own stream id and key (draw_seed), so they share nothing with the
+// points' numbers (stream 8 in the top byte of the last counter word) or the other users of a seed.
+constexpr std::uint16_t kStreamGlintDraw = 9;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// "uv[3, 0]": pixel i (of the flattened pixels), component c; the Python layer rewrites the pixel index
+// as the multi-index of the caller's array.
+std::string element(const char* name, std::size_t i, int c) {
+  return std::string(name) + "[" + std::to_string(i) + ", " + std::to_string(c) + "]";
+}
+std::string row_name(const char* name, std::size_t i) { return std::string(name) + "[" + std::to_string(i) + ", :]"; }
+// Ten significant digits: enough to recognise the caller's numbers (3.16, not 3.1600000000000001).
+std::string short_value(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", x);
+  return buf;
+}
+std::string row_value(const double* x, int n) {
+  std::string s = "[";
+  for (int c = 0; c < n; ++c) s += (c ? ", " : "") + short_value(x[c]);
+  return s + "]";
+}
+
+void check_uv(const double* uv, std::size_t i) {
+  for (int c = 0; c < 2; ++c) {
+    const double x = uv[2 * i + c];
+    if (!std::isfinite(x) || std::abs(x) > 1e9)
+      throw_invalid(kWhere, element("uv", i, c), x, "a finite position, |uv| <= 1e9");
+  }
+}
+
+// A unit vector from any nonzero finite vector: scaled by its largest component first, so that neither
+// 1e160 (whose squared length overflows) nor 1e-160 (whose squared length underflows) changes the
+// result (docs/math/glinty_ndf.md#glinty-map). False for a zero vector.
+bool unit_vector(const double* v, double out[3]) {
+  const double s = std::max({std::abs(v[0]), std::abs(v[1]), std::abs(v[2])});
+  if (!(s > 0.0)) return false;
+  const double x = v[0] / s, y = v[1] / s, z = v[2] / s;
+  const double len = std::sqrt(x * x + y * y + z * z);  // in [1, sqrt 3]
+  out[0] = x / len;
+  out[1] = y / len;
+  out[2] = z / len;
+  return true;
+}
+
+// A draw of N(g, s^2) truncated to [lo, hi] by inversion of its CDF; the tail the interval lies in is
+// inverted through erfc so that intervals many stds from g keep their precision.
+double truncated_normal(double g, double s, double lo, double hi, double u) {
+  const double a = (lo - g) / s, b = (hi - g) / s;
+  double z;
+  if (a >= 0.0) {  // upper tail: Q(z) = erfc(z / sqrt 2) / 2 decreases
+    const double qa = std::erfc(a * kSqrt1_2), qb = std::erfc(b * kSqrt1_2);
+    const double q = qa - u * (qa - qb);
+    z = q > 0.0 ? std::numbers::sqrt2 * boost::math::erfc_inv(q) : b;
+  } else {  // 2 Phi(z) = erfc(-z / sqrt 2) increases
+    const double pa = std::erfc(-a * kSqrt1_2), pb = std::erfc(-b * kSqrt1_2);
+    const double q = pa + u * (pb - pa);
+    z = q <= 0.0 ? a : (q >= 2.0 ? b : -std::numbers::sqrt2 * boost::math::erfc_inv(q));
+  }
+  return std::clamp(g + s * std::clamp(z, a, b), lo, hi);
+}
+
+// The x_a-region of the block whose first cell is f along one axis (block_range's inverse): x_a in
+// [lo, hi) chooses it. The whole axis when the level has at most `side` cells.
+void region_range(std::int64_t f, std::int64_t n, int side, double& lo, double& hi) {
+  if (n <= side) {
+    lo = 0.0;
+    hi = 1.0;
+    return;
+  }
+  const double fn = static_cast<double>(n), c = 0.5 * (side - 1);
+  lo = f == 0 ? 0.0 : (static_cast<double>(f) + c) / fn;
+  hi = f == n - side ? 1.0 : (static_cast<double>(f) + 1.0 + c) / fn;
+}
+
+// The first cells of every block of one axis that contains cell position q (in [0, 1)).
+void blocks_containing(double q, std::int64_t n, int side, std::int64_t& f0, std::int64_t& f1) {
+  if (n <= side) {
+    f0 = f1 = 0;
+    return;
+  }
+  const auto c = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(q * static_cast<double>(n))), 0, n - 1);
+  f0 = std::max<std::int64_t>(0, c - side + 1);
+  f1 = std::min<std::int64_t>(c, n - side);
+}
+
+// integral over X in [X0, X1] of min(c, s(X)), s(X) = sqrt(r^2 - X^2) the half chord of the disk of
+// radius r = 1/2 centred at 0, for c >= 0 (rect_disk_area's building block).
+double chord_part(double X0, double X1, double c) {
+  constexpr double r = 0.5;
+  X0 = std::max(X0, -r);
+  X1 = std::min(X1, r);
+  if (!(X1 > X0)) return 0.0;
+  auto G = [](double X) {  // an antiderivative of s
+    const double s = std::sqrt(std::max(0.0, r * r - X * X));
+    return 0.5 * (X * s + r * r * std::asin(std::clamp(X / r, -1.0, 1.0)));
+  };
+  auto seg = [&](double a, double b, bool flat) {
+    a = std::max(a, X0);
+    b = std::min(b, X1);
+    if (!(b > a)) return 0.0;
+    return flat ? c * (b - a) : G(b) - G(a);
+  };
+  if (c >= r) return G(X1) - G(X0);
+  const double xc = std::sqrt(r * r - c * c);  // |X| <= xc: s >= c
+  return seg(-r, -xc, false) + seg(-xc, xc, true) + seg(xc, r, false);
+}
+
+// Every point of level `level` whose position falls in the truncated filter and whose normal lies in U,
+// restricted to angular cells [a0, a1] x [b0, b1]: f(a, b, mx, my, w) with w = R(r, w_l) exp(-q / 2),
+// the point's filter weight up to the filter's normalisation (which cancels in Algorithm 2's ratios).
+// The same cells, random numbers, rejection and roulette as level_sum (Algorithm 1).
+template <class F>
+void for_points(const Kpt25Params& p, double res, const GlintPixel& px, int level, double weight, double u, double v,
+                std::uint64_t seed, std::int64_t a0, std::int64_t a1, std::int64_t b0, std::int64_t b1, F&& f) {
+  const double cell = std::ldexp(1.0, level) / res;
+  const double inv_na = std::ldexp(1.0, -level);
+  const auto i0 = static_cast<std::int64_t>(std::floor((u - px.half_u) / cell));
+  const auto i1 = static_cast<std::int64_t>(std::floor((u + px.half_u) / cell));
+  const auto j0 = static_cast<std::int64_t>(std::floor((v - px.half_v) / cell));
+  const auto j1 = static_cast<std::int64_t>(std::floor((v + px.half_v) / cell));
+  const bool roulette = p.blend == GlintBlend::roulette && weight < 1.0;
+  for (std::int64_t i = i0; i <= i1; ++i)
+    for (std::int64_t j = j0; j <= j1; ++j)
+      for (std::int64_t a = a0; a <= a1; ++a)
+        for (std::int64_t b = b0; b <= b1; ++b) {
+          const auto r4 = point_block(seed, level, i, j, a, b, 0);
+          const double mx = (static_cast<double>(a) + unit(r4[2])) * inv_na;
+          const double my = (static_cast<double>(b) + unit(r4[3])) * inv_na;
+          if ((mx - 0.5) * (mx - 0.5) + (my - 0.5) * (my - 0.5) >= 0.25) continue;
+          const double dx = (static_cast<double>(i) + unit(r4[0])) * cell - u;
+          const double dy = (static_cast<double>(j) + unit(r4[1])) * cell - v;
+          const double q = px.inv_a * dx * dx + 2.0 * px.inv_b * dx * dy + px.inv_c * dy * dy;
+          if (q > kFilterRadius * kFilterRadius) continue;
+          double keep = weight;
+          if (roulette) keep = kpt25_roulette(unit(point_block(seed, level, i, j, a, b, 1)[0]), weight, p.epsilon);
+          if (keep == 0.0) continue;
+          f(a, b, mx, my, keep * std::exp(-0.5 * q));
+        }
+}
+
 }  // namespace
+
+double rect_disk_area(double x0, double x1, double y0, double y1) {
+  if (!(x1 > x0) || !(y1 > y0)) return 0.0;
+  const double X0 = x0 - 0.5, X1 = x1 - 0.5, Y0 = y0 - 0.5, Y1 = y1 - 0.5;
+  // The chord's length in [Y0, Y1] at X is min(Y1, s) - max(Y0, -s), clamped at 0; split by the signs of
+  // Y0 and Y1 it is a difference or a sum of min(c, s) with c >= 0.
+  if (Y0 >= 0.0) return chord_part(X0, X1, Y1) - chord_part(X0, X1, Y0);
+  if (Y1 <= 0.0) return chord_part(X0, X1, -Y0) - chord_part(X0, X1, -Y1);
+  return chord_part(X0, X1, Y1) + chord_part(X0, X1, -Y0);
+}
 
 double kpt25_roulette(double r, double w, double eps) {
   const double lo = std::max(0.0, r - eps), hi = std::min(1.0, r + eps);
@@ -79,47 +239,143 @@ double kpt25_roulette(double r, double w, double eps) {
 }
 
 double gaussian_in_disk_rect(double cx, double cy, double sigma, double x0, double x1, double y0, double y1) {
-  const double a = std::max({x0, 0.0, cx - 12.0 * sigma}), b = std::min({x1, 1.0, cx + 12.0 * sigma});
-  if (!(b > a) || !(y1 > y0)) return 0.0;
-  auto f = [&](double x) {
-    const double s = std::sqrt(std::max(0.0, 0.25 - (x - 0.5) * (x - 0.5)));
-    const double lo = std::max(y0, 0.5 - s), hi = std::min(y1, 0.5 + s);
+  // The Gaussian's mass beyond 12 sigma (about 1e-32) is below any use: clip the rectangle to it and to
+  // the square.
+  const double reach = 12.0 * sigma;
+  x0 = std::max({x0, 0.0, cx - reach});
+  x1 = std::min({x1, 1.0, cx + reach});
+  y0 = std::max({y0, 0.0, cy - reach});
+  y1 = std::min({y1, 1.0, cy + reach});
+  if (!(x1 > x0) || !(y1 > y0)) return 0.0;
+  // The clipped rectangle inside the disk (all four corners are), or the lobe so far inside the disk
+  // that its mass beyond the rim, at most exp(-d^2 / (2 sigma^2)) for a rim d away, is below 3e-18:
+  // the disk does not cut it, and the mass is a product of normal CDF differences (the common case).
+  auto inside = [](double x, double y) { return (x - 0.5) * (x - 0.5) + (y - 0.5) * (y - 0.5) <= 0.25; };
+  const double rim = 0.5 - std::hypot(cx - 0.5, cy - 0.5);
+  if ((inside(x0, y0) && inside(x0, y1) && inside(x1, y0) && inside(x1, y1)) || rim > 9.0 * sigma)
+    return mass_1d(cx, sigma, x0, x1) * mass_1d(cy, sigma, y0, y1);
+  // Otherwise an integral over x of the Gaussian's mass on the chord in [y0, y1], in the variable
+  // theta with x = (1 - cos theta) / 2: the half chord is sin(theta) / 2 and dx = sin(theta) / 2 dtheta,
+  // so the square-root singularity of the chord at x = 0 and 1 disappears. The angle is measured from
+  // the lobe's centre, theta = theta_c + tau, and the offsets x - cx and the chord's ends minus cy are
+  // formed as a constant (computed once) plus sin(tau / 2) times a smooth factor: a lobe of std 1e-11
+  // at the rim is then integrated without the rounding noise of forming x and subtracting cx, which
+  // kept an adaptive rule from converging. The integrand is smooth between the angles where the
+  // chord's end crosses y0 or y1 and the lobe's centre, which split the range. Globally adaptive
+  // Gauss-Kronrod (31 points): the interval with the largest error estimate (|Kronrod - Gauss|, a
+  // pessimistic bound: the result is far more accurate, about 1e-13 relative in the tests) is halved
+  // until their sum is below 1e-7 of the total (or 1e-16 absolute), at most 60 times, so the cost is
+  // bounded whatever sigma and the position.
+  const double tc = std::acos(std::clamp(1.0 - 2.0 * cx, -1.0, 1.0));
+  const double e0 = 0.5 * (1.0 - std::cos(tc)) - cx;  // x(theta_c) - cx: rounding only
+  const double k_up = 0.5 + 0.5 * std::sin(tc) - cy, k_dn = 0.5 - 0.5 * std::sin(tc) - cy;
+  const double t0 = std::acos(std::clamp(1.0 - 2.0 * x0, -1.0, 1.0)) - tc;
+  const double t1 = std::acos(std::clamp(1.0 - 2.0 * x1, -1.0, 1.0)) - tc;
+  double cuts[8];
+  int nc = 0;
+  cuts[nc++] = t0;
+  cuts[nc++] = t1;
+  for (double y : {y0, y1}) {
+    const double d = 2.0 * std::abs(y - 0.5);
+    if (d < 1.0) {
+      const double t = std::asin(d);
+      cuts[nc++] = t - tc;
+      cuts[nc++] = kPi - t - tc;
+    }
+  }
+  cuts[nc++] = 0.0;
+  for (int i = 1; i < nc; ++i)  // insertion sort of at most 7 angles
+    for (int j = i; j > 0 && cuts[j - 1] > cuts[j]; --j) std::swap(cuts[j - 1], cuts[j]);
+  const double norm = 1.0 / (sigma * std::sqrt(2.0 * kPi));
+  const double up = (y1 - cy) / sigma, dn = (y0 - cy) / sigma;
+  auto f = [&](double tau) {
+    const double half = std::sin(0.5 * tau), mid = tc + 0.5 * tau;
+    const double s = 0.5 * std::sin(tc + tau);  // the half chord
+    if (!(s > 0.0)) return 0.0;
+    // cos(a) - cos(a + tau) = 2 sin(a + tau/2) sin(tau/2); sin(a + tau) - sin(a) = 2 cos(a + tau/2) sin(tau/2)
+    const double z = (e0 + std::sin(mid) * half) / sigma;
+    const double chord = std::cos(mid) * half;
+    const double hi = std::min(up, (k_up + chord) / sigma), lo = std::max(dn, (k_dn - chord) / sigma);
     if (!(hi > lo)) return 0.0;
-    const double z = (x - cx) / sigma;
-    return std::exp(-0.5 * z * z) / (sigma * std::sqrt(2.0 * kPi)) * mass_1d(cy, sigma, lo, hi);
+    return std::exp(-0.5 * z * z) * norm * normal_mass(lo, hi) * s;
   };
-  return boost::math::quadrature::gauss_kronrod<double, 31>::integrate(f, a, b, 20, 1e-11);
+  struct Piece {
+    double a, b, value, error;
+  };
+  using Gk = boost::math::quadrature::gauss_kronrod<double, 31>;
+  auto rule = [&](double a, double b) {
+    double err = 0.0;
+    const double v = Gk::integrate(f, a, b, 0, 0.0, &err);
+    return Piece{a, b, v, err};
+  };
+  auto by_error = [](const Piece& p, const Piece& q) { return p.error < q.error; };
+  std::vector<Piece> heap;
+  heap.reserve(64);
+  double total = 0.0, error = 0.0;
+  for (int c = 0; c + 1 < nc; ++c) {
+    const double a = std::max(cuts[c], t0), b = std::min(cuts[c + 1], t1);
+    if (!(b > a)) continue;
+    heap.push_back(rule(a, b));
+    total += heap.back().value;
+    error += heap.back().error;
+  }
+  std::make_heap(heap.begin(), heap.end(), by_error);
+  for (int it = 0; it < 60 && !heap.empty() && error > std::max(1e-7 * std::abs(total), 1e-16); ++it) {
+    std::pop_heap(heap.begin(), heap.end(), by_error);
+    const Piece p = heap.back();
+    heap.pop_back();
+    const double mid = 0.5 * (p.a + p.b);
+    if (!(mid > p.a && mid < p.b)) break;  // no room left to split in double precision
+    const Piece l = rule(p.a, mid), r = rule(mid, p.b);
+    total += l.value + r.value - p.value;
+    error += l.error + r.error - p.error;
+    heap.push_back(l);
+    std::push_heap(heap.begin(), heap.end(), by_error);
+    heap.push_back(r);
+    std::push_heap(heap.begin(), heap.end(), by_error);
+  }
+  return total;
 }
 
 Kpt25Ndf::Kpt25Ndf(const Kpt25Params& params) : p_(params) {
   if (!(p_.density > 0.0 && p_.density <= 1e18)) throw_invalid(kWhere, "density", p_.density, "a number in (0, 1e18]");
   if (!(p_.alpha > 0.0 && std::isfinite(p_.alpha))) throw_invalid(kWhere, "alpha", p_.alpha, "a finite number > 0");
-  if (!(p_.alpha_star > 0.0 && std::isfinite(p_.alpha_star)))
-    throw_invalid(kWhere, "alpha_star", p_.alpha_star, "a finite number > 0");
+  if (!(p_.alpha_star >= 1e-30 && std::isfinite(p_.alpha_star)))
+    throw_invalid(kWhere, "alpha_star", p_.alpha_star, "a finite number >= 1e-30");
   if (!(p_.k == 1 || p_.k == 4 || p_.k == 9 || p_.k == 16))
     throw_invalid(kWhere, "k", static_cast<double>(p_.k), "1, 4, 9 or 16 (a square block of angular cells)");
   if (!(p_.epsilon >= 0.0 && p_.epsilon <= 0.5)) throw_invalid(kWhere, "epsilon", p_.epsilon, "a number in [0, 0.5]");
   if (!(p_.filter > 0.0 && std::isfinite(p_.filter)))
     throw_invalid(kWhere, "filter", p_.filter, "a finite pixel filter std > 0 (pixels)");
+  if (!(p_.sample_smooth >= 0.0 && p_.sample_smooth <= 1.0))
+    throw_invalid(kWhere, "sample_smooth", p_.sample_smooth, "a probability in [0, 1]");
   res_ = std::sqrt(p_.density);
 }
 
 std::array<double, 3> Kpt25Ndf::map(const double hin[3]) const {
-  const double len = std::sqrt(hin[0] * hin[0] + hin[1] * hin[1] + hin[2] * hin[2]);
-  const double hx = hin[0] / len, hy = hin[1] / len, hz = hin[2] / len;
-  if (!(hz > 0.0)) return {0.5, 0.5, 0.0};  // below the horizon: D = 0, the position is irrelevant
+  double h[3];
+  if (!unit_vector(hin, h) || !(h[2] > 0.0)) return {0.5, 0.5, 0.0};  // below the horizon: D = 0
+  const double hx = h[0], hy = h[1], hz = h[2];
   const double a2 = p_.alpha * p_.alpha;
   double dx, dy, D;
   if (p_.target == GlintTarget::beckmann) {
     // Slopes s = (hx, hy) / hz are Gaussian (variance alpha^2 / 2 per axis) under D(h)(h.n)dh, so
     // |d|^2 = 1 - exp(-|s|^2 / alpha^2) is uniform and d = s |d| / |s| is uniform on the unit disk
     // (the inverse of §3.2.2's B1, Marsaglia's polar map). -expm1(-t)/t stays accurate as t -> 0.
-    const double sx = hx / hz, sy = hy / hz, t = (sx * sx + sy * sy) / a2;
+    const double r2 = hx * hx + hy * hy;
+    const double s2 = r2 / (hz * hz), t = s2 / a2;
+    if (!(t < 800.0)) {
+      // exp(-t) underflows: D = 0 and T(h) is on the rim, in the direction of (hx, hy) (the limit as
+      // h_z -> 0; computing it through the slopes would give 0 x inf = NaN, or overflow).
+      const double r = std::sqrt(r2);
+      return {0.5 + 0.5 * hx / r, 0.5 + 0.5 * hy / r, 0.0};
+    }
     const double scale = t > 1e-300 ? std::sqrt(-std::expm1(-t) / t) / p_.alpha : 1.0 / p_.alpha;
-    dx = sx * scale;
-    dy = sy * scale;
-    const double c2 = hz * hz;
-    D = std::exp(-t) / (kPi * a2 * c2 * c2);
+    dx = hx / hz * scale;
+    dy = hy / hz * scale;
+    // D = exp(-t) / (pi alpha^2 cos^4) with 1 / cos^4 = (1 + s^2)^2, in logs so that neither factor
+    // overflows at grazing h.
+    D = std::exp(-t + 2.0 * std::log1p(s2)) / (kPi * a2);
   } else {
     // GGX: the stretched half vector (hx / alpha, hy / alpha, hz), normalised, is cosine distributed
     // under D(h)(h.n)dh (§3.2.1's M~ with M = diag(1/alpha, 1/alpha, 1)); its orthographic projection
@@ -135,23 +391,66 @@ std::array<double, 3> Kpt25Ndf::map(const double hin[3]) const {
   return {0.5 + 0.5 * dx, 0.5 + 0.5 * dy, D};
 }
 
-GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) const {
-  GlintPixel px;
+std::array<double, 3> Kpt25Ndf::inverse_map(double x, double y) const {
+  const double dx = 2.0 * x - 1.0, dy = 2.0 * y - 1.0, r2 = dx * dx + dy * dy;
+  if (!(r2 < 1.0)) return {kNaN, kNaN, kNaN};
+  double v[3];
+  if (p_.target == GlintTarget::beckmann) {
+    // |s|^2 = alpha^2 t with t = -log(1 - |d|^2) (the map above, inverted); t / |d|^2 -> 1 as d -> 0.
+    const double ratio = r2 > 1e-300 ? std::sqrt(-std::log1p(-r2) / r2) : 1.0;
+    v[0] = p_.alpha * dx * ratio;
+    v[1] = p_.alpha * dy * ratio;
+    v[2] = 1.0;
+  } else {  // the stretched normal (dx, dy, sqrt(1 - |d|^2)), unstretched
+    v[0] = p_.alpha * dx;
+    v[1] = p_.alpha * dy;
+    v[2] = std::sqrt(std::max(0.0, 1.0 - r2));
+  }
+  double h[3];
+  if (!unit_vector(v, h)) return {kNaN, kNaN, kNaN};
+  return {h[0], h[1], h[2]};
+}
+
+double Kpt25Ndf::disk_D(double x, double y) const {
+  // D(T^-1(x, y)) without forming h: with r2 = |d|^2, Beckmann D = (1 - r2)(1 + alpha^2 t)^2 / (pi alpha^2),
+  // t = -log(1 - r2); GGX D = (alpha^2 r2 + 1 - r2)^2 / (pi alpha^2).
+  const double dx = 2.0 * x - 1.0, dy = 2.0 * y - 1.0, r2 = dx * dx + dy * dy;
+  const double a2 = p_.alpha * p_.alpha;
+  if (!(r2 < 1.0)) return 0.0;
+  if (p_.target == GlintTarget::beckmann) {
+    const double g = 1.0 - a2 * std::log1p(-r2);
+    return (1.0 - r2) * g * g / (kPi * a2);
+  }
+  const double g = a2 * r2 + 1.0 - r2;
+  return g * g / (kPi * a2);
+}
+
+void Kpt25Ndf::map_points(const double* h, std::size_t m, double* xy) const {
+  detail::parallel_chunks(m, 256, 512, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      const double* H = h + 3 * i;
+      double u[3];
+      for (int c = 0; c < 3; ++c)
+        if (!std::isfinite(H[c])) throw_invalid(kWhere, element("h", i, c), H[c], "a finite half vector");
+      if (!unit_vector(H, u)) throw_invalid(kWhere, row_name("h", i), row_value(H, 3), "a nonzero half vector");
+      if (!(u[2] > 0.0)) {
+        xy[2 * i] = xy[2 * i + 1] = kNaN;  // below the horizon: T is not defined
+        continue;
+      }
+      const auto t = map(H);
+      xy[2 * i] = t[0];
+      xy[2 * i + 1] = t[1];
+    }
+  });
+}
+
+void Kpt25Ndf::footprint(GlintPixel& px, const double* jac, std::size_t i) const {
   px.index = i;
   const double* J = jac + 4 * i;
-  const double* H = h + 3 * i;
+  px.J = J;
   for (int c = 0; c < 4; ++c)
     if (!std::isfinite(J[c]) || std::abs(J[c]) > 1e12)
-      throw_invalid(kWhere, indexed_name("J", 4 * i + c, true), J[c], "a finite derivative, |J| <= 1e12");
-  for (int c = 0; c < 3; ++c)
-    if (!std::isfinite(H[c])) throw_invalid(kWhere, indexed_name("h", 3 * i + c, true), H[c], "a finite half vector");
-  const double hlen2 = H[0] * H[0] + H[1] * H[1] + H[2] * H[2];
-  if (!(hlen2 > 1e-300)) throw_invalid(kWhere, indexed_name("h", 3 * i, true), H[0], "a nonzero half vector");
-  const auto m = map(H);
-  px.xa = m[0];
-  px.ya = m[1];
-  px.D = m[2];
-  px.sigma = p_.alpha_star * std::sqrt(px.D);
+      throw_invalid(kWhere, element("J", i, c), J[c], "a finite derivative, |J| <= 1e12");
   // Spatial covariance f^2 J J^T (Algorithm 1, line 11) with J = [[du/dx, du/dy], [dv/dx, dv/dy]].
   const double f2 = p_.filter * p_.filter;
   const double suu = f2 * (J[0] * J[0] + J[2] * J[2]), svv = f2 * (J[1] * J[1] + J[3] * J[3]);
@@ -159,8 +458,9 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
   const double detj = J[0] * J[3] - J[1] * J[2];
   const double det = f2 * f2 * detj * detj;
   if (!(det > 0.0) || !(det > 1e-24 * suu * svv))
-    throw_invalid(kWhere, indexed_name("J", 4 * i, true), detj,
-                  "a footprint with det J != 0 and anisotropy below 1e12 (mask pixels that do not see the surface)");
+    throw_invalid(kWhere, row_name("J", i), row_value(J, 4),
+                  "a footprint with det J != 0 (here " + short_value(detj) +
+                      ") and anisotropy below 1e12 (mask pixels that do not see the surface)");
   px.inv_a = svv / det;
   px.inv_b = -suv / det;
   px.inv_c = suu / det;
@@ -173,9 +473,9 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
   const double major = std::sqrt(0.5 * tr + disc);
   px.lambda = std::log2(res_ * 2.0 * kFilterRadius * major);
   if (!(px.lambda <= kGlintMaxLevel))
-    throw_invalid(kWhere, indexed_name("J", 4 * i, true), J[0],
-                  "a footprint small enough for the density (MIP level " + std::to_string(px.lambda) +
-                      " > " + std::to_string(kGlintMaxLevel) + "; lower the density or the footprint)");
+    throw_invalid(kWhere, row_name("J", i), row_value(J, 4),
+                  "a footprint small enough for the density (MIP level " + short_value(px.lambda) + " > " +
+                      std::to_string(kGlintMaxLevel) + "; lower the density or the footprint)");
   px.lambda = std::max(0.0, px.lambda);
   const int l0 = static_cast<int>(std::floor(px.lambda));
   const double frac = px.lambda - l0;
@@ -186,6 +486,25 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
     px.weights[0] = 1.0 - frac;  // w_l = 1 - |lambda - l| (Algorithm 1, line 8)
     px.weights[1] = frac;
   }
+}
+
+GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) const {
+  GlintPixel px;
+  const double* H = h + 3 * i;
+  for (int c = 0; c < 3; ++c)
+    if (!std::isfinite(H[c])) throw_invalid(kWhere, element("h", i, c), H[c], "a finite half vector");
+  double unit_h[3];
+  if (!unit_vector(H, unit_h)) throw_invalid(kWhere, row_name("h", i), row_value(H, 3), "a nonzero half vector");
+  footprint(px, jac, i);
+  const auto m = map(H);
+  px.xa = m[0];
+  px.ya = m[1];
+  px.D = m[2];
+  px.sigma = p_.alpha_star * std::sqrt(px.D);
+  // Where sigma^2 underflows (D(h) < 1e-240 at alpha_star >= 1e-30: the far grazing tail of Beckmann)
+  // the lobes' 1 / (2 pi sigma^2) would give 0 x inf; the value D(h) x (a mass <= 1) is below 1e-240
+  // there, and is returned as 0, the limit at grazing (docs/math/glinty_ndf.md#glinty-map).
+  if (!(px.sigma * px.sigma > 1e-300)) px.D = 0.0;
   return px;
 }
 
@@ -209,7 +528,7 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
                          static_cast<double>(std::max<std::int64_t>(0, a1 - a0 + 1)) *
                          static_cast<double>(std::max<std::int64_t>(0, b1 - b0 + 1));
     if (cells > kGlintMaxReferenceCells)
-      throw_invalid(kWhere, indexed_name("J", 4 * px.index, true), static_cast<double>(px.index),
+      throw_invalid(kWhere, row_name("J", px.index), row_value(px.J, 4),
                     "a footprint whose reference sums at most 2e8 cells (this one: " + format_value(cells) +
                         " at level " + std::to_string(level) + "; lower the density or the footprint)");
   } else {
@@ -276,8 +595,7 @@ void Kpt25Ndf::evaluate(const double* uv, const double* jac, const double* h, st
   detail::parallel_chunks(m, 64, 128, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       const double u = uv[2 * i], v = uv[2 * i + 1];
-      if (!std::isfinite(u) || !std::isfinite(v) || std::abs(u) > 1e9 || std::abs(v) > 1e9)
-        throw_invalid(kWhere, indexed_name("uv", 2 * i, true), std::isfinite(u) ? v : u, "a finite position, |uv| <= 1e9");
+      check_uv(uv, i);
       const GlintPixel px = pixel(jac, h, i);
       if (px.D == 0.0) {
         out[i] = 0.0;
@@ -298,8 +616,7 @@ void Kpt25Ndf::reference(const double* uv, const double* jac, const double* h, s
   detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       const double u = uv[2 * i], v = uv[2 * i + 1];
-      if (!std::isfinite(u) || !std::isfinite(v) || std::abs(u) > 1e9 || std::abs(v) > 1e9)
-        throw_invalid(kWhere, indexed_name("uv", 2 * i, true), std::isfinite(u) ? v : u, "a finite position, |uv| <= 1e9");
+      check_uv(uv, i);
       const GlintPixel px = pixel(jac, h, i);
       double points = 0.0, sum = 0.0;
       if (px.D > 0.0)
@@ -353,6 +670,189 @@ void Kpt25Ndf::expected(const double* jac, const double* h, std::size_t m, doubl
         total += rho(px.weights[l]) * in_b + px.weights[l] * compensation(px, px.levels[l]);
       }
       e_alg[i] = px.D * total;
+    }
+  });
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Algorithm 2 (docs/math/glinty_ndf.md#glinty-sampling). Per level l, a draw is: x_a uniform on U (a
+// draw of the smooth target), its block B(k) of angular cells (block_range, as in Algorithm 1), one
+// point i of the block's cells chosen by reservoir sampling with weight R_i f_i M_i(B) (roulette x filter
+// x the mass of its lobe inside B), and x from its lobe truncated to B. The lobe of point i is the
+// isotropic Gaussian of std sigma_i = alpha_star sqrt(D(T^-1(mu_i))) in the unit square (policy: the
+// width at the lobe's own centre, so that each lobe is a Gaussian that can be sampled and integrated
+// exactly). The density of x given B is then sum_i R_i f_i N_i(x) 1_B(x) / W_B, W_B = sum_i R_i f_i M_i(B),
+// and the density of x is the sum over the blocks B that contain x of P(B) times that, P(B) being the
+// probability that x_a chooses B (the area of its region of U, closed form). A block with W_B = 0 (no
+// kept point with filter weight) falls back to x = x_a. With probability beta (sample_smooth) the draw
+// is x = x_a itself.
+double Kpt25Ndf::level_pdf(const GlintPixel& px, int level, double u, double v, std::uint64_t seed, double x,
+                           double y) const {
+  const std::int64_t na = std::int64_t{1} << level;
+  const double fna = static_cast<double>(na), inv_na = 1.0 / fna;
+  const int side = static_cast<int>(std::lround(std::sqrt(p_.k)));
+  const double beta = p_.sample_smooth, four_pi = 4.0 / kPi;
+  std::int64_t fx0, fx1, fy0, fy1;
+  blocks_containing(x, na, side, fx0, fx1);
+  blocks_containing(y, na, side, fy0, fy1);
+  const int nbx = static_cast<int>(fx1 - fx0 + 1), nby = static_cast<int>(fy1 - fy0 + 1);  // <= 4 each
+  const bool whole = na <= side;
+  // The union of the cells of those blocks.
+  const std::int64_t a0 = whole ? 0 : fx0, a1 = whole ? na - 1 : fx1 + side - 1;
+  const std::int64_t b0 = whole ? 0 : fy0, b1 = whole ? na - 1 : fy1 + side - 1;
+  double G[4][4] = {}, W[4][4] = {};
+  for_points(p_, res_, px, level, px.weights[level == px.levels[0] ? 0 : 1], u, v, seed, a0, a1, b0, b1,
+             [&](std::int64_t a, std::int64_t b, double mx, double my, double w) {
+               const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
+               if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
+               const double ex = x - mx, ey = y - my;
+               const double g = w * std::exp(-0.5 * (ex * ex + ey * ey) / (sg * sg)) / (2.0 * kPi * sg * sg);
+               double mxs[4], mys[4];
+               for (int bx = 0; bx < nbx; ++bx) {
+                 const std::int64_t f = fx0 + bx;
+                 const bool in = whole || (a >= f && a < f + side);
+                 mxs[bx] = !in ? -1.0 : whole ? mass_1d(mx, sg, 0.0, 1.0)
+                                              : mass_1d(mx, sg, static_cast<double>(f) * inv_na,
+                                                        static_cast<double>(f + side) * inv_na);
+               }
+               for (int by = 0; by < nby; ++by) {
+                 const std::int64_t f = fy0 + by;
+                 const bool in = whole || (b >= f && b < f + side);
+                 mys[by] = !in ? -1.0 : whole ? mass_1d(my, sg, 0.0, 1.0)
+                                              : mass_1d(my, sg, static_cast<double>(f) * inv_na,
+                                                        static_cast<double>(f + side) * inv_na);
+               }
+               for (int bx = 0; bx < nbx; ++bx)
+                 for (int by = 0; by < nby; ++by)
+                   if (mxs[bx] >= 0.0 && mys[by] >= 0.0) {
+                     const double mass = mxs[bx] * mys[by];
+                     if (p_.sample_lobe_mass) {  // chosen with weight w M_i(B), sampled from N_i 1_B / M_i(B)
+                       G[bx][by] += g;
+                       W[bx][by] += w * mass;
+                     } else if (mass > 0.0) {  // chosen with weight w, sampled from N_i 1_B / M_i(B)
+                       G[bx][by] += g / mass;
+                       W[bx][by] += w;
+                     }
+                   }
+             });
+  std::int64_t cx0, cx1, cy0, cy1;  // the block x_a = (x, y) would choose (the fallback's support)
+  block_range(x * fna, na, side, cx0, cx1);
+  block_range(y * fna, na, side, cy0, cy1);
+  double q = 0.0;
+  for (int bx = 0; bx < nbx; ++bx)
+    for (int by = 0; by < nby; ++by) {
+      if (W[bx][by] > 0.0) {
+        double xl, xh, yl, yh;
+        region_range(fx0 + bx, na, side, xl, xh);
+        region_range(fy0 + by, na, side, yl, yh);
+        const double P = four_pi * rect_disk_area(xl, xh, yl, yh);
+        q += (1.0 - beta) * P * G[bx][by] / W[bx][by];
+      } else if (fx0 + bx == cx0 && fy0 + by == cy0) {
+        q += (1.0 - beta) * four_pi;  // the fallback x = x_a, uniform on the chosen block's region
+      }
+    }
+  const bool in_u = (x - 0.5) * (x - 0.5) + (y - 0.5) * (y - 0.5) < 0.25;
+  return q + (in_u ? beta * four_pi : 0.0);
+}
+
+double Kpt25Ndf::pixel_pdf(const GlintPixel& px, double u, double v, std::uint64_t seed, double x, double y) const {
+  // The level is drawn with probability w_l (Algorithm 2, lines 4-6): the density is the mixture.
+  double q = 0.0;
+  for (int l = 0; l < px.n_levels; ++l) q += px.weights[l] * level_pdf(px, px.levels[l], u, v, seed, x, y);
+  return q;
+}
+
+void Kpt25Ndf::pdf(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                   double* out) const {
+  detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      check_uv(uv, i);
+      const GlintPixel px = pixel(jac, h, i);
+      if (px.D == 0.0) {
+        out[i] = 0.0;
+        continue;
+      }
+      double hu[3];
+      unit_vector(h + 3 * i, hu);
+      // dx dy = (pi / 4) D(h) (h.n) dOmega: T maps D(h)(h.n)dOmega to the uniform density 4 / pi on U.
+      out[i] = 0.25 * kPi * px.D * hu[2] * pixel_pdf(px, uv[2 * i], uv[2 * i + 1], seed, px.xa, px.ya);
+    }
+  });
+}
+
+void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std::size_t m, std::uint64_t seed,
+                      std::uint64_t draw_seed, double* h_out, double* pdf_out, double* wi_out) const {
+  detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      check_uv(uv, i);
+      double o[3] = {0.0, 0.0, 1.0};
+      if (wo) {
+        for (int c = 0; c < 3; ++c)
+          if (!std::isfinite(wo[3 * i + c])) throw_invalid(kWhere, element("wo", i, c), wo[3 * i + c], "a finite direction");
+        if (!unit_vector(wo + 3 * i, o)) throw_invalid(kWhere, row_name("wo", i), row_value(wo + 3 * i, 3), "a nonzero direction");
+      }
+      GlintPixel px;
+      footprint(px, jac, i);
+      const double u = uv[2 * i], v = uv[2 * i + 1];
+      CounterRng rng = CounterRng::for_index(draw_seed, i, kStreamGlintDraw);
+      // x_a uniform on U (line 2: a draw of the smooth target), by the polar map (exact in measure).
+      const double ra = 0.5 * std::sqrt(rng.uniform()), phi = 2.0 * kPi * rng.uniform();
+      const double xa = 0.5 + ra * std::cos(phi), ya = 0.5 + ra * std::sin(phi);
+      const int li = (px.n_levels == 2 && rng.uniform() < px.weights[1]) ? 1 : 0;  // lines 4-6
+      const int level = px.levels[li];
+      double x = xa, y = ya;
+      if (!(rng.uniform() < p_.sample_smooth)) {
+        const std::int64_t na = std::int64_t{1} << level;
+        const double fna = static_cast<double>(na);
+        const int side = static_cast<int>(std::lround(std::sqrt(p_.k)));
+        std::int64_t a0, a1, b0, b1;
+        block_range(xa * fna, na, side, a0, a1);
+        block_range(ya * fna, na, side, b0, b1);
+        const double bx0 = static_cast<double>(a0) / fna, bx1 = static_cast<double>(a1 + 1) / fna;
+        const double by0 = static_cast<double>(b0) / fna, by1 = static_cast<double>(b1 + 1) / fna;
+        // Reservoir sampling over the block's points (lines 9-16): keep point i with probability
+        // w_i / (sum of the weights so far), which leaves point i chosen with probability w_i / W_B.
+        double total = 0.0, gx = 0.0, gy = 0.0, gs = 0.0;
+        for_points(p_, res_, px, level, px.weights[li], u, v, seed, a0, a1, b0, b1,
+                   [&](std::int64_t, std::int64_t, double mx, double my, double w) {
+                     const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
+                     if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
+                     const double mass = mass_1d(mx, sg, bx0, bx1) * mass_1d(my, sg, by0, by1);
+                     const double wi = p_.sample_lobe_mass ? w * mass : (mass > 0.0 ? w : 0.0);
+                     if (!(wi > 0.0)) return;
+                     total += wi;
+                     if (rng.uniform() * total < wi) {
+                       gx = mx;
+                       gy = my;
+                       gs = sg;
+                     }
+                   });
+        if (total > 0.0) {  // x from the chosen lobe truncated to B (line 14)
+          x = truncated_normal(gx, gs, bx0, bx1, rng.uniform());
+          y = truncated_normal(gy, gs, by0, by1, rng.uniform());
+        }  // else W_B = 0: the fallback x = x_a
+      }
+      double* H = h_out + 3 * i;
+      double* Wi = wi_out ? wi_out + 3 * i : nullptr;
+      const auto hv = inverse_map(x, y);
+      if (!std::isfinite(hv[0]) || !(hv[2] > 0.0)) {  // the lobe's tail outside U: a lost draw
+        H[0] = H[1] = H[2] = kNaN;
+        pdf_out[i] = 0.0;
+        if (Wi) Wi[0] = Wi[1] = Wi[2] = kNaN;
+        continue;
+      }
+      H[0] = hv[0];
+      H[1] = hv[1];
+      H[2] = hv[2];
+      // The density of the draw, through the same path as pdf() (so that both agree to the bit).
+      const auto t = map(H);
+      double hu[3];
+      unit_vector(H, hu);
+      pdf_out[i] = t[2] > 0.0 ? 0.25 * kPi * t[2] * hu[2] * pixel_pdf(px, u, v, seed, t[0], t[1]) : 0.0;
+      if (Wi) {
+        const double d = 2.0 * (o[0] * hv[0] + o[1] * hv[1] + o[2] * hv[2]);
+        for (int c = 0; c < 3; ++c) Wi[c] = d * hv[c] - o[c];
+      }
     }
   });
 }

@@ -14,6 +14,9 @@ from ._core import Chi2Result, Distribution, __version__
 from .api.blends import BlendedLaw, blend_summaries, blended_law, blends, roulette_keep_moments, zk16_variance_ratio
 from .api.exact import binomial, poisson
 from .api.glinty_ndf import GlintyNDF, glinty_ndf, glinty_ndfs
+from .api.wwh18 import WWH18  # registers the "wwh18" glinty NDF (docs/math/wwh18.md)
+from .api.glinty_ndf import image_methods
+from .api.method_shaders import ShaderMethod, shader_method
 from .api.grids import AnisoCounter, aniso_counter, footprint_shapes, grid_schemes
 from .api.laws import (CustomLaw, Law, custom_law, law, law_label, law_summaries, law_traits, law_variants, laws,
                        parse_law_label, uniforms)
@@ -21,6 +24,7 @@ from .api.metrics import METRICS, chi2_test, chi2_test_two_sample, distance, sid
 from .api.ndf import NDF, ndf
 from .api.plugins import load_plugin, loaded_plugins
 from .api.shaders import ShaderLaw, shader_law, shipped_shader, vulkan_devices
+from .api.shaders import ShaderDeviceBusy, ShaderOutputError
 from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 from .report.html import write_extremes_report
 from .validation.advisor import Advice, advise
@@ -30,6 +34,7 @@ from .validation.extremes import extremes_summary, extremes_table, invalid_input
 from .validation.grid import standard_grid
 from .validation.profile import SceneProfile, profile_scene
 from .validation.scene import Scene, load_scene
+from .validation.scene_images import render_image as render
 from .validation.sweep import error_table, sweep
 from .api.samplers import Sampler, sampler, samplers, wrong_sampler
 from .validation.sampler_test import SamplerTestResult, sampler_test
@@ -58,6 +63,9 @@ __all__ = [
     "write_extremes_report", "get_num_threads", "law", "law_summaries", "laws", "poisson",
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
     "ShaderLaw", "shader_law", "shipped_shader", "vulkan_devices",
+    "image_methods", "ShaderMethod", "shader_method", "render",
+    "ShaderDeviceBusy", "ShaderOutputError",
     "Sampler", "sampler", "samplers", "wrong_sampler", "SamplerTestResult", "sampler_test",
     "furnace",
 ]
+__all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)

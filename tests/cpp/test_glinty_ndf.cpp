@@ -121,3 +121,40 @@ TEST_CASE("bad glinty NDF parameters are refused by name", "[glinty_ndf]") {
   double out = 0;
   CHECK_THROWS_AS(ndf.evaluate(uv, jac, h, 1, 0, &out), std::invalid_argument);
 }
+
+TEST_CASE("Algorithm 2: the area of a rectangle in the disk, T^-1, and sample against pdf", "[glinty_ndf]") {
+  CHECK(rect_disk_area(0, 1, 0, 1) == Approx(M_PI / 4).epsilon(1e-14));
+  CHECK(rect_disk_area(0.5, 1, 0, 0.5) == Approx(M_PI / 16).epsilon(1e-14));
+  CHECK(rect_disk_area(0.45, 0.55, 0.45, 0.55) == Approx(0.01).epsilon(1e-14));  // inside
+  CHECK(rect_disk_area(0.9, 1.0, 0.9, 1.0) == 0.0);                                // a corner outside
+  for (GlintTarget t : {GlintTarget::beckmann, GlintTarget::ggx}) {
+    Kpt25Params p;
+    p.target = t;
+    p.density = 1e4;
+    p.alpha_star = 0.05;
+    const Kpt25Ndf ndf(p);
+    for (double x : {0.5, 0.2, 0.93})
+      for (double y : {0.5, 0.61}) {
+        const auto h = ndf.inverse_map(x, y);
+        const auto back = ndf.map(h.data());
+        CHECK(back[0] == Approx(x).margin(1e-13));
+        CHECK(back[1] == Approx(y).margin(1e-13));
+      }
+    const std::size_t n = 300;
+    const auto uv = tile({0.3, 0.4}, n), jac = tile({0.02, 0.0, 0.0, 0.02}, n);
+    std::vector<double> h(3 * n), pdf(n), again(n);
+    ndf.sample(uv.data(), jac.data(), nullptr, n, 7, 1, h.data(), pdf.data(), nullptr);
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      if (std::isfinite(h[3 * i])) {
+        for (int c = 0; c < 3; ++c) h[3 * kept + c] = h[3 * i + c];
+        pdf[kept++] = pdf[i];
+      }
+    CHECK(kept > n / 2);
+    ndf.pdf(uv.data(), jac.data(), h.data(), kept, 7, again.data());
+    for (std::size_t i = 0; i < kept; ++i) CHECK(again[i] == pdf[i]);
+  }
+  Kpt25Params bad;
+  bad.sample_smooth = 1.5;
+  CHECK_THROWS_AS(Kpt25Ndf(bad), std::invalid_argument);
+}

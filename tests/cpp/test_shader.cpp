@@ -103,6 +103,69 @@ TEST_CASE("shader runner: a kernel past its timeout throws, and the device serve
   CHECK_THROWS_AS(slow.run(&n, 1, &p, 1, u.data(), rows, out.data(), 0.05), ShaderTimeout);
   const Kernel fast(spec("float count(float n, float p, vec4 u) { return n; }"));
   float one = 0;
+  // Behind the slow kernel, a short timeout says the device is busy (this kernel never ran).
+  CHECK_THROWS_AS(fast.run(&n, 1, &p, 1, u.data(), 1, &one, 0.001), ShaderDeviceBusy);
   fast.run(&n, 1, &p, 1, u.data(), 1, &one, 60.0);
   CHECK(one == 60000.0f);
+}
+
+namespace {
+std::string error_of(const KernelSpec& s) {
+  try {
+    Kernel k(s);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "no error";
+}
+}  // namespace
+
+TEST_CASE("shader runner: a resource the contract does not bind is refused by name, before the driver",
+          "[shader]") {
+  if (!have_device()) return;
+  // Descriptor set 1 crashed lavapipe inside vkCreateComputePipelines / the dispatch.
+  const std::string set1 = error_of(spec(
+      "layout(std430, set = 1, binding = 0) buffer Extra { float extra[]; };\n"
+      "float count(float n, float p, vec4 u) { return extra[0]; }"));
+  CHECK(set1.find("'Extra' (storage buffer, set 1, binding 0) is not bound by glintlab") != std::string::npos);
+  const std::string cbuffer = error_of(spec(
+      "cbuffer Params : register(b0) { float scale; };\nfloat count(float n, float p, float4 u) { return scale; }",
+      "hlsl"));
+  CHECK(cbuffer.find("'Params' (uniform buffer, set 0, binding 0)") != std::string::npos);
+  // The wrapper's own resources are exactly the allowed ones.
+  for (const std::string language : {"glsl", "hlsl"}) {
+    const Kernel ok(spec(language == "glsl" ? "float count(float n, float p, vec4 u) { return n * p + u.x; }"
+                                            : "float count(float n, float p, float4 u) { return n * p + u.x; }",
+                         language));
+    const auto resources = spirv_resources(ok.spirv());
+    CHECK(resources.size() == 5);
+    for (const auto& r : resources)
+      CHECK((r.kind == "push constant" || (r.kind == "storage buffer" && r.set == 0 && r.binding >= 0 && r.binding < 4)));
+  }
+}
+
+TEST_CASE("shader runner: an #include cycle is refused naming it", "[shader]") {
+  if (!have_device()) return;
+  KernelSpec s = spec("#include \"a.h\"\nfloat count(float n, float p, vec4 u) { return n; }");
+  // Recorded files serve the includes (no disk): a.h and b.h include each other.
+  s.include_files = {{"a.h", "#pragma once\n#include \"b.h\"\n"}, {"b.h", "#pragma once\n#include \"a.h\"\n"}};
+  const std::string msg = error_of(s);
+  CHECK((msg.find("#include cycle a.h -> b.h -> a.h") != std::string::npos ||
+         msg.find("#include cycle b.h -> a.h -> b.h") != std::string::npos));
+  s.include_files = {{"a.h", "#ifndef A\n#define A\n#include \"b.h\"\n#endif\n"},
+                     {"b.h", "#ifndef B\n#define B\n#include \"a.h\"\n#endif\n"}};
+  CHECK(error_of(s) == "no error");  // guarded: a legitimate cycle
+}
+
+TEST_CASE("shader runner: loops whose trip count is not a small constant", "[shader]") {
+  if (!have_device()) return;
+  const Kernel data(spec("float count(float n, float p, vec4 u) { float k = 0.0;\n"
+                         "  for (int i = 0; i < int(n); ++i) k += 1.0; return k; }"));
+  CHECK(data.unbounded_loops() == 1);
+  const Kernel small(spec("float count(float n, float p, vec4 u) { float k = 0.0;\n"
+                          "  for (int i = 0; i < 5000; ++i) k += u.x * float(i); return k; }"));
+  CHECK(small.unbounded_loops() == 0);
+  const Kernel big(spec("float count(float n, float p, vec4 u) { float k = 0.0;\n"
+                        "  for (int i = 0; i < 70000; ++i) k += u.x * float(i); return k; }"));
+  CHECK(big.unbounded_loops() == 1);
 }

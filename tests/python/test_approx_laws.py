@@ -6,7 +6,6 @@ checked deterministically first: P(K = k) is the length of the set of u with eva
 a fine grid of u measures to within its spacing. Chi-square tests come second: fixed seeds, 1e6
 samples, family-wise false-failure rate 1e-3 split over the module's checks with Sidak.
 """
-import math
 
 import numpy as np
 import pytest

@@ -2,7 +2,6 @@
 `glintlab check` command's exit codes and JUnit XML."""
 import json
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import pytest
 

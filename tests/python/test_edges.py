@@ -53,7 +53,6 @@ def test_custom_laws_declare_their_binning():
     # Issue item 4: a bit-exact Python copy of gated_continuous was compared unbinned (TV 0.74 against
     # the built-in's 0.198). With binning="round" the copy gets the built-in's numbers; without it the
     # comparison warns.
-    import warnings
     builtin = gl.law("gated_continuous")
     copy = gl.custom_law(lambda n, p, u: builtin.evaluate(n, p, u), n_uniforms=builtin.n_uniforms,
                          name="gated_continuous_copy_round", binning="round")

@@ -15,7 +15,8 @@ SAMPLES = 256
 
 @pytest.fixture(scope="module")
 def default_table():
-    """Every registered law and blend, the full extremes grid (docs/math/extremes.md#extremes-grid), 256 ordinary draws per point."""
+    """Every registered law and blend, the full extremes grid (docs/math/extremes.md#extremes-grid),
+    256 ordinary draws per point."""
     return gl.extremes_table(samples=SAMPLES)
 
 

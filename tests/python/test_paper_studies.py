@@ -9,7 +9,6 @@ import math
 import numpy as np
 import pytest
 
-import glintlab as gl
 from glintlab.validation.bench import threshold_trade
 from glintlab.studies.convergence import convergence_summary, convergence_table
 from glintlab.studies.lod import blend_appearance

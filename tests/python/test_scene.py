@@ -1,5 +1,4 @@
 """Scene model, profile and advisor (glintlab.scene, glintlab.advisor, glintlab profile / advise)."""
-import copy
 import json
 import math
 
@@ -7,7 +6,6 @@ import numpy as np
 import pytest
 
 import glintlab as gl
-from glintlab.validation import advisor as A
 from glintlab.validation import profile as P
 from glintlab.cli.main import main
 from glintlab.validation import scene as scene_module
@@ -159,7 +157,6 @@ def test_profile_errors_match_direct_pmfs(profile):
     e = profile.law_bin_errors
     pts = e[e.law == "gated"].sort_values("point")
     k = int(np.argmax(pts.tv.to_numpy()))
-    n, p = profile.bin_n[k], None
     counts = np.bincount(profile.law_bin)
     assert counts.sum() == profile.valid.sum()
     # Recompute the worst bin's TV at its representative point.

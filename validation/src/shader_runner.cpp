@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -53,6 +54,7 @@ struct Pipeline {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline pipeline = VK_NULL_HANDLE;
   std::vector<std::uint32_t> spirv;
+  int unbounded_loops = 0;
 };
 
 struct Job;
@@ -151,6 +153,8 @@ int choose_device(const std::string& request) {
       if (keep(d) && (chosen < 0 || rank(d.type) < rank(all[static_cast<std::size_t>(chosen)].type))) chosen = d.index;
     return chosen;
   };
+  if (request.empty())
+    throw std::invalid_argument("device = '' is invalid; expected 'auto', 'gpu', 'cpu', an index or part of a name among " + known);
   int chosen = -1;
   if (request == "auto") {
     chosen = best([](const DeviceInfo&) { return true; });
@@ -227,41 +231,115 @@ bool is_identifier(const std::string& s) {
   return std::all_of(s.begin(), s.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
 }
 
+std::string strip_bom(std::string text) {  // Visual Studio saves UTF-8 with a byte-order mark
+  if (text.rfind("\xEF\xBB\xBF", 0) == 0) text.erase(0, 3);
+  return text;
+}
+
+// The offset of the first byte that is not part of well-formed UTF-8 (RFC 3629: no overlong forms, no
+// surrogates, nothing above U+10FFFF), or npos. Shader files are UTF-8, included ones too: a byte of
+// another encoding is refused naming its offset rather than passed to the compiler as a guess.
+std::size_t invalid_utf8(const std::string& text) {
+  const auto* b = reinterpret_cast<const unsigned char*>(text.data());
+  const std::size_t n = text.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned c = b[i];
+    std::size_t len = 0;
+    unsigned lo = 0x80, hi = 0xBF;  // the allowed range of the second byte
+    if (c < 0x80) { ++i; continue; }
+    if (c >= 0xC2 && c <= 0xDF) len = 2;
+    else if (c >= 0xE0 && c <= 0xEF) { len = 3; if (c == 0xE0) lo = 0xA0; if (c == 0xED) hi = 0x9F; }
+    else if (c >= 0xF0 && c <= 0xF4) { len = 4; if (c == 0xF0) lo = 0x90; if (c == 0xF4) hi = 0x8F; }
+    else return i;
+    if (i + len > n) return i;
+    if (b[i + 1] < lo || b[i + 1] > hi) return i;
+    for (std::size_t k = 2; k < len; ++k)
+      if (b[i + k] < 0x80 || b[i + k] > 0xBF) return i;
+    i += len;
+  }
+  return std::string::npos;
+}
+
 std::string read_file(const std::filesystem::path& path) {
   std::ifstream f(path, std::ios::binary);
   std::ostringstream s;
   s << f.rdbuf();
-  return s.str();
+  return strip_bom(s.str());
+}
+
+// What the includes of one preprocess or compile have done so far. glslang reports the depth of each
+// #include it asks for (1: the user's file, included by the wrapper), so the open chain is exact
+// without relying on when it releases a file.
+struct IncludeState {
+  std::vector<std::string> chain;  // chain[d - 1]: the file open at depth d
+  int count = 0;
+  std::string failure;  // once an include limit is hit, every later #include fails with it (bounded work)
+  std::vector<std::pair<std::string, std::string>>* included = nullptr;
+};
+
+std::string short_name(const std::string& path) {
+  const std::string name = std::filesystem::path(path).filename().string();
+  return name.empty() ? path : name;
 }
 
 // Serves the user's code under its own name (so the compiler's messages say file:line) and resolves
-// its #include "x" relative to the including file, then the include directories.
+// its #include "x" relative to the including file, then the include directories (or, for a sealed
+// spec, among the recorded include_files only).
 class Includer final : public shaderc::CompileOptions::IncluderInterface {
  public:
-  Includer(std::string user_name, std::string user_source, std::vector<std::string> dirs)
-      : user_name_(std::move(user_name)), user_source_(std::move(user_source)), dirs_(std::move(dirs)) {}
+  Includer(const KernelSpec& spec, std::shared_ptr<IncludeState> state)
+      : user_name_(spec.source_name), user_source_(strip_bom(spec.source)), dirs_(spec.include_dirs),
+        sealed_(spec.include_files.begin(), spec.include_files.end()), is_sealed_(!spec.include_files.empty()),
+        state_(std::move(state)) {}
 
   shaderc_include_result* GetInclude(const char* requested, shaderc_include_type, const char* requesting,
-                                     std::size_t) override {
+                                     std::size_t depth) override {
     auto* r = new Result;
+    IncludeState& st = *state_;
     if (user_name_ == requested && std::string(requesting).rfind("glintlab_kernel.", 0) == 0) {
       r->name = user_name_;
       r->content = user_source_;
+    } else if (!st.failure.empty()) {
+      r->content = st.failure;
     } else {
       std::vector<std::filesystem::path> candidates;
       const std::filesystem::path from(requesting);
       if (from.has_parent_path()) candidates.push_back(from.parent_path() / requested);
       else candidates.push_back(std::filesystem::path(requested));
       for (const auto& d : dirs_) candidates.push_back(std::filesystem::path(d) / requested);
+      std::string found, content;
       for (const auto& c : candidates) {
-        std::error_code ec;
-        if (std::filesystem::is_regular_file(c, ec)) {
-          r->name = c.string();
-          r->content = read_file(c);
-          break;
+        if (is_sealed_) {
+          if (auto it = sealed_.find(c.string()); it != sealed_.end()) { found = it->first; content = it->second; break; }
+          continue;
         }
+        std::error_code ec;
+        if (std::filesystem::is_regular_file(c, ec)) { found = c.string(); content = read_file(c); break; }
       }
-      if (r->name.empty()) r->content = std::string("cannot find include file '") + requested + "'";
+      const std::size_t bad = found.empty() ? std::string::npos : invalid_utf8(content);
+      if (found.empty()) {
+        r->content = std::string("cannot find include file '") + requested + "'" +
+                     (is_sealed_ ? " among the files recorded when the law was first compiled" : "");
+      } else if (bad != std::string::npos) {
+        char hex[8];
+        std::snprintf(hex, sizeof hex, "0x%02x", static_cast<unsigned char>(content[bad]));
+        r->content = found + ": byte " + hex + " at offset " + std::to_string(bad) + " (line " +
+                     std::to_string(1 + std::count(content.begin(), content.begin() + static_cast<std::ptrdiff_t>(bad), '\n')) +
+                     ") is not UTF-8; expected a UTF-8 file (save it as UTF-8)";
+      } else if (static_cast<int>(depth) > kMaxIncludeDepth || ++st.count > kMaxIncludes) {
+        st.failure = limit_message(found, static_cast<int>(depth) > kMaxIncludeDepth);
+        r->content = st.failure;
+      } else {
+        r->name = found;
+        r->content = std::move(content);
+        if (st.included && std::none_of(st.included->begin(), st.included->end(),
+                                        [&](const auto& f) { return f.first == found; }))
+          st.included->emplace_back(found, r->content);
+      }
+    }
+    if (!r->name.empty()) {
+      st.chain.resize(depth > 0 ? depth - 1 : 0);
+      st.chain.push_back(r->name);
     }
     r->result.source_name = r->name.c_str();
     r->result.source_name_length = r->name.size();
@@ -273,12 +351,36 @@ class Includer final : public shaderc::CompileOptions::IncluderInterface {
   void ReleaseInclude(shaderc_include_result* data) override { delete static_cast<Result*>(data->user_data); }
 
  private:
+  std::string limit_message(const std::string& next, bool depth) const {
+    const auto& chain = state_->chain;
+    // The cycle: through `next` (its latest opening), else the latest file open twice in the chain
+    // (the limit may trip on a leaf included from inside a cycle).
+    std::vector<std::string> full = chain;
+    full.push_back(next);
+    for (std::size_t end = full.size(); end-- > 1;)
+      for (std::size_t i = end; i-- > 0;)
+        if (full[i] == full[end]) {
+          std::string cycle;
+          for (std::size_t k = i; k <= end; ++k) cycle += (k > i ? " -> " : "") + short_name(full[k]);
+          return "#include cycle " + cycle + " (" + full[end] + " includes itself through this chain; #pragma "
+                 "once is not honoured by the shader compiler: guard the file with #ifndef/#define or remove "
+                 "the include)";
+        }
+    std::string path;
+    for (const auto& f : full) path += (path.empty() ? "" : " -> ") + short_name(f);
+    if (depth)
+      return "#include nested deeper than " + std::to_string(kMaxIncludeDepth) + " files (" + path + ")";
+    return "more than " + std::to_string(kMaxIncludes) + " #include directives processed (last: " + path + ")";
+  }
   struct Result {
     shaderc_include_result result{};
     std::string name, content;
   };
   std::string user_name_, user_source_;
   std::vector<std::string> dirs_;
+  std::map<std::string, std::string> sealed_;
+  bool is_sealed_ = false;
+  std::shared_ptr<IncludeState> state_;
 };
 
 std::string expected_signature(const std::string& language, const std::string& entry) {
@@ -286,23 +388,34 @@ std::string expected_signature(const std::string& language, const std::string& e
                             : "float " + entry + "(float n, float p, vec4 u)";
 }
 
-shaderc::CompileOptions options(const KernelSpec& spec) {
+shaderc::CompileOptions options(const KernelSpec& spec, std::shared_ptr<IncludeState> state) {
   shaderc::CompileOptions o;
   o.SetSourceLanguage(spec.language == "hlsl" ? shaderc_source_language_hlsl : shaderc_source_language_glsl);
   o.SetTargetEnvironment(shaderc_target_env_vulkan, shaderc_env_version_vulkan_1_0);
   o.SetOptimizationLevel(shaderc_optimization_level_performance);
   o.SetGenerateDebugInfo();  // no effect on the code; keeps names in the SPIR-V for inspection
+  // A define without a value (Python None, the empty string) is `#define NAME`, as `-D NAME` would be.
   for (const auto& [name, value] : spec.defines) o.AddMacroDefinition(name, value);
   o.AddMacroDefinition("GLINTLAB_N_UNIFORMS", std::to_string(spec.n_uniforms));
-  o.SetIncluder(std::make_unique<Includer>(spec.source_name, spec.source, spec.include_dirs));
+  o.SetIncluder(std::make_unique<Includer>(spec, std::move(state)));
   return o;
 }
 
-[[noreturn]] void compile_failure(const KernelSpec& spec, const std::string& messages) {
-  // An error inside glintlab's wrapper means the call to the entry did not match.
-  if (messages.find(wrapper_name(spec.language) + ":") != std::string::npos)
+[[noreturn]] void compile_failure(const KernelSpec& spec, const std::string& messages,
+                                  const std::string& signature = "") {
+  // Only when every error is inside glintlab's wrapper did the call to the entry not match; an error
+  // in the user's code (a missing `;`) also breaks the wrapper's call, and is the one to show.
+  const std::string wrapper = wrapper_name(spec.language) + ":";
+  bool wrapper_only = messages.find(wrapper) != std::string::npos;
+  std::istringstream lines(messages);
+  for (std::string line; std::getline(lines, line);)
+    if (line.find("error") != std::string::npos && line.rfind(wrapper, 0) != 0 &&
+        line.find("error(s) generated") == std::string::npos && line.find("errors generated") == std::string::npos)
+      wrapper_only = false;
+  if (wrapper_only)
     throw std::invalid_argument("shader " + spec.source_name + ": no function " + spec.entry +
-                                " with the expected signature " + expected_signature(spec.language, spec.entry) +
+                                " with the expected signature " +
+                                (signature.empty() ? expected_signature(spec.language, spec.entry) : signature) +
                                 " (" + spec.language + "); the compiler says:\n" + messages);
   throw std::invalid_argument("shader " + spec.source_name + " does not compile (" + spec.language +
                               "); the compiler says:\n" + messages);
@@ -375,8 +488,33 @@ struct Job {
   }
 };
 
+void reap(Device& d);
+
+// With d.mutex held, before a submission: an earlier kernel that passed its timeout and still runs
+// would delay this call's kernel, and a timeout then would blame this one. Waits for the earlier one
+// within this call's timeout, else throws ShaderDeviceBusy.
+void wait_for_retired(Device& d, double timeout_s);
+
 void reap(Device& d) {  // with d.mutex held
   std::erase_if(d.retired, [&](const std::unique_ptr<Job>& j) { return vkGetFenceStatus(d.dev, j->fence) == VK_SUCCESS; });
+}
+
+void wait_for_retired(Device& d, double timeout_s) {
+  reap(d);
+  if (d.retired.empty()) return;
+  std::vector<VkFence> fences;
+  for (const auto& j : d.retired) fences.push_back(j->fence);
+  const auto timeout_ns = static_cast<std::uint64_t>(std::min(timeout_s, 1e9) * 1e9);
+  const VkResult w = vkWaitForFences(d.dev, static_cast<std::uint32_t>(fences.size()), fences.data(), VK_TRUE, timeout_ns);
+  if (w == VK_TIMEOUT) {
+    std::ostringstream msg;
+    msg << "device '" << d.name << "' is still busy with an earlier kernel that passed its own timeout; this "
+        << "call waited timeout = " << timeout_s << " s for it and its kernel never ran (retry later, with a "
+        << "longer timeout, or in a new process)";
+    throw ShaderDeviceBusy(msg.str());
+  }
+  check(w, "vkWaitForFences");
+  reap(d);
 }
 
 struct Push {
@@ -398,10 +536,13 @@ std::vector<DeviceInfo> vulkan_devices() {
 std::string wrapper_source(const std::string& language, const std::string& entry, const std::string& include_name) {
   std::ostringstream s;
   // Bindings: 0 n, 1 p (one float per row, or one for all: stride 0), 2 u (float4 per row), 3 counts.
+  // HLSL's push constant is a ConstantBuffer<>: glslang puts a plain global struct marked
+  // [[vk::push_constant]] into the "$Global" uniform buffer at set 0, binding 0 instead (where n's
+  // storage buffer is bound), which the resource check below refuses.
   if (language == "hlsl") {
     s << "#include \"" << include_name << "\"\n"
       << "struct GlintlabPush { uint count; uint n_stride; uint p_stride; uint pad; };\n"
-      << "[[vk::push_constant]] GlintlabPush glintlab_push;\n"
+      << "[[vk::push_constant]] ConstantBuffer<GlintlabPush> glintlab_push;\n"
       << "[[vk::binding(0, 0)]] StructuredBuffer<float> glintlab_n;\n"
       << "[[vk::binding(1, 0)]] StructuredBuffer<float> glintlab_p;\n"
       << "[[vk::binding(2, 0)]] StructuredBuffer<float4> glintlab_u;\n"
@@ -435,37 +576,283 @@ std::string wrapper_source(const std::string& language, const std::string& entry
   return s.str();
 }
 
-struct Kernel::Impl {
-  Device* device = nullptr;
-  std::shared_ptr<Pipeline> pipeline;
-  int n_uniforms = 0;
-};
-
-Kernel::Kernel(const KernelSpec& spec) : impl_(std::make_shared<Impl>()) {
+void validate_spec(const KernelSpec& spec) {
   if (spec.language != "hlsl" && spec.language != "glsl")
     throw std::invalid_argument("language = '" + spec.language + "' is invalid; expected 'hlsl' or 'glsl'");
   if (!is_identifier(spec.entry))
     throw std::invalid_argument("entry = '" + spec.entry + "' is invalid; expected a function name");
   if (spec.n_uniforms < 0 || spec.n_uniforms > 4)
     throw std::invalid_argument("n_uniforms = " + std::to_string(spec.n_uniforms) + " is invalid; expected 0 to 4");
-  for (const auto& [name, value] : spec.defines)
+  for (const auto& [name, value] : spec.defines) {
     if (!is_identifier(name)) throw std::invalid_argument("defines: name '" + name + "' is invalid; expected an identifier");
+    if (value.find_first_of("\r\n") != std::string::npos)
+      throw std::invalid_argument("defines: " + name + " = '" + value + "' is invalid; expected a value on one line");
+  }
   if (spec.source_name.empty() || spec.source_name.rfind("glintlab_kernel.", 0) == 0)
     throw std::invalid_argument("source_name = '" + spec.source_name + "' is invalid; expected a file name");
+}
+
+std::string preprocess(const KernelSpec& spec, const std::string& wrapper,
+                       std::vector<std::pair<std::string, std::string>>* included, const std::string& signature) {
+  auto state = std::make_shared<IncludeState>();
+  state->included = included;
+  shaderc::Compiler compiler;
+  auto pre = compiler.PreprocessGlsl(wrapper, shaderc_glsl_compute_shader, wrapper_name(spec.language).c_str(),
+                                     options(spec, state));
+  if (pre.GetCompilationStatus() != shaderc_compilation_status_success)
+    compile_failure(spec, pre.GetErrorMessage(), signature);
+  return std::string(pre.cbegin(), pre.cend());
+}
+
+std::vector<std::uint32_t> compile_spirv(const KernelSpec& spec, const std::string& wrapper,
+                                         const std::string& entry_point, const std::string& signature) {
+  shaderc::Compiler compiler;
+  auto res = compiler.CompileGlslToSpv(wrapper, shaderc_glsl_compute_shader, wrapper_name(spec.language).c_str(),
+                                       entry_point.c_str(), options(spec, std::make_shared<IncludeState>()));
+  if (res.GetCompilationStatus() != shaderc_compilation_status_success)
+    compile_failure(spec, res.GetErrorMessage(), signature);
+  return std::vector<std::uint32_t>(res.cbegin(), res.cend());
+}
+
+// ---------------------------------------------------------------- SPIR-V inspection
+namespace {
+// The few opcodes and enumerants read here, by their numbers in the SPIR-V specification (section 3).
+namespace spv {
+constexpr std::uint32_t kMagic = 0x07230203;
+enum Op : std::uint32_t {
+  Name = 5, TypeInt = 21, TypeFloat = 22, TypeStruct = 30, TypePointer = 32, Constant = 43, Variable = 59,
+  Decorate = 71, IAdd = 128, FAdd = 129, ISub = 130, FSub = 131, IEqual = 170, INotEqual = 171, FOrdEqual = 180,
+  FUnordNotEqual = 183, FUnordGreaterThanEqual = 191,
+  Phi = 245, LoopMerge = 246, Label = 248, Branch = 249, BranchConditional = 250,
+};
+enum Storage : std::uint32_t { UniformConstant = 0, Uniform = 2, PushConstant = 9, StorageBuffer = 12 };
+enum Decoration : std::uint32_t { BufferBlock = 3, Binding = 33, DescriptorSet = 34 };
+}  // namespace spv
+
+struct Instruction {
+  std::uint32_t op = 0;
+  std::vector<std::uint32_t> w;  // the operand words (after the opcode word)
+};
+
+std::vector<Instruction> instructions(const std::vector<std::uint32_t>& code) {
+  if (code.size() < 5 || code[0] != spv::kMagic) throw std::invalid_argument("not a SPIR-V module");
+  std::vector<Instruction> out;
+  for (std::size_t i = 5; i < code.size();) {
+    const std::uint32_t count = code[i] >> 16;
+    if (count == 0 || i + count > code.size()) throw std::invalid_argument("truncated SPIR-V module");
+    out.push_back({code[i] & 0xFFFFu, std::vector<std::uint32_t>(code.begin() + static_cast<std::ptrdiff_t>(i) + 1,
+                                                                 code.begin() + static_cast<std::ptrdiff_t>(i + count))});
+    i += count;
+  }
+  return out;
+}
+
+std::string literal_string(const std::vector<std::uint32_t>& w, std::size_t from) {
+  std::string s;
+  for (std::size_t i = from; i < w.size(); ++i)
+    for (int b = 0; b < 4; ++b) {
+      const char c = static_cast<char>((w[i] >> (8 * b)) & 0xFF);
+      if (!c) return s;
+      s += c;
+    }
+  return s;
+}
+}  // namespace
+
+std::vector<SpirvResource> spirv_resources(const std::vector<std::uint32_t>& spirv) {
+  std::map<std::uint32_t, std::string> names;
+  std::map<std::uint32_t, int> sets, bindings;
+  std::map<std::uint32_t, bool> buffer_block;
+  std::map<std::uint32_t, std::uint32_t> pointee;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> variables;  // (result type, id) of resource variables
+  std::map<std::uint32_t, std::uint32_t> storage;
+  for (const auto& in : instructions(spirv)) {
+    if (in.op == spv::Name && in.w.size() >= 2) names[in.w[0]] = literal_string(in.w, 1);
+    if (in.op == spv::Decorate && in.w.size() >= 2) {
+      if (in.w[1] == spv::DescriptorSet && in.w.size() >= 3) sets[in.w[0]] = static_cast<int>(in.w[2]);
+      if (in.w[1] == spv::Binding && in.w.size() >= 3) bindings[in.w[0]] = static_cast<int>(in.w[2]);
+      if (in.w[1] == spv::BufferBlock) buffer_block[in.w[0]] = true;
+    }
+    if (in.op == spv::TypePointer && in.w.size() >= 3) pointee[in.w[0]] = in.w[2];
+    if (in.op == spv::Variable && in.w.size() >= 3) {
+      const std::uint32_t sc = in.w[2];
+      if (sc == spv::UniformConstant || sc == spv::Uniform || sc == spv::PushConstant || sc == spv::StorageBuffer) {
+        variables.emplace_back(in.w[0], in.w[1]);
+        storage[in.w[1]] = sc;
+      }
+    }
+  }
+  std::vector<SpirvResource> out;
+  for (const auto& [type, id] : variables) {
+    SpirvResource r;
+    const std::uint32_t block = pointee.count(type) ? pointee[type] : 0;
+    r.name = names.count(id) ? names[id] : "";
+    if (r.name.empty() && names.count(block)) r.name = names[block];
+    if (r.name.empty()) r.name = "%" + std::to_string(id);
+    const std::uint32_t sc = storage[id];
+    r.kind = sc == spv::PushConstant ? "push constant"
+             : sc == spv::UniformConstant ? "sampler or image"
+             : (sc == spv::StorageBuffer || buffer_block.count(block)) ? "storage buffer"
+                                                                       : "uniform buffer";
+    if (sets.count(id)) r.set = sets[id];
+    if (bindings.count(id)) r.binding = bindings[id];
+    out.push_back(r);
+  }
+  return out;
+}
+
+std::vector<SpirvResource> wrapper_resources() {
+  // HLSL names its buffers' variables; GLSL's blocks are anonymous, so their block type names count.
+  std::vector<SpirvResource> out{{"glintlab_push", "push constant", -1, -1}};
+  const char* hlsl[] = {"glintlab_n", "glintlab_p", "glintlab_u", "glintlab_k"};
+  const char* glsl[] = {"GlintlabN", "GlintlabP", "GlintlabU", "GlintlabK"};
+  for (int b = 0; b < 4; ++b) {
+    out.push_back({hlsl[b], "storage buffer", 0, b});
+    out.push_back({glsl[b], "storage buffer", 0, b});
+  }
+  return out;
+}
+
+void require_resources(const std::vector<std::uint32_t>& spirv, const std::vector<SpirvResource>& allowed,
+                       const std::string& source_name, const std::string& contract) {
+  for (const auto& r : spirv_resources(spirv)) {
+    const bool ok = std::any_of(allowed.begin(), allowed.end(), [&](const SpirvResource& a) {
+      return a.name == r.name && a.kind == r.kind && a.set == r.set && a.binding == r.binding;
+    });
+    if (ok) continue;
+    std::ostringstream msg;
+    msg << "shader " << source_name << ": resource '" << r.name << "' (" << r.kind;
+    if (r.set >= 0 || r.binding >= 0) msg << ", set " << r.set << ", binding " << r.binding;
+    msg << ") is not bound by glintlab; expected " << contract;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+int unbounded_loops(const std::vector<std::uint32_t>& spirv) {
+  const auto ins = instructions(spirv);
+  std::map<std::uint32_t, std::size_t> def;          // result id -> instruction
+  std::map<std::uint32_t, std::size_t> terminator;   // block label -> its branch
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;  // (header block, merge block)
+  std::uint32_t block = 0;
+  for (std::size_t i = 0; i < ins.size(); ++i) {
+    const auto& in = ins[i];
+    switch (in.op) {
+      case spv::TypeInt: case spv::TypeFloat: if (!in.w.empty()) def[in.w[0]] = i; break;
+      case spv::Constant: case spv::Phi: case spv::IAdd: case spv::FAdd: case spv::ISub: case spv::FSub:
+        if (in.w.size() >= 2) def[in.w[1]] = i;
+        break;
+      case spv::Label: if (!in.w.empty()) block = in.w[0]; break;
+      case spv::LoopMerge: if (!in.w.empty()) loops.emplace_back(block, in.w[0]); break;
+      case spv::Branch: case spv::BranchConditional: terminator[block] = i; break;
+      default:
+        if (in.op >= spv::IEqual && in.op <= spv::FUnordGreaterThanEqual && in.w.size() >= 2) def[in.w[1]] = i;
+    }
+  }
+  auto get = [&](std::uint32_t id, std::uint32_t op) -> const Instruction* {
+    auto it = def.find(id);
+    return it != def.end() && ins[it->second].op == op ? &ins[it->second] : nullptr;
+  };
+  auto constant = [&](std::uint32_t id, double& value) {  // a 32-bit int, uint or float constant
+    const Instruction* c = get(id, spv::Constant);
+    if (!c || c->w.size() != 3) return false;
+    const Instruction* t = nullptr;
+    if ((t = get(c->w[0], spv::TypeInt))) {
+      value = t->w.size() >= 3 && t->w[2] ? static_cast<double>(static_cast<std::int32_t>(c->w[2])) : c->w[2];
+      return t->w[1] == 32;
+    }
+    if ((t = get(c->w[0], spv::TypeFloat)) && t->w[1] == 32) {
+      float f;
+      std::memcpy(&f, &c->w[2], sizeof f);
+      value = f;
+      return std::isfinite(value);
+    }
+    return false;
+  };
+  // x = phi + constant (or phi - constant): the phi and the signed step.
+  auto stepped = [&](std::uint32_t id, std::uint32_t& phi, double& step) {
+    auto it = def.find(id);
+    if (it == def.end()) return false;
+    const auto& in = ins[it->second];
+    if (in.op != spv::IAdd && in.op != spv::FAdd && in.op != spv::ISub && in.op != spv::FSub) return false;
+    const bool sub = in.op == spv::ISub || in.op == spv::FSub;
+    double c = 0;
+    if (constant(in.w[3], c)) { phi = in.w[2]; step = sub ? -c : c; return get(phi, spv::Phi) != nullptr; }
+    if (!sub && constant(in.w[2], c)) { phi = in.w[3]; step = c; return get(phi, spv::Phi) != nullptr; }
+    return false;
+  };
+  auto bounded = [&](std::uint32_t header, std::uint32_t merge) {
+    // The exit test: the header's conditional branch to the merge block, or that of the block the
+    // header branches to (glslang's `for` puts the test in its own block).
+    const Instruction* br = nullptr;
+    std::uint32_t at = header;
+    for (int hop = 0; hop < 2 && terminator.count(at); ++hop) {
+      const auto& t = ins[terminator[at]];
+      if (t.op == spv::BranchConditional && t.w.size() >= 3 && (t.w[1] == merge || t.w[2] == merge)) { br = &t; break; }
+      if (t.op != spv::Branch) break;
+      at = t.w[0];
+    }
+    if (!br) return false;
+    auto it = def.find(br->w[0]);
+    if (it == def.end()) return false;
+    const auto& cmp = ins[it->second];
+    if (cmp.op < spv::IEqual || cmp.op > spv::FUnordGreaterThanEqual || cmp.w.size() < 4) return false;
+    double limit = 0;
+    std::uint32_t var = 0;
+    if (constant(cmp.w[3], limit)) var = cmp.w[2];
+    else if (constant(cmp.w[2], limit)) var = cmp.w[3];
+    else return false;
+    std::uint32_t phi_id = var;
+    double step = 0;
+    if (!get(phi_id, spv::Phi) && !stepped(var, phi_id, step)) return false;
+    const Instruction* phi = get(phi_id, spv::Phi);
+    double start = 0, inc = 0;
+    bool have_start = false, have_inc = false;
+    for (std::size_t k = 2; k + 1 < phi->w.size(); k += 2) {
+      std::uint32_t back = 0;
+      double c = 0;
+      if (constant(phi->w[k], c)) { start = c; have_start = true; }
+      else if (stepped(phi->w[k], back, c) && back == phi_id) { inc = c; have_inc = true; }
+      else return false;
+    }
+    if (!have_start || !have_inc || std::abs(inc) < 1) return false;
+    // A counter stepping away from its bound (i < 1000; --i), or stepping over it where the test is an
+    // equality (i != 1000 from 0 by 3), runs until its type overflows, if ever: not bounded here.
+    if ((limit - start) * inc < 0) return false;
+    const bool equality = cmp.op == spv::IEqual || cmp.op == spv::INotEqual ||
+                          (cmp.op >= spv::FOrdEqual && cmp.op <= spv::FUnordNotEqual);
+    if (equality && std::fmod(limit - start, inc) != 0) return false;
+    // Iterations: |limit - start| / |step|, one more for <= (+1 kept as margin for either).
+    return std::abs(limit - start) / std::abs(inc) + 1.0 <= 65535.0;
+  };
+  int count = 0;
+  for (const auto& [header, merge] : loops) count += bounded(header, merge) ? 0 : 1;
+  return count;
+}
+
+struct Kernel::Impl {
+  Device* device = nullptr;
+  std::shared_ptr<Pipeline> pipeline;
+  int n_uniforms = 0;
+  std::vector<std::pair<std::string, std::string>> included;
+};
+
+Kernel::Kernel(const KernelSpec& spec) : Kernel(spec, "", "") {}
+
+Kernel::Kernel(const KernelSpec& spec, const std::string& custom_wrapper, const std::string& signature,
+               const std::vector<SpirvResource>& allowed)
+    : impl_(std::make_shared<Impl>()) {
+  validate_spec(spec);
   const int index = choose_device(spec.device);
   Device& d = device(index);
   impl_->device = &d;
   impl_->n_uniforms = spec.n_uniforms;
 
-  const std::string wrapper = wrapper_source(spec.language, spec.entry, spec.source_name);
-  shaderc::Compiler compiler;
-  const shaderc_shader_kind kind = shaderc_glsl_compute_shader;
-  const char* entry_point = spec.language == "hlsl" ? "glintlab_main" : "main";
+  const std::string wrapper =
+      custom_wrapper.empty() ? wrapper_source(spec.language, spec.entry, spec.source_name) : custom_wrapper;
+  const std::string entry_point = spec.language == "hlsl" ? "glintlab_main" : "main";
   // The cache key is the preprocessed text (the user's code with its #includes and defines expanded),
   // so an edited included file is a new kernel.
-  auto pre = compiler.PreprocessGlsl(wrapper, kind, wrapper_name(spec.language).c_str(), options(spec));
-  if (pre.GetCompilationStatus() != shaderc_compilation_status_success) compile_failure(spec, pre.GetErrorMessage());
-  const std::string text(pre.cbegin(), pre.cend());
+  const std::string text = preprocess(spec, wrapper, &impl_->included, signature);
   std::ostringstream key;
   key << spec.language << '|' << spec.entry << '|' << spec.n_uniforms << '|' << fnv1a(text) << '|' << text.size();
   std::lock_guard<std::mutex> lock(d.mutex);
@@ -473,10 +860,15 @@ Kernel::Kernel(const KernelSpec& spec) : impl_(std::make_shared<Impl>()) {
     impl_->pipeline = it->second;
     return;
   }
-  auto res = compiler.CompileGlslToSpv(wrapper, kind, wrapper_name(spec.language).c_str(), entry_point, options(spec));
-  if (res.GetCompilationStatus() != shaderc_compilation_status_success) compile_failure(spec, res.GetErrorMessage());
   auto pl = std::make_shared<Pipeline>();
-  pl->spirv.assign(res.cbegin(), res.cend());
+  pl->spirv = compile_spirv(spec, wrapper, entry_point, signature);
+  // Before the driver sees it: a resource the pipeline layout lacks (descriptor set 1) crashes lavapipe.
+  require_resources(pl->spirv, allowed.empty() ? wrapper_resources() : allowed, spec.source_name,
+                    "only the arguments of " +
+                        (signature.empty() ? expected_signature(spec.language, spec.entry) : signature) +
+                        " (glintlab's own buffers at set 0, bindings 0-3, and its push constant); pass data "
+                        "through the uniforms or as constants and defines");
+  pl->unbounded_loops = shader::unbounded_loops(pl->spirv);
 
   VkShaderModuleCreateInfo module{};
   module.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
@@ -508,7 +900,7 @@ Kernel::Kernel(const KernelSpec& spec) : impl_(std::make_shared<Impl>()) {
   info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
   info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
   info.stage.module = pl->module;
-  info.stage.pName = entry_point;
+  info.stage.pName = entry_point.c_str();
   info.layout = pl->layout;
   check(vkCreateComputePipelines(d.dev, VK_NULL_HANDLE, 1, &info, nullptr, &pl->pipeline), "vkCreateComputePipelines");
   d.pipelines[key.str()] = pl;
@@ -521,6 +913,8 @@ const std::string& Kernel::device_name() const { return impl_->device->name; }
 const std::string& Kernel::device_type() const { return impl_->device->type; }
 int Kernel::n_uniforms() const { return impl_->n_uniforms; }
 const std::vector<std::uint32_t>& Kernel::spirv() const { return impl_->pipeline->spirv; }
+const std::vector<std::pair<std::string, std::string>>& Kernel::included_files() const { return impl_->included; }
+int Kernel::unbounded_loops() const { return impl_->pipeline->unbounded_loops; }
 
 void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size_t p_size, const double* u,
                  std::size_t count, float* out, double timeout_s) const {
@@ -532,8 +926,9 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
   Device& d = *impl_->device;
   const Pipeline& pl = *impl_->pipeline;
   const std::size_t k = static_cast<std::size_t>(impl_->n_uniforms);
+  const auto timeout_ns = static_cast<std::uint64_t>(std::min(timeout_s, 1e9) * 1e9);
   std::lock_guard<std::mutex> lock(d.mutex);
-  reap(d);
+  wait_for_retired(d, timeout_s);
 
   const std::size_t chunk = std::min(count, kChunkRows);
   auto job = std::make_unique<Job>(d);
@@ -582,7 +977,6 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
   auto* pb = static_cast<float*>(job->buffers[1].mapped);
   auto* ub = static_cast<float*>(job->buffers[2].mapped);
   const auto* kb = static_cast<const float*>(job->buffers[3].mapped);
-  const auto timeout_ns = static_cast<std::uint64_t>(std::min(timeout_s, 1e9) * 1e9);
   for (std::size_t base = 0; base < count; base += chunk) {
     const std::size_t rows = std::min(chunk, count - base);
     const auto srows = static_cast<std::ptrdiff_t>(rows);
@@ -630,6 +1024,102 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
     }
     check(r, "vkWaitForFences");
     std::memcpy(out + base, kb, rows * sizeof(float));
+  }
+}
+
+// Method shaders' rows (glintlab/validation/method_shader.hpp): the same pipeline layout, one input
+// buffer of in_stride words per row and one output buffer of out_stride floats per row.
+void Kernel::run_rows(const float* in, std::size_t in_stride, std::size_t count, float* out, std::size_t out_stride,
+                      double timeout_s) const {
+  if (count == 0) return;
+  if (!(timeout_s > 0) || !std::isfinite(timeout_s))
+    throw std::invalid_argument("timeout = " + std::to_string(timeout_s) + " is invalid; expected seconds > 0");
+  if (in_stride == 0 || out_stride == 0) throw std::invalid_argument("run_rows: strides must be > 0");
+  Device& d = *impl_->device;
+  const Pipeline& pl = *impl_->pipeline;
+  std::lock_guard<std::mutex> lock(d.mutex);
+  wait_for_retired(d, timeout_s);
+  const std::size_t chunk = std::min(count, kChunkRows / 4);
+  auto job = std::make_unique<Job>(d);
+  job->make_buffer(0, chunk * in_stride * sizeof(float), false);
+  job->make_buffer(1, 4 * sizeof(float), false);
+  job->make_buffer(2, 4 * sizeof(float), false);
+  job->make_buffer(3, chunk * out_stride * sizeof(float), true);
+  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4};
+  VkDescriptorPoolCreateInfo pool{};
+  pool.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  pool.maxSets = 1;
+  pool.poolSizeCount = 1;
+  pool.pPoolSizes = &size;
+  check(vkCreateDescriptorPool(d.dev, &pool, nullptr, &job->descriptor_pool), "vkCreateDescriptorPool");
+  VkDescriptorSetAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  alloc.descriptorPool = job->descriptor_pool;
+  alloc.descriptorSetCount = 1;
+  alloc.pSetLayouts = &pl.set_layout;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+  check(vkAllocateDescriptorSets(d.dev, &alloc, &set), "vkAllocateDescriptorSets");
+  VkDescriptorBufferInfo infos[4];
+  VkWriteDescriptorSet writes[4]{};
+  for (int i = 0; i < 4; ++i) {
+    infos[i] = {job->buffers[i].buffer, 0, VK_WHOLE_SIZE};
+    writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    writes[i].dstSet = set;
+    writes[i].dstBinding = static_cast<std::uint32_t>(i);
+    writes[i].descriptorCount = 1;
+    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    writes[i].pBufferInfo = &infos[i];
+  }
+  vkUpdateDescriptorSets(d.dev, 4, writes, 0, nullptr);
+  VkCommandBufferAllocateInfo cmd{};
+  cmd.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+  cmd.commandPool = d.pool;
+  cmd.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cmd.commandBufferCount = 1;
+  check(vkAllocateCommandBuffers(d.dev, &cmd, &job->command), "vkAllocateCommandBuffers");
+  VkFenceCreateInfo fence{};
+  fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+  check(vkCreateFence(d.dev, &fence, nullptr, &job->fence), "vkCreateFence");
+  auto* ib = static_cast<float*>(job->buffers[0].mapped);
+  const auto* ob = static_cast<const float*>(job->buffers[3].mapped);
+  const auto timeout_ns = static_cast<std::uint64_t>(std::min(timeout_s, 1e9) * 1e9);
+  for (std::size_t base = 0; base < count; base += chunk) {
+    const std::size_t rows = std::min(chunk, count - base);
+    std::memcpy(ib, in + base * in_stride, rows * in_stride * sizeof(float));
+    const Push push{static_cast<std::uint32_t>(rows), static_cast<std::uint32_t>(in_stride),
+                    static_cast<std::uint32_t>(out_stride), 0u};
+    check(vkResetCommandBuffer(job->command, 0), "vkResetCommandBuffer");
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    check(vkBeginCommandBuffer(job->command, &begin), "vkBeginCommandBuffer");
+    vkCmdBindPipeline(job->command, VK_PIPELINE_BIND_POINT_COMPUTE, pl.pipeline);
+    vkCmdBindDescriptorSets(job->command, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout, 0, 1, &set, 0, nullptr);
+    vkCmdPushConstants(job->command, pl.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &push);
+    vkCmdDispatch(job->command, static_cast<std::uint32_t>((rows + kGroupSize - 1) / kGroupSize), 1, 1);
+    VkMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(job->command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &barrier, 0, nullptr, 0, nullptr);
+    check(vkEndCommandBuffer(job->command), "vkEndCommandBuffer");
+    check(vkResetFences(d.dev, 1, &job->fence), "vkResetFences");
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &job->command;
+    check(vkQueueSubmit(d.queue, 1, &submit, job->fence), "vkQueueSubmit");
+    const VkResult r = vkWaitForFences(d.dev, 1, &job->fence, VK_TRUE, timeout_ns);
+    if (r == VK_TIMEOUT) {
+      d.retired.push_back(std::move(job));
+      std::ostringstream msg;
+      msg << "shader kernel ran longer than timeout = " << timeout_s << " s on '" << d.name << "' (rows " << base
+          << " .. " << base + rows << "); its buffers are released when the device finishes";
+      throw ShaderTimeout(msg.str());
+    }
+    check(r, "vkWaitForFences");
+    std::memcpy(out + base * out_stride, ob, rows * out_stride * sizeof(float));
   }
 }
 

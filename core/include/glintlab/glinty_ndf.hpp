@@ -43,6 +43,15 @@ struct Kpt25Params {
   double filter = 0.28209479177387814;  // pixel filter std in pixels (default 1/(2 sqrt(pi)): effective area = |det J|)
   GlintCompensation compensation = GlintCompensation::square;
   GlintBlend blend = GlintBlend::roulette;
+  // Algorithm 2 (sample / pdf): the probability beta with which a draw samples the smooth target
+  // D(h)(h.n) instead of the lobes (a defensive mixture; 0 = the paper, whose sampler leaves the
+  // compensation term out). docs/math/glinty_ndf.md#glinty-sampling.
+  double sample_smooth = 0.0;
+  // Algorithm 2's reservoir weight of a point (line 12's integral, read two ways): true = the mass of
+  // the point's own lobe inside the block B (the default: the block's conditional density is then
+  // proportional to eq. 11's explicit terms), false = R f alone, as printed (the integral names the
+  // Gaussian at x_a - x, the same for every point), lobes with no mass in B left out.
+  bool sample_lobe_mass = true;
 };
 
 // Maximum MIP level: the angular grid has 2^l x 2^l cells, l <= 15 (the random-number layout's limit).
@@ -61,6 +70,7 @@ struct GlintPixel {
   // Spatial filter: inverse covariance (a, b; b, c), normalisation, box half widths (3 sigma).
   double inv_a = 0.0, inv_b = 0.0, inv_c = 0.0, norm = 0.0, half_u = 0.0, half_v = 0.0;
   std::size_t index = 0;     // the pixel's index (error messages)
+  const double* J = nullptr; // its four derivatives (error messages)
 };
 
 // The reference refuses a pixel that would sum more cells than this (a footprint far too large for the
@@ -85,6 +95,21 @@ class Kpt25Ndf {
   // vectors: e_ref = E[reference], e_alg = E[evaluate]. Either pointer may be null.
   void expected(const double* jac, const double* h, std::size_t m, double* e_ref, double* e_alg) const;
 
+  // Algorithm 2 (docs/math/glinty_ndf.md#glinty-sampling): one half vector per row i drawn from the pdf
+  // of pixel (uv[2i..], J[4i..]) for realization `seed`; the draw's random numbers are a pure function
+  // of (draw_seed, i). h_out[3i..] the half vector (NaN when the drawn lobe point falls outside the
+  // disk U: a lost sample, pdf 0), pdf_out[i] its density per steradian of h (exactly pdf() below), and
+  // if wo is not null (3 numbers per row, normalised here), wi_out[3i..] = reflect(wo, h).
+  void sample(const double* uv, const double* jac, const double* wo, std::size_t m, std::uint64_t seed,
+              std::uint64_t draw_seed, double* h_out, double* pdf_out, double* wi_out) const;
+  // The density per steradian of h with which sample() draws h at pixel i (0 below the horizon).
+  void pdf(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+           double* out) const;
+  // T(h) for m half vectors: xy[2i..] in the unit square (NaN for h_z <= 0, which T does not map).
+  void map_points(const double* h, std::size_t m, double* xy) const;
+  // T^-1: the half vector of a point (x, y) of the disk U.
+  std::array<double, 3> inverse_map(double x, double y) const;
+
   // The pixel set-up (exposed for tests and the documentation's figures).
   GlintPixel pixel(const double* jac, const double* h, std::size_t index) const;
   // T(h) in the unit square and D(h): the map of §3.2 (exact uniformising map, docs/math/glinty_ndf.md).
@@ -94,14 +119,23 @@ class Kpt25Ndf {
   double level_sum(const GlintPixel& px, int level, double weight, double u, double v, std::uint64_t seed,
                    bool all_angular, double* points) const;
   double compensation(const GlintPixel& px, int level) const;
+  void footprint(GlintPixel& px, const double* jac, std::size_t index) const;
+  double disk_D(double x, double y) const;  // D(T^-1(x, y)), the target at a point of U
+  double level_pdf(const GlintPixel& px, int level, double u, double v, std::uint64_t seed, double x, double y) const;
+  double pixel_pdf(const GlintPixel& px, double u, double v, std::uint64_t seed, double x, double y) const;
   Kpt25Params p_;
   double res_ = 0.0;  // sqrt(K_P): cells per unit uv at level 0
 };
 
 // The integral over the rectangle [x0, x1] x [y0, y1] intersected with the disk U (centre (1/2, 1/2),
-// radius 1/2) of the normalised isotropic 2D Gaussian of std sigma centred at (cx, cy). Adaptive
-// Gauss-Kronrod over x of differences of normal CDFs in y; absolute error below about 1e-10.
+// radius 1/2) of the normalised isotropic 2D Gaussian of std sigma centred at (cx, cy). A product of
+// normal CDF differences when the disk does not cut the lobe; otherwise globally adaptive Gauss-Kronrod
+// over the angle theta, x = (1 - cos theta) / 2, of the normal mass on the chord, at most 60 halvings
+// (bounded cost; relative error about 1e-13 in the tests, docs/math/glinty_ndf.md#glinty-algorithm1).
 double gaussian_in_disk_rect(double cx, double cy, double sigma, double x0, double x1, double y0, double y1);
+
+// The area of the rectangle [x0, x1] x [y0, y1] intersected with the disk U (closed form).
+double rect_disk_area(double x0, double x1, double y0, double y1);
 
 // R(r, w) of KPT25 eq. 8: smoothstep(max(0, r - eps), min(1, r + eps), w); eps = 0 is the Heaviside w >= r.
 double kpt25_roulette(double r, double w, double eps);

@@ -29,6 +29,27 @@ def real(name, value):
         fail(name, value, "a real number")
 
 
+def integer(name, value, minimum: int | None = None, maximum: int | None = None) -> int:
+    """`value` as a Python int: Python and numpy integers are accepted (np.int64 from an array is as good
+    as 5), bools, floats and strings refused by name, as are values outside [minimum, maximum]."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        fail(name, value, _integer_range(minimum, maximum))
+    value = int(value)
+    if (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
+        fail(name, value, _integer_range(minimum, maximum))
+    return value
+
+
+def _integer_range(minimum, maximum) -> str:
+    if minimum is not None and maximum is not None:
+        return f"an integer in [{minimum}, {maximum}]"
+    if minimum is not None:
+        return f"an integer >= {minimum}"
+    if maximum is not None:
+        return f"an integer <= {maximum}"
+    return "an integer"
+
+
 def as_float_array(name, value):
     """`value` as a float64 array; strings, objects and complex numbers are rejected by name."""
     try:

@@ -1,13 +1,25 @@
-"""Glinty NDFs as a renderer evaluates them: one value D^f per pixel (footprint, half vector).
+"""Glinty NDFs as a renderer evaluates them: one value D^f per pixel (footprint, half vector), and the
+one registry of image methods (docs/math/glint_images.md#glint-methods).
 
-Two estimators of the same smooth target ``gl.ndf(target, alpha)``, each registered by name
-(``glinty_ndfs()``):
+Every glinty NDF subclasses :class:`GlintyNDF`: one pixel-array check (:func:`pixel_arrays`), one
+footprint area P = |det J| and one D_P = (D(n) / R) K / (N P) (:meth:`GlintyNDF.d_p`), one angular slope
+(:func:`angular_slope`). Registered by name (``glinty_ndfs()``):
+
+- ``"smooth"``: the target D(h) itself (no glints, no flicker).
+- ``"facets"``: the ground truth: stratified facets counted one by one in each footprint ellipse (C++,
+  :func:`facet_counts`), D_P of DB23 eq. 4-6.
 
 - ``"kpt25"``: Kemppinen et al. 2025's point process and constant-time evaluation (their Algorithm 1),
   with ``reference`` the full sum over every point of the same realization (docs/math/glinty_ndf.md).
   C++ (``_core.Kpt25Ndf``), pixels split over the OpenMP threads, deterministic per pixel.
 - ``"db23"``: DB23's D_P = (D(n) / R) K / (N P) of eq. 3-4, with K counted by a grid scheme over an
   inner law (``aniso_counter(...).count_image``), docs/math/ndf.md#ndf-estimator.
+
+An *image method* (:data:`IMAGE_METHODS`, ``image_methods()``) is a registered factory ``material ->
+GlintyNDF`` with a label: the scene images render every image method through
+:meth:`GlintyNDF.image`, which evaluates the NDF on the pixels that see the lit surface; a method
+shader (``glintlab.api.method_shaders``) is an image method whose ``image`` runs a shader over every
+field of the frame's inputs.
 
 Shapes: ``uv`` (..., 2) texture positions, ``J`` (..., 4) = (du/dx, dv/dx, du/dy, dv/dy) per pixel as in
 ``AnisoCounter.count_image``, ``h`` (..., 3) half vectors in the tangent frame (normal +z; normalised
@@ -16,6 +28,9 @@ here; h_z <= 0 gives 0). The result has shape (...).
 from __future__ import annotations
 
 import math
+import re
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -29,19 +44,65 @@ from .registry import Registry
 GLINTY_NDFS = Registry("glinty NDF")
 
 
-def _arrays(uv, J, h):
-    h = np.ascontiguousarray(V.as_float_array("h", h))
-    if h.ndim < 1 or h.shape[-1] != 3:
-        V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
-    shape = h.shape[:-1]
+FACET_STATUS = {0: "ok", 1: "degenerate", 2: "non_finite", 4: "too_large"}
+
+
+def pixel_arrays(uv, J, h, unit_h: bool = False):
+    """The one check of a glinty NDF's per-pixel arrays: ``h`` (..., 3), ``J`` (..., 4) and ``uv`` (..., 2)
+    of one shape (the shape read from ``h``, or from ``uv`` when ``h`` is None; ``uv`` may be None);
+    returns contiguous float64 (uv, J, h, shape). With ``unit_h`` the half vectors must be finite and
+    non-zero and are returned normalised (the evaluators written in Python need that; the C++ ones
+    check each entry themselves, naming it)."""
+    if h is not None:
+        h = np.ascontiguousarray(V.as_float_array("h", h))
+        if h.ndim < 1 or h.shape[-1] != 3:
+            V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
+        shape = h.shape[:-1]
+    if uv is not None:
+        uv = np.ascontiguousarray(V.as_float_array("uv", uv))
+        if h is None:
+            if uv.ndim < 1 or uv.shape[-1:] != (2,):
+                V.fail("uv", f"an array of shape {uv.shape}", "an array of shape (..., 2)")
+            shape = uv.shape[:-1]
     J = np.ascontiguousarray(V.as_float_array("J", J))
     if J.shape != shape + (4,):
         V.fail("J", f"an array of shape {J.shape}", f"an array of shape {shape + (4,)}")
-    if uv is not None:
-        uv = np.ascontiguousarray(V.as_float_array("uv", uv))
-        if uv.shape != shape + (2,):
-            V.fail("uv", f"an array of shape {uv.shape}", f"an array of shape {shape + (2,)}")
+    if uv is not None and uv.shape != shape + (2,):
+        V.fail("uv", f"an array of shape {uv.shape}", f"an array of shape {shape + (2,)}")
+    if unit_h:
+        if not np.isfinite(h).all():
+            V.fail("h", "an array with non-finite entries", "finite half vectors")
+        norm = np.linalg.norm(h, axis=-1, keepdims=True)
+        if (norm <= 0).any():
+            V.fail("h", "an array with a zero vector", "non-zero half vectors")
+        h = h / norm
     return uv, J, h, shape
+
+
+_ELEMENT = re.compile(r"\b(uv|J|h|wo)\[(\d+), (\d+|:)\]")
+
+
+def _core_call(shape, fn, *args):
+    """Call the core; its errors name an element as [pixel, component] of the flattened pixels: rewrite
+    the pixel as the multi-index of the caller's array of shape ``shape`` + (components,)."""
+    try:
+        return fn(*args)
+    except ValueError as e:
+        def sub(m):
+            name, i, c = m.group(1), int(m.group(2)), m.group(3)
+            idx = [str(int(k)) for k in np.unravel_index(i, shape)] if shape and i < math.prod(shape) else []
+            if not shape and i:
+                idx = [str(i)]
+            parts = idx + ([] if c == ":" else [c])
+            return f"{name}[{', '.join(parts)}]" if parts else name
+        raise ValueError(_ELEMENT.sub(sub, str(e))) from None
+
+
+def _seed(name, value):
+    try:
+        return V.seed(value)
+    except ValueError:
+        V.fail(name, value, "an integer in [0, 2^64), a numpy SeedSequence or Generator, or None")
 
 
 def _cos_theta(h):
@@ -50,23 +111,48 @@ def _cos_theta(h):
         return np.where(n > 0, h[..., 2] / np.where(n > 0, n, 1.0), 0.0)
 
 
+def footprint_area(J) -> np.ndarray:
+    """P = |det J| per pixel: the footprint's area in texture units (DB23 eq. 3)."""
+    return np.abs(J[..., 0] * J[..., 3] - J[..., 1] * J[..., 2])
+
+
+def angular_slope(h) -> np.ndarray:
+    """The half vector's slope (h_x / h_z, h_y / h_z) (..., 2); 0 where h_z <= 0 (below the horizon).
+    Scale-free in theory; in floating point it depends on whether ``h`` was normalised first, so each
+    estimator keeps the form it always used (bit-identical images)."""
+    c = h[..., 2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(c[..., None] > 0, h[..., :2] / np.where(c > 0, c, 1.0)[..., None], 0.0)
+
+
 class GlintyNDF:
-    """Common surface of the glinty NDFs: ``name``, ``target``, ``alpha``, ``density``, ``params`` and
-    ``smooth(h)``, the target D(h) the estimator converges to."""
+    """Common surface of the glinty NDFs and so of every image method: ``name``, ``target``, ``alpha``,
+    ``density`` (None for a method without one: the smooth NDF), ``params``, ``smooth(h)`` (the target
+    D(h) the estimator converges to), ``evaluate(uv, J, h, seed)`` (one value per pixel), the one D_P
+    (:meth:`d_p`) and ``image(inputs, seed, frame)``, what the scene images call."""
 
     name = ""
+    #: "ndf": ``evaluate`` returns an NDF value per pixel; "intensity": ``image`` returns a shaded value
+    #: (method shaders such as WB16's sparkle intensity), with no ``evaluate``.
+    returns = "ndf"
 
-    def __init__(self, target: str, alpha: float, density: float):
+    def __init__(self, target: str, alpha: float, density: float | None):
         if not isinstance(target, str) or target not in NDFS:
             V.fail("target", target, f"one of {', '.join(NDFS)}")
         self.target = target
         self.smooth_ndf = smooth_ndf(target, alpha)
         self.alpha = self.smooth_ndf.alpha
-        density = V.real("density", density)
-        if not (math.isfinite(density) and density > 0):
-            V.fail("density", density, "a finite number > 0 (points per unit texture area)")
+        if density is not None:
+            density = V.real("density", density)
+            if not (math.isfinite(density) and density > 0):
+                V.fail("density", density, "a finite number > 0 (points per unit texture area)")
         self.density = density
         self.params: dict = {}
+
+    @property
+    def ndf(self):
+        """The smooth target NDF object (``gl.ndf(target, alpha)``)."""
+        return self.smooth_ndf
 
     def smooth(self, h) -> np.ndarray:
         """The smooth target D(h) for half vectors ``h`` (..., 3)."""
@@ -74,6 +160,26 @@ class GlintyNDF:
         if h.ndim < 1 or h.shape[-1] != 3:
             V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
         return self.smooth_ndf.D(_cos_theta(h))
+
+    def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
+        """The NDF value per pixel (subclasses)."""
+        raise NotImplementedError(f"{type(self).__name__} has no per-pixel evaluate")
+
+    def d_p(self, K, P, R: float) -> np.ndarray:
+        """DB23 eq. 4-6's D_P = (D(n) / R) K / (N P) from counts ``K`` and footprint areas ``P``
+        (docs/math/ndf.md#ndf-estimator); inf or NaN where P = 0 or K is unknown (callers mask)."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return self.smooth_ndf.D_normal / R * K / (self.density * P)
+
+    def image(self, inputs, seed: int = 0, frame: int = 0) -> np.ndarray:
+        """One frame's image (H, W): ``evaluate`` on the pixels of ``inputs.mask`` (those that see the lit
+        surface; ``inputs`` has ``uv``, ``J``, ``h`` in the tangent frame and ``mask``), 0 elsewhere.
+        ``frame`` is unused by the NDFs (their realization is fixed on the surface)."""
+        img = np.zeros(inputs.mask.shape)
+        m = inputs.mask
+        if m.any():
+            img[m] = self.evaluate(inputs.uv[m], inputs.J[m], inputs.h[m], seed=seed)
+        return img
 
     def label(self) -> str:
         """A short label: the name and the parameters."""
@@ -84,6 +190,88 @@ class GlintyNDF:
         return f"glintlab.glinty_ndf({self.name!r}{args})"
 
 
+class SmoothNDF(GlintyNDF):
+    """The smooth target D(h) (``gl.ndf(target, alpha)``) as an image method: what the glints converge
+    to, with no glints and no flicker."""
+
+    name = "smooth"
+
+    def __init__(self, target: str = "beckmann", alpha: float = 0.5):
+        if not isinstance(target, str) or target not in NDFS:  # the NDF's own message names "ndf"
+            smooth_ndf(target, alpha)
+        super().__init__(target, alpha, None)
+        self.params = {"target": target, "alpha": self.alpha}
+
+    def __repr__(self):
+        return f"SmoothNDF({self.target!r}, alpha={self.alpha:g})"
+
+    def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
+        """D(h) per pixel (uv, J and seed are accepted for the common signature and unused)."""
+        _, _, hn, _ = pixel_arrays(uv, J, h, unit_h=True)
+        V.seed(seed)
+        return self.smooth_ndf.D(hn[..., 2])
+
+
+def facet_counts(uv, J, p, density, slope=None, seed: int = 0, max_cells: float = 2.0**26):
+    """Ground-truth counts per pixel: the facets of the stratified layout of density ``density`` (one
+    jittered facet per cell of side 1 / sqrt(N)) inside each pixel's footprint ellipse that reflect
+    (their uniform, drawn per angular texel ``floor(slope)``, is below ``p``).
+
+    Returns (K, status, tested) shaped like ``uv[..., 0]``: K (NaN where the ellipse spans more than
+    ``max_cells`` cells), status (0 ok, 1 degenerate, 2 non_finite, 4 too_large; ``FACET_STATUS``) and
+    the facets tested. Same seed, same counts, whatever the number of threads."""
+    uv, J, _, shape = pixel_arrays(uv, J, None)
+    pa = np.ascontiguousarray(V.as_float_array("p", p))
+    if pa.size != 1 and pa.shape != shape:
+        V.fail("p", f"an array of shape {pa.shape}", f"a scalar or an array of shape {shape}")
+    sl = None
+    if slope is not None:
+        sl = np.ascontiguousarray(V.as_float_array("slope", slope))
+        if sl.shape != uv.shape:
+            V.fail("slope", f"an array of shape {sl.shape}", f"an array of shape {uv.shape}")
+        sl = sl.reshape(-1)
+    k, st, tested = _core.facet_counts(V.real("density", density), pa.reshape(-1), uv.reshape(-1), J.reshape(-1),
+                                       sl, V.seed(seed), V.real("max_cells", max_cells))
+    return k.reshape(shape), st.reshape(shape), tested.reshape(shape)
+
+
+class FacetNDF(GlintyNDF):
+    """The ground truth: explicit stratified facets of density N counted one by one in each footprint
+    ellipse (:func:`facet_counts`), D_P of DB23 eq. 4-6, with DB23's p = min(R D(h) / D(n), 1) and the
+    facets' reflection uniforms drawn per angular texel ``floor(slope / angular_texel)``
+    (docs/math/glint_images.md#glint-angular)."""
+
+    name = "facets"
+
+    def __init__(self, density, target: str = "beckmann", alpha: float = 0.5, R: float = 0.5,
+                 angular_texel: float = 0.05, max_cells: float = 2.0**26):
+        super().__init__(target, alpha, density)
+        self.R = V.real("R", R)
+        if not (0 < self.R <= 1):
+            V.fail("R", R, "a number in (0, 1]")
+        self.angular_texel = V.real("angular_texel", angular_texel)
+        if not (math.isfinite(self.angular_texel) and self.angular_texel > 0):
+            V.fail("angular_texel", angular_texel, "a finite angular texel size > 0 (slope units)")
+        self.max_cells = V.real("max_cells", max_cells)
+        self.params = {"density": self.density, "target": target, "alpha": self.alpha, "R": self.R,
+                       "angular_texel": self.angular_texel, "max_cells": self.max_cells}
+
+    def __repr__(self):
+        return f"FacetNDF(density={self.density:g}, {self.target!r}, alpha={self.alpha:g}, R={self.R:g})"
+
+    def counts(self, uv, J, p, slope, seed):
+        """K per pixel (see :func:`facet_counts`)."""
+        return facet_counts(uv, J, p, self.density, slope, seed, self.max_cells)[0]
+
+    def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
+        """D_P per pixel; 0 where the footprint is empty or K unknown."""
+        uv, J, hn, _ = pixel_arrays(uv, J, h, unit_h=True)
+        p, _ = self.smooth_ndf.success_probability(hn[..., 2], self.R)
+        slope = np.clip(angular_slope(hn) / self.angular_texel, -1e9, 1e9)
+        d = self.d_p(self.counts(uv, J, p, slope, V.seed(seed)), footprint_area(J), self.R)
+        return np.where(np.isfinite(d), d, 0.0)
+
+
 class KPT25(GlintyNDF):
     """KPT25's glinty NDF (docs/math/glinty_ndf.md).
 
@@ -92,52 +280,178 @@ class KPT25(GlintyNDF):
     (eq. 8's mollification; 0 = exact roulette), ``filter`` (Gaussian pixel filter std in pixels; the
     default 1 / (2 sqrt(pi)) gives an effective area abs(det J), DB23's footprint), ``compensation``
     ("square": eq. 10 as the paper does; "disk": eq. 9 exactly; "none"; "square_flipped": a deliberately
-    wrong sign, for the tests) and ``blend`` ("roulette" or "linear")."""
+    wrong sign, for the tests), ``blend`` ("roulette" or "linear") and ``sample_smooth`` (Algorithm 2:
+    the probability beta that a draw samples the smooth target instead of the lobes; 0 = the paper,
+    which does not sample the compensation term) and ``sample_weight`` (Algorithm 2's reservoir weight
+    of a point: "lobe_mass", its lobe's mass in the block, or "printed", the filter and roulette weight
+    alone; docs/math/glinty_ndf.md#glinty-sampling).
+
+    >>> nd = KPT25(density=1e4, alpha=0.5, alpha_star=0.05)
+    >>> h, pdf = nd.sample([[0.3, 0.7]] * 2, [[0.01, 0, 0, 0.01]] * 2, seed=1)
+    >>> h.shape, pdf.shape, bool(np.allclose(nd.pdf([[0.3, 0.7]] * 2, [[0.01, 0, 0, 0.01]] * 2, h, seed=1), pdf))
+    ((2, 3), (2,), True)
+    >>> nd.map([0.0, 0.0, 1.0]).tolist()
+    [0.5, 0.5]
+    """
 
     name = "kpt25"
 
     def __init__(self, density: float = 1e6, target: str = "beckmann", alpha: float = 0.5, alpha_star: float = 0.02,
                  k: int = 4, epsilon: float = 0.1, filter: float = 0.5 / math.sqrt(math.pi),
-                 compensation: str = "square", blend: str = "roulette"):
+                 compensation: str = "square", blend: str = "roulette", sample_smooth: float = 0.0,
+                 sample_weight: str = "lobe_mass"):
         super().__init__(target, alpha, density)
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or int(k) not in (1, 4, 9, 16):
             V.fail("k", k, "1, 4, 9 or 16")
-        for pname, value in (("compensation", compensation), ("blend", blend)):
+        for pname, value in (("compensation", compensation), ("blend", blend), ("sample_weight", sample_weight)):
             if not isinstance(value, str):
                 V.fail(pname, value, "a string")
         self._core = _core.Kpt25Ndf(self.density, target, self.alpha, V.real("alpha_star", alpha_star), int(k),
-                                    V.real("epsilon", epsilon), V.real("filter", filter), compensation, blend)
+                                    V.real("epsilon", epsilon), V.real("filter", filter), compensation, blend,
+                                    V.real("sample_smooth", sample_smooth), sample_weight)
         self.params = {"density": self.density, "target": target, "alpha": self.alpha,
                        "alpha_star": float(alpha_star), "k": int(k), "epsilon": float(epsilon),
                        "filter": float(filter), "compensation": compensation, "blend": blend}
+        if sample_smooth:
+            self.params["sample_smooth"] = float(sample_smooth)
+        if sample_weight != "lobe_mass":
+            self.params["sample_weight"] = sample_weight
 
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D^f per pixel by Algorithm 1 (B(k) per level, compensation, two levels with the roulette).
         Constant time per pixel; the same realization as ``reference`` for the same ``seed``."""
-        uv, J, h, shape = _arrays(uv, J, h)
-        return self._core.evaluate(uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed)).reshape(shape)
+        uv, J, h, shape = pixel_arrays(uv, J, h)
+        return _core_call(shape, self._core.evaluate, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
+                          V.seed(seed)).reshape(shape)
 
     def reference(self, uv, J, h, seed: int = 0, return_points: bool = False):
         """The full sum of eq. 11's first term over every point of the same realization whose position
         falls in the filter (both levels, same roulette; no truncation to B(k), no compensation). With
         ``return_points``, also the number of points summed per pixel. Its cost grows with the number
         of points in the footprint."""
-        uv, J, h, shape = _arrays(uv, J, h)
-        d, pts = self._core.reference(uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed))
+        uv, J, h, shape = pixel_arrays(uv, J, h)
+        d, pts = _core_call(shape, self._core.reference, uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed))
         return (d.reshape(shape), pts.reshape(shape)) if return_points else d.reshape(shape)
 
     def expected(self, J, h) -> tuple[np.ndarray, np.ndarray]:
         """Exact expectations over realizations, (E[reference], E[evaluate]), per footprint and half
         vector: D(h) times the lobe's mass in the disk, and the same with B(k) and the compensation."""
-        _, J, h, shape = _arrays(None, J, h)
-        er, ea = self._core.expected(J.reshape(-1), h.reshape(-1))
+        _, J, h, shape = pixel_arrays(None, J, h)
+        er, ea = _core_call(shape, self._core.expected, J.reshape(-1), h.reshape(-1))
         return er.reshape(shape), ea.reshape(shape)
 
     def pixel(self, J, h) -> dict:
         """The set-up of one pixel: D(h), T(h) = (xa, ya), the angular std sigma, the fractional MIP level
         lambda, its levels and weights, the filter's box half widths."""
-        _, J, h, _ = _arrays(None, np.reshape(J, (1, 4)), np.reshape(h, (1, 3)))
-        return self._core.pixel(J.reshape(-1), h.reshape(-1))
+        _, J, h, _ = pixel_arrays(None, np.reshape(J, (1, 4)), np.reshape(h, (1, 3)))
+        return _core_call((), self._core.pixel, J.reshape(-1), h.reshape(-1))
+
+    def sample(self, uv, J, seed: int = 0, draw_seed: int = 0, wo=None):
+        """KPT25's Algorithm 2: one half vector per pixel (row) drawn from the pdf of that pixel
+        (docs/math/glinty_ndf.md#glinty-sampling). ``uv`` (..., 2), ``J`` (..., 4); ``seed`` selects the
+        realization (the point process, as in ``evaluate``), ``draw_seed`` and the row's flat index
+        select the draw, so M copies of one pixel give M independent draws from its pdf.
+
+        Returns ``(h, pdf)``: half vectors (..., 3) and their density per steradian of h (the value
+        ``pdf`` returns for them); a draw whose lobe point falls outside the disk U is lost: h = NaN
+        and pdf = 0. With ``wo`` (3,) or (..., 3) (normalised here), returns ``(h, pdf, wi)`` with
+        wi = 2 (wo.h) h - wo the reflected directions; the density of wi is pdf / (4 |wo.h|)."""
+        uv = np.ascontiguousarray(V.as_float_array("uv", uv))
+        if uv.ndim < 1 or uv.shape[-1] != 2:
+            V.fail("uv", f"an array of shape {uv.shape}", "an array of shape (..., 2)")
+        shape = uv.shape[:-1]
+        J = np.ascontiguousarray(V.as_float_array("J", J))
+        if J.shape != shape + (4,):
+            V.fail("J", f"an array of shape {J.shape}", f"an array of shape {shape + (4,)}")
+        w = None
+        if wo is not None:
+            w = V.as_float_array("wo", wo)
+            if w.shape not in ((3,), shape + (3,)):
+                V.fail("wo", f"an array of shape {w.shape}", f"an array of shape (3,) or {shape + (3,)}")
+            w = np.ascontiguousarray(np.broadcast_to(w, shape + (3,))).reshape(-1)
+        h, pdf, wi = _core_call(shape, self._core.sample, uv.reshape(-1), J.reshape(-1), V.seed(seed),
+                                _seed("draw_seed", draw_seed), w)
+        h, pdf = h.reshape(shape + (3,)), pdf.reshape(shape)
+        return (h, pdf) if wo is None else (h, pdf, wi.reshape(shape + (3,)))
+
+    def pdf(self, uv, J, h, seed: int = 0) -> np.ndarray:
+        """The density per steradian of h with which ``sample`` draws h at each pixel, for the
+        realization ``seed`` (0 below the horizon). Shapes as ``evaluate``."""
+        uv, J, h, shape = pixel_arrays(uv, J, h)
+        return _core_call(shape, self._core.pdf, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
+                          V.seed(seed)).reshape(shape)
+
+    def map(self, h) -> np.ndarray:
+        """T(h) of docs/math/glinty_ndf.md#glinty-map for half vectors (..., 3): points (..., 2) of the unit
+        square, the disk U centred at (1/2, 1/2) with radius 1/2 being the image of the hemisphere
+        (NaN for h_z <= 0; h need not be normalised)."""
+        h = np.ascontiguousarray(V.as_float_array("h", h))
+        if h.ndim < 1 or h.shape[-1] != 3:
+            V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
+        shape = h.shape[:-1]
+        return _core_call(shape, self._core.map, h.reshape(-1)).reshape(shape + (2,))
+
+    def pixel_sampler(self, uv, J, seed: int = 0, wo=None) -> "PixelSampler":
+        """Algorithm 2 at one pixel as a direction sampler: ``.sample(size, seed)`` returns
+        ``(directions (size, 3), pdf (size,))`` and ``.pdf(directions)`` the density, ``.domain`` says
+        where the directions live ("hemisphere": half vectors; "sphere" with ``wo``: reflected
+        directions wi and their density per steradian of wi)."""
+        return PixelSampler(self, uv, J, seed, wo)
+
+
+class PixelSampler:
+    """One pixel of a KPT25 NDF as a direction sampler (``KPT25.pixel_sampler``)."""
+
+    def __init__(self, ndf: "KPT25", uv, J, seed=0, wo=None):
+        self.ndf = ndf
+        self.uv = np.asarray(V.as_float_array("uv", uv), float).reshape(-1)
+        self.J = np.asarray(V.as_float_array("J", J), float).reshape(-1)
+        if self.uv.shape != (2,):
+            V.fail("uv", uv, "one texture position (2 numbers)")
+        if self.J.shape != (4,):
+            V.fail("J", J, "one footprint (4 numbers)")
+        self.seed = V.seed(seed)
+        self.wo = None
+        if wo is not None:
+            w = np.asarray(V.as_float_array("wo", wo), float).reshape(-1)
+            if w.shape != (3,) or not np.all(np.isfinite(w)) or not np.any(w):
+                V.fail("wo", wo, "one nonzero finite direction (3 numbers)")
+            w = w / np.abs(w).max()  # scaled first: no overflow or underflow in the norm
+            self.wo = w / np.linalg.norm(w)
+        self.domain = "hemisphere" if wo is None else "sphere"
+
+    def _tile(self, n):
+        return np.tile(self.uv, (n, 1)), np.tile(self.J, (n, 1))
+
+    def sample(self, size: int, seed=0):
+        """``size`` independent draws: (directions (size, 3), pdf (size,)); lost draws are NaN with pdf 0."""
+        size = int(size)
+        uv, J = self._tile(size)
+        if self.wo is None:
+            return self.ndf.sample(uv, J, seed=self.seed, draw_seed=seed)
+        h, pdf, wi = self.ndf.sample(uv, J, seed=self.seed, draw_seed=seed, wo=self.wo)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return wi, np.where(pdf > 0, pdf / (4 * np.abs(h @ self.wo)), 0.0)
+
+    def pdf(self, directions) -> np.ndarray:
+        """The density at ``directions`` (..., 3): per steradian of h, or of wi with ``wo``."""
+        d = np.asarray(V.as_float_array("directions", directions), float)
+        shape = d.shape[:-1]
+        d = d.reshape(-1, 3)
+        uv, J = self._tile(d.shape[0])
+        if self.wo is None:
+            return self.ndf.pdf(uv, J, d, seed=self.seed).reshape(shape)
+        wi = d / np.linalg.norm(d, axis=1, keepdims=True)
+        h = wi + self.wo
+        n = np.linalg.norm(h, axis=1)
+        ok = n > 1e-12
+        h = np.where(ok[:, None], h / np.where(ok, n, 1.0)[:, None], [0.0, 0.0, 1.0])
+        p = self.ndf.pdf(uv, J, h, seed=self.seed)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(ok, p / (4 * np.abs(np.sum(wi * h, axis=1))), 0.0).reshape(shape)
+
+    def __repr__(self):
+        return f"<KPT25 pixel sampler uv={self.uv.tolist()} J={self.J.tolist()} domain={self.domain!r}>"
 
 
 class DB23(GlintyNDF):
@@ -177,16 +491,12 @@ class DB23(GlintyNDF):
 
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D_P per pixel; 0 where the footprint is degenerate (status in ``counts``) or h below the horizon."""
-        uv, J, h, shape = _arrays(uv, J, h)
+        uv, J, h, shape = pixel_arrays(uv, J, h)
         c = _cos_theta(h)
         p, _ = self.smooth_ndf.success_probability(c, self.R)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            slope = np.where(c[..., None] > 0, h[..., :2] / np.where(c > 0, h[..., 2], 1.0)[..., None], 0.0)
-        slope = np.clip(slope * self.angular_resolution, -1e9, 1e9)
+        slope = np.clip(angular_slope(h) * self.angular_resolution, -1e9, 1e9)
         counts = self.counter.count_image(uv, J, self.density, p, slope=slope, seed=seed)
-        P = np.abs(J[..., 0] * J[..., 3] - J[..., 1] * J[..., 2])
-        with np.errstate(invalid="ignore", divide="ignore"):
-            d = self.smooth_ndf.D_normal / self.R * counts.K / (self.density * P)
+        d = self.d_p(counts.K, footprint_area(J), self.R)
         return np.where((counts.status == 0) & (c > 0), d, 0.0)
 
     def reference(self, uv, J, h, seed: int = 0):
@@ -197,6 +507,8 @@ class DB23(GlintyNDF):
 
 GLINTY_NDFS.register("kpt25", KPT25)
 GLINTY_NDFS.register("db23", DB23)
+GLINTY_NDFS.register("smooth", SmoothNDF)
+GLINTY_NDFS.register("facets", FacetNDF)
 
 
 def glinty_ndfs() -> list[str]:
@@ -207,9 +519,99 @@ def glinty_ndfs() -> list[str]:
 def glinty_ndf(name: str, **params) -> GlintyNDF:
     """``gl.glinty_ndf("kpt25", density=..., target="beckmann", alpha=0.5, alpha_star=0.02, k=4)`` or
     ``gl.glinty_ndf("db23", density=N, target=..., alpha=..., scheme="db23_trilinear", inner="binomial")``:
-    see :class:`KPT25` and :class:`DB23`. Unknown names and parameters raise ValueError."""
+    see :class:`KPT25` and :class:`DB23` (and :class:`SmoothNDF`, :class:`FacetNDF`). Unknown names and
+    parameters raise ValueError."""
     cls = GLINTY_NDFS.get(name)
     try:
         return cls(**params)
     except TypeError as e:  # an unknown keyword
         raise ValueError(f"glinty_ndf {name!r}: {e}") from None
+
+
+# --------------------------------------------------------------------------------------------------
+# The one registry of image methods: name -> (label, factory material -> GlintyNDF)
+
+ANGULAR_TEXEL = 0.05  # slope units: the angular life span of a glint (docs/math/glint_images.md#glint-angular)
+
+
+@dataclass(frozen=True)
+class Material:
+    """What an image method needs of a scene's material: facet density N (per unit texture area), the
+    target NDF (``target``, ``alpha``), DB23's ratio R and the angular texel size (slope units)."""
+    density: float
+    target: str
+    alpha: float
+    R: float
+    angular_texel: float = ANGULAR_TEXEL
+
+    @classmethod
+    def of(cls, scene, angular_texel: float = ANGULAR_TEXEL) -> "Material":
+        """The material of ``scene`` (its JSON ``material``)."""
+        m = scene.spec["material"]
+        return cls(float(m["density"]), m["ndf"], float(m["alpha"]), float(m["R"]),
+                   V.real("angular_texel", angular_texel))
+
+
+@dataclass(frozen=True)
+class ImageMethod:
+    """A registered image method: ``factory(material)`` returns a :class:`GlintyNDF` (or any object with
+    ``evaluate(uv, J, h, seed)``); ``label`` is the figure's name for it; ``truth`` marks the ground
+    truth; ``returns`` is "ndf" (an NDF value per pixel) or "intensity" (a method shader's output)."""
+    name: str
+    label: str
+    factory: Callable
+    truth: bool = False
+    returns: str = "ndf"
+
+
+IMAGE_METHODS: Registry = Registry("image method")
+
+
+def register_image_method(name: str, factory: Callable, label: str | None = None, truth: bool = False,
+                          replace: bool = False, returns: str = "ndf") -> ImageMethod:
+    """Adds an image method: ``factory(material)`` -> a glinty NDF; returns its entry."""
+    if not callable(factory):
+        V.fail("factory", factory, "a callable material -> evaluator")
+    if returns not in ("ndf", "intensity"):
+        V.fail("returns", returns, "'ndf' or 'intensity'")
+    return IMAGE_METHODS.register(name, ImageMethod(name, label or name, factory, truth, returns), replace=replace)
+
+
+def image_methods(returns: str | None = None) -> list[str]:
+    """Names of every registered image method, built-in and registered (``gl.image_methods()``); with
+    ``returns`` ("ndf" or "intensity") only those of that kind."""
+    if returns is None:
+        return IMAGE_METHODS.names()
+    if returns not in ("ndf", "intensity"):
+        V.fail("returns", returns, "None, 'ndf' or 'intensity'")
+    return [n for n in IMAGE_METHODS.names() if IMAGE_METHODS.get(n).returns == returns]
+
+
+def make_method(name: str, material: Material):
+    """The evaluator (a glinty NDF) of image method ``name`` for ``material``."""
+    return IMAGE_METHODS.get(name).factory(material)
+
+
+def _counted(scheme, inner):
+    # DB23's D_P (glinty_ndf "db23") on the scheme's counts, with the scene's angular texel.
+    return lambda m: glinty_ndf("db23", density=m.density, target=m.target, alpha=m.alpha, scheme=scheme, inner=inner,
+                                R=m.R, angular_resolution=1.0 / m.angular_texel)
+
+
+register_image_method("truth", lambda m: FacetNDF(m.density, m.target, m.alpha, R=m.R, angular_texel=m.angular_texel),
+                      label="ground truth (facets)", truth=True)
+register_image_method("smooth", lambda m: SmoothNDF(m.target, m.alpha), label="smooth D(h)")
+for _scheme, _short in (("db23_trilinear", "DB23 tri"), ("db23_tetrahedral", "DB23 tet")):
+    for _inner in ("gated", "binomial", "head_cf"):
+        register_image_method(f"{_scheme}[{_inner}]", _counted(_scheme, _inner), label=f"{_short} {_inner}")
+# DB23's shader configuration: tetrahedral, log LOD, realizations blended over 3 simplex vertices x 4 angular
+# texels (48 evaluations): glints fade in and out instead of popping (docs/math/grids.md#grid-realizations).
+register_image_method("db23_shader_48[gated]", _counted("db23_shader_48", "gated"), label="DB23 shader 48 gated")
+register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16")
+# KPT25's constant-time NDF (Algorithm 1: k = 4 angular neighbours, eps = 0.1) over its own point
+# process, whose density is the scene's facet density (docs/math/glinty_ndf.md).
+register_image_method("kpt25", lambda m: glinty_ndf("kpt25", density=m.density, target=m.target, alpha=m.alpha,
+                                                    alpha_star=0.02, k=4, epsilon=0.1), label="KPT25")
+#: The built-in glinty-NDF image methods (the scene images' default list; method shaders registered
+#: later, WB16's among them, are listed by ``image_methods()`` but not rendered by default).
+BUILTIN_IMAGE_METHODS = tuple(IMAGE_METHODS.names())

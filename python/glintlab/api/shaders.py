@@ -61,14 +61,55 @@ def shipped_twin(name: str):
     return law(SHIPPED[name])
 
 
+def _utf8(name: str, text: str) -> str:
+    """``text`` as it will reach the compiler: a lone surrogate (from a file decoded with
+    errors="surrogateescape", or built by hand) cannot be UTF-8, so it is bad input, named here."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        v.fail(name, f"<text with {text[exc.start]!r} at character {exc.start}>",
+               "valid Unicode text (a lone surrogate cannot be encoded as UTF-8)")
+    return text
+
+
+def _decode(path: Path) -> str:
+    """A shader file's text. Files are UTF-8, a leading byte-order mark (Visual Studio's default) is
+    dropped; any other byte that is not UTF-8, even in a comment, is an error naming the file, the byte,
+    its offset and line, so that what compiles is never a guess at an encoding."""
+    data = path.read_bytes()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise ValueError(f"source = {str(path)!r} is invalid; byte 0x{data[exc.start]:02x} at offset {exc.start} "
+                         f"(line {line}) is not UTF-8; expected a UTF-8 file (save it as UTF-8)") from None
+    return text[1:] if text.startswith("\ufeff") else text
+
+
+def _is_path_text(text: str) -> bool:
+    """The rule that tells a path from code in a string: an existing file or folder is a path, and so
+    is a single line with none of ``( { ; }`` (every shader defining a function has them) that is not
+    a preprocessor line (``#include "count.hlsl"`` is code), whatever its extension, so a mistyped
+    file name is reported as missing and never compiled as code."""
+    if "\n" in text or "\0" in text or text.lstrip().startswith("#"):  # '#include "x.hlsl"' is code
+        return False
+    return not any(c in text for c in "({;}") or os.path.exists(text)
+
+
 def _read_source(source, language):
     """(code, source_name, language) from a path or from the code itself."""
-    if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and
-                                     (os.path.splitext(source)[1].lower() in _EXTENSIONS or os.path.isfile(source))):
+    if isinstance(source, str):
+        _utf8("source", source)
+    if isinstance(source, os.PathLike) or (isinstance(source, str) and source.strip() and _is_path_text(source)):
         path = Path(source)
+        if path.is_dir():
+            v.fail("source", str(source), "a shader file, not a folder")
         if not path.is_file():
             v.fail("source", str(source), "an existing shader file or the shader code as a string")
-        code = path.read_text(encoding="utf-8")
+        # A file name that is not UTF-8 (decoded by Python with surrogates) cannot name the file to
+        # the compiler, whose messages and #include resolution use it.
+        _utf8("source", str(path.resolve()))
+        code = _decode(path)
         if language is None:
             language = _EXTENSIONS.get(path.suffix.lower())
             if language is None:
@@ -76,7 +117,50 @@ def _read_source(source, language):
         return code, str(path.resolve()), language
     if not isinstance(source, str) or not source.strip():
         v.fail("source", source, "a shader file path or the shader code as a non-empty string")
-    return source, "<string>", language or "hlsl"
+    code = source[1:] if source.startswith("\ufeff") else source
+    return code, "<string>", language or "hlsl"
+
+
+def _define_value(key, value) -> str:
+    """A define's value as the compiler's text: True/False are 1/0 (as the C preprocessor reads them),
+    None or "" a define without a value (``#define NAME``), numbers and strings as written."""
+    if isinstance(value, (bool, np.bool_)):
+        return "1" if value else "0"
+    if value is None:
+        return ""
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        if not np.isfinite(value):
+            v.fail(f"defines[{key!r}]", value, "a finite number")
+        return repr(float(value))
+    if isinstance(value, str):
+        if "\n" in value or "\r" in value:
+            v.fail(f"defines[{key!r}]", value, "a value on one line")
+        return _utf8(f"defines[{key!r}]", value)
+    v.fail(f"defines[{key!r}]", value, "a string, a number, True/False or None (a define without a value)")
+
+
+def _device_request(device) -> str:
+    """``device`` as the runner's text: "auto", "gpu", "cpu", an index (int or digits) or part of a name."""
+    if isinstance(device, (int, np.integer)) and not isinstance(device, (bool, np.bool_)):
+        if device < 0:
+            v.fail("device", device, "a device index >= 0 (gl.vulkan_devices())")
+        return str(int(device))
+    if not isinstance(device, str) or not device.strip():
+        v.fail("device", device, "'auto', 'gpu', 'cpu', a device index or part of a device name")
+    return _utf8("device", device)
+
+
+class ShaderOutputError(ValueError):
+    """A shader returned a NaN, infinite or negative count (``sample`` and ``evaluate``): the shader is
+    faulty, not the caller's input, so a verdict counts it as a failed check (exit 1), not bad input."""
+
+
+# A call that could not start within its timeout because the device still ran an earlier kernel that
+# had passed its own timeout (a TimeoutError; this call's kernel never ran).
+ShaderDeviceBusy = _core.ShaderDeviceBusy
+LAVAPIPE_LOOP_CAP = 65535
 
 
 class ShaderLaw(CustomLaw):
@@ -91,9 +175,14 @@ class ShaderLaw(CustomLaw):
     def __init__(self, spec: dict):
         self._spec = dict(spec)
         s = self._spec
+        # A spec from a pickle carries the included files as they were at the first compile ("includes");
+        # a new law reads them from the disk and records them for its pickles.
+        sealed = [(path, content) for path, content in s.get("includes", ())]
         self._kernel = _core.ShaderKernel(s["code"], s["source_name"], s["entry"], s["language"], s["n_uniforms"],
                                           [(k, str(val)) for k, val in s["defines"]], list(s["include_dirs"]),
-                                          s["device"])
+                                          s["device"], sealed)
+        if "includes" not in s:
+            s["includes"] = [(path, bytes(content)) for path, content in self._kernel.included_files]
         super().__init__(self._run, s["n_uniforms"], s["name"], s["binning"])
 
     device = property(lambda self: self._kernel.device, doc="The Vulkan device's name.")
@@ -102,6 +191,22 @@ class ShaderLaw(CustomLaw):
     entry = property(lambda self: self._spec["entry"])
     source_name = property(lambda self: self._spec["source_name"])
     spirv = property(lambda self: self._kernel.spirv, doc="The SPIR-V the pipeline runs (bytes).")
+    included_files = property(lambda self: [path for path, _ in self._spec["includes"]],
+                              doc="The files #include'd at the first compile (their content travels in pickles).")
+    unbounded_loops = property(lambda self: self._kernel.unbounded_loops,
+                               doc="Loops of the SPIR-V whose trip count is not a known constant <= 65535.")
+
+    @property
+    def loop_caveat(self) -> str | None:
+        """Why results on this device may not be what a GPU computes, or None: lavapipe (llvmpipe) stops
+        every loop after 65535 iterations, and the shader has loops whose trip count is not shown to stay
+        below that (a SPIR-V inspection: a counter from a constant, a constant step, a constant bound)."""
+        loops = self.unbounded_loops
+        if not loops or not self.device.startswith("llvmpipe"):
+            return None
+        return (f"{loops} loop(s) of the shader have a trip count that is not a constant <= {LAVAPIPE_LOOP_CAP}, and "
+                f"lavapipe ({self.device}) stops every loop after {LAVAPIPE_LOOP_CAP} iterations: results on this "
+                "device are not what a GPU would compute where a loop runs longer")
 
     @property
     def identity(self) -> str:
@@ -131,11 +236,14 @@ class ShaderLaw(CustomLaw):
         nf = np.ascontiguousarray(nf, dtype=np.float64).reshape(-1)
         pf = np.ascontiguousarray(pf, dtype=np.float64).reshape(-1)
         out = self._run(nf, pf, np.ascontiguousarray(u, dtype=np.float64))
-        _require_finite(f"shader law {self._name!r}", out, nf, pf)
+        try:
+            _require_finite(f"shader law {self._name!r}", out, nf, pf)
+        except ValueError as exc:
+            raise ShaderOutputError(str(exc)) from None
         bad = out < 0
         if bad.any():
             i = int(np.argmax(bad))
-            raise ValueError(f"shader law {self._name!r} returned {out[i]} at row {i} (n = {nf[i % nf.size]}, "
+            raise ShaderOutputError(f"shader law {self._name!r} returned {out[i]} at row {i} (n = {nf[i % nf.size]}, "
                              f"p = {pf[i % pf.size]}); counts must be >= 0")
         if out.shape != (m,):
             raise ValueError(f"shader law {self._name!r} returned shape {out.shape}; expected ({m},)")
@@ -154,20 +262,25 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
                binning: str = "round", timeout: float = DEFAULT_TIMEOUT_S, register: bool = True) -> ShaderLaw:
     """A counting law computed by a shader function, compiled by shaderc and run by Vulkan.
 
-    ``source``: a file path (``.hlsl``, ``.glsl``, ...) or the code as a string. The code defines
-    ``float <entry>(float n, float p, float4 u)`` (GLSL: ``vec4 u``) and may ``#include`` files next
-    to it or in ``include_dirs``; ``defines`` ({"NAME": value}) are passed as ``-D NAME=value``.
+    ``source``: a file path (``.hlsl``, ``.glsl``, ...) or the code as a string (a string on one line
+    without any of ``( { ; }`` is a path). Files are UTF-8 (a byte-order mark is dropped). The code
+    defines ``float <entry>(float n, float p, float4 u)`` (GLSL: ``vec4 u``) and may ``#include``
+    files next to it or in ``include_dirs``; ``defines`` ({"NAME": value}) are passed as
+    ``-D NAME=value`` (True/False as 1/0, None as a define without a value).
     ``language``: "hlsl" or "glsl" (default: from the extension; "hlsl" for code in a string).
     ``n_uniforms``: 0 to 4. ``device``: "auto" (a GPU when there is one, else lavapipe), "gpu", "cpu",
-    a device index or part of its name (``vulkan_devices()``). ``binning``: "round" (default: real
+    a device index (int or digits) or part of its name (``vulkan_devices()``). ``binning``: "round" (default: real
     outputs, round half up, as the built-in real-valued laws) or "none" (the shader returns integer
-    counts). ``timeout``: seconds a submission may run before a ``TimeoutError``.
+    counts). ``timeout``: seconds a submission may run before a ``TimeoutError`` (``ShaderDeviceBusy``,
+    a ``TimeoutError`` too, when it waited that long behind an earlier kernel that had timed out).
 
     Unless ``register`` is False, the law is registered as a custom law under ``name`` (default: the
     file's name, e.g. "gated.hlsl", or "shader"), so
     experiments, sweeps and bounds can name it. A shader that does not compile raises ``ValueError``
-    with the compiler's messages (file:line); no Vulkan device raises ``RuntimeError`` naming the
-    package to install.
+    with the compiler's messages (file:line), as does one reading a resource glintlab does not bind
+    (its own buffer, a cbuffer, a texture) and an ``#include`` cycle; no Vulkan device raises
+    ``RuntimeError`` naming the package to install. A NaN, infinite or negative count from ``sample``
+    or ``evaluate`` raises ``ShaderOutputError`` (a ``ValueError``).
     """
     if language is not None and language not in LANGUAGES:
         v.fail("language", language, "'hlsl' or 'glsl'")
@@ -180,24 +293,25 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
         name = Path(source_name).name if source_name != "<string>" else "shader"
     if not isinstance(name, str) or not name:
         v.fail("name", name, "a non-empty string")
+    _utf8("name", name)
     if name in {n for n, _ in _core.law_infos()}:
         v.fail("name", name, "a name that no built-in law uses")
     defines = dict(defines or {})
     for key in defines:
         if not isinstance(key, str) or not key.isidentifier():
             v.fail("defines", key, "macro names that are identifiers")
-    if isinstance(include_dirs, (str, Path)):
+    define_list = sorted((k, _define_value(k, val)) for k, val in defines.items())
+    if isinstance(include_dirs, (str, os.PathLike)):
         include_dirs = [include_dirs]
+    include_dirs = [_utf8("include_dirs", os.fspath(d)) for d in include_dirs]
     if binning not in BINNINGS:
         v.fail("binning", binning, "'round' (real outputs, unit bins) or 'none' (integer counts)")
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not (0 < timeout < float("inf")):
         v.fail("timeout", timeout, "a number of seconds > 0")
-    if not isinstance(device, str):
-        v.fail("device", device, "'auto', 'gpu', 'cpu', a device index or part of a device name")
+    device = _device_request(device)
     spec = {"code": code, "source_name": source_name, "entry": entry, "language": language,
-            "n_uniforms": int(n_uniforms), "name": name,
-            "defines": sorted((k, "1" if val is True else str(val)) for k, val in defines.items()),
-            "include_dirs": [str(d) for d in include_dirs], "device": device, "binning": binning,
+            "n_uniforms": int(n_uniforms), "name": name, "defines": define_list,
+            "include_dirs": include_dirs, "device": device, "binning": binning,
             "timeout": float(timeout)}
     law_ = ShaderLaw(spec)
     if register:

@@ -16,12 +16,13 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from .._core import __version__
 from ..api.laws import law_summaries, parse_law_label
 from ..api.plugins import load_plugin
-from ..api.shaders import shader_law
+from ..api.shaders import ShaderOutputError, shader_law
 from ..report.config import load_config as load_report_config
 from ..report.html import write_extremes_report
 from ..report.runner import print_summary as print_report_summary
@@ -30,6 +31,8 @@ from ..report.sections import SECTIONS
 from ..resources import data_path
 from ..studies.aniso import write_report as write_aniso_report
 from ..studies.scene_images import write_images
+from ..api.method_shaders import shader_method
+from ..validation.scene_images import Material, frame_inputs, make_method, with_directional_light
 from ..studies.scenes import write_profiles
 from ..studies.shaders import write_verdict
 from ..studies.speed_accuracy import write_bench
@@ -280,18 +283,36 @@ def _cmd_extremes(args) -> int:
     return 1 if (failures and args.strict) else 0
 
 
+def _count_arg(text: str) -> int:
+    """A count flag (--samples 1e6, 100000, 2.5e5): an integer, or a float in any notation whose value
+    is a whole number (as the help texts write the defaults)."""
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value == int(value)):
+        raise argparse.ArgumentTypeError(f"{text!r} is invalid; expected a whole number (1000000 or 1e6)")
+    return int(value)
+
+
 def _cmd_shader(args) -> int:
     _load_plugins(args.plugin)
     for flag in ("samples", "grid_samples", "grid_stride", "rows", "speed_evaluations"):
         if getattr(args, flag) < 1:
             raise ValueError(f"--{flag.replace('_', '-')} = {getattr(args, flag)} is invalid; expected an integer >= 1")
+    if not (args.timeout > 0 and math.isfinite(args.timeout)):
+        raise ValueError(f"--timeout = {args.timeout} is invalid; expected seconds > 0")
     defines = {}
     for item in args.define:
         key, sep, value = item.partition("=")
         defines[key] = value if sep else "1"
-    try:
-        law = shader_law(args.file, entry=args.entry, language=args.lang, n_uniforms=args.uniforms,
-                         defines=defines, include_dirs=args.include, device=args.device)
+    try:  # FILE is always a path, never code (a mistyped name is reported missing)
+        law = shader_law(Path(args.file), entry=args.entry, language=args.lang, n_uniforms=args.uniforms,
+                         defines=defines, include_dirs=args.include, device=args.device, timeout=args.timeout)
     except RuntimeError as exc:  # no Vulkan device: the environment, not the shader
         print(f"glintlab shader: {exc}", file=sys.stderr)
         return 2
@@ -303,10 +324,14 @@ def _cmd_shader(args) -> int:
                              grid_samples=args.grid_samples, grid_stride=args.grid_stride, seed=args.seed,
                              rows=args.rows, speed_evaluations=args.speed_evaluations)
     if args.bounds:
-        table = check(args.bounds, substitute={args.against: law, law.name: law}, progress=False)
-        verdict["tables"]["bounds"] = table
-        verdict["failures"] += [f"bound {r.id}: {r.metric} = {r.worst:.6g} at n = {r.at_n:g}, p = {r.at_p:g} "
-                                f"(bound {r.bound:.6g})" for r in table[~table.ok].itertuples()]
+        try:
+            table = check(args.bounds, substitute={args.against: law, law.name: law}, progress=False)
+        except ShaderOutputError as exc:  # the shader's NaN or negative count: a failed check
+            verdict["failures"].append(f"bounds: {exc}")
+        else:
+            verdict["tables"]["bounds"] = table
+            verdict["failures"] += [f"bound {r.id}: {r.metric} = {r.worst:.6g} at n = {r.at_n:g}, p = {r.at_p:g} "
+                                    f"(bound {r.bound:.6g})" for r in table[~table.ok].itertuples()]
     path = write_verdict(args.out, verdict, law, args.against, args.twin)
     if not args.quiet:
         _print_table(verdict["tables"]["points"], False)
@@ -316,8 +341,11 @@ def _cmd_shader(args) -> int:
         print(f"\nwrote {path}")
     for failure in verdict["failures"]:
         print(f"glintlab shader: FAIL {failure}", file=sys.stderr)
+    if verdict["caveat"]:
+        print(f"glintlab shader: NOTE not what a GPU would compute: {verdict['caveat']}", file=sys.stderr)
     if not args.quiet:
-        print("verdict: " + ("FAIL" if verdict["failures"] else f"pass (against {args.against})"))
+        print("verdict: " + ("FAIL" if verdict["failures"] else f"pass (against {args.against})") +
+              ("" if verdict["gpu_faithful"] else " (on lavapipe, not what a GPU would compute: see the note)"))
     return 1 if verdict["failures"] else 0
 
 
@@ -425,6 +453,10 @@ def _cmd_images(args) -> int:
     if args.methods:
         params["methods"] = args.methods
         params["animation_methods"] = args.methods
+    if args.method:
+        bad = _check_method_shaders(args, scenes, params)
+        if bad:
+            return bad
     t0 = time.perf_counter()
     paths, tables = write_images(scenes, args.out, seed=args.seed, **params)
     if not args.quiet:
@@ -433,6 +465,27 @@ def _cmd_images(args) -> int:
         _print_table(tables["scene_images_timing"], args.quiet)
         print(f"\nwrote {', '.join(str(p) for p in paths)} and CSV tables in {args.out} "
               f"({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def _check_method_shaders(args, scenes, params) -> int:
+    """``images --method FILE``: compiles each user method shader (a compile error is bad input, exit 2),
+    adds it to the methods (beside the truth and the smooth image unless --methods names others) and
+    checks that it returns finite values on the first frame of every scene (exit 1 otherwise)."""
+    names = []
+    for path in args.method:
+        names.append(shader_method(path).name)
+    base = args.methods or "truth,smooth"
+    params["methods"] = params["animation_methods"] = ",".join(dict.fromkeys(base.split(",") + names))
+    for sc in scenes:
+        small = with_directional_light(sc.scaled(args.scale, keep_n=True))
+        inp = frame_inputs(small)
+        for name in names:
+            vals = make_method(name, Material.of(small)).image(inp, seed=args.seed)[inp.hit]
+            if not np.isfinite(vals).all():
+                print(f"method {name}: non-finite values on {int((~np.isfinite(vals)).sum())} of {vals.size} "
+                      f"hit pixel values of scene {sc.name} (frame 0)", file=sys.stderr)
+                return 1
     return 0
 
 
@@ -513,7 +566,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--metrics", nargs="+", default=["tv", "mean_rel_err", "var_rel_err"],
                    help="tv chi2_distance hellinger kl js w1 ks mean_rel_err var_rel_err chi2_pvalue")
     p.add_argument("--reference", help="reference law (default: binomial)")
-    p.add_argument("--samples", type=int, help="draws per grid point (default: exact distributions)")
+    p.add_argument("--samples", type=_count_arg, help="draws per grid point (default: exact distributions)")
     p.add_argument("--seed", type=int, default=1, help="seed (default: 1)")
     p.add_argument("--name", default="sweep", help="experiment name (default: sweep)")
     common(p, None, store=True, out_help="out/sweeps/NAME, NAME from --name")
@@ -533,7 +586,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Times every law (or --laws) against numpy's binomial and measures its error "
                                    "against the exact binomial over the standard grid, in one run.")
     p.add_argument("--laws", nargs="+", help="laws as in sweep, Python laws FILE.py:FUNCTION included (default: every built-in approximate law and the binomial)")
-    p.add_argument("--samples", type=int, default=10**6, help="draws per timed call (default: 1e6)")
+    p.add_argument("--samples", type=_count_arg, default=10**6, help="draws per timed call (default: 1e6)")
     p.add_argument("--repeats", type=int, default=2, help="timed calls per point, best kept (default: 2)")
     p.add_argument("--seed", type=int, default=1)
     common(p, "out/bench")
@@ -544,7 +597,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "in [0, n], mean error, pmf mass; invalid inputs must raise clear errors. Writes "
                                    "extremes.html with failures highlighted.")
     p.add_argument("--laws", nargs="+", help="laws as in sweep, Python laws FILE.py:FUNCTION included (default: every registered law and blend)")
-    p.add_argument("--samples", type=int, default=4096, help="ordinary draws per point (default: 4096)")
+    p.add_argument("--samples", type=_count_arg, default=4096, help="ordinary draws per point (default: 4096)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--strict", action="store_true", help="exit 1 if any check fails")
     common(p, "out/extremes")
@@ -557,7 +610,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "DB23's Figure 9 points, a TV map over the standard grid, row-by-row agreement "
                                    "with --twin, the extremes suite, ns per evaluation. Exit 0: every check passes; "
                                    "1: one fails; 2: bad input (a compile error, an unknown law).")
-    p.add_argument("file", help="the shader source (.hlsl, .glsl, ...)")
+    p.add_argument("file", help="the shader source file (.hlsl, .glsl, ...; always a path, never code)")
     p.add_argument("--entry", default="count", help="the counting function (default: count)")
     p.add_argument("--lang", choices=["hlsl", "glsl"], help="the language (default: from the extension)")
     p.add_argument("--uniforms", type=int, default=2, help="uniforms the function reads, 0 to 4 (default: 2)")
@@ -567,11 +620,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-I", "--include", action="append", default=[], metavar="DIR", help="an include folder (repeatable)")
     p.add_argument("--device", default="auto", help="auto (default: a GPU if any, else lavapipe), gpu, cpu, an index or a name")
     p.add_argument("--bounds", metavar="B.json", help="also check these error bounds, the shader standing in for --against")
-    p.add_argument("--samples", type=int, default=10**6, help="draws per Figure 9 point (default: 1e6)")
-    p.add_argument("--grid-samples", type=int, default=4096, help="draws per standard-grid point (default: 4096)")
-    p.add_argument("--grid-stride", type=int, default=2, help="every k-th n and p of the standard grid (default: 2)")
-    p.add_argument("--rows", type=int, default=10**6, help="rows per point compared with --twin (default: 1e6)")
-    p.add_argument("--speed-evaluations", type=int, default=10**6, help="evaluations per timed call (default: 1e6)")
+    p.add_argument("--samples", type=_count_arg, default=10**6, help="draws per Figure 9 point (default: 1e6)")
+    p.add_argument("--grid-samples", type=_count_arg, default=4096, help="draws per standard-grid point (default: 4096)")
+    p.add_argument("--grid-stride", type=_count_arg, default=2, help="every k-th n and p of the standard grid (default: 2)")
+    p.add_argument("--rows", type=_count_arg, default=10**6, help="rows per point compared with --twin (default: 1e6)")
+    p.add_argument("--speed-evaluations", type=_count_arg, default=10**6,
+                   help="evaluations per timed call (default: 1e6)")
+    p.add_argument("--timeout", type=float, default=60.0, help="seconds a kernel submission may run (default: 60)")
     p.add_argument("--seed", type=int, default=1)
     common(p, "out/shader")
     p.set_defaults(func=_cmd_shader)
@@ -601,7 +656,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "truth over (n, r, phi, p): mean bias, variance ratio, TV, chi-square p; weight "
                                    "maps; a 1920 x 1080 image timed per scheme with its evaluation histogram.")
     p.add_argument("--full", action="store_true", help="the full grid (5 n, 14 r, 16 phi, p 0.1 and 0.5)")
-    p.add_argument("--samples", type=int, help="draws per point (default: 10000, 40000 with --full)")
+    p.add_argument("--samples", type=_count_arg, help="draws per point (default: 10000, 40000 with --full)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--no-image", action="store_true", help="skip the image timing")
     common(p, "out/aniso", plugins=False)
@@ -639,6 +694,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="facet density x this (default: 1/16, sparse glints; 1: the files' N)")
     p.add_argument("--tau", type=float, default=2.0, help="glint threshold in units of D(h) (default: 2)")
     p.add_argument("--methods", help="comma-separated image methods (default: all registered; must include truth)")
+    p.add_argument("--method", action="append", metavar="FILE.hlsl",
+                   help="your own method shader (float glint(GlintInput g), docs/guide/shaders.md), rendered "
+                        "beside the truth and the smooth image; repeatable")
     p.add_argument("--timing-scale", type=float, default=1.0,
                    help="resolution factor of the timed image of the first scene (default: 1, 1920 x 1080)")
     p.add_argument("--seed", type=int, default=1)

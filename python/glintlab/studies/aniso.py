@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from ..api import checks as V
-from ..api.grids import CONFIGS, IMAGE_CONFIGS, aniso_counter, configured_counter
+from ..api.grids import CONFIGS, IMAGE_CONFIGS, configured_counter
 from ..api.metrics import chi2_test, distance
 from ..api.spatial import Ellipse, ground_truth
 from ..validation.rows import row_seed, tv_noise
@@ -39,7 +39,10 @@ NAME = "aniso"
 TITLE = "Anisotropic grids against stratified facets in the ellipse (DB23 §5–6)"
 MEANING = ("DB23's trilinear grid conserves the count exactly, the tetrahedral one over-counts by up to 26 %, "
            "the shader's 48-evaluation blend cuts the variance to 1/5-1/3, and ZK16 widens beyond r = 16.")
-DEFAULTS = {"samples": 10_000, "image": True, "grid": "quick"}
+# The report times the image at 960 x 540 (a quarter of the pixels of `glintlab aniso` and `make bench`,
+# which time 1920 x 1080): ns per pixel and the evaluation histogram are per-pixel figures, and the
+# quarter-size frame covers the same range of footprint ratios (the plane and the field of view are the same).
+DEFAULTS = {"samples": 10_000, "image": True, "grid": "quick", "image_width": 960}
 QUICK = {"samples": 4000, "image": False, "grid": "small"}
 NOTEBOOK = "aniso_grids.ipynb"
 TABLE = {"aniso_summary": ["config", "law", "max_abs_mean_bias", "max_weight_bias", "var_ratio_min", "var_ratio_max",
@@ -254,7 +257,7 @@ def weight_bias_figure(maps: dict[str, pd.DataFrame]):
     return fig
 
 
-def evaluations_figure(hists: dict[str, pd.Series]):
+def evaluations_figure(hists: dict[str, pd.Series], size: str = "1920 x 1080"):
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, len(hists), figsize=(2.6 * len(hists), 2.6), squeeze=False, sharey=True)
     for ax, (label, h) in zip(axes[0], hists.items()):
@@ -263,7 +266,7 @@ def evaluations_figure(hists: dict[str, pd.Series]):
         ax.tick_params(axis="x", labelsize=6, rotation=90)
         ax.set_xlabel("evaluations per pixel", fontsize=8)
     axes[0, 0].set_ylabel("share of pixels", fontsize=8)
-    fig.suptitle("Per-pixel inner-law evaluations, 1920 x 1080 plane tilted 60°", fontsize=10)
+    fig.suptitle(f"Per-pixel inner-law evaluations, {size} plane tilted 60°", fontsize=10)
     fig.tight_layout()
     return fig
 
@@ -275,7 +278,8 @@ STATS_CONFIGS = ("db23_trilinear", "db23_tetrahedral", "zk16_aniso")
 def compute(params: dict, ctx: Context) -> Tables:
     if params["grid"] not in GRIDS:
         raise ValueError(f"grid = {params['grid']!r} is invalid; expected one of {', '.join(GRIDS)}")
-    res = study_tables(GRIDS[params["grid"]], params["samples"], ctx.seed, params["image"])
+    res = study_tables(GRIDS[params["grid"]], params["samples"], ctx.seed, params["image"],
+                       image_width=V.integer("image_width", params["image_width"], minimum=16))
     by = res["aniso_summary"].groupby("config")
     res.stats = {f"largest count bias, {c}": float(by.max_weight_bias.max()[c]) for c in STATS_CONFIGS
                  if c in by.groups}
@@ -285,18 +289,20 @@ def compute(params: dict, ctx: Context) -> Tables:
     return res
 
 
-def study_tables(grid: dict, samples: int, seed: int, image: bool, map_resolution: int = 80, progress=None) -> Tables:
+def study_tables(grid: dict, samples: int, seed: int, image: bool, map_resolution: int = 80, progress=None,
+                 image_width: int = 1920) -> Tables:
     """The study over ``grid`` (aniso_study; its summary aniso_summary), the weight maps and (``image``) the
-    1920 x 1080 image timing (aniso_image; evaluation histograms aniso_evaluations)."""
+    image timing at ``image_width`` x 9/16 of it (aniso_image; evaluation histograms aniso_evaluations)."""
     table = study(grid=grid, samples=samples, seed=seed, progress=progress)
     res = Tables({"aniso_summary": summary(table)}, extra={"aniso_study": table},
                  data={"weight_bias": weight_bias_map(resolution=map_resolution)})
     if image:
-        timing, hists = image_benchmark(seed=seed)
+        timing, hists = image_benchmark(image_width, image_width * 9 // 16, seed=seed)
         res.tables["aniso_image"] = timing
         res.extra["aniso_evaluations"] = pd.concat(
             [h.rename("pixels").reset_index().assign(config=label) for label, h in hists.items()], ignore_index=True)
         res.data["hists"] = hists
+        res.data["image_size"] = f"{image_width} x {image_width * 9 // 16}"
     return res
 
 
@@ -304,7 +310,7 @@ def figures(tables: Tables, ctx: Context) -> list:
     paths = [ctx.save(maps_figure(tables["aniso_study"]), "aniso_maps.png", 90),
              ctx.save(weight_bias_figure(tables["weight_bias"]), "aniso_weight_bias.png", 90)]
     if "hists" in tables:
-        paths.append(ctx.save(evaluations_figure(tables["hists"]), "aniso_evaluations.png", 90))
+        paths.append(ctx.save(evaluations_figure(tables["hists"], tables["image_size"]), "aniso_evaluations.png", 90))
     return paths
 
 
@@ -316,9 +322,9 @@ def write_report(out, full: bool = False, samples: int | None = None, seed: int 
         V.fail("samples", samples, "an integer >= 1 (draws per footprint)")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    res = study_tables(grid or (FULL_GRID if full else QUICK_GRID), (40_000 if full else 10_000) if samples is None else int(samples),
-                      seed,
-                       image, map_resolution=80 if not full else 160, progress=progress)
+    samples = (40_000 if full else 10_000) if samples is None else int(samples)
+    res = study_tables(grid or (FULL_GRID if full else QUICK_GRID), samples, seed, image,
+                       map_resolution=80 if not full else 160, progress=progress)
     paths = figures(res, Context(out, seed))
     written = {"aniso_study": res.extra["aniso_study"], **res.tables, **res.extra}
     for name, df in written.items():

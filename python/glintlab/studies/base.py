@@ -73,4 +73,3 @@ def support_window(d, mass: float = 1e-4):
     lo = d.support[np.searchsorted(c, mass / 2)]
     hi = d.support[min(np.searchsorted(c, 1 - mass / 2), len(c) - 1)]
     return lo, hi
-

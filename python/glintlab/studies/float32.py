@@ -6,7 +6,8 @@ mismatch rate estimates that probability (with a Clopper-Pearson 95% upper bound
 upward bias of a TV between two histograms. Breaks are counted per precision: non-finite K,
 K < 0, and K > ceil(n) (a count above the facets there are).
 
-`one_minus_p_pow_n` tabulates the other float32 trap of the numerical extremes (docs/math/extremes.md#extremes-pow): (1 - p)^n computed directly
+`one_minus_p_pow_n` tabulates the other float32 trap of the numerical extremes
+(docs/math/extremes.md#extremes-pow): (1 - p)^n computed directly
 (pow(1 - p, n), what the public shaders do) versus exp(n log1p(-p)), against an mpmath reference.
 
 The report's float32 section runs both for the laws of the speed/accuracy trade.

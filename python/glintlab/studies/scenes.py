@@ -96,7 +96,6 @@ def regime_figure(prof: SceneProfile, title_note: str = ""):
     axes[0, 1].set_title("(n, r): dashed = r 16 (ZK16 widens beyond)", fontsize=9)
     reg = prof.tables["regimes"].groupby("r_band")["share"].sum()
     axes[0, 2].bar(reg.index, reg.values, color="tab:blue")
-    nb = prof.tables["regimes"].groupby("n_band", sort=False)["share"].sum()
     axes[0, 2].set_title("share of pixels per r band", fontsize=9)
     axes[0, 2].tick_params(axis="x", labelsize=8)
     for ax, key, norm, lab in ((axes[1, 0], "n", LogNorm(), "n = N P"), (axes[1, 1], "p", None, "p = R D(h)/D(n)"),

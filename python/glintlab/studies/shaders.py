@@ -98,7 +98,7 @@ def write_verdict(out, verdict: dict, law, against: str, twin: str | None) -> Pa
     for ax, col, title in zip(axes, ("tv", "tv_floor"), (f"TV(shader, {against})", f"floor: TV({against} draws, {against})")):
         piv = grid.pivot(index="p", columns="n", values=col)
         im = ax.pcolormesh(piv.columns, piv.index, piv.to_numpy(), shading="nearest", vmin=0,
-                           vmax=max(grid.tv.max(), 1e-3))
+                           vmax=max(float(np.nan_to_num(grid.tv.max())), 1e-3))
         ax.set_xscale("log")
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("n")
@@ -109,7 +109,9 @@ def write_verdict(out, verdict: dict, law, against: str, twin: str | None) -> Pa
     speed = tables["speed"].iloc[0]
     summary = {"shader": law.source_name, "language": law.language, "entry": law.entry, "device": law.device,
                "against": against, "twin": twin, "passed": not verdict["failures"], "failures": verdict["failures"],
+               "gpu_faithful": verdict.get("gpu_faithful", True), "caveat": verdict.get("caveat"),
                "ns_per_evaluation": float(speed.shader_ns), "baseline": speed.baseline,
+               "baseline_precision": speed.get("baseline_precision", "float32"),
                "baseline_ns": float(speed.baseline_ns), "ratio": float(speed.ratio),
                "grid_tv_max": float(grid.tv.max()), "grid_tv_floor_max": float(grid.tv_floor.max())}
     if "rows" in tables:
@@ -120,6 +122,8 @@ def write_verdict(out, verdict: dict, law, against: str, twin: str | None) -> Pa
     lines = [f"# glintlab shader: {Path(law.source_name).name} ({law.language}, entry {law.entry})", "",
              f"Device: {law.device}. Verdict: **{'pass' if summary['passed'] else 'FAIL'}**.", ""]
     lines += [f"- {f}" for f in verdict["failures"]]
+    if summary["caveat"]:
+        lines += ["", f"**Not what a GPU would compute**: {summary['caveat']}."]
     lines += ["", f"## Against the exact pmf of {against} (Figure 9 points)", "",
               "| n | p | TV | chi2 | dof | p-value | pass |", "|---|---|---|---|---|---|---|"]
     lines += [f"| {r.n:g} | {r.p:g} | {r.tv:.4g} | {r.chi2:.4g} | {r.dof} | {r.pvalue:.3g} | {r.ok} |"
@@ -137,8 +141,8 @@ def write_verdict(out, verdict: dict, law, against: str, twin: str | None) -> Pa
     lines += [f"Extremes suite (float32): {int(ext.breaks.sum())} rows with NaN, inf, negative counts or errors; "
               f"{int((ext.above_n > 0).sum())} rows with counts above ceil(n), of {len(ext)}.", "",
               f"Speed: {speed.shader_ns:.3g} ns per evaluation on {law.device} (transfers included); "
-              f"{speed.baseline} in C++ float32: {speed.baseline_ns:.3g} ns; ratio {speed.ratio:.3g}.", ""]
+              f"{speed.baseline} in C++ {summary['baseline_precision']}: {speed.baseline_ns:.3g} ns; "
+              f"ratio {speed.ratio:.3g}.", ""]
     path = out / "verdict.md"
     path.write_text("\n".join(lines))
     return path
-

@@ -12,7 +12,6 @@ The test suite uses it to show that every bound of data/bounds/default.json can 
 """
 from __future__ import annotations
 
-import json
 import math
 import time
 import xml.etree.ElementTree as ET

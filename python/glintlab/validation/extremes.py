@@ -53,6 +53,7 @@ UNIFORM_SETS = ("ordinary", "corners", "half")
 CHECKS = ("nonfinite", "below_zero", "above_n", "error", "pmf_mass", "pmf_support")
 PMF_MASS_TOL = 1e-9
 
+
 def unbounded_laws() -> dict[str, str]:
     """Laws whose count has no upper bound by definition (the check K <= ceil(n) does not apply to
     them), with the reason each declares with its code (``support`` "unbounded"). A law that declares
@@ -63,6 +64,7 @@ def unbounded_laws() -> dict[str, str]:
         if traits["declared"] and traits["support"] == "unbounded":
             out[name] = traits["support_note"]
     return out
+
 
 # Blends are evaluated at footprints on the boundary between level 0 and level 1 (P = A_1 =
 # base_area * level_ratio) and one ulp either side: w -> 1 from below, w = 0 (P = A_1 is also w = 1

@@ -4,9 +4,12 @@
 A frame of a scene gives every pixel the three inputs a glinty NDF takes, computed once and shared by
 every method (:func:`frame_inputs`): the texture position ``uv`` (H, W, 2), the footprint Jacobian
 ``J`` (H, W, 4) (du/dx, dv/dx, du/dy, dv/dy) and the half vector ``h`` (H, W, 3) in the surface's
-tangent frame, with the mask of pixels that see the lit surface. An *image method* is registered by
-name in :data:`IMAGE_METHODS` as a factory ``material -> evaluator`` whose ``evaluate(uv, J, h, seed)``
-returns the NDF value per pixel; the image is that NDF term (times a constant, no shading model).
+tangent frame, with the mask of pixels that see the lit surface, and the world-space fields a method
+shader reads (position, shading frame, view and light vectors, ``GlintInput``). An *image method* is
+registered by name in the one registry :data:`IMAGE_METHODS` (``glintlab.api.glinty_ndf``) as a factory
+``material -> glinty NDF`` whose ``image(inputs, seed, frame)`` gives one frame's image: for the NDFs
+their ``evaluate(uv, J, h, seed)`` on the lit pixels (the NDF term times a constant, no shading model),
+for a method shader its own output.
 :func:`render_path` renders a camera path of sub-pixel pans and zoom steps (:func:`camera_path`) for
 several methods; :func:`flicker_metrics` compares each method's sequence with the ground truth's:
 temporal standard deviation and pops.
@@ -20,94 +23,22 @@ import copy
 import math
 import time
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 import pandas as pd
 
 from ..api import checks as V
-from ..api.glinty_ndf import glinty_ndf
-from ..api.image_ndfs import FacetNDF, SmoothNDF
-from ..api.registry import Registry
-from .scene import Scene, _unit
+from ..api.glinty_ndf import (ANGULAR_TEXEL, BUILTIN_IMAGE_METHODS, IMAGE_METHODS, ImageMethod, Material,  # noqa: F401
+                              SmoothNDF, image_methods, make_method, register_image_method)
+from .scene import SCENES_DIR, Scene, _unit, load_scene
 
-ANGULAR_TEXEL = 0.05  # slope units: the angular life span of a glint (docs/math/glint_images.md#glint-angular)
 TAU = 2.0             # a pixel shows a glint when its NDF value exceeds TAU x D(h) (docs/math/glint_images.md#glint-pops)
 
 
 # --------------------------------------------------------------------------------------------------
-# Materials and the registry of image methods
+# The image methods: one registry, in glintlab.api.glinty_ndf (re-exported here)
 
-@dataclass(frozen=True)
-class Material:
-    """What an image method needs of a scene's material: facet density N (per unit texture area), the
-    target NDF (``target``, ``alpha``), DB23's ratio R and the angular texel size (slope units)."""
-    density: float
-    target: str
-    alpha: float
-    R: float
-    angular_texel: float = ANGULAR_TEXEL
-
-    @classmethod
-    def of(cls, scene: Scene, angular_texel: float = ANGULAR_TEXEL) -> "Material":
-        """The material of ``scene`` (its JSON ``material``)."""
-        m = scene.spec["material"]
-        return cls(float(m["density"]), m["ndf"], float(m["alpha"]), float(m["R"]),
-                   V.real("angular_texel", angular_texel))
-
-
-@dataclass(frozen=True)
-class ImageMethod:
-    """A registered image method: ``factory(material)`` returns an object with ``evaluate(uv, J, h, seed)``;
-    ``label`` is the figure's name for it; ``truth`` marks the ground truth."""
-    name: str
-    label: str
-    factory: Callable
-    truth: bool = False
-
-
-IMAGE_METHODS: Registry = Registry("image method")
-
-
-def register_image_method(name: str, factory: Callable, label: str | None = None, truth: bool = False,
-                          replace: bool = False) -> ImageMethod:
-    """Adds an image method (see the module docstring); returns it."""
-    if not callable(factory):
-        V.fail("factory", factory, "a callable material -> evaluator")
-    return IMAGE_METHODS.register(name, ImageMethod(name, label or name, factory, truth), replace=replace)
-
-
-def image_methods() -> list[str]:
-    """Names of the registered image methods."""
-    return IMAGE_METHODS.names()
-
-
-def make_method(name: str, material: Material):
-    """The evaluator of method ``name`` for ``material``."""
-    return IMAGE_METHODS.get(name).factory(material)
-
-
-def _counted(scheme, inner):
-    # DB23's D_P (glinty_ndf "db23") on the scheme's counts, with the scene's angular texel.
-    return lambda m: glinty_ndf("db23", density=m.density, target=m.target, alpha=m.alpha, scheme=scheme, inner=inner,
-                                R=m.R, angular_resolution=1.0 / m.angular_texel)
-
-
-register_image_method("truth", lambda m: FacetNDF(m.density, m.target, m.alpha, R=m.R, angular_texel=m.angular_texel),
-                      label="ground truth (facets)", truth=True)
-register_image_method("smooth", lambda m: SmoothNDF(m.target, m.alpha), label="smooth D(h)")
-for _scheme, _short in (("db23_trilinear", "DB23 tri"), ("db23_tetrahedral", "DB23 tet")):
-    for _inner in ("gated", "binomial", "head_cf"):
-        register_image_method(f"{_scheme}[{_inner}]", _counted(_scheme, _inner), label=f"{_short} {_inner}")
-# DB23's shader configuration: tetrahedral, log LOD, realizations blended over 3 simplex vertices x 4 angular
-# texels (48 evaluations): glints fade in and out instead of popping (docs/math/grids.md#grid-realizations).
-register_image_method("db23_shader_48[gated]", _counted("db23_shader_48", "gated"), label="DB23 shader 48 gated")
-register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16")
-# KPT25's constant-time NDF (Algorithm 1: k = 4 angular neighbours, eps = 0.1) over its own point
-# process, whose density is the scene's facet density (docs/math/glinty_ndf.md).
-register_image_method("kpt25", lambda m: glinty_ndf("kpt25", density=m.density, target=m.target, alpha=m.alpha,
-                                                    alpha_star=0.02, k=4, epsilon=0.1), label="KPT25")
-DEFAULT_METHODS = tuple(IMAGE_METHODS.names())
+DEFAULT_METHODS = BUILTIN_IMAGE_METHODS
 
 
 # --------------------------------------------------------------------------------------------------
@@ -171,6 +102,17 @@ class FrameInputs:
     h: np.ndarray
     mask: np.ndarray
     seconds: float = 0.0
+    # World-space fields of a method shader's GlintInput (docs/math/glint_images.md#glint-contract):
+    # hit (H, W) the ray meets the surface; world_pos, n, t, b (shading frame), view (unnormalised,
+    # surface to camera), light (unit, surface to light), h_world (unit half vector), each (H, W, 3).
+    hit: np.ndarray | None = None
+    world_pos: np.ndarray | None = None
+    n: np.ndarray | None = None
+    t: np.ndarray | None = None
+    b: np.ndarray | None = None
+    view: np.ndarray | None = None
+    light: np.ndarray | None = None
+    h_world: np.ndarray | None = None
 
 
 def _tangent_frame(scene: Scene, tr) -> tuple:
@@ -200,8 +142,8 @@ def frame_inputs(scene: Scene) -> FrameInputs:
     y, x = np.mgrid[0:scene.height, 0:scene.width].astype(np.float64)
     tr = scene.trace(x + 0.5, y + 0.5)
     pos = tr["x"]
-    view = scene.position - pos
-    view /= np.linalg.norm(view, axis=-1, keepdims=True)
+    view_raw = scene.position - pos
+    view = view_raw / np.linalg.norm(view_raw, axis=-1, keepdims=True)
     light = scene.light
     if light["type"] == "point":
         lt = np.asarray(light["position"], float) - pos
@@ -217,15 +159,64 @@ def frame_inputs(scene: Scene) -> FrameInputs:
     lit = ((view * nb).sum(-1) > 0) & ((lt * nb).sum(-1) > 0) & (hl[..., 2] > 0)
     mask = tr["hit"] & lit & np.isfinite(J).all(-1) & (np.abs(det) > 0)
     hl = np.where(mask[..., None], hl, np.array([0.0, 0.0, 1.0]))
-    return FrameInputs(tr["uv"], J, hl, mask, time.perf_counter() - t0)
+    return FrameInputs(tr["uv"], J, hl, mask, time.perf_counter() - t0, hit=tr["hit"], world_pos=pos, n=nb, t=tb,
+                       b=bb, view=view_raw, light=np.ascontiguousarray(lt), h_world=h)
 
 
-def render(method, inputs: FrameInputs, seed: int = 0) -> np.ndarray:
-    """One method's image (H, W) of one frame: its ``evaluate`` on the masked pixels, 0 elsewhere."""
+def render(method, inputs: FrameInputs, seed: int = 0, frame: int = 0) -> np.ndarray:
+    """One method's image (H, W) of one frame: ``method.image`` (a glinty NDF: its ``evaluate`` on the
+    masked pixels, 0 elsewhere; a method shader: its output where the surface is hit). An evaluator
+    that is not a :class:`GlintyNDF` (only ``evaluate``) is rendered as the NDFs are."""
+    if hasattr(method, "image"):
+        return method.image(inputs, seed=seed, frame=frame)
     img = np.zeros(inputs.mask.shape)
     m = inputs.mask
     if m.any():
         img[m] = method.evaluate(inputs.uv[m], inputs.J[m], inputs.h[m], seed=seed)
+    return img
+
+
+def _scene_of(scene) -> Scene:
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, str) and "\n" not in scene and "{" not in scene:
+        named = SCENES_DIR / f"{scene}.json"
+        return load_scene(named if named.is_file() else scene)
+    return load_scene(scene)
+
+
+def render_image(method, scene, frame: int = 0, seed: int = 0, scale: float = 1.0, frames: int = 8,
+                 directional: bool = True) -> np.ndarray:
+    """``gl.render(method, scene, frame=0, seed=0, scale=1.0)``: one image method's image of frame
+    ``frame`` of the scene's camera path (:func:`camera_path` with ``frames`` frames, the scene lit by one
+    directional light unless ``directional`` is False), at ``scale`` times the resolution per side
+    (density scaled to keep the facets per pixel). ``method``: an image method's name
+    (``image_methods()``), or a glinty NDF / method shader object; ``scene``: a :class:`Scene`, a
+    shipped scene's name ("sphere", "plane_25", ...), a path or a JSON document. Returns (rows, columns)
+    or (rows, columns, 3) for a colour method shader; NaN where no surface is hit."""
+    scene = _scene_of(scene)
+    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
+        V.fail("frames", frames, "an integer >= 1")
+    if isinstance(frame, bool) or not isinstance(frame, (int, np.integer)) or not 0 <= frame < frames:
+        V.fail("frame", frame, f"an integer in [0, {frames - 1}] (frames = {frames})")
+    seed = V.seed(seed)
+    if scale != 1.0:
+        scene = scene.scaled(scale, keep_n=True)
+    if directional:
+        scene = with_directional_light(scene)
+    if isinstance(method, str):
+        evaluator = make_method(method, Material.of(scene))
+    elif isinstance(method, ImageMethod):
+        evaluator = method.factory(Material.of(scene))
+    elif hasattr(method, "image") or hasattr(method, "evaluate"):
+        evaluator = method
+    else:
+        V.fail("method", method, "an image method's name, an ImageMethod or a glinty NDF / method shader")
+    cam = camera_path(scene, max(int(frames), 2))[int(frame)]
+    inp = frame_inputs(cam)
+    img = render(evaluator, inp, seed, frame=int(frame)).astype(np.float64)
+    miss = ~inp.hit
+    img[miss] = np.nan
     return img
 
 
@@ -270,7 +261,7 @@ def render_path(scene: Scene, methods=DEFAULT_METHODS, frames: int = 8, pan_px: 
         target[k] = render(smooth, inp)
         for name, ev in evaluators.items():
             t0 = time.perf_counter()
-            images[name][k] = render(ev, inp, seed)
+            images[name][k] = render(ev, inp, seed, frame=k)
             seconds[name] += time.perf_counter() - t0
     return PathImages(scene.name, images, target, mask, seconds, t_in, mat)
 

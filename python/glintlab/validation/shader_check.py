@@ -16,6 +16,11 @@ Checks, in order (docs/guide/shaders.md):
 - ``speed``: ns per evaluation on the device, with the C++ twin (or ``against``) on the same rows as
   the named baseline, as a ratio.
 
+A shader returning NaN, inf or a negative count where a check samples it fails that check (the row
+carries the ``error``), as in the extremes suite: a faulty shader is a failed check, not bad input.
+On lavapipe, a shader with loops whose trip count is not a constant <= 65535 gets a ``caveat``: the
+device stops loops there, so the verdict is not what a GPU would compute (``gpu_faithful`` False).
+
 Exit of the verdict: 0 every check passes, 1 one fails (bad input raises ValueError: exit 2).
 """
 from __future__ import annotations
@@ -26,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from ..api.laws import law as get_law, uniforms
+from ..api.shaders import ShaderOutputError
 from ..api.metrics import chi2_test, distance, sidak_alpha
 from .._core import Distribution
 from .extremes import extremes_table, failed_checks
@@ -54,12 +60,17 @@ def point_table(law, against, points=VERDICT_POINTS, samples: int = 10**6, seed:
     per_test = sidak_alpha(alpha, len(points))
     rows = []
     for n, p in points:
-        x = law.bin(law.sample(n, p, size=samples, seed=seed))
         exact = against.pmf(n, p)
+        try:
+            x = law.bin(law.sample(n, p, size=samples, seed=seed))
+        except ShaderOutputError as exc:  # NaN, inf or a negative count: this check fails
+            rows.append(dict(n=n, p=p, samples=samples, tv=np.nan, chi2=np.nan, dof=0, pvalue=np.nan,
+                             threshold=per_test, ok=False, error=str(exc)))
+            continue
         r = chi2_test(x, exact)
         rows.append(dict(n=n, p=p, samples=samples, tv=distance(Distribution.empirical(x), exact, "tv"),
                          chi2=r.statistic, dof=r.dof, pvalue=r.pvalue, threshold=per_test,
-                         ok=bool(r.pvalue > per_test)))
+                         ok=bool(r.pvalue > per_test), error=""))
     return pd.DataFrame(rows)
 
 
@@ -72,10 +83,14 @@ def grid_table(law, against, samples: int = 4096, seed: int = 1, stride: int = 2
     for n in ns[::stride]:
         for p in ps[::stride]:
             exact = against.pmf(n, p)
-            x = law.bin(law.sample(n, p, size=samples, seed=seed))
             y = against.bin(against.sample(n, p, size=samples, seed=seed + 1))
-            rows.append(dict(n=float(n), p=float(p), tv=distance(Distribution.empirical(x), exact, "tv"),
-                             tv_floor=distance(Distribution.empirical(y), exact, "tv")))
+            try:
+                x = law.bin(law.sample(n, p, size=samples, seed=seed))
+                tv, error = distance(Distribution.empirical(x), exact, "tv"), ""
+            except ShaderOutputError as exc:
+                tv, error = np.nan, str(exc)
+            rows.append(dict(n=float(n), p=float(p), tv=tv,
+                             tv_floor=distance(Distribution.empirical(y), exact, "tv"), error=error))
     return pd.DataFrame(rows)
 
 
@@ -91,13 +106,18 @@ def row_table(law, twin, points=None, rows: int = 10**6, seed: int = 5) -> pd.Da
     u = uniforms(rows, law.n_uniforms, seed=seed)
     out = []
     for n, p in points:
-        k = law.evaluate(n, p, u)
         c = twin.evaluate(n, p, u, precision="float32")
+        try:
+            k = law.evaluate(n, p, u)
+        except ShaderOutputError as exc:
+            out.append(dict(n=n, p=p, rows=rows, raw_differ=np.nan, raw_max_dk=np.nan, binned_differ=np.nan,
+                            binned_max_dk=np.nan, ok=False, error=str(exc)))
+            continue
         kb, cb = law.bin(k), twin.bin(c)
         share = float(np.mean(kb != cb))
         big = float(np.abs(kb - cb).max())
         out.append(dict(n=n, p=p, rows=rows, raw_differ=float(np.mean(k != c)), raw_max_dk=float(np.abs(k - c).max()),
-                        binned_differ=share, binned_max_dk=big, ok=bool(share <= ROW_SHARE and big <= 1)))
+                        binned_differ=share, binned_max_dk=big, ok=bool(share <= ROW_SHARE and big <= 1), error=""))
     return pd.DataFrame(out)
 
 
@@ -112,11 +132,15 @@ def extremes_checks(law, samples: int = 256, seed: int = 1) -> pd.DataFrame:
 def speed_table(law, baseline, n=1000.0, p=0.002, evaluations: int = 10**6, repeats: int = 3) -> pd.DataFrame:
     """ns per evaluation of the shader on its device (transfers and the float32 conversion of the
     uniforms included) and of ``baseline`` (C++, float32, all threads) on the same rows, best of
-    ``repeats``; ``ratio`` = shader / baseline."""
+    ``repeats``; ``ratio`` = shader / baseline. A baseline without float32 arithmetic (the binomial,
+    poisson, zk16) runs in float64 (``baseline_precision``). The shader is timed by ``evaluate_raw``
+    (what it returns, unchecked), so a faulty shader is still timed."""
     law, baseline = _law(law), _law(baseline)
+    precision = "float32" if "float32" in baseline.precisions else "float64"
     u = uniforms(evaluations, law.n_uniforms, seed=9)
     ub = u if baseline.n_uniforms == law.n_uniforms else uniforms(evaluations, baseline.n_uniforms, seed=9)
-    law.evaluate(n, p, u[:1024])  # the first call pays for the device's start
+    shader = getattr(law, "evaluate_raw", law.evaluate)
+    shader(n, p, u[:1024])  # the first call pays for the device's start
 
     def best(fn):
         times = []
@@ -126,11 +150,11 @@ def speed_table(law, baseline, n=1000.0, p=0.002, evaluations: int = 10**6, repe
             times.append(time.perf_counter() - t0)
         return min(times) / evaluations * 1e9
 
-    shader_ns = best(lambda: law.evaluate(n, p, u))
-    base_ns = best(lambda: baseline.evaluate(n, p, ub, precision="float32"))
+    shader_ns = best(lambda: shader(n, p, u))
+    base_ns = best(lambda: baseline.evaluate(n, p, ub, precision=precision))
     return pd.DataFrame([dict(device=getattr(law, "device", ""), n=n, p=p, evaluations=evaluations,
-                              shader_ns=shader_ns, baseline=baseline.name, baseline_ns=base_ns,
-                              ratio=shader_ns / base_ns)])
+                              shader_ns=shader_ns, baseline=baseline.name, baseline_precision=precision,
+                              baseline_ns=base_ns, ratio=shader_ns / base_ns)])
 
 
 def shader_verdict(law, against="binomial", twin=None, samples: int = 10**6, grid_samples: int = 4096,
@@ -147,12 +171,21 @@ def shader_verdict(law, against="binomial", twin=None, samples: int = 10**6, gri
     tables["speed"] = speed_table(law, twin if twin is not None else against, evaluations=speed_evaluations)
     failures = []
     for r in tables["points"].itertuples():
-        if not r.ok:
+        if r.error:
+            failures.append(f"chi-square against {_law(against).name} at n = {r.n:g}, p = {r.p:g}: {r.error}")
+        elif not r.ok:
             failures.append(f"chi-square against {_law(against).name} at n = {r.n:g}, p = {r.p:g}: "
                             f"p-value {r.pvalue:.3g} <= {r.threshold:.3g} (TV {r.tv:.4f})")
+    grid_errors = tables["grid"][tables["grid"].error != ""]
+    if len(grid_errors):
+        r = grid_errors.iloc[0]
+        failures.append(f"grid: {len(grid_errors)} points where the shader returned invalid counts (first: "
+                        f"n = {r.n:g}, p = {r.p:g}: {r.error})")
     if "rows" in tables:
         for r in tables["rows"].itertuples():
-            if not r.ok:
+            if r.error:
+                failures.append(f"row by row against {_law(twin).name} at n = {r.n:g}, p = {r.p:g}: {r.error}")
+            elif not r.ok:
                 failures.append(f"row by row against {_law(twin).name} at n = {r.n:g}, p = {r.p:g}: "
                                 f"{r.binned_differ:.3g} of the rows differ, largest |dK| {r.binned_max_dk:g}")
     breaks = tables["extremes"][tables["extremes"].breaks]
@@ -160,4 +193,5 @@ def shader_verdict(law, against="binomial", twin=None, samples: int = 10**6, gri
         r = breaks.iloc[0]
         failures.append(f"extremes: {len(breaks)} rows with NaN, inf, negative counts or errors "
                         f"(first: n = {r.n:g}, p = {r.p:g}, uniforms {r.uniforms})")
-    return {"tables": tables, "failures": failures}
+    caveat = getattr(law, "loop_caveat", None)
+    return {"tables": tables, "failures": failures, "caveat": caveat, "gpu_faithful": caveat is None}

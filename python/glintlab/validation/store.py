@@ -91,10 +91,6 @@ class SweepStore:
             self._file.close()
 
 
-def row_key(row):
-    return (row["law"], float(row["n"]).hex(), float(row["p"]).hex())
-
-
 def row_key(row) -> tuple:
     """A row's identity in a store: (law label, n, p), floats exact (hex)."""
     return (row["law"], float(row["n"]).hex(), float(row["p"]).hex())

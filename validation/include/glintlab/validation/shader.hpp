@@ -30,6 +30,14 @@ class ShaderTimeout : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A call that could not start within its timeout because the device was still running an earlier
+// kernel that had passed its own timeout (Python: glintlab's ShaderDeviceBusy, a TimeoutError): this
+// call's kernel never ran.
+class ShaderDeviceBusy : public ShaderTimeout {
+ public:
+  using ShaderTimeout::ShaderTimeout;
+};
+
 // No usable Vulkan instance or device (Python: RuntimeError), naming the package to install.
 class NoVulkanDevice : public std::runtime_error {
  public:
@@ -58,6 +66,19 @@ struct KernelSpec {
   // "auto" (a GPU when there is one, else the CPU device), "gpu", "cpu", or a device index ("0") or
   // a substring of a device name.
   std::string device = "auto";
+  // When not empty, #include "x" is served from these (path as resolved, content) only, never from
+  // the disk: the files a kernel read when it was first compiled (Kernel::included_files), so that a
+  // pickled law compiles the same code anywhere, whatever happened to the files since.
+  std::vector<std::pair<std::string, std::string>> include_files;
+};
+
+// A resource a SPIR-V module declares: a variable in the UniformConstant (samplers, images),
+// Uniform (uniform or storage blocks), StorageBuffer or PushConstant storage class.
+struct SpirvResource {
+  std::string name;   // the variable's name, else its block's type name, else "%<id>"
+  std::string kind;   // "storage buffer", "uniform buffer", "push constant", "sampler or image"
+  int set = -1;       // DescriptorSet decoration (-1: none)
+  int binding = -1;   // Binding decoration (-1: none)
 };
 
 class Kernel {
@@ -65,6 +86,12 @@ class Kernel {
   // Compiles (or finds in the cache) and builds the pipeline. Throws std::invalid_argument with the
   // compiler's messages (file:line) for code that does not compile or lacks the expected entry.
   explicit Kernel(const KernelSpec& spec);
+  // A kernel with its own wrapper (method shaders, glintlab/validation/method_shader.hpp): `wrapper`
+  // replaces the counting-law wrapper (same bindings 0..3 and push constants) and `signature` names the
+  // entry's expected signature in compile errors. `allowed`: the wrapper's own resources (empty: those
+  // of wrapper_source); the SPIR-V may declare no other (require_resources).
+  Kernel(const KernelSpec& spec, const std::string& wrapper, const std::string& signature,
+         const std::vector<SpirvResource>& allowed = {});
   ~Kernel();
   Kernel(const Kernel&) = delete;
   Kernel& operator=(const Kernel&) = delete;
@@ -74,11 +101,21 @@ class Kernel {
   int n_uniforms() const;
   // The SPIR-V words the pipeline runs (for inspection and tests).
   const std::vector<std::uint32_t>& spirv() const;
+  // Every file #include'd while compiling, as (path as resolved, content), in the order first read.
+  const std::vector<std::pair<std::string, std::string>>& included_files() const;
+  // Loops of the SPIR-V whose trip count is not a known constant of at most 65535 (loop_report).
+  int unbounded_loops() const;
 
   // out[i] = entry(float(n[i]), float(p[i]), u_f32(row i)); n and p have size 1 (broadcast) or
   // count; u holds count rows of n_uniforms() uniforms. timeout_s bounds each submission.
   void run(const double* n, std::size_t n_size, const double* p, std::size_t p_size, const double* u,
            std::size_t count, float* out, double timeout_s) const;
+
+  // Raw rows, for kernels with their own wrapper: binding 0 holds count rows of in_stride 32-bit
+  // words, binding 3 receives count rows of out_stride floats; the push constants are (rows,
+  // in_stride, out_stride, 0); bindings 1 and 2 are one-word placeholders.
+  void run_rows(const float* in, std::size_t in_stride, std::size_t count, float* out, std::size_t out_stride,
+                double timeout_s) const;
 
   struct Impl;
 
@@ -89,5 +126,45 @@ class Kernel {
 // The wrapper kernel glintlab puts around the user's function (for the docs and for tests).
 std::string wrapper_source(const std::string& language, const std::string& entry,
                            const std::string& include_name);
+
+// ---------------------------------------------------------------- the compile path, piece by piece
+// Kernel's constructor is these steps in order; another contract (another wrapper, other bindings)
+// reuses them.
+
+// Checks the parts of a spec every contract shares (language, entry, n_uniforms, define names,
+// source name); throws std::invalid_argument naming the parameter.
+void validate_spec(const KernelSpec& spec);
+
+// The wrapper preprocessed (the user's code, its #includes and the defines expanded): the cache key.
+// `included`, when given, receives every included file (path as resolved, content). Throws
+// std::invalid_argument with the compiler's messages; an #include nested deeper than
+// kMaxIncludeDepth (a cycle: a.h -> b.h -> a.h) or more than kMaxIncludes in all is refused naming
+// the chain, within milliseconds (glslang itself would expand a cycle until memory runs out).
+constexpr int kMaxIncludeDepth = 32;
+constexpr int kMaxIncludes = 4096;
+std::string preprocess(const KernelSpec& spec, const std::string& wrapper,
+                       std::vector<std::pair<std::string, std::string>>* included = nullptr,
+                       const std::string& signature = "");
+
+// The wrapper compiled to SPIR-V (entry point `entry_point`). Throws as preprocess does (`signature`:
+// the entry's expected signature, for the message when the wrapper's call does not match).
+std::vector<std::uint32_t> compile_spirv(const KernelSpec& spec, const std::string& wrapper,
+                                         const std::string& entry_point, const std::string& signature = "");
+
+std::vector<SpirvResource> spirv_resources(const std::vector<std::uint32_t>& spirv);
+
+// Throws std::invalid_argument naming the first resource of `spirv` that is not in `allowed` (same
+// name, kind, set and binding): a resource the runner does not bind reads garbage or crashes the
+// driver (a descriptor set the pipeline layout lacks).
+void require_resources(const std::vector<std::uint32_t>& spirv, const std::vector<SpirvResource>& allowed,
+                       const std::string& source_name, const std::string& contract);
+
+// The resources of wrapper_source's kernel (both languages' names).
+std::vector<SpirvResource> wrapper_resources();
+
+// Loops (OpLoopMerge) whose trip count is not shown to be at most 65535 by the pattern
+// "phi from a constant, stepped by a constant, compared with a constant": lavapipe (llvmpipe) stops
+// every loop after 65535 iterations, so such a loop may compute something else there than on a GPU.
+int unbounded_loops(const std::vector<std::uint32_t>& spirv);
 
 }  // namespace glintlab::shader

@@ -1,0 +1,61 @@
+#!/usr/bin/env python3
+"""`make bench`: WB16's method shader (wb16.glsl, docs/math/glint_images.md#glint-wb16) over a 1920 x 1080
+frame on the Vulkan device (lavapipe without a GPU) against its numpy float32 twin on the same packed rows,
+and the per-frame inputs it reads (frame_inputs: Scene.trace, the shading frame; frame_rows: the packing).
+
+Prints seconds per frame (best of --repeats), the ratio shader / twin, the share of pixels where the two
+differ beyond the float32 allowance of the test, and the device's name. Exits 0 when measurements complete.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import glintlab as gl
+from glintlab.api import method_shaders as MS
+from glintlab.validation import scene_images as si
+from glintlab.validation.scene import load_scene
+from glintlab.resources import data_path
+
+
+def best(fn, repeats):
+    out, t = None, float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        t = min(t, time.perf_counter() - t0)
+    return out, t
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--scene", default="plane_25")
+    ap.add_argument("--scale", type=float, default=1.0, help="resolution factor per side (1: 1920 x 1080)")
+    ap.add_argument("--repeats", type=int, default=2)
+    args = ap.parse_args()
+    if not gl.vulkan_devices():
+        print("no Vulkan device: install mesa-vulkan-drivers")
+        return 0
+    sc = si.with_directional_light(load_scene(data_path("scenes", f"{args.scene}.json")).scaled(args.scale))
+    inp, t_in = best(lambda: si.frame_inputs(sc), 1)
+    (rows, _), t_pack = best(lambda: MS.frame_rows(inp, seed=1), args.repeats)
+    method = MS.wb16_method()
+    shader, t_sh = best(lambda: method.shade(rows), args.repeats)
+    twin, t_tw = best(lambda: MS.wb16_twin(rows, return_lookup=True), 1)
+    value, pos = twin
+    tol = 8 * np.spacing(np.abs(pos).max(axis=1)) * 2 / np.sqrt(1 - MS.WB16_DEFAULTS["WB16_SPARKLE_SIZE"])
+    beyond = ~(np.isnan(shader) & np.isnan(value)) & ~(np.abs(shader.astype(np.float64) - value) <= tol)
+    print(f"WB16 method shader on {method.device}, {args.scene} {sc.width} x {sc.height} ({rows.shape[0]} hit pixels)")
+    print(f"  frame_inputs (trace, shading frame)  {t_in:8.3f} s")
+    print(f"  frame_rows (packing 32 words/pixel)  {t_pack:8.3f} s")
+    print(f"  shader (transfers + kernel)          {t_sh:8.3f} s")
+    print(f"  numpy float32 twin                   {t_tw:8.3f} s   shader / twin = {t_sh / t_tw:.2f} (target <= 10)")
+    print(f"  pixels beyond the float32 allowance  {beyond.mean():.5%}")
+    print("PASS" if t_sh / t_tw <= 10 else "FAIL")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,60 @@
+// Method shaders (glintlab/validation/method_shader.hpp) as _core.MethodKernel: compiled once, run on
+// (rows, 32) uint32 input rows (float32 bits and integers, the GlintInput layout), returning (rows, 4)
+// float32. glintlab.api.method_shaders packs the rows and reads the files.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "bindings.hpp"
+#include "glintlab/validation/method_shader.hpp"
+
+namespace py = pybind11;
+
+namespace glintlab::bindings {
+
+namespace {
+// Its own Python type (ShaderKernel already binds shader::Kernel): a compiled method shader.
+struct MethodKernel {
+  std::shared_ptr<shader::Kernel> kernel;
+};
+}  // namespace
+
+void bind_method_shaders(py::module_& m) {
+  using Rows = py::array_t<std::uint32_t, py::array::c_style | py::array::forcecast>;
+  m.attr("METHOD_INPUT_WORDS") = shader::kMethodInputWords;
+  m.attr("METHOD_OUTPUT_WORDS") = shader::kMethodOutputWords;
+  m.def("method_wrapper_source", &shader::method_wrapper_source, py::arg("language"), py::arg("entry"),
+        py::arg("include_name"));
+  py::class_<MethodKernel>(m, "MethodKernel")
+      .def(py::init([](const std::string& source, const std::string& source_name, const std::string& entry,
+                       const std::string& language, const std::vector<std::pair<std::string, std::string>>& defines,
+                       const std::vector<std::string>& include_dirs, const std::string& device) {
+             shader::KernelSpec spec{source, source_name, entry, language, 0, defines, include_dirs, device, {}};
+             glintlab::bindings::LongCall release;
+             return MethodKernel{shader::method_kernel(spec)};
+           }),
+           py::arg("source"), py::arg("source_name"), py::arg("entry"), py::arg("language"), py::arg("defines"),
+           py::arg("include_dirs"), py::arg("device"))
+      .def_property_readonly("device", [](const MethodKernel& k) { return k.kernel->device_name(); })
+      .def_property_readonly("device_type", [](const MethodKernel& k) { return k.kernel->device_type(); })
+      .def_property_readonly("spirv", [](const MethodKernel& k) {
+             const auto& w = k.kernel->spirv();
+             return py::bytes(reinterpret_cast<const char*>(w.data()), w.size() * sizeof(std::uint32_t));
+           })
+      .def("run", [](const MethodKernel& k, const Rows& rows, double timeout) {
+             if (rows.ndim() != 2 || static_cast<std::size_t>(rows.shape(1)) != shader::kMethodInputWords)
+               throw std::invalid_argument("rows must have shape (count, " + std::to_string(shader::kMethodInputWords) + ")");
+             const auto count = static_cast<std::size_t>(rows.shape(0));
+             py::array_t<float> out({static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(shader::kMethodOutputWords)});
+             const auto* in = reinterpret_cast<const float*>(rows.data());
+             float* od = out.mutable_data();
+             {
+               glintlab::bindings::LongCall release;
+               shader::run_method(*k.kernel, in, count, od, timeout);
+             }
+             return out;
+           },
+           py::arg("rows"), py::arg("timeout"));
+}
+
+}  // namespace glintlab::bindings

@@ -1,0 +1,349 @@
+"""Whole glint methods written as shaders: one per-pixel function, run by glintlab over a frame's inputs
+(docs/math/glint_images.md#glint-contract).
+
+The contract a method shader meets is one function (HLSL; GLSL writes ``vec3``)::
+
+    float glint(GlintInput g)      or      float3 glint(GlintInput g)
+
+with ``GlintInput`` declared by the include file glintlab ships (``glintlab_method_hlsl.h`` /
+``glintlab_method_glsl.h`` in ``glintlab/data/shaders/``; the wrapper includes it before the method's
+code): ``world_pos``, ``uv``, ``J`` (du/dx, dv/dx, du/dy, dv/dy), ``n``, ``t``, ``b`` (shading frame),
+``view`` (unnormalised, surface to camera), ``light``, ``h``, ``pixel`` (column, row from the top left),
+``frame`` and ``seed``, every vector in world space and float32. The include also provides a hash and
+a hashed value noise (``glintlab_noise3``) standing in for a 3D noise texture.
+
+``shader_method(source)`` compiles the function inside glintlab's compute kernel with the shader-law
+runner (shaderc, Vulkan; lavapipe on the CPU) and registers it as an image method:
+``gl.render(method, scene)`` returns its image. WB16's sparkle shader (Code 2) ships as the image method
+``"wb16"`` with a numpy twin (:func:`wb16_twin`) that computes the same float32 arithmetic.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+from pathlib import Path
+
+import numpy as np
+
+from .. import _core
+from ..resources import data_path
+from . import checks as V
+from .glinty_ndf import BUILTIN_IMAGE_METHODS, IMAGE_METHODS, GlintyNDF, register_image_method
+from .shaders import DEFAULT_TIMEOUT_S, LANGUAGES, _read_source
+
+#: The fields of GlintInput in the order of the 32-word row the wrapper reads: (name, first word, words).
+GLINT_INPUT_FIELDS = (("world_pos", 0, 3), ("uv", 3, 2), ("J", 5, 4), ("n", 9, 3), ("t", 12, 3), ("b", 15, 3),
+                      ("view", 18, 3), ("light", 21, 3), ("h", 24, 3), ("pixel", 27, 2), ("frame", 29, 1),
+                      ("seed", 30, 1))
+_INTEGER_FIELDS = ("pixel", "frame", "seed")
+WB16_SHADER = "wb16.glsl"
+#: WB16's parameters (the shader's -D defaults; the paper gives no values).
+WB16_DEFAULTS = {"WB16_SPARKLE_SIZE": 0.9, "WB16_SPARKLE_DENSITY": 30.0, "WB16_VIEW_DEP": 1.0,
+                 "WB16_NOISE_AMOUNT": 1.0, "WB16_NOISE_DENSITY": 1.0, "WB16_UNIT": 10.0, "WB16_SHAPE": 0,
+                 "WB16_SHOPF_K": 3.0, "WB16_NOISE": 0, "WB16_ANISOTROPIC": 1, "WB16_KERNEL_SCALE": 1.0}
+
+
+def pack_inputs(m: int, **fields) -> np.ndarray:
+    """The (m, 32) uint32 rows of ``m`` pixels: every GlintInput field given by name (arrays of shape
+    (m, k) or broadcastable), floats converted to float32, ``pixel``, ``frame`` and ``seed`` as
+    unsigned integers. Missing fields are 0."""
+    rows = np.zeros((m, _core.METHOD_INPUT_WORDS), np.uint32)
+    known = {name: (lo, k) for name, lo, k in GLINT_INPUT_FIELDS}
+    for name, value in fields.items():
+        if name not in known:
+            V.fail("fields", name, f"GlintInput fields among {', '.join(known)}")
+        lo, k = known[name]
+        if name in _INTEGER_FIELDS:
+            a = np.asarray(value)
+            if a.size and (not np.issubdtype(a.dtype, np.integer) or a.min() < 0 or a.max() > 0xFFFFFFFF):
+                V.fail(name, value, "unsigned 32-bit integers")
+            rows[:, lo:lo + k] = np.broadcast_to(a.reshape((-1, k)) if a.ndim else a, (m, k)).astype(np.uint32)
+        else:
+            a = np.asarray(V.as_float_array(name, value), np.float32)
+            rows[:, lo:lo + k] = np.broadcast_to(a.reshape((-1, k)) if a.ndim else a, (m, k)).view(np.uint32)
+    return rows
+
+
+def unpack_inputs(rows: np.ndarray) -> dict:
+    """The GlintInput fields of packed rows, as the shader reads them (float32; uint32 integers)."""
+    out = {}
+    for name, lo, k in GLINT_INPUT_FIELDS:
+        w = np.ascontiguousarray(rows[:, lo:lo + k])
+        out[name] = w if name in _INTEGER_FIELDS else w.view(np.float32)
+    return out
+
+
+def frame_rows(inputs, seed: int = 0, frame: int = 0):
+    """(rows, mask): the packed rows of the pixels of one frame's inputs (``FrameInputs`` of the scene
+    images) where the surface is hit, and that (H, W) mask."""
+    hit = inputs.hit if inputs.hit is not None else inputs.mask
+    if inputs.world_pos is None:
+        V.fail("inputs", "frame inputs without world-space fields", "FrameInputs from frame_inputs(scene)")
+    row, col = np.nonzero(hit)
+    # One float32 block of the 27 float words, masked once (the fields in GLINT_INPUT_FIELDS order).
+    floats = np.concatenate([np.asarray(a, np.float32) for a in (inputs.world_pos, inputs.uv, inputs.J, inputs.n,
+                                                                 inputs.t, inputs.b, inputs.view, inputs.light,
+                                                                 inputs.h_world)], axis=-1)[hit]
+    rows = np.zeros((row.size, _core.METHOD_INPUT_WORDS), np.uint32)
+    rows[:, :27] = floats.view(np.uint32)
+    rows[:, 27], rows[:, 28] = col, row
+    rows[:, 29], rows[:, 30] = V.seed(frame), V.seed(seed)
+    return rows, hit
+
+
+class ShaderMethod(GlintyNDF):
+    """An image method computed by a shader function per pixel (see :func:`shader_method`). Its
+    ``image(inputs, seed, frame)`` runs the shader on every pixel that sees the surface (0 elsewhere);
+    ``run(rows)`` on packed rows (:func:`pack_inputs`) returns the raw (m, 4) output."""
+
+    returns = "intensity"
+
+    def __init__(self, spec: dict):
+        self._spec = dict(spec)
+        s = self._spec
+        self.name = s["name"]
+        self.params = {"source": s["source_name"], "entry": s["entry"], "language": s["language"],
+                       **dict(s["defines"])}
+        self.target, self.alpha, self.density = None, None, None
+        self._kernel = _core.MethodKernel(s["code"], s["source_name"], s["entry"], s["language"],
+                                          [(k, str(val)) for k, val in s["defines"]], list(s["include_dirs"]),
+                                          s["device"])
+
+    device = property(lambda self: self._kernel.device, doc="The Vulkan device's name.")
+    language = property(lambda self: self._spec["language"])
+    spirv = property(lambda self: self._kernel.spirv, doc="The SPIR-V the pipeline runs (bytes).")
+
+    @property
+    def identity(self) -> str:
+        """``method_shader:<sha256 of the SPIR-V and the device>:<name>``."""
+        return f"method_shader:{hashlib.sha256(self._kernel.spirv + self.device.encode()).hexdigest()[:16]}:{self.name}"
+
+    def __repr__(self):
+        return f"ShaderMethod({self.name!r}, {self.language}, device={self.device!r})"
+
+    def __reduce__(self):  # the code travels by value
+        return (ShaderMethod, (self._spec,))
+
+    def smooth(self, h):
+        raise NotImplementedError(f"method shader {self.name!r} returns an intensity: it has no smooth target")
+
+    def run(self, rows) -> np.ndarray:
+        """The shader on packed rows (m, 32) uint32: (m, 4) float32, (r, g, b, channels)."""
+        rows = np.ascontiguousarray(rows, dtype=np.uint32)
+        if rows.ndim != 2 or rows.shape[1] != _core.METHOD_INPUT_WORDS:
+            V.fail("rows", f"an array of shape {rows.shape}", f"an array of shape (m, {_core.METHOD_INPUT_WORDS})")
+        return self._kernel.run(rows, self._spec["timeout"])
+
+    def shade(self, rows) -> np.ndarray:
+        """The shader's values per row: (m,) for a float method, (m, 3) for a colour one."""
+        out = self.run(rows)
+        return out[:, 0] if out.shape[0] == 0 or out[0, 3] == 1.0 else out[:, :3]
+
+    def image(self, inputs, seed: int = 0, frame: int = 0) -> np.ndarray:
+        """One frame's image: (H, W), or (H, W, 3) for a colour method, the shader's output where the
+        surface is hit, 0 elsewhere."""
+        rows, hit = frame_rows(inputs, seed, frame)
+        out = self.run(rows)
+        colour = out.shape[0] > 0 and out[0, 3] == 3.0
+        img = np.zeros(hit.shape + ((3,) if colour else ()))
+        img[hit] = out[:, :3] if colour else out[:, 0]
+        return img
+
+
+def shader_method(source, language: str | None = None, entry: str = "glint", name: str | None = None,
+                  defines: dict | None = None, include_dirs=(), device: str = "auto",
+                  timeout: float = DEFAULT_TIMEOUT_S, register: bool = True) -> ShaderMethod:
+    """A whole glint method written as a shader function, compiled and run by Vulkan.
+
+    ``source``: a file path (``.hlsl``, ``.glsl``, ...) or the code as a string, defining
+    ``float <entry>(GlintInput g)`` (or float3 / vec3). ``language``: "hlsl" or "glsl" (default: from
+    the extension; "hlsl" for code in a string). ``defines`` ({"NAME": value}) are passed as
+    ``-D NAME=value``; ``include_dirs`` are searched after the file's folder and glintlab's shader
+    folder. Unless ``register`` is False the method is registered as the image method ``name``
+    (default: the file's stem, or "shader_method"), replacing an earlier method shader of that name
+    (never a built-in method). A shader that does not compile raises ``ValueError`` with the compiler's
+    messages (file:line); no Vulkan device raises ``RuntimeError``."""
+    if language is not None and language not in LANGUAGES:
+        V.fail("language", language, "'hlsl' or 'glsl'")
+    code, source_name, language = _read_source(source, language)
+    if not isinstance(entry, str) or not entry.isidentifier():
+        V.fail("entry", entry, "a function name")
+    if name is None:
+        name = Path(source_name).stem if source_name != "<string>" else "shader_method"
+    if not isinstance(name, str) or not name:
+        V.fail("name", name, "a non-empty string")
+    if name in BUILTIN_IMAGE_METHODS or (name in IMAGE_METHODS and IMAGE_METHODS.get(name).returns != "intensity"):
+        V.fail("name", name, "a name that no built-in image method uses")
+    defines = dict(defines or {})
+    for key in defines:
+        if not isinstance(key, str) or not key.isidentifier():
+            V.fail("defines", key, "macro names that are identifiers")
+    if isinstance(include_dirs, (str, Path)):
+        include_dirs = [include_dirs]
+    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not (0 < timeout < float("inf")):
+        V.fail("timeout", timeout, "a number of seconds > 0")
+    if not isinstance(device, str):
+        V.fail("device", device, "'auto', 'gpu', 'cpu', a device index or part of a device name")
+    spec = {"code": code, "source_name": source_name, "entry": entry, "language": language, "name": name,
+            "defines": sorted((k, "1" if val is True else str(val)) for k, val in defines.items()),
+            "include_dirs": [str(d) for d in include_dirs] + [str(data_path("shaders"))], "device": device,
+            "timeout": float(timeout)}
+    method = ShaderMethod(spec)
+    if register:
+        register_image_method(name, lambda m, method=method: method, label=name, replace=True, returns="intensity")
+    return method
+
+
+# --------------------------------------------------------------------------------------------------
+# WB16's sparkle shader (Code 2) and its numpy twin
+
+def wb16_shader() -> Path:
+    """The path of the shipped WB16 method shader (GLSL)."""
+    return Path(data_path("shaders", WB16_SHADER))
+
+
+@functools.lru_cache(maxsize=16)
+def _wb16(defines: tuple) -> ShaderMethod:
+    return shader_method(wb16_shader(), language="glsl", name="wb16", defines=dict(defines), register=False)
+
+
+_WB16_SWITCHES = ("WB16_SHAPE", "WB16_NOISE", "WB16_ANISOTROPIC")
+
+
+def wb16_method(**params) -> ShaderMethod:
+    """WB16's sparkle shader, compiled once per parameter set: ``params`` are its defines without the
+    ``WB16_`` prefix, lower case (``sparkle_size=0.9``, ``shape=1`` for Shopf's star, ``noise=1`` for
+    Shopf's lookup jitter, ...; ``WB16_DEFAULTS``)."""
+    defines = {}
+    for key, value in params.items():
+        macro = "WB16_" + str(key).upper()
+        if macro not in WB16_DEFAULTS:
+            V.fail(key, value, f"a WB16 parameter among {', '.join(k[5:].lower() for k in WB16_DEFAULTS)}")
+        if macro in _WB16_SWITCHES:
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value not in (0, 1):
+                V.fail(key, value, "0 or 1")
+            defines[macro] = int(value)
+        else:
+            defines[macro] = V.real(key, value)
+    return _wb16(tuple(sorted(defines.items())))
+
+
+def _f32(x):
+    return np.float32(x)
+
+
+def wb16_twin(rows, return_lookup: bool = False, **params):
+    """WB16's Code 2 in numpy float32, line for line as ``wb16.glsl`` computes it, on packed rows
+    (:func:`pack_inputs`; the shader reads the same float32 values). Returns (m,) float32, and with
+    ``return_lookup`` also the lookup positions ``pos`` (m, 3), whose float32 spacing bounds how far
+    the two may differ. They agree pixel by pixel except where a last-place difference of a
+    transcendental (log2, pow, sqrt) or of a fused multiply-add moves a value across a floor
+    (docs/math/glint_images.md#glint-wb16)."""
+    prm = dict(WB16_DEFAULTS)
+    for key, value in params.items():
+        macro = "WB16_" + str(key).upper()
+        if macro not in WB16_DEFAULTS:
+            V.fail(key, value, f"a WB16 parameter among {', '.join(k[5:].lower() for k in WB16_DEFAULTS)}")
+        prm[macro] = value
+    g = unpack_inputs(np.ascontiguousarray(rows, dtype=np.uint32))
+    f = _f32
+    unit = f(prm["WB16_UNIT"])
+    world_pos, view = g["world_pos"] * unit, g["view"] * unit
+    seed = g["seed"][:, 0]
+
+    def dot(a, b):
+        return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+    with np.errstate(all="ignore"):
+        z = np.sqrt(dot(view, view))
+        e = np.floor(np.log2(f(0.3) * z + f(3.0))) / f(0.3785116)
+        level_z = f(0.1) * np.power(f(1.3), e) - f(0.2)
+        level = f(0.12) / level_z
+        sparkle_dens = f(prm["WB16_SPARKLE_DENSITY"]) * level
+        noise_dens = f(prm["WB16_NOISE_DENSITY"]) * level
+        v = view / z[:, None]
+        view_new = v * level_z[:, None]
+        view_new = np.sign(view_new) * _fract(np.abs(view_new))
+        nv = view_new / np.sqrt(dot(view_new, view_new))[:, None]
+        pos = sparkle_dens[:, None] * world_pos + f(prm["WB16_VIEW_DEP"]) * nv
+        lookup_jitter = int(prm["WB16_NOISE"]) == 1
+        if lookup_jitter:
+            pos = pos + f(prm["WB16_NOISE_AMOUNT"]) * noise3(noise_dens[:, None] * world_pos, seed)
+        if int(prm["WB16_SHAPE"]) == 1:
+            p = _fract(pos)
+            p = p * (f(1.0) - p)
+            out = np.clip(f(1.0) - f(prm["WB16_SHOPF_K"]) * (p[:, 0] + p[:, 1] + p[:, 2]), f(0), f(1))
+            return (out, pos) if return_lookup else out
+        g_index = np.floor(pos)
+        P_c = g_index / sparkle_dens[:, None]
+        if lookup_jitter:
+            P_x = pos - g_index - f(0.5)
+        else:
+            noise = f(prm["WB16_NOISE_AMOUNT"]) * noise3(noise_dens[:, None] * P_c, seed)
+            P_x = pos - g_index + f(0.5) * _fract(noise + f(0.5)) - f(0.75)
+        if int(prm["WB16_ANISOTROPIC"]) == 1:
+            n = g["n"]
+            dotvn = dot(v, n)
+            ma = v - dotvn[:, None] * n
+            P_x_proj = dot(P_x, ma)[:, None] * ma
+            P_x = P_x + (np.abs(dotvn) - f(1.0))[:, None] * P_x_proj / dot(ma, ma)[:, None]
+        dist2 = dot(P_x, P_x)
+        thresh = (f(1.0) - f(prm["WB16_SPARKLE_SIZE"])) * f(prm["WB16_KERNEL_SCALE"])
+        # NaN compares false, as in the shader: NaN > thresh is false, so 1 - NaN / thresh = NaN.
+        out = np.where(dist2 > thresh, f(0.0), f(1.0) - dist2 / thresh).astype(np.float32)
+        return (out, pos) if return_lookup else out
+
+
+def _fract(x):
+    return x - np.floor(x)
+
+
+def _hash3(v):
+    """glintlab_hash3 on uint32 (m, 3) (wrapping arithmetic, as the shader's)."""
+    v = v * np.uint32(1664525) + np.uint32(1013904223)
+    x, y, z = v[:, 0].copy(), v[:, 1].copy(), v[:, 2].copy()
+    x += y * z
+    y += z * x
+    z += x * y
+    x ^= x >> np.uint32(16)
+    y ^= y >> np.uint32(16)
+    z ^= z >> np.uint32(16)
+    x += y * z
+    y += z * x
+    z += x * y
+    return np.stack([x, y, z], axis=1)
+
+
+_SEED_MIX = np.array([0x9E3779B9, 0x85EBCA6B, 0xC2B2AE35], np.uint32)
+
+
+def cell_values(cell, seed) -> np.ndarray:
+    """glintlab_cell_values: three values in [0, 1) (float32) per integer cell (m, 3) and seed (m,)."""
+    k = np.asarray(cell).astype(np.int64).astype(np.uint32) ^ (_SEED_MIX[None, :] * np.asarray(seed, np.uint32)[:, None])
+    return (_hash3(k) >> np.uint32(8)).astype(np.float32) * np.float32(1.0 / 16777216.0)
+
+
+def noise3(p, seed) -> np.ndarray:
+    """glintlab_noise3: the hashed value noise of the include file, float32 (m, 3)."""
+    f = _f32
+    x = p * f(128.0) - f(0.5)
+    i = np.floor(x)
+    fr = x - i
+    c = i.astype(np.int64)
+    v = {}
+    for dx in (0, 1):
+        for dy in (0, 1):
+            for dz in (0, 1):
+                v[dx, dy, dz] = cell_values((c + np.array([dx, dy, dz])) & 127, seed)
+    fx, fy, fz = fr[:, 0:1], fr[:, 1:2], fr[:, 2:3]
+    x00 = v[0, 0, 0] + (v[1, 0, 0] - v[0, 0, 0]) * fx
+    x10 = v[0, 1, 0] + (v[1, 1, 0] - v[0, 1, 0]) * fx
+    x01 = v[0, 0, 1] + (v[1, 0, 1] - v[0, 0, 1]) * fx
+    x11 = v[0, 1, 1] + (v[1, 1, 1] - v[0, 1, 1]) * fx
+    y0 = x00 + (x10 - x00) * fy
+    y1 = x01 + (x11 - x01) * fy
+    return y0 + (y1 - y0) * fz
+
+
+# WB16 is an image method like the others: compiled on first use (needs Vulkan), never by import.
+register_image_method("wb16", lambda m: wb16_method(), label="WB16 sparkles", returns="intensity")
