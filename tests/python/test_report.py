@@ -179,7 +179,7 @@ def test_readme_says_what_each_figure_means():
 def test_sections_are_the_discovered_studies():
     # Every study module of glintlab.studies is a section; the default configuration runs each once and
     # only names them (parameters and quick sizes live in the study modules).
-    assert len(SECTIONS) == 18
+    assert len(SECTIONS) == 19
     doc, _ = load_config(None)
     assert sorted(e["name"] for e in doc["sections"]) == sorted(SECTIONS.names())
     assert all(set(e) == {"name"} for e in doc["sections"])
