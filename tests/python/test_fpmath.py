@@ -136,3 +136,17 @@ def test_sphere_zoom_images_do_not_depend_on_call_order_or_threads():
     for m in names:
         assert np.array_equal(first.images[m], again.images[m]), m
     assert math.isfinite(first.images["kpt25"].sum()) and first.images["kpt25"].max() > 0
+
+
+@pytest.mark.parametrize("ufunc", [np.log2, np.power])
+def test_fpmath_float32_keeps_float32_and_its_bits(ufunc):
+    # The WB16 twin's float32 log2 / power (api.method_shaders): float32 in, float32 out, one result
+    # whether or not the output follows the input in memory.
+    x = np.random.default_rng(2).uniform(0.1, 10, 4000).astype(np.float32)
+    args = (x,) if ufunc is np.log2 else (np.float32(1.3), x)
+    ref = fpmath.call(ufunc, *args, dtype=np.float32)
+    assert ref.dtype == np.float32 and np.array_equal(ref, ufunc(*args))
+    strided = np.empty((4000, 3), np.float32)
+    strided[:, 1] = x
+    again = fpmath.call(ufunc, *(args[:-1] + (strided[:, 1],)), dtype=np.float32)
+    assert np.array_equal(again, ref)

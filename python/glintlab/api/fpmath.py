@@ -1,6 +1,7 @@
 """Transcendental functions whose float64 results do not depend on where the arrays sit in memory.
 
-Why: numpy's float64 ``exp``, ``log``, ``sin``, ``cos``, ``arctan``, ``arctan2`` (and others) have two
+Why: numpy's float64 ``exp``, ``log``, ``sin``, ``cos``, ``arctan``, ``arctan2`` (and others, float32 ``log2``
+and ``power`` among them) have two
 inner loops on a CPU with AVX-512: a vector one and the C library's scalar one, which differ in the
 last bit for a share of the inputs. Which one runs is decided per call by a memory-overlap test of
 the operands' address ranges, and that test also counts an output that starts exactly where an input
@@ -19,13 +20,14 @@ from __future__ import annotations
 import numpy as np
 
 
-def call(ufunc, *operands) -> np.ndarray:
-    """``ufunc(*operands)`` in float64 (broadcast), computed on private, separated buffers: see the
-    module's docstring. Returns a new float64 array (a 0-d array for scalars)."""
-    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in operands))
+def call(ufunc, *operands, dtype=np.float64) -> np.ndarray:
+    """``ufunc(*operands)`` in ``dtype`` (float64, or float32 for a float32 twin of a shader; operands
+    converted and broadcast), computed on private, separated buffers: see the module's docstring.
+    Returns a new array of ``dtype`` (0-d for scalars)."""
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=dtype) for a in operands))
     shape, n = arrays[0].shape, arrays[0].size
     stride = n + 1  # a free element after every operand
-    block = np.empty(stride * (len(arrays) + 1))
+    block = np.empty(stride * (len(arrays) + 1), dtype=dtype)
     views = [block[i * stride:i * stride + n] for i in range(len(arrays) + 1)]
     for v, a in zip(views, arrays):
         v[...] = a.reshape(-1)
