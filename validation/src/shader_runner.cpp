@@ -7,6 +7,7 @@
 #include <shaderc/shaderc.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +17,7 @@
 #include <functional>
 #include <map>
 #include <mutex>
+#include <set>
 #include <sstream>
 
 #include "glintlab/float32.hpp"
@@ -267,6 +269,141 @@ std::string read_file(const std::filesystem::path& path) {
   return strip_bom(s.str());
 }
 
+// A bound on macro expansion. glslang expands macros with no limit and cannot be interrupted:
+// `#define A1 A0 A0`, `#define A2 A1 A1`, ... `A40` asks for 2^40 tokens, and memory runs out before any
+// timeout could act (compilation runs in this process). Every file the compiler reads passes through
+// the Includer first (the user's file too: the wrapper includes it), so the #define lines of every
+// file, and the -D defines, are scanned before the preprocessor sees them, and a macro whose
+// replacement, fully expanded, would exceed kMaxMacroTokens tokens is refused by name. The bound
+// counts each replacement list's tokens with every macro in it replaced by its own bound; a
+// function-like macro's parameters count one token each, and a macro already on the expansion path
+// counts one (the preprocessor does not expand it again). Growth made at a call site by nesting calls
+// of a function-like macro that repeats its parameter, F(F(F(x))), is not bounded here.
+constexpr double kMaxMacroTokens = 4194304.0;  // 2^22 tokens: tens of MB of text
+
+class MacroBounds {
+ public:
+  // The #define lines of one source text (comments and line continuations removed first).
+  void add_source(const std::string& text) {
+    std::istringstream lines(strip_comments(text));
+    for (std::string line; std::getline(lines, line);) {
+      std::size_t i = line.find_first_not_of(" \t");
+      if (i == std::string::npos || line[i] != '#') continue;
+      i = line.find_first_not_of(" \t", i + 1);
+      if (i == std::string::npos || line.compare(i, 6, "define") != 0) continue;
+      i = line.find_first_not_of(" \t", i + 6);
+      if (i == std::string::npos || !ident_start(line[i])) continue;
+      std::size_t e = i;
+      while (e < line.size() && ident_char(line[e])) ++e;
+      const std::string name = line.substr(i, e - i);
+      std::set<std::string> params;
+      if (e < line.size() && line[e] == '(') {  // function-like: no space before the parenthesis
+        const std::size_t close = line.find(')', e);
+        const std::string list = line.substr(e + 1, (close == std::string::npos ? line.size() : close) - e - 1);
+        for (const auto& t : tokens(list)) params.insert(t);
+        e = close == std::string::npos ? line.size() : close + 1;
+      }
+      define(name, line.substr(e), std::move(params));
+    }
+  }
+  void define(const std::string& name, const std::string& body, std::set<std::string> params = {}) {
+    Macro m;
+    m.params = std::move(params);
+    for (const auto& t : tokens(body)) {
+      if (ident_start(t[0])) m.idents.push_back(t);
+      else m.other += 1;
+    }
+    macros_[name] = std::move(m);
+  }
+  // The first macro (in name order) whose bound exceeds kMaxMacroTokens, with its bound; "" if none.
+  std::string over(double& bound) const {
+    std::map<std::string, double> memo;
+    for (const auto& entry : macros_) {
+      std::set<std::string> open;
+      bound = size(entry.first, open, memo);
+      if (bound > kMaxMacroTokens) return entry.first;
+    }
+    return "";
+  }
+  std::string message(const std::string& where) const {
+    double bound = 0;
+    const std::string name = over(bound);
+    if (name.empty()) return "";
+    char n[32];
+    std::snprintf(n, sizeof n, "%.3g", bound);
+    return "macro " + name + " (" + where + ") expands to " + n + " tokens, more than " +
+           std::to_string(static_cast<long long>(kMaxMacroTokens)) +
+           " (each macro that repeats another multiplies its size: the compiler would run out of memory); "
+           "define it with fewer repetitions or as a function";
+  }
+
+ private:
+  struct Macro {
+    std::vector<std::string> idents;
+    double other = 0;
+    std::set<std::string> params;
+  };
+  static bool ident_start(char c) { return std::isalpha(static_cast<unsigned char>(c)) || c == '_'; }
+  static bool ident_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+  // Identifiers, numbers and string literals as one token each; any other character as one token
+  // (an over-count, on the safe side of the bound).
+  static std::vector<std::string> tokens(const std::string& s) {
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < s.size();) {
+      const char c = s[i];
+      std::size_t e = i + 1;
+      if (std::isspace(static_cast<unsigned char>(c))) { i = e; continue; }
+      if (ident_start(c) || std::isdigit(static_cast<unsigned char>(c)))
+        while (e < s.size() && (ident_char(s[e]) || s[e] == '.')) ++e;
+      else if (c == '"')
+        while (e < s.size() && s[e++] != '"') {}
+      out.push_back(s.substr(i, e - i));
+      i = e;
+    }
+    return out;
+  }
+  static std::string strip_comments(const std::string& text) {
+    std::string out;
+    out.reserve(text.size());
+    for (std::size_t i = 0; i < text.size(); ++i) {
+      if (text[i] == '\\' && i + 1 < text.size() && text[i + 1] == '\n') { ++i; continue; }
+      if (text[i] == '\\' && i + 2 < text.size() && text[i + 1] == '\r' && text[i + 2] == '\n') { i += 2; continue; }
+      if (text[i] == '/' && i + 1 < text.size() && text[i + 1] == '/') {
+        while (i < text.size() && text[i] != '\n') ++i;
+        if (i < text.size()) out += '\n';
+        continue;
+      }
+      if (text[i] == '/' && i + 1 < text.size() && text[i + 1] == '*') {
+        const std::size_t end = text.find("*/", i + 2);
+        const std::size_t stop = end == std::string::npos ? text.size() : end + 2;
+        out += ' ';
+        out.append(static_cast<std::size_t>(std::count(text.begin() + static_cast<std::ptrdiff_t>(i),
+                                                       text.begin() + static_cast<std::ptrdiff_t>(stop), '\n')),
+                   '\n');
+        i = stop - 1;
+        continue;
+      }
+      out += text[i];
+    }
+    return out;
+  }
+  double size(const std::string& name, std::set<std::string>& open, std::map<std::string, double>& memo) const {
+    const auto it = macros_.find(name);
+    if (it == macros_.end() || open.count(name)) return 1.0;
+    if (const auto m = memo.find(name); m != memo.end()) return m->second;
+    open.insert(name);
+    double s = it->second.other;
+    for (const auto& id : it->second.idents) {
+      s += it->second.params.count(id) ? 1.0 : size(id, open, memo);
+      if (s > 1e300) break;  // far past the bound: stop adding
+    }
+    open.erase(name);
+    memo[name] = s;
+    return s;
+  }
+  std::map<std::string, Macro> macros_;
+};
+
 // What the includes of one preprocess or compile have done so far. glslang reports the depth of each
 // #include it asks for (1: the user's file, included by the wrapper), so the open chain is exact
 // without relying on when it releases a file.
@@ -275,6 +412,8 @@ struct IncludeState {
   int count = 0;
   std::string failure;  // once an include limit is hit, every later #include fails with it (bounded work)
   std::vector<std::pair<std::string, std::string>>* included = nullptr;
+  MacroBounds macros;         // every #define seen so far (and the -D defines)
+  std::string macro_failure;  // set when a macro's expansion bound is exceeded (then nothing more is served)
 };
 
 std::string short_name(const std::string& path) {
@@ -335,6 +474,15 @@ class Includer final : public shaderc::CompileOptions::IncluderInterface {
         if (st.included && std::none_of(st.included->begin(), st.included->end(),
                                         [&](const auto& f) { return f.first == found; }))
           st.included->emplace_back(found, r->content);
+      }
+    }
+    if (!r->name.empty()) {
+      // Scan the file's macros before the preprocessor expands any of them (the bound above).
+      st.macros.add_source(r->content);
+      if (st.macro_failure.empty()) st.macro_failure = st.macros.message("defined by " + short_name(r->name) + " or before");
+      if (!st.macro_failure.empty()) {
+        r->name.clear();
+        r->content = st.macro_failure;
       }
     }
     if (!r->name.empty()) {
@@ -596,9 +744,13 @@ std::string preprocess(const KernelSpec& spec, const std::string& wrapper,
                        std::vector<std::pair<std::string, std::string>>* included, const std::string& signature) {
   auto state = std::make_shared<IncludeState>();
   state->included = included;
+  for (const auto& [name, value] : spec.defines) state->macros.define(name, value);
+  if (const std::string m = state->macros.message("a define"); !m.empty())
+    throw std::invalid_argument("shader " + spec.source_name + ": " + m);
   shaderc::Compiler compiler;
   auto pre = compiler.PreprocessGlsl(wrapper, shaderc_glsl_compute_shader, wrapper_name(spec.language).c_str(),
                                      options(spec, state));
+  if (!state->macro_failure.empty()) throw std::invalid_argument("shader " + spec.source_name + ": " + state->macro_failure);
   if (pre.GetCompilationStatus() != shaderc_compilation_status_success)
     compile_failure(spec, pre.GetErrorMessage(), signature);
   return std::string(pre.cbegin(), pre.cend());
