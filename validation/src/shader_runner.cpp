@@ -277,8 +277,9 @@ std::string read_file(const std::filesystem::path& path) {
 // replacement, fully expanded, would exceed kMaxMacroTokens tokens is refused by name. The bound
 // counts each replacement list's tokens with every macro in it replaced by its own bound; a
 // function-like macro's parameters count one token each, and a macro already on the expansion path
-// counts one (the preprocessor does not expand it again). Growth made at a call site by nesting calls
-// of a function-like macro that repeats its parameter, F(F(F(x))), is not bounded here.
+// counts one (the preprocessor does not expand it again); inside the parentheses of a call of a
+// function-like macro every token counts as many times as the macro repeats a parameter, so nested
+// calls F(F(F(x))) multiply, in a replacement list and in each file's code alike.
 constexpr double kMaxMacroTokens = 4194304.0;  // 2^22 tokens: tens of MB of text
 
 class MacroBounds {
@@ -286,9 +287,14 @@ class MacroBounds {
   // The #define lines of one source text (comments and line continuations removed first).
   void add_source(const std::string& text) {
     std::istringstream lines(strip_comments(text));
+    std::string code;  // the lines that are not directives: where the macros get called
     for (std::string line; std::getline(lines, line);) {
       std::size_t i = line.find_first_not_of(" \t");
-      if (i == std::string::npos || line[i] != '#') continue;
+      if (i == std::string::npos || line[i] != '#') {
+        code += line;
+        code += '\n';
+        continue;
+      }
       i = line.find_first_not_of(" \t", i + 1);
       if (i == std::string::npos || line.compare(i, 6, "define") != 0) continue;
       i = line.find_first_not_of(" \t", i + 6);
@@ -305,33 +311,35 @@ class MacroBounds {
       }
       define(name, line.substr(e), std::move(params));
     }
+    std::map<std::string, double> memo;
+    std::set<std::string> open;
+    code_tokens_ = std::max(code_tokens_, sequence(tokens(code), {}, "", open, memo));
   }
   void define(const std::string& name, const std::string& body, std::set<std::string> params = {}) {
-    Macro m;
-    m.params = std::move(params);
-    for (const auto& t : tokens(body)) {
-      if (ident_start(t[0])) m.idents.push_back(t);
-      else m.other += 1;
-    }
-    macros_[name] = std::move(m);
+    macros_[name] = Macro{tokens(body), std::move(params)};
   }
   // The first macro (in name order) whose bound exceeds kMaxMacroTokens, with its bound; "" if none.
-  std::string over(double& bound) const {
+  std::string over(double& bound, const std::string& file) const {
     std::map<std::string, double> memo;
     for (const auto& entry : macros_) {
       std::set<std::string> open;
       bound = size(entry.first, open, memo);
-      if (bound > kMaxMacroTokens) return entry.first;
+      if (bound > kMaxMacroTokens)
+        return "macro " + entry.first + (file.empty() ? " (from defines)" : " (defined in " + file + " or a file before it)");
     }
+    bound = code_tokens_;
+    if (bound > kMaxMacroTokens) return "the code of " + file + " (nested calls of function-like macros)";
     return "";
   }
-  std::string message(const std::string& where) const {
+  // "" while every bound holds; else the refusal, naming the macro and `file` (the file just read,
+  // "" for the defines).
+  std::string message(const std::string& file) const {
     double bound = 0;
-    const std::string name = over(bound);
+    const std::string name = over(bound, file);
     if (name.empty()) return "";
     char n[32];
     std::snprintf(n, sizeof n, "%.3g", bound);
-    return "macro " + name + " (" + where + ") expands to " + n + " tokens, more than " +
+    return name + " expands to " + n + " tokens, more than " +
            std::to_string(static_cast<long long>(kMaxMacroTokens)) +
            " (each macro that repeats another multiplies its size: the compiler would run out of memory); "
            "define it with fewer repetitions or as a function";
@@ -339,8 +347,7 @@ class MacroBounds {
 
  private:
   struct Macro {
-    std::vector<std::string> idents;
-    double other = 0;
+    std::vector<std::string> body;
     std::set<std::string> params;
   };
   static bool ident_start(char c) { return std::isalpha(static_cast<unsigned char>(c)) || c == '_'; }
@@ -387,21 +394,67 @@ class MacroBounds {
     }
     return out;
   }
+  // The expanded size of a token sequence: a macro counts its bound, and every token inside the
+  // arguments of a call of a function-like macro counts as many times as that macro repeats a
+  // parameter (nested calls multiply). With `count_only` set, only that identifier (a parameter)
+  // counts: the number of copies of it the sequence makes.
+  double sequence(const std::vector<std::string>& ts, const std::set<std::string>& params,
+                  const std::string& count_only, std::set<std::string>& open, std::map<std::string, double>& memo) const {
+    double total = 0, weight = 1;
+    std::vector<double> weights;  // the weight outside each open parenthesis
+    double call = 0;              // the repetition of the function-like macro whose '(' comes next
+    for (std::size_t k = 0; k < ts.size() && total <= 1e300; ++k) {
+      const std::string& t = ts[k];
+      const bool counts = count_only.empty() || t == count_only;
+      // Parentheses count at the weight outside them (a call's own are not copied with its argument).
+      if (t == "(") {
+        if (count_only.empty()) total += weight;
+        weights.push_back(weight);
+        if (call > 0) weight *= call;
+        call = 0;
+        continue;
+      }
+      call = 0;
+      if (t == ")") {
+        if (!weights.empty()) weight = weights.back(), weights.pop_back();
+        if (count_only.empty()) total += weight;
+        continue;
+      }
+      const auto it = macros_.find(t);
+      if (!ident_start(t[0]) || params.count(t) || it == macros_.end() || open.count(t)) {
+        if (counts) total += weight;
+        continue;
+      }
+      if (count_only.empty()) total += weight * size(t, open, memo);
+      if (!it->second.params.empty() && k + 1 < ts.size() && ts[k + 1] == "(") call = repetition(t, open, memo);
+    }
+    return total;
+  }
+  // A macro's bound: its replacement's expanded size, parameters one token each.
   double size(const std::string& name, std::set<std::string>& open, std::map<std::string, double>& memo) const {
     const auto it = macros_.find(name);
     if (it == macros_.end() || open.count(name)) return 1.0;
     if (const auto m = memo.find(name); m != memo.end()) return m->second;
     open.insert(name);
-    double s = it->second.other;
-    for (const auto& id : it->second.idents) {
-      s += it->second.params.count(id) ? 1.0 : size(id, open, memo);
-      if (s > 1e300) break;  // far past the bound: stop adding
-    }
+    const double s = sequence(it->second.body, it->second.params, "", open, memo);
     open.erase(name);
     memo[name] = s;
     return s;
   }
+  // The most copies a function-like macro makes of one of its arguments (at least 1).
+  double repetition(const std::string& name, std::set<std::string>& open, std::map<std::string, double>& memo) const {
+    const auto it = macros_.find(name);
+    const std::string key = "(" + name;  // its own memo entries, apart from the sizes
+    if (const auto m = memo.find(key); m != memo.end()) return m->second;
+    open.insert(name);
+    double r = 1;
+    for (const auto& p : it->second.params) r = std::max(r, sequence(it->second.body, it->second.params, p, open, memo));
+    open.erase(name);
+    memo[key] = r;
+    return r;
+  }
   std::map<std::string, Macro> macros_;
+  double code_tokens_ = 0;  // the largest expanded size of one file's code so far
 };
 
 // What the includes of one preprocess or compile have done so far. glslang reports the depth of each
@@ -479,7 +532,7 @@ class Includer final : public shaderc::CompileOptions::IncluderInterface {
     if (!r->name.empty()) {
       // Scan the file's macros before the preprocessor expands any of them (the bound above).
       st.macros.add_source(r->content);
-      if (st.macro_failure.empty()) st.macro_failure = st.macros.message("defined by " + short_name(r->name) + " or before");
+      if (st.macro_failure.empty()) st.macro_failure = st.macros.message(short_name(r->name));
       if (!st.macro_failure.empty()) {
         r->name.clear();
         r->content = st.macro_failure;
@@ -745,7 +798,7 @@ std::string preprocess(const KernelSpec& spec, const std::string& wrapper,
   auto state = std::make_shared<IncludeState>();
   state->included = included;
   for (const auto& [name, value] : spec.defines) state->macros.define(name, value);
-  if (const std::string m = state->macros.message("a define"); !m.empty())
+  if (const std::string m = state->macros.message(""); !m.empty())
     throw std::invalid_argument("shader " + spec.source_name + ": " + m);
   shaderc::Compiler compiler;
   auto pre = compiler.PreprocessGlsl(wrapper, shaderc_glsl_compute_shader, wrapper_name(spec.language).c_str(),
