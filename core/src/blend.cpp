@@ -188,7 +188,8 @@ Distribution BlendedLaw::pmf(double density, double area, double p, std::size_t 
     for (double v : levels[j].support())
       if (v != std::floor(v))
         throw not_implemented(where + " has no exact distribution: the inner law gives the non-integer count " +
-                              format_value(v) + " at n = " + format_value(trials[j]));
+                              format_value(v) + " at n = " + format_value(trials[j]) + ", p = " + format_value(p) +
+                              " (a blend's exact law needs integer level counts; sample it instead)");
   }
   return rule_->combine_pmf(area, b, levels[0], levels[1], max_support);
 }

@@ -7,6 +7,7 @@
 #include <shaderc/shaderc.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +17,7 @@
 #include <functional>
 #include <map>
 #include <mutex>
+#include <set>
 #include <sstream>
 
 #include "glintlab/float32.hpp"
@@ -267,6 +269,194 @@ std::string read_file(const std::filesystem::path& path) {
   return strip_bom(s.str());
 }
 
+// A bound on macro expansion. glslang expands macros with no limit and cannot be interrupted:
+// `#define A1 A0 A0`, `#define A2 A1 A1`, ... `A40` asks for 2^40 tokens, and memory runs out before any
+// timeout could act (compilation runs in this process). Every file the compiler reads passes through
+// the Includer first (the user's file too: the wrapper includes it), so the #define lines of every
+// file, and the -D defines, are scanned before the preprocessor sees them, and a macro whose
+// replacement, fully expanded, would exceed kMaxMacroTokens tokens is refused by name. The bound
+// counts each replacement list's tokens with every macro in it replaced by its own bound; a
+// function-like macro's parameters count one token each, and a macro already on the expansion path
+// counts one (the preprocessor does not expand it again); inside the parentheses of a call of a
+// function-like macro every token counts as many times as the macro repeats a parameter, so nested
+// calls F(F(F(x))) multiply, in a replacement list and in each file's code alike.
+constexpr double kMaxMacroTokens = 4194304.0;  // 2^22 tokens: tens of MB of text
+
+class MacroBounds {
+ public:
+  // The #define lines of one source text (comments and line continuations removed first).
+  void add_source(const std::string& text) {
+    std::istringstream lines(strip_comments(text));
+    std::string code;  // the lines that are not directives: where the macros get called
+    for (std::string line; std::getline(lines, line);) {
+      std::size_t i = line.find_first_not_of(" \t");
+      if (i == std::string::npos || line[i] != '#') {
+        code += line;
+        code += '\n';
+        continue;
+      }
+      i = line.find_first_not_of(" \t", i + 1);
+      if (i == std::string::npos || line.compare(i, 6, "define") != 0) continue;
+      i = line.find_first_not_of(" \t", i + 6);
+      if (i == std::string::npos || !ident_start(line[i])) continue;
+      std::size_t e = i;
+      while (e < line.size() && ident_char(line[e])) ++e;
+      const std::string name = line.substr(i, e - i);
+      std::set<std::string> params;
+      if (e < line.size() && line[e] == '(') {  // function-like: no space before the parenthesis
+        const std::size_t close = line.find(')', e);
+        const std::string list = line.substr(e + 1, (close == std::string::npos ? line.size() : close) - e - 1);
+        for (const auto& t : tokens(list)) params.insert(t);
+        e = close == std::string::npos ? line.size() : close + 1;
+      }
+      define(name, line.substr(e), std::move(params));
+    }
+    std::map<std::string, double> memo;
+    std::set<std::string> open;
+    code_tokens_ = std::max(code_tokens_, sequence(tokens(code), {}, "", open, memo));
+  }
+  void define(const std::string& name, const std::string& body, std::set<std::string> params = {}) {
+    macros_[name] = Macro{tokens(body), std::move(params)};
+  }
+  // The first macro (in name order) whose bound exceeds kMaxMacroTokens, with its bound; "" if none.
+  std::string over(double& bound, const std::string& file) const {
+    std::map<std::string, double> memo;
+    for (const auto& entry : macros_) {
+      std::set<std::string> open;
+      bound = size(entry.first, open, memo);
+      if (bound > kMaxMacroTokens)
+        return "macro " + entry.first + (file.empty() ? " (from defines)" : " (defined in " + file + " or a file before it)");
+    }
+    bound = code_tokens_;
+    if (bound > kMaxMacroTokens) return "the code of " + file + " (nested calls of function-like macros)";
+    return "";
+  }
+  // "" while every bound holds; else the refusal, naming the macro and `file` (the file just read,
+  // "" for the defines).
+  std::string message(const std::string& file) const {
+    double bound = 0;
+    const std::string name = over(bound, file);
+    if (name.empty()) return "";
+    char n[32];
+    std::snprintf(n, sizeof n, "%.3g", bound);
+    return name + " expands to " + n + " tokens, more than " +
+           std::to_string(static_cast<long long>(kMaxMacroTokens)) +
+           " (each macro that repeats another multiplies its size: the compiler would run out of memory); "
+           "define it with fewer repetitions or as a function";
+  }
+
+ private:
+  struct Macro {
+    std::vector<std::string> body;
+    std::set<std::string> params;
+  };
+  static bool ident_start(char c) { return std::isalpha(static_cast<unsigned char>(c)) || c == '_'; }
+  static bool ident_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+  // Identifiers, numbers and string literals as one token each; any other character as one token
+  // (an over-count, on the safe side of the bound).
+  static std::vector<std::string> tokens(const std::string& s) {
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < s.size();) {
+      const char c = s[i];
+      std::size_t e = i + 1;
+      if (std::isspace(static_cast<unsigned char>(c))) { i = e; continue; }
+      if (ident_start(c) || std::isdigit(static_cast<unsigned char>(c)))
+        while (e < s.size() && (ident_char(s[e]) || s[e] == '.')) ++e;
+      else if (c == '"')
+        while (e < s.size() && s[e++] != '"') {}
+      out.push_back(s.substr(i, e - i));
+      i = e;
+    }
+    return out;
+  }
+  static std::string strip_comments(const std::string& text) {
+    std::string out;
+    out.reserve(text.size());
+    for (std::size_t i = 0; i < text.size(); ++i) {
+      if (text[i] == '\\' && i + 1 < text.size() && text[i + 1] == '\n') { ++i; continue; }
+      if (text[i] == '\\' && i + 2 < text.size() && text[i + 1] == '\r' && text[i + 2] == '\n') { i += 2; continue; }
+      if (text[i] == '/' && i + 1 < text.size() && text[i + 1] == '/') {
+        while (i < text.size() && text[i] != '\n') ++i;
+        if (i < text.size()) out += '\n';
+        continue;
+      }
+      if (text[i] == '/' && i + 1 < text.size() && text[i + 1] == '*') {
+        const std::size_t end = text.find("*/", i + 2);
+        const std::size_t stop = end == std::string::npos ? text.size() : end + 2;
+        out += ' ';
+        out.append(static_cast<std::size_t>(std::count(text.begin() + static_cast<std::ptrdiff_t>(i),
+                                                       text.begin() + static_cast<std::ptrdiff_t>(stop), '\n')),
+                   '\n');
+        i = stop - 1;
+        continue;
+      }
+      out += text[i];
+    }
+    return out;
+  }
+  // The expanded size of a token sequence: a macro counts its bound, and every token inside the
+  // arguments of a call of a function-like macro counts as many times as that macro repeats a
+  // parameter (nested calls multiply). With `count_only` set, only that identifier (a parameter)
+  // counts: the number of copies of it the sequence makes.
+  double sequence(const std::vector<std::string>& ts, const std::set<std::string>& params,
+                  const std::string& count_only, std::set<std::string>& open, std::map<std::string, double>& memo) const {
+    double total = 0, weight = 1;
+    std::vector<double> weights;  // the weight outside each open parenthesis
+    double call = 0;              // the repetition of the function-like macro whose '(' comes next
+    for (std::size_t k = 0; k < ts.size() && total <= 1e300; ++k) {
+      const std::string& t = ts[k];
+      const bool counts = count_only.empty() || t == count_only;
+      // Parentheses count at the weight outside them (a call's own are not copied with its argument).
+      if (t == "(") {
+        if (count_only.empty()) total += weight;
+        weights.push_back(weight);
+        if (call > 0) weight *= call;
+        call = 0;
+        continue;
+      }
+      call = 0;
+      if (t == ")") {
+        if (!weights.empty()) weight = weights.back(), weights.pop_back();
+        if (count_only.empty()) total += weight;
+        continue;
+      }
+      const auto it = macros_.find(t);
+      if (!ident_start(t[0]) || params.count(t) || it == macros_.end() || open.count(t)) {
+        if (counts) total += weight;
+        continue;
+      }
+      if (count_only.empty()) total += weight * size(t, open, memo);
+      if (!it->second.params.empty() && k + 1 < ts.size() && ts[k + 1] == "(") call = repetition(t, open, memo);
+    }
+    return total;
+  }
+  // A macro's bound: its replacement's expanded size, parameters one token each.
+  double size(const std::string& name, std::set<std::string>& open, std::map<std::string, double>& memo) const {
+    const auto it = macros_.find(name);
+    if (it == macros_.end() || open.count(name)) return 1.0;
+    if (const auto m = memo.find(name); m != memo.end()) return m->second;
+    open.insert(name);
+    const double s = sequence(it->second.body, it->second.params, "", open, memo);
+    open.erase(name);
+    memo[name] = s;
+    return s;
+  }
+  // The most copies a function-like macro makes of one of its arguments (at least 1).
+  double repetition(const std::string& name, std::set<std::string>& open, std::map<std::string, double>& memo) const {
+    const auto it = macros_.find(name);
+    const std::string key = "(" + name;  // its own memo entries, apart from the sizes
+    if (const auto m = memo.find(key); m != memo.end()) return m->second;
+    open.insert(name);
+    double r = 1;
+    for (const auto& p : it->second.params) r = std::max(r, sequence(it->second.body, it->second.params, p, open, memo));
+    open.erase(name);
+    memo[key] = r;
+    return r;
+  }
+  std::map<std::string, Macro> macros_;
+  double code_tokens_ = 0;  // the largest expanded size of one file's code so far
+};
+
 // What the includes of one preprocess or compile have done so far. glslang reports the depth of each
 // #include it asks for (1: the user's file, included by the wrapper), so the open chain is exact
 // without relying on when it releases a file.
@@ -275,6 +465,8 @@ struct IncludeState {
   int count = 0;
   std::string failure;  // once an include limit is hit, every later #include fails with it (bounded work)
   std::vector<std::pair<std::string, std::string>>* included = nullptr;
+  MacroBounds macros;         // every #define seen so far (and the -D defines)
+  std::string macro_failure;  // set when a macro's expansion bound is exceeded (then nothing more is served)
 };
 
 std::string short_name(const std::string& path) {
@@ -335,6 +527,15 @@ class Includer final : public shaderc::CompileOptions::IncluderInterface {
         if (st.included && std::none_of(st.included->begin(), st.included->end(),
                                         [&](const auto& f) { return f.first == found; }))
           st.included->emplace_back(found, r->content);
+      }
+    }
+    if (!r->name.empty()) {
+      // Scan the file's macros before the preprocessor expands any of them (the bound above).
+      st.macros.add_source(r->content);
+      if (st.macro_failure.empty()) st.macro_failure = st.macros.message(short_name(r->name));
+      if (!st.macro_failure.empty()) {
+        r->name.clear();
+        r->content = st.macro_failure;
       }
     }
     if (!r->name.empty()) {
@@ -596,9 +797,13 @@ std::string preprocess(const KernelSpec& spec, const std::string& wrapper,
                        std::vector<std::pair<std::string, std::string>>* included, const std::string& signature) {
   auto state = std::make_shared<IncludeState>();
   state->included = included;
+  for (const auto& [name, value] : spec.defines) state->macros.define(name, value);
+  if (const std::string m = state->macros.message(""); !m.empty())
+    throw std::invalid_argument("shader " + spec.source_name + ": " + m);
   shaderc::Compiler compiler;
   auto pre = compiler.PreprocessGlsl(wrapper, shaderc_glsl_compute_shader, wrapper_name(spec.language).c_str(),
                                      options(spec, state));
+  if (!state->macro_failure.empty()) throw std::invalid_argument("shader " + spec.source_name + ": " + state->macro_failure);
   if (pre.GetCompilationStatus() != shaderc_compilation_status_success)
     compile_failure(spec, pre.GetErrorMessage(), signature);
   return std::string(pre.cbegin(), pre.cend());

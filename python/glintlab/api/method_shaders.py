@@ -28,6 +28,7 @@ import numpy as np
 from .. import _core
 from ..resources import data_path
 from . import checks as V
+from . import fpmath
 from .glinty_ndf import BUILTIN_IMAGE_METHODS, IMAGE_METHODS, GlintyNDF, register_image_method
 from .shaders import DEFAULT_TIMEOUT_S, LANGUAGES, _read_source
 
@@ -256,8 +257,9 @@ def wb16_twin(rows, return_lookup: bool = False, **params):
 
     with np.errstate(all="ignore"):
         z = np.sqrt(dot(view, view))
-        e = np.floor(np.log2(f(0.3) * z + f(3.0))) / f(0.3785116)
-        level_z = f(0.1) * np.power(f(1.3), e) - f(0.2)
+        # fpmath: numpy's float32 log2 / power loops depend on the arrays' addresses (last bit).
+        e = np.floor(fpmath.call(np.log2, f(0.3) * z + f(3.0), dtype=np.float32)) / f(0.3785116)
+        level_z = f(0.1) * fpmath.call(np.power, f(1.3), e, dtype=np.float32) - f(0.2)
         level = f(0.12) / level_z
         sparkle_dens = f(prm["WB16_SPARKLE_DENSITY"]) * level
         noise_dens = f(prm["WB16_NOISE_DENSITY"]) * level

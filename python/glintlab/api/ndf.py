@@ -18,6 +18,7 @@ import numpy as np
 import scipy.special as sp
 
 from . import checks as V
+from . import fpmath
 
 NDFS = ("beckmann", "ggx")
 
@@ -44,7 +45,8 @@ class NDF:
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             if self.name == "beckmann":
                 tan2 = (1.0 - c2) / c2
-                d = np.exp(-tan2 / a2) / (math.pi * a2 * c2 * c2)
+                # fpmath.exp: the same bits whatever the arrays' addresses (numpy's exp loop depends on them).
+                d = fpmath.exp(-tan2 / a2) / (math.pi * a2 * c2 * c2)
             else:  # GGX: a^2 / (pi ((a^2 - 1) c^2 + 1)^2)
                 d = a2 / (math.pi * ((a2 - 1.0) * c2 + 1.0) ** 2)
         return np.where(c > 0, np.nan_to_num(d, nan=0.0, posinf=0.0), 0.0)

@@ -32,6 +32,7 @@ import pandas as pd
 
 from .. import _core
 from ..api import checks as V
+from ..api import fpmath
 from ..api.grids import IMAGE_CONFIGS, configured_counter
 from ..api.laws import law as get_law, law_label, law_traits, parse_law_label
 from ..api.metrics import distance
@@ -188,7 +189,8 @@ def simd_stats(cost: np.ndarray, active: np.ndarray, tile=TILE) -> dict:
 # Binning and exact errors
 
 def _log_bins(x, per_decade):
-    return np.floor(np.log10(x) * per_decade).astype(np.int64)
+    # fpmath: numpy's log10 loop depends on the arrays' addresses (last bit), enough to move a bin edge.
+    return np.floor(fpmath.call(np.log10, x) * per_decade).astype(np.int64)
 
 
 def _bin_pixels(n, p, per_decade):
@@ -277,8 +279,9 @@ def regime_histogram(n, p, r):
     """3-D histogram of (log10 n, log10 p, log2 r) over pixels (edges HIST_EDGES; values outside are
     put in the edge bins; p = 0 pixels are left out)."""
     pos = p > 0
-    x = np.stack([np.clip(np.log10(n[pos]), -3, 7 - 1e-9), np.clip(np.log10(p[pos]), -7, -1e-12),
-                  np.clip(np.log2(r[pos]), 0, 10 - 1e-9)], axis=1)
+    x = np.stack([np.clip(fpmath.call(np.log10, n[pos]), -3, 7 - 1e-9),
+                  np.clip(fpmath.call(np.log10, p[pos]), -7, -1e-12),
+                  np.clip(fpmath.call(np.log2, r[pos]), 0, 10 - 1e-9)], axis=1)
     h, _ = np.histogramdd(x, bins=HIST_EDGES)
     return h
 
@@ -319,14 +322,14 @@ class SceneProfile:
 def _terms_tables(counter, N, n, r, phi, bins_per_octave=4, phi_bins=16):
     """Per (log2 n, log2 r, phi) bin of the pixels: the terms' distinct trial counts with their
     multiplicity (padded), and the weight bias sum(scale x trials) / (N P), at the bin's pixel mean."""
-    i = np.floor(np.log2(n) * bins_per_octave).astype(np.int64)
-    j = np.floor(np.log2(np.maximum(r, 1.0)) * bins_per_octave).astype(np.int64)
+    i = np.floor(fpmath.call(np.log2, n) * bins_per_octave).astype(np.int64)  # fpmath: see _log_bins
+    j = np.floor(fpmath.call(np.log2, np.maximum(r, 1.0)) * bins_per_octave).astype(np.int64)
     k = np.floor(phi / math.pi * phi_bins).astype(np.int64) % phi_bins
     key = ((i - i.min()) * 10_000 + j) * 100 + k
     uniq, inv = np.unique(key, return_inverse=True)
     cnt = np.bincount(inv)
-    rep_n = np.exp(np.bincount(inv, weights=np.log(n)) / cnt)
-    rep_r = np.exp(np.bincount(inv, weights=np.log(np.maximum(r, 1.0))) / cnt)
+    rep_n = fpmath.exp(np.bincount(inv, weights=fpmath.call(np.log, n)) / cnt)
+    rep_r = fpmath.exp(np.bincount(inv, weights=fpmath.call(np.log, np.maximum(r, 1.0))) / cnt)
     rep_phi = np.bincount(inv, weights=phi) / cnt
     trials, mult, bias = [], [], np.empty(uniq.size)
     for b in range(uniq.size):

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from ..api import checks as V
+from ..api import fpmath
 from ..api.grids import footprint_shapes
 from ..api.ndf import ndf as get_ndf
 
@@ -208,8 +209,9 @@ class Scene:
         h, ha, hb = np.zeros_like(a), np.zeros_like(a), np.zeros_like(a)
         for amp, w, ca, sa, ph in self.waves:
             arg = w * (ca * a + sa * b) + ph
-            h += amp * np.sin(arg)
-            c = amp * w * np.cos(arg)
+            # fpmath: the same bits whatever ran before in the process (numpy picks its sin / cos loop by address).
+            h += amp * fpmath.sin(arg)
+            c = amp * w * fpmath.cos(arg)
             ha += c * ca
             hb += c * sa
         return h, ha, hb
@@ -333,8 +335,10 @@ class Scene:
             q = x - self.center
             rho2 = q[:, 0] ** 2 + q[:, 1] ** 2
             rho = np.sqrt(rho2)
-            uv = np.stack([s * self.radius * np.arctan2(q[:, 1], q[:, 0]),
-                           s * self.radius * np.arctan2(rho, q[:, 2])], axis=1)
+            # fpmath.arctan2, not np.arctan2: numpy chooses between two atan2 loops that differ in the last
+            # bit by the arrays' addresses, so uv (and the glint images) changed with what ran before.
+            uv = np.stack([s * self.radius * fpmath.arctan2(q[:, 1], q[:, 0]),
+                           s * self.radius * fpmath.arctan2(rho, q[:, 2])], axis=1)
             with np.errstate(divide="ignore", invalid="ignore"):
                 grad_phi = np.stack([-q[:, 1], q[:, 0], np.zeros(m)], axis=1) / rho2[:, None]
                 # theta = atan2(rho, z): d theta = (z d rho - rho dz) / (rho^2 + z^2), d rho = (x dx + y dy) / rho
