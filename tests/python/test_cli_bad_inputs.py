@@ -98,6 +98,16 @@ CASES = [
     (["shader", "{bad_shader}", "--samples", "1e400", "--out", "{folder}/s"], "--samples"),
     (["shader", "{bad_shader}", "--timeout", "0", "--out", "{folder}/s"], "--timeout = 0"),
     (["shader", "{bad_shader}", "--device", "", "--out", "{folder}/s"], "device = ''"),
+    (["sampler", "nosuch", "--out", "{folder}/q"], "sampler = 'nosuch'"),
+    (["sampler", "{folder}/missing.hlsl", "--out", "{folder}/q"], "missing.hlsl"),
+    (["sampler", "ggx", "--samples", "-5", "--out", "{folder}/q"], "--samples = -5"),
+    (["sampler", "ggx", "--param", "alpha=-1", "--out", "{folder}/q"], "alpha = -1.0"),
+    (["sampler", "ggx", "--param", "junk", "--out", "{folder}/q"], "--param = 'junk'"),
+    (["sampler", "ggx", "--bins", "0x3", "--out", "{folder}/q"], "bins = (0, 3)"),
+    (["sampler", "ggx", "--wrong", "nope", "--out", "{folder}/q"], "--wrong"),
+    (["sampler", "ggx", "--out", "{a_file}"], "--out"),
+    (["images", SCENE, "--method", "{folder}/none.hlsl", "--out", "{folder}/i"], "none.hlsl"),
+    (["images", SCENE, "--method", "{bad_shader}", "--out", "{folder}/i"], "broken.hlsl"),
     (["aniso", "--out", "{readonly}/a"], "readonly"),
 ]
 
