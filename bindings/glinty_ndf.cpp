@@ -53,7 +53,7 @@ void bind_glinty_ndf(py::module_& m) {
   py::class_<Kpt25Ndf>(m, "Kpt25Ndf")
       .def(py::init([](double density, const std::string& target, double alpha, double alpha_star, int k,
                        double epsilon, double filter, const std::string& compensation, const std::string& blend,
-                       double sample_smooth, const std::string& sample_weight) {
+                       double sample_smooth, const std::string& sample_weight, const std::string& ggx_map) {
              Kpt25Params p;
              p.density = density;
              p.target = parse_target(target);
@@ -68,11 +68,14 @@ void bind_glinty_ndf(py::module_& m) {
              if (sample_weight == "lobe_mass") p.sample_lobe_mass = true;
              else if (sample_weight == "printed") p.sample_lobe_mass = false;
              else throw_invalid(kWhere, "sample_weight", sample_weight, "\"lobe_mass\" or \"printed\"");
+             if (ggx_map == "orthographic") p.ggx_lambert = false;
+             else if (ggx_map == "lambert" && p.target == GlintTarget::ggx) p.ggx_lambert = true;
+             else throw_invalid(kWhere, "ggx_map", ggx_map, "\"orthographic\", or \"lambert\" with target \"ggx\"");
              return Kpt25Ndf(p);
            }),
            py::arg("density"), py::arg("target"), py::arg("alpha"), py::arg("alpha_star"), py::arg("k"),
            py::arg("epsilon"), py::arg("filter"), py::arg("compensation"), py::arg("blend"),
-           py::arg("sample_smooth") = 0.0, py::arg("sample_weight") = "lobe_mass")
+           py::arg("sample_smooth") = 0.0, py::arg("sample_weight") = "lobe_mass", py::arg("ggx_map") = "orthographic")
       .def("evaluate", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
              const std::size_t n = pixels(uv, &jac, h);
              py::array_t<double> out(static_cast<py::ssize_t>(n));
@@ -107,6 +110,17 @@ void bind_glinty_ndf(py::module_& m) {
              }
              return py::make_tuple(er, ea);
            }, py::arg("J"), py::arg("h"))
+      .def("visible_counts", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed,
+                                double radius) {
+             const std::size_t n = pixels(uv, &jac, h);
+             py::array_t<double> out(static_cast<py::ssize_t>(n));
+             double* o = out.mutable_data();
+             {
+               glintlab::bindings::LongCall release;
+               g.visible_counts(uv.data(), jac.data(), h.data(), n, seed, radius, o);
+             }
+             return out;
+           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("radius"))
       .def("pdf", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
              const std::size_t n = pixels(uv, &jac, h);
              py::array_t<double> out(static_cast<py::ssize_t>(n));

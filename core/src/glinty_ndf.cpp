@@ -215,7 +215,7 @@ void for_points(const Kpt25Params& p, double res, const GlintPixel& px, int leve
           double keep = weight;
           if (roulette) keep = kpt25_roulette(unit(point_block(seed, level, i, j, a, b, 1)[0]), weight, p.epsilon);
           if (keep == 0.0) continue;
-          f(a, b, mx, my, keep * std::exp(-0.5 * q));
+          f(a, b, mx, my, keep * std::exp(-0.5 * q), keep, q);
         }
 }
 
@@ -385,6 +385,12 @@ std::array<double, 3> Kpt25Ndf::map(const double hin[3]) const {
     const double n = std::sqrt(px * px + py * py + hz * hz);
     dx = px / n;
     dy = py / n;
+    if (p_.ggx_lambert) {
+      // Eq. 7: L(x, y, z) = (x, y) / sqrt(1 + z), |L|^2 = 1 - z on the unit hemisphere (equal-area).
+      const double l = 1.0 / std::sqrt(1.0 + hz / n);
+      dx *= l;
+      dy *= l;
+    }
     const double q = (a2 - 1.0) * hz * hz + 1.0;
     D = a2 / (kPi * q * q);
   }
@@ -401,6 +407,11 @@ std::array<double, 3> Kpt25Ndf::inverse_map(double x, double y) const {
     v[0] = p_.alpha * dx * ratio;
     v[1] = p_.alpha * dy * ratio;
     v[2] = 1.0;
+  } else if (p_.ggx_lambert) {  // L^-1: z = 1 - |d|^2, (x, y) = d sqrt(1 + z); then unstretched
+    const double l = std::sqrt(2.0 - r2);
+    v[0] = p_.alpha * dx * l;
+    v[1] = p_.alpha * dy * l;
+    v[2] = 1.0 - r2;
   } else {  // the stretched normal (dx, dy, sqrt(1 - |d|^2)), unstretched
     v[0] = p_.alpha * dx;
     v[1] = p_.alpha * dy;
@@ -421,8 +432,20 @@ double Kpt25Ndf::disk_D(double x, double y) const {
     const double g = 1.0 - a2 * std::log1p(-r2);
     return (1.0 - r2) * g * g / (kPi * a2);
   }
+  if (p_.ggx_lambert) {
+    // The stretched normal has z = 1 - r2 and |(x, y)|^2 = 1 - z^2 = r2 (2 - r2); GGX D at its
+    // unstretched h is (alpha^2 |(x, y)|^2 + z^2)^2 / (pi alpha^2).
+    const double z = 1.0 - r2;
+    const double g = a2 * r2 * (2.0 - r2) + z * z;
+    return g * g / (kPi * a2);
+  }
   const double g = a2 * r2 + 1.0 - r2;
   return g * g / (kPi * a2);
+}
+
+double Kpt25Ndf::jacobian(double D, double hz) const {
+  if (p_.target == GlintTarget::ggx && p_.ggx_lambert) return 0.125 * kPi * D;
+  return 0.25 * kPi * D * hz;
 }
 
 void Kpt25Ndf::map_points(const double* h, std::size_t m, double* xy) const {
@@ -702,7 +725,7 @@ double Kpt25Ndf::level_pdf(const GlintPixel& px, int level, double u, double v, 
   const std::int64_t b0 = whole ? 0 : fy0, b1 = whole ? na - 1 : fy1 + side - 1;
   double G[4][4] = {}, W[4][4] = {};
   for_points(p_, res_, px, level, px.weights[level == px.levels[0] ? 0 : 1], u, v, seed, a0, a1, b0, b1,
-             [&](std::int64_t a, std::int64_t b, double mx, double my, double w) {
+             [&](std::int64_t a, std::int64_t b, double mx, double my, double w, double, double) {
                const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
                if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
                const double ex = x - mx, ey = y - my;
@@ -775,7 +798,7 @@ void Kpt25Ndf::pdf(const double* uv, const double* jac, const double* h, std::si
       double hu[3];
       unit_vector(h + 3 * i, hu);
       // dx dy = (pi / 4) D(h) (h.n) dOmega: T maps D(h)(h.n)dOmega to the uniform density 4 / pi on U.
-      out[i] = 0.25 * kPi * px.D * hu[2] * pixel_pdf(px, uv[2 * i], uv[2 * i + 1], seed, px.xa, px.ya);
+      out[i] = jacobian(px.D, hu[2]) * pixel_pdf(px, uv[2 * i], uv[2 * i + 1], seed, px.xa, px.ya);
     }
   });
 }
@@ -814,7 +837,7 @@ void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std
         // w_i / (sum of the weights so far), which leaves point i chosen with probability w_i / W_B.
         double total = 0.0, gx = 0.0, gy = 0.0, gs = 0.0;
         for_points(p_, res_, px, level, px.weights[li], u, v, seed, a0, a1, b0, b1,
-                   [&](std::int64_t, std::int64_t, double mx, double my, double w) {
+                   [&](std::int64_t, std::int64_t, double mx, double my, double w, double, double) {
                      const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
                      if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
                      const double mass = mass_1d(mx, sg, bx0, bx1) * mass_1d(my, sg, by0, by1);
@@ -848,11 +871,48 @@ void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std
       const auto t = map(H);
       double hu[3];
       unit_vector(H, hu);
-      pdf_out[i] = t[2] > 0.0 ? 0.25 * kPi * t[2] * hu[2] * pixel_pdf(px, u, v, seed, t[0], t[1]) : 0.0;
+      pdf_out[i] = t[2] > 0.0 ? jacobian(t[2], hu[2]) * pixel_pdf(px, u, v, seed, t[0], t[1]) : 0.0;
       if (Wi) {
         const double d = 2.0 * (o[0] * hv[0] + o[1] * hv[1] + o[2] * hv[2]);
         for (int c = 0; c < 3; ++c) Wi[c] = d * hv[c] - o[c];
       }
+    }
+  });
+}
+
+// The visible glints of a pixel (docs/math/glinty_ndf.md#glinty-matched): the points inside DB23's
+// footprint ellipse J {|x| <= 1 / sqrt(pi)} (area |det J|; q <= 1 / (pi f^2) in the filter's Mahalanobis
+// distance) whose normal lies within `radius` lobe stds of T(h), each counted with its roulette weight
+// R (both levels), so that the expected count is K_P |det J| times the area of the angular disk in U.
+void Kpt25Ndf::visible_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                              double radius, double* out) const {
+  const double q_max = 1.0 / (kPi * p_.filter * p_.filter);
+  if (!(q_max <= kFilterRadius * kFilterRadius))
+    throw_invalid(kWhere, "filter", p_.filter, "a filter std >= 1 / (3 sqrt(pi)) for visible glint counts");
+  if (!(radius > 0.0 && radius <= 10.0)) throw_invalid(kWhere, "radius", radius, "a number of lobe stds in (0, 10]");
+  detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      check_uv(uv, i);
+      const GlintPixel px = pixel(jac, h, i);
+      double count = 0.0;
+      if (px.D > 0.0) {
+        const double r = radius * px.sigma, r2 = r * r;
+        for (int l = 0; l < px.n_levels; ++l) {
+          const int level = px.levels[l];
+          const std::int64_t na = std::int64_t{1} << level;
+          const double fna = static_cast<double>(na);
+          const auto a0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.xa - r) * fna)));
+          const auto a1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.xa + r) * fna)));
+          const auto b0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.ya - r) * fna)));
+          const auto b1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.ya + r) * fna)));
+          for_points(p_, res_, px, level, px.weights[l], uv[2 * i], uv[2 * i + 1], seed, a0, a1, b0, b1,
+                     [&](std::int64_t, std::int64_t, double mx, double my, double, double keep, double q) {
+                       const double ex = mx - px.xa, ey = my - px.ya;
+                       if (q <= q_max && ex * ex + ey * ey < r2) count += keep;
+                     });
+        }
+      }
+      out[i] = count;
     }
   });
 }

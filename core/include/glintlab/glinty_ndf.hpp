@@ -52,6 +52,10 @@ struct Kpt25Params {
   // proportional to eq. 11's explicit terms), false = R f alone, as printed (the integral names the
   // Gaussian at x_a - x, the same for every point), lobes with no mass in B left out.
   bool sample_lobe_mass = true;
+  // GGX only: T = L o M~ with the Lambert projection of eq. 7 (true, the paper as printed: it makes
+  // D(h) dOmega uniform on U, not D(h)(h.n) dOmega) instead of the orthographic one (false, the default:
+  // exact for D(h)(h.n) dOmega). docs/math/glinty_ndf.md#glinty-lambert.
+  bool ggx_lambert = false;
 };
 
 // Maximum MIP level: the angular grid has 2^l x 2^l cells, l <= 15 (the random-number layout's limit).
@@ -107,6 +111,10 @@ class Kpt25Ndf {
            double* out) const;
   // T(h) for m half vectors: xy[2i..] in the unit square (NaN for h_z <= 0, which T does not map).
   void map_points(const double* h, std::size_t m, double* xy) const;
+  // The visible glints per pixel (docs/math/glinty_ndf.md#glinty-matched): roulette-weighted count of
+  // the points in DB23's footprint ellipse whose normal lies within radius x sigma of T(h).
+  void visible_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                      double radius, double* out) const;
   // T^-1: the half vector of a point (x, y) of the disk U.
   std::array<double, 3> inverse_map(double x, double y) const;
 
@@ -123,6 +131,9 @@ class Kpt25Ndf {
   double disk_D(double x, double y) const;  // D(T^-1(x, y)), the target at a point of U
   double level_pdf(const GlintPixel& px, int level, double u, double v, std::uint64_t seed, double x, double y) const;
   double pixel_pdf(const GlintPixel& px, double u, double v, std::uint64_t seed, double x, double y) const;
+  // dx dy / dOmega of T at h: (pi / 4) D(h)(h.n) for the maps that uniformise D(h)(h.n), (pi / 8) D(h)
+  // for the Lambert map (which uniformises D(h) dOmega, of mass 2 for GGX).
+  double jacobian(double D, double hz) const;
   Kpt25Params p_;
   double res_ = 0.0;  // sqrt(K_P): cells per unit uv at level 0
 };
