@@ -349,12 +349,92 @@ Kpt25Ndf::Kpt25Ndf(const Kpt25Params& params) : p_(params) {
     throw_invalid(kWhere, "filter", p_.filter, "a finite pixel filter std > 0 (pixels)");
   if (!(p_.sample_smooth >= 0.0 && p_.sample_smooth <= 1.0))
     throw_invalid(kWhere, "sample_smooth", p_.sample_smooth, "a probability in [0, 1]");
+  if (!(p_.alpha_y == 0.0 || (p_.alpha_y > 0.0 && std::isfinite(p_.alpha_y))))
+    throw_invalid(kWhere, "alpha_y", p_.alpha_y, "a finite number > 0 (or 0: isotropic)");
+  aniso_ = p_.alpha_y > 0.0 && p_.alpha_y != p_.alpha;
   res_ = std::sqrt(p_.density);
+}
+
+// Anisotropic roughness: the stretch M = diag(1 / ax, 1 / ay, 1) of eq. 6 applied to the slopes
+// (Beckmann) or to the half vector (GGX); the same constructions as the isotropic map below.
+std::array<double, 3> Kpt25Ndf::map_aniso(const double h[3]) const {
+  const double ax = p_.alpha, ay = p_.alpha_y, hx = h[0], hy = h[1], hz = h[2];
+  double dx, dy, D;
+  if (p_.target == GlintTarget::beckmann) {
+    // Stretched slopes (s_x / ax, s_y / ay) are Gaussian with the isotropic law of alpha = 1; D =
+    // exp(-t) / (pi ax ay cos^4), t = |stretched slope|^2.
+    const double sx = hx / hz / ax, sy = hy / hz / ay, t = sx * sx + sy * sy;
+    const double s2 = (hx * hx + hy * hy) / (hz * hz);
+    if (!(t < 800.0)) {
+      const double r = std::sqrt(sx * sx + sy * sy);
+      return {0.5 + 0.5 * sx / r, 0.5 + 0.5 * sy / r, 0.0};
+    }
+    const double scale = t > 1e-300 ? std::sqrt(-std::expm1(-t) / t) : 1.0;
+    dx = sx * scale;
+    dy = sy * scale;
+    D = std::exp(-t + 2.0 * std::log1p(s2)) / (kPi * ax * ay);
+  } else {
+    // GGX: D = 1 / (pi ax ay (hx^2 / ax^2 + hy^2 / ay^2 + hz^2)^2), the stretched normal cosine distributed.
+    const double px = hx / ax, py = hy / ay, n2 = px * px + py * py + hz * hz, n = std::sqrt(n2);
+    dx = px / n;
+    dy = py / n;
+    if (p_.ggx_lambert) {
+      const double l = 1.0 / std::sqrt(1.0 + hz / n);
+      dx *= l;
+      dy *= l;
+    }
+    D = 1.0 / (kPi * ax * ay * n2 * n2);
+  }
+  return {0.5 + 0.5 * dx, 0.5 + 0.5 * dy, D};
+}
+
+std::array<double, 3> Kpt25Ndf::inverse_map_aniso(double dx, double dy, double r2) const {
+  const double ax = p_.alpha, ay = p_.alpha_y;
+  double v[3];
+  if (p_.target == GlintTarget::beckmann) {
+    const double ratio = r2 > 1e-300 ? std::sqrt(-std::log1p(-r2) / r2) : 1.0;
+    v[0] = ax * dx * ratio;
+    v[1] = ay * dy * ratio;
+    v[2] = 1.0;
+  } else if (p_.ggx_lambert) {
+    const double l = std::sqrt(2.0 - r2);
+    v[0] = ax * dx * l;
+    v[1] = ay * dy * l;
+    v[2] = 1.0 - r2;
+  } else {
+    v[0] = ax * dx;
+    v[1] = ay * dy;
+    v[2] = std::sqrt(std::max(0.0, 1.0 - r2));
+  }
+  double h[3];
+  if (!unit_vector(v, h)) return {kNaN, kNaN, kNaN};
+  return {h[0], h[1], h[2]};
+}
+
+double Kpt25Ndf::disk_D_aniso(double dx, double dy, double r2) const {
+  const double ax = p_.alpha, ay = p_.alpha_y;
+  if (p_.target == GlintTarget::beckmann) {
+    // |s|^2 = (t / r2)(ax^2 dx^2 + ay^2 dy^2), t = -log(1 - r2); D = (1 - r2)(1 + |s|^2)^2 / (pi ax ay).
+    const double t_r2 = r2 > 1e-300 ? -std::log1p(-r2) / r2 : 1.0;
+    const double g = 1.0 + t_r2 * (ax * ax * dx * dx + ay * ay * dy * dy);
+    return (1.0 - r2) * g * g / (kPi * ax * ay);
+  }
+  // The unstretched v = (ax w_x, ay w_y, w_z) of the unit stretched normal w: D = |v|^4 / (pi ax ay).
+  double wx = dx, wy = dy, wz = std::sqrt(std::max(0.0, 1.0 - r2));
+  if (p_.ggx_lambert) {
+    const double l = std::sqrt(2.0 - r2);
+    wx *= l;
+    wy *= l;
+    wz = 1.0 - r2;
+  }
+  const double v2 = ax * ax * wx * wx + ay * ay * wy * wy + wz * wz;
+  return v2 * v2 / (kPi * ax * ay);
 }
 
 std::array<double, 3> Kpt25Ndf::map(const double hin[3]) const {
   double h[3];
   if (!unit_vector(hin, h) || !(h[2] > 0.0)) return {0.5, 0.5, 0.0};  // below the horizon: D = 0
+  if (aniso_) return map_aniso(h);
   const double hx = h[0], hy = h[1], hz = h[2];
   const double a2 = p_.alpha * p_.alpha;
   double dx, dy, D;
@@ -400,6 +480,7 @@ std::array<double, 3> Kpt25Ndf::map(const double hin[3]) const {
 std::array<double, 3> Kpt25Ndf::inverse_map(double x, double y) const {
   const double dx = 2.0 * x - 1.0, dy = 2.0 * y - 1.0, r2 = dx * dx + dy * dy;
   if (!(r2 < 1.0)) return {kNaN, kNaN, kNaN};
+  if (aniso_) return inverse_map_aniso(dx, dy, r2);
   double v[3];
   if (p_.target == GlintTarget::beckmann) {
     // |s|^2 = alpha^2 t with t = -log(1 - |d|^2) (the map above, inverted); t / |d|^2 -> 1 as d -> 0.
@@ -428,6 +509,7 @@ double Kpt25Ndf::disk_D(double x, double y) const {
   const double dx = 2.0 * x - 1.0, dy = 2.0 * y - 1.0, r2 = dx * dx + dy * dy;
   const double a2 = p_.alpha * p_.alpha;
   if (!(r2 < 1.0)) return 0.0;
+  if (aniso_) return disk_D_aniso(dx, dy, r2);
   if (p_.target == GlintTarget::beckmann) {
     const double g = 1.0 - a2 * std::log1p(-r2);
     return (1.0 - r2) * g * g / (kPi * a2);

@@ -26,15 +26,15 @@ def inverse_map(nd, y):
     """T^-1 of docs/math/glinty_ndf.md#glinty-map written independently of the C++ (points y (n, 2) of U)."""
     d = 2.0 * np.asarray(y, float) - 1.0
     r2 = np.sum(d * d, axis=1)
-    a = nd.alpha
+    a, b = nd.alpha, getattr(nd, "alpha_y", nd.alpha)  # (alpha_x, alpha_y): the stretch of eq. 6
     if nd.target == "beckmann":
         ratio = np.sqrt(np.where(r2 > 0, -np.log1p(-r2) / np.where(r2 > 0, r2, 1.0), 1.0))
-        v = np.column_stack([a * d[:, 0] * ratio, a * d[:, 1] * ratio, np.ones_like(r2)])
+        v = np.column_stack([a * d[:, 0] * ratio, b * d[:, 1] * ratio, np.ones_like(r2)])
     elif getattr(nd, "ggx_map", "orthographic") == "lambert":  # eq. 7 inverted: z = 1 - |d|^2
         l = np.sqrt(2.0 - r2)
-        v = np.column_stack([a * d[:, 0] * l, a * d[:, 1] * l, 1.0 - r2])
+        v = np.column_stack([a * d[:, 0] * l, b * d[:, 1] * l, 1.0 - r2])
     else:
-        v = np.column_stack([a * d[:, 0], a * d[:, 1], np.sqrt(np.maximum(0.0, 1.0 - r2))])
+        v = np.column_stack([a * d[:, 0], b * d[:, 1], np.sqrt(np.maximum(0.0, 1.0 - r2))])
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
@@ -145,6 +145,9 @@ PIXELS = [
      (0.03, 0.004, -0.006, 0.025)),
     # The paper's Lambert map for GGX (eq. 7): the sampler and its pdf through the other Jacobian of T.
     (dict(density=4e3, target="ggx", alpha=0.4, alpha_star=0.05, k=4, ggx_map="lambert"), (0.31, 0.57),
+     (0.03, 0.004, -0.006, 0.025)),
+    # Anisotropic roughness (alpha_x, alpha_y): the stretched map and its Jacobian.
+    (dict(density=4e3, target="beckmann", alpha=(0.25, 0.6), alpha_star=0.05, k=4), (0.31, 0.57),
      (0.03, 0.004, -0.006, 0.025)),
 ]
 

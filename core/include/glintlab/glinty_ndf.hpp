@@ -56,6 +56,9 @@ struct Kpt25Params {
   // D(h) dOmega uniform on U, not D(h)(h.n) dOmega) instead of the orthographic one (false, the default:
   // exact for D(h)(h.n) dOmega). docs/math/glinty_ndf.md#glinty-lambert.
   bool ggx_lambert = false;
+  // Anisotropic roughness (eq. 6's stretch M = diag(1 / alpha, 1 / alpha_y, 1), Atanasov et al.): alpha is
+  // then alpha_x; 0 = isotropic (alpha_y = alpha). docs/math/glinty_ndf.md#glinty-anisotropy.
+  double alpha_y = 0.0;
 };
 
 // Maximum MIP level: the angular grid has 2^l x 2^l cells, l <= 15 (the random-number layout's limit).
@@ -134,6 +137,11 @@ class Kpt25Ndf {
   // dx dy / dOmega of T at h: (pi / 4) D(h)(h.n) for the maps that uniformise D(h)(h.n), (pi / 8) D(h)
   // for the Lambert map (which uniformises D(h) dOmega, of mass 2 for GGX).
   double jacobian(double D, double hz) const;
+  // The maps and D for alpha_x != alpha_y (the isotropic code paths stay as they were, bit for bit).
+  std::array<double, 3> map_aniso(const double h[3]) const;
+  std::array<double, 3> inverse_map_aniso(double dx, double dy, double r2) const;
+  double disk_D_aniso(double dx, double dy, double r2) const;
+  bool aniso_ = false;
   Kpt25Params p_;
   double res_ = 0.0;  // sqrt(K_P): cells per unit uv at level 0
 };

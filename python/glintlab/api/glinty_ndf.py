@@ -306,13 +306,19 @@ def matched_density(density, alpha_star: float, target: str = "beckmann", alpha:
         V.fail("R", R, "a number in (0, 1]")
     if not (0 < radius <= 10):
         V.fail("radius", radius, "a number of lobe stds in (0, 10]")
-    return density * R / (math.pi * radius**2 * alpha_star**2 * smooth_ndf(target, alpha).D_normal)
+    if isinstance(alpha, (tuple, list, np.ndarray)):  # (alpha_x, alpha_y): D(n) = 1 / (pi alpha_x alpha_y)
+        ax, ay = (smooth_ndf(target, a).alpha for a in np.asarray(alpha, dtype=object).reshape(-1)[:2])
+        d_n = 1.0 / (math.pi * ax * ay)
+    else:
+        d_n = smooth_ndf(target, alpha).D_normal
+    return density * R / (math.pi * radius**2 * alpha_star**2 * d_n)
 
 
 class KPT25(GlintyNDF):
     """KPT25's glinty NDF (docs/math/glinty_ndf.md).
 
-    ``density`` K_P (points per unit texture area), ``target`` and ``alpha`` (the smooth NDF),
+    ``density`` K_P (points per unit texture area), ``target`` and ``alpha`` (the smooth NDF; a pair
+    (alpha_x, alpha_y) for anisotropic roughness, docs/math/glinty_ndf.md#glinty-anisotropy),
     ``alpha_star`` (micro-roughness), ``k`` (angular neighbours per level: 1, 4, 9, 16), ``epsilon``
     (eq. 8's mollification; 0 = exact roulette), ``filter`` (Gaussian pixel filter std in pixels; the
     default 1 / (2 sqrt(pi)) gives an effective area abs(det J), DB23's footprint), ``compensation``
@@ -338,7 +344,15 @@ class KPT25(GlintyNDF):
                  k: int = 4, epsilon: float = 0.1, filter: float = 0.5 / math.sqrt(math.pi),
                  compensation: str = "square", blend: str = "roulette", sample_smooth: float = 0.0,
                  sample_weight: str = "lobe_mass", ggx_map: str = "orthographic"):
+        alpha_y = 0.0
+        if isinstance(alpha, (tuple, list, np.ndarray)):  # (alpha_x, alpha_y): anisotropic roughness
+            pair = np.asarray(alpha, dtype=object).reshape(-1)
+            if pair.size != 2:
+                V.fail("alpha", alpha, "a roughness > 0 or a pair (alpha_x, alpha_y)")
+            ax, ay = (smooth_ndf(target if target in NDFS else "beckmann", a).alpha for a in pair)
+            alpha, alpha_y = ax, (ay if ay != ax else 0.0)
         super().__init__(target, alpha, density)
+        self.alpha_y = alpha_y or self.alpha
         if ggx_map not in ("orthographic", "lambert") or (ggx_map == "lambert" and target != "ggx"):
             V.fail("ggx_map", ggx_map, "'orthographic', or 'lambert' with target 'ggx'")
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or int(k) not in (1, 4, 9, 16):
@@ -348,8 +362,9 @@ class KPT25(GlintyNDF):
                 V.fail(pname, value, "a string")
         self._core = _core.Kpt25Ndf(self.density, target, self.alpha, V.real("alpha_star", alpha_star), int(k),
                                     V.real("epsilon", epsilon), V.real("filter", filter), compensation, blend,
-                                    V.real("sample_smooth", sample_smooth), sample_weight, ggx_map)
-        self.params = {"density": self.density, "target": target, "alpha": self.alpha,
+                                    V.real("sample_smooth", sample_smooth), sample_weight, ggx_map, alpha_y)
+        self.params = {"density": self.density, "target": target,
+                       "alpha": (self.alpha, self.alpha_y) if alpha_y else self.alpha,
                        "alpha_star": float(alpha_star), "k": int(k), "epsilon": float(epsilon),
                        "filter": float(filter), "compensation": compensation, "blend": blend}
         if sample_smooth:
@@ -359,6 +374,30 @@ class KPT25(GlintyNDF):
         self.ggx_map = ggx_map
         if ggx_map != "orthographic":
             self.params["ggx_map"] = ggx_map
+
+    @property
+    def D_normal(self) -> float:
+        """D(n) of the target: 1 / (pi alpha_x alpha_y) for both Beckmann and GGX."""
+        return 1.0 / (math.pi * self.alpha * self.alpha_y)
+
+    def smooth(self, h) -> np.ndarray:
+        """The target D(h), anisotropic when alpha = (alpha_x, alpha_y) (docs/math/glinty_ndf.md#glinty-anisotropy)."""
+        if self.alpha_y == self.alpha:
+            return super().smooth(h)
+        h = V.as_float_array("h", h)
+        if h.ndim < 1 or h.shape[-1] != 3:
+            V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
+        u = V.unit_vectors(h)
+        hz = np.where(u[..., 2] > 0, u[..., 2], 1.0)
+        ax, ay = self.alpha, self.alpha_y
+        with np.errstate(over="ignore", under="ignore"):
+            if self.target == "beckmann":
+                t = (u[..., 0] / (hz * ax)) ** 2 + (u[..., 1] / (hz * ay)) ** 2
+                d = np.exp(-t) / (math.pi * ax * ay * hz**4)
+            else:
+                q = (u[..., 0] / ax) ** 2 + (u[..., 1] / ay) ** 2 + hz**2
+                d = 1.0 / (math.pi * ax * ay * q * q)
+        return np.where(u[..., 2] > 0, d, 0.0)
 
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D^f per pixel by Algorithm 1 (B(k) per level, compensation, two levels with the roulette).
@@ -465,7 +504,7 @@ class KPT25(GlintyNDF):
         if not (0 < R <= 1):
             V.fail("R", R, "a number in (0, 1]")
         a2 = self.params["alpha_star"] ** 2
-        return self.density * math.pi * VISIBLE_RADIUS**2 * a2 * self.smooth_ndf.D_normal / R
+        return self.density * math.pi * VISIBLE_RADIUS**2 * a2 * self.D_normal / R
 
     def pixel_sampler(self, uv, J, seed: int = 0, wo=None) -> "PixelSampler":
         """Algorithm 2 at one pixel as a direction sampler: ``.sample(size, seed)`` returns
