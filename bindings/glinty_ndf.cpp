@@ -124,6 +124,20 @@ void bind_glinty_ndf(py::module_& m) {
              }
              return out;
            }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("radius"))
+      .def("evaluate_rgb", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed,
+                              const Array& palette, bool reference) {
+             const std::size_t n = pixels(uv, &jac, h);
+             if (palette.size() % 3 != 0) throw std::invalid_argument("glinty_ndf: colors must hold 3 numbers per colour");
+             const int nc = static_cast<int>(palette.size() / 3);
+             py::array_t<double> out(static_cast<py::ssize_t>(3 * n));
+             double* o = out.mutable_data();
+             {
+               glintlab::bindings::LongCall release;
+               if (reference) g.reference_rgb(uv.data(), jac.data(), h.data(), n, seed, palette.data(), nc, o);
+               else g.evaluate_rgb(uv.data(), jac.data(), h.data(), n, seed, palette.data(), nc, o);
+             }
+             return out;
+           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("palette"), py::arg("reference"))
       .def("pdf", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
              const std::size_t n = pixels(uv, &jac, h);
              py::array_t<double> out(static_cast<py::ssize_t>(n));

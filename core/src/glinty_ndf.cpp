@@ -614,7 +614,8 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
 }
 
 double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, double u, double v, std::uint64_t seed,
-                           bool all_angular, double* points) const {
+                           bool all_angular, double* points, const double* palette, int n_colors,
+                           double* rgb) const {
   const double cell = std::ldexp(1.0, level) / res_;  // spatial cell side at this level
   const std::int64_t na = std::int64_t{1} << level;   // angular cells per axis
   const double fna = static_cast<double>(na);
@@ -644,7 +645,7 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
   const double inv_na = 1.0 / static_cast<double>(na);
   const double inv2s2 = 0.5 / (px.sigma * px.sigma);
   const bool roulette = p_.blend == GlintBlend::roulette && weight < 1.0;
-  double sum = 0.0, count = 0.0;
+  double sum = 0.0, count = 0.0, rgb_raw[3] = {0.0, 0.0, 0.0};
   for (std::int64_t i = i0; i <= i1; ++i) {
     for (std::int64_t j = j0; j <= j1; ++j) {
       for (std::int64_t a = a0; a <= a1; ++a) {
@@ -663,12 +664,20 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
           if (roulette) keep = kpt25_roulette(unit(point_block(seed, level, i, j, a, b, 1)[0]), weight, p_.epsilon);
           if (keep == 0.0) continue;
           const double ex = mx - px.xa, ey = my - px.ya;
-          sum += keep * px.norm * std::exp(-0.5 * q - (ex * ex + ey * ey) * inv2s2);
+          const double term = keep * px.norm * std::exp(-0.5 * q - (ex * ex + ey * ey) * inv2s2);
+          sum += term;
+          if (rgb) {  // GlintColor(i_s, i_a, l): the second word of the point's roulette block
+            const double cu = unit(point_block(seed, level, i, j, a, b, 1)[1]);
+            const int idx = std::min(n_colors - 1, static_cast<int>(cu * n_colors));
+            for (int c = 0; c < 3; ++c) rgb_raw[c] += term * palette[3 * idx + c];
+          }
         }
       }
     }
   }
   if (points) *points += count;
+  if (rgb)
+    for (int c = 0; c < 3; ++c) rgb[c] += rgb_raw[c] / (2.0 * kPi * px.sigma * px.sigma);
   // The angular Gaussian's normalisation 1 / (2 pi sigma^2) (a 2D density: eq. 4 prints the 1D one).
   return sum / (2.0 * kPi * px.sigma * px.sigma);
 }
@@ -995,6 +1004,45 @@ void Kpt25Ndf::visible_counts(const double* uv, const double* jac, const double*
         }
       }
       out[i] = count;
+    }
+  });
+}
+
+void Kpt25Ndf::evaluate_rgb(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                            const double* palette, int n_colors, double* out3) const {
+  if (n_colors < 1) throw_invalid(kWhere, "colors", static_cast<double>(n_colors), "at least one RGB colour");
+  double mean[3] = {0.0, 0.0, 0.0};  // E[GlintColor] (Algorithm 1, line 20): each entry equally likely
+  for (int k = 0; k < n_colors; ++k)
+    for (int c = 0; c < 3; ++c) mean[c] += palette[3 * k + c] / n_colors;
+  detail::parallel_chunks(m, 64, 128, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      check_uv(uv, i);
+      const GlintPixel px = pixel(jac, h, i);
+      double* o = out3 + 3 * i;
+      o[0] = o[1] = o[2] = 0.0;
+      if (px.D == 0.0) continue;
+      double rgb[3] = {0.0, 0.0, 0.0}, comp = 0.0;
+      for (int l = 0; l < px.n_levels; ++l) {
+        level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, false, nullptr, palette, n_colors, rgb);
+        comp += px.weights[l] * compensation(px, px.levels[l]);
+      }
+      for (int c = 0; c < 3; ++c) o[c] = px.D * (rgb[c] / p_.density + comp * mean[c]);
+    }
+  });
+}
+
+void Kpt25Ndf::reference_rgb(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                             const double* palette, int n_colors, double* out3) const {
+  if (n_colors < 1) throw_invalid(kWhere, "colors", static_cast<double>(n_colors), "at least one RGB colour");
+  detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      check_uv(uv, i);
+      const GlintPixel px = pixel(jac, h, i);
+      double rgb[3] = {0.0, 0.0, 0.0};
+      if (px.D > 0.0)
+        for (int l = 0; l < px.n_levels; ++l)
+          level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, true, nullptr, palette, n_colors, rgb);
+      for (int c = 0; c < 3; ++c) out3[3 * i + c] = px.D * rgb[c] / p_.density;
     }
   });
 }

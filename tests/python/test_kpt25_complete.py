@@ -163,3 +163,50 @@ def test_anisotropic_means_are_the_anisotropic_D(target):
         assert abs(z_score(x, D)) < Z
         assert abs(z_score(x, aniso_D(target, ay, ax, h[0]))) > Z
         assert abs(z_score(x, aniso_D(target, ax, ax, h[0]))) > Z
+
+
+# ---------------------------------------------------------------------------------------------------
+# Per-facet colour: colors = (m, 3) palette, RGB output
+
+PALETTE = [[1.0, 0.2, 0.1], [0.9, 0.8, 0.1], [0.1, 0.3, 1.0]]
+
+
+def test_colored_means_are_the_expected_color_and_an_uncolored_compensation_fails():
+    kw = dict(density=1e6, target="beckmann", alpha=0.5, alpha_star=0.05, k=4)
+    nd = gl.glinty_ndf("kpt25", colors=PALETTE, **kw)
+    np.testing.assert_allclose(nd.expected_color, np.mean(PALETTE, axis=0), rtol=1e-15)
+    n = 6000
+    rng = np.random.default_rng(13)
+    uv = rng.uniform(-5, 5, (n, 2))
+    J = np.tile([0.002, 0.0003, -0.0002, 0.0018], (n, 1))
+    h = np.tile([0.2236, 0.0, 1.0], (n, 1))
+    D = float(nd.smooth(h[0]))
+    target = D * nd.expected_color
+    ref = np.concatenate([nd.reference(uv, J, h, seed=s) for s in (1, 2)])
+    alg = np.concatenate([nd.evaluate(uv, J, h, seed=s) for s in (1, 2)])
+    assert ref.shape == alg.shape == (2 * n, 3)
+    for x in (ref, alg):
+        for c in range(3):
+            assert abs(z_score(x[:, c], target[c])) < Z, (c, x[:, c].mean(), target[c])
+        # Wrong: every glint the first palette entry's colour.
+        assert max(abs(z_score(x[:, c], D * PALETTE[0][c])) for c in range(3)) > Z
+    # Wrong: Algorithm 1 with an uncoloured (white) compensation, built from the same realization: the
+    # explicit part (compensation "none") plus the scalar compensation in every channel.
+    none = gl.glinty_ndf("kpt25", colors=PALETTE, **{**kw, "compensation": "none"})
+    scalar, scalar_none = gl.glinty_ndf("kpt25", **kw), gl.glinty_ndf("kpt25", **{**kw, "compensation": "none"})
+    explicit = np.concatenate([none.evaluate(uv, J, h, seed=s) for s in (1, 2)])
+    comp = np.concatenate([scalar.evaluate(uv, J, h, seed=s) - scalar_none.evaluate(uv, J, h, seed=s) for s in (1, 2)])
+    np.testing.assert_allclose(explicit + comp[:, None] * nd.expected_color, alg, rtol=1e-9, atol=1e-12)
+    white = explicit + comp[:, None]
+    assert max(abs(z_score(white[:, c], target[c])) for c in range(3)) > Z
+    # A grey palette of ones reproduces the scalar NDF in each channel (same realization).
+    grey = gl.glinty_ndf("kpt25", colors=np.ones((4, 3)), **kw)
+    np.testing.assert_allclose(grey.evaluate(uv[:200], J[:200], h[:200], seed=1),
+                               np.repeat(scalar.evaluate(uv[:200], J[:200], h[:200], seed=1)[:, None], 3, axis=1),
+                               rtol=1e-12)
+    np.testing.assert_allclose(grey.reference(uv[:200], J[:200], h[:200], seed=1),
+                               np.repeat(scalar.reference(uv[:200], J[:200], h[:200], seed=1)[:, None], 3, axis=1),
+                               rtol=1e-12)
+    for bad in ([[1.0, 0.0]], [[1.0, -0.1, 0.0]], [[1.0, float("nan"), 0.0]], np.zeros((0, 3))):
+        with pytest.raises(ValueError, match="colors"):
+            gl.glinty_ndf("kpt25", colors=bad)

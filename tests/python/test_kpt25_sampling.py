@@ -147,7 +147,7 @@ PIXELS = [
     (dict(density=4e3, target="ggx", alpha=0.4, alpha_star=0.05, k=4, ggx_map="lambert"), (0.31, 0.57),
      (0.03, 0.004, -0.006, 0.025)),
     # Anisotropic roughness (alpha_x, alpha_y): the stretched map and its Jacobian.
-    (dict(density=4e3, target="beckmann", alpha=(0.25, 0.6), alpha_star=0.05, k=4), (0.31, 0.57),
+    (dict(density=4e3, target="beckmann", alpha=(0.6, 0.3), alpha_star=0.05, k=4), (0.31, 0.57),
      (0.03, 0.004, -0.006, 0.025)),
 ]
 

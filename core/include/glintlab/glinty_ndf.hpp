@@ -112,6 +112,14 @@ class Kpt25Ndf {
   // The density per steradian of h with which sample() draws h at pixel i (0 below the horizon).
   void pdf(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
            double* out) const;
+  // Per-facet colour (Algorithm 1, lines 17 and 20; docs/math/glinty_ndf.md#glinty-colour): each point
+  // takes the entry floor(u n) of the palette (n RGB triples) from a random number u of its own cell,
+  // so E[GlintColor] is the palette's mean. out3[3i..] = RGB of evaluate (compensation x the mean
+  // colour) or of reference; the same realization as the scalar calls.
+  void evaluate_rgb(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                    const double* palette, int n_colors, double* out3) const;
+  void reference_rgb(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                     const double* palette, int n_colors, double* out3) const;
   // T(h) for m half vectors: xy[2i..] in the unit square (NaN for h_z <= 0, which T does not map).
   void map_points(const double* h, std::size_t m, double* xy) const;
   // The visible glints per pixel (docs/math/glinty_ndf.md#glinty-matched): roulette-weighted count of
@@ -128,7 +136,8 @@ class Kpt25Ndf {
 
  private:
   double level_sum(const GlintPixel& px, int level, double weight, double u, double v, std::uint64_t seed,
-                   bool all_angular, double* points) const;
+                   bool all_angular, double* points, const double* palette = nullptr, int n_colors = 0,
+                   double* rgb = nullptr) const;
   double compensation(const GlintPixel& px, int level) const;
   void footprint(GlintPixel& px, const double* jac, std::size_t index) const;
   double disk_D(double x, double y) const;  // D(T^-1(x, y)), the target at a point of U

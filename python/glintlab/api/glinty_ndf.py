@@ -318,7 +318,9 @@ class KPT25(GlintyNDF):
     """KPT25's glinty NDF (docs/math/glinty_ndf.md).
 
     ``density`` K_P (points per unit texture area), ``target`` and ``alpha`` (the smooth NDF; a pair
-    (alpha_x, alpha_y) for anisotropic roughness, docs/math/glinty_ndf.md#glinty-anisotropy),
+    (alpha_x, alpha_y) for anisotropic roughness, docs/math/glinty_ndf.md#glinty-anisotropy), ``colors``
+    (an (m, 3) RGB palette: each point takes one entry; ``evaluate`` and ``reference`` then return RGB,
+    docs/math/glinty_ndf.md#glinty-colour),
     ``alpha_star`` (micro-roughness), ``k`` (angular neighbours per level: 1, 4, 9, 16), ``epsilon``
     (eq. 8's mollification; 0 = exact roulette), ``filter`` (Gaussian pixel filter std in pixels; the
     default 1 / (2 sqrt(pi)) gives an effective area abs(det J), DB23's footprint), ``compensation``
@@ -343,7 +345,7 @@ class KPT25(GlintyNDF):
     def __init__(self, density: float = 1e6, target: str = "beckmann", alpha: float = 0.5, alpha_star: float = 0.02,
                  k: int = 4, epsilon: float = 0.1, filter: float = 0.5 / math.sqrt(math.pi),
                  compensation: str = "square", blend: str = "roulette", sample_smooth: float = 0.0,
-                 sample_weight: str = "lobe_mass", ggx_map: str = "orthographic"):
+                 sample_weight: str = "lobe_mass", ggx_map: str = "orthographic", colors=None):
         alpha_y = 0.0
         if isinstance(alpha, (tuple, list, np.ndarray)):  # (alpha_x, alpha_y): anisotropic roughness
             pair = np.asarray(alpha, dtype=object).reshape(-1)
@@ -374,6 +376,27 @@ class KPT25(GlintyNDF):
         self.ggx_map = ggx_map
         if ggx_map != "orthographic":
             self.params["ggx_map"] = ggx_map
+        self.colors = None
+        if colors is not None:  # an (m, 3) palette: RGB output (docs/math/glinty_ndf.md#glinty-colour)
+            pal = V.as_float_array("colors", colors)
+            if pal.ndim != 2 or pal.shape[1] != 3 or pal.shape[0] < 1 or pal.shape[0] > 2**20:
+                V.fail("colors", f"an array of shape {pal.shape}", "an (m, 3) palette of RGB colours, 1 <= m <= 2^20")
+            if not np.all(np.isfinite(pal)) or np.any(pal < 0):
+                V.fail("colors", "a palette with a negative or non-finite entry", "finite RGB values >= 0")
+            self.colors = np.ascontiguousarray(pal, dtype=float)
+            self.params["colors"] = self.colors.shape[0]
+
+    @property
+    def expected_color(self):
+        """E[GlintColor] (Algorithm 1, line 20): the palette's mean (each entry equally likely per point);
+        None without a palette."""
+        return None if self.colors is None else self.colors.mean(axis=0)
+
+    def _rgb(self, uv, J, h, seed, reference):
+        uv, J, h, shape = pixel_arrays(uv, J, h)
+        out = _core_call(shape, self._core.evaluate_rgb, uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed),
+                         self.colors.reshape(-1), reference)
+        return out.reshape(shape + (3,))
 
     @property
     def D_normal(self) -> float:
@@ -401,7 +424,10 @@ class KPT25(GlintyNDF):
 
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D^f per pixel by Algorithm 1 (B(k) per level, compensation, two levels with the roulette).
-        Constant time per pixel; the same realization as ``reference`` for the same ``seed``."""
+        Constant time per pixel; the same realization as ``reference`` for the same ``seed``. With
+        ``colors``, RGB: shape (..., 3)."""
+        if self.colors is not None:
+            return self._rgb(uv, J, h, seed, False)
         uv, J, h, shape = pixel_arrays(uv, J, h)
         return _core_call(shape, self._core.evaluate, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
                           V.seed(seed)).reshape(shape)
@@ -410,7 +436,9 @@ class KPT25(GlintyNDF):
         """The full sum of eq. 11's first term over every point of the same realization whose position
         falls in the filter (both levels, same roulette; no truncation to B(k), no compensation). With
         ``return_points``, also the number of points summed per pixel. Its cost grows with the number
-        of points in the footprint."""
+        of points in the footprint. With ``colors``, RGB (..., 3) (and no point counts)."""
+        if self.colors is not None:
+            return self._rgb(uv, J, h, seed, True)
         uv, J, h, shape = pixel_arrays(uv, J, h)
         d, pts = _core_call(shape, self._core.reference, uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed))
         return (d.reshape(shape), pts.reshape(shape)) if return_points else d.reshape(shape)
