@@ -352,7 +352,25 @@ Kpt25Ndf::Kpt25Ndf(const Kpt25Params& params) : p_(params) {
   if (!(p_.alpha_y == 0.0 || (p_.alpha_y > 0.0 && std::isfinite(p_.alpha_y))))
     throw_invalid(kWhere, "alpha_y", p_.alpha_y, "a finite number > 0 (or 0: isotropic)");
   aniso_ = p_.alpha_y > 0.0 && p_.alpha_y != p_.alpha;
+  for (double a : {p_.glint_ax, p_.glint_ay})
+    if (!(a >= 1e-3 && a <= 1e3)) throw_invalid(kWhere, "anisotropy", a, "stretches in [1e-3, 1e3]");
+  glint_aniso_ = !(p_.glint_ax == 1.0 && p_.glint_ay == 1.0);
+  if (glint_aniso_ && p_.compensation == GlintCompensation::disk)
+    throw_invalid(kWhere, "compensation", std::string("disk"), "\"square\" or \"none\" with anisotropic glints");
   res_ = std::sqrt(p_.density);
+  if (glint_aniso_)  // cells per unit of x_s = A_* uv
+    res_ = p_.glint_printed_density ? std::sqrt(p_.density) / (p_.glint_ax * p_.glint_ay)
+                                    : std::sqrt(p_.density / (p_.glint_ax * p_.glint_ay));
+  // Line 19's 1 / K_P: the points per unit area of x_s (K_P / det A_*) when the uv density is preserved,
+  // so that E = D(h); K_P as printed (then E = D(h) / det(A_*)^2 with the printed resolution).
+  kp_ = p_.density;
+  if (glint_aniso_ && !p_.glint_printed_density) kp_ = p_.density / (p_.glint_ax * p_.glint_ay);
+}
+
+void Kpt25Ndf::refuse_glint_anisotropy(const char* what) const {
+  if (glint_aniso_)
+    throw_invalid(kWhere, "anisotropy", "(" + short_value(p_.glint_ax) + ", " + short_value(p_.glint_ay) + ")",
+                  std::string("(1, 1) for ") + what + " (anisotropic glints: evaluate and reference only)");
 }
 
 // Anisotropic roughness: the stretch M = diag(1 / ax, 1 / ay, 1) of eq. 6 applied to the slopes
@@ -556,6 +574,14 @@ void Kpt25Ndf::footprint(GlintPixel& px, const double* jac, std::size_t i) const
   for (int c = 0; c < 4; ++c)
     if (!std::isfinite(J[c]) || std::abs(J[c]) > 1e12)
       throw_invalid(kWhere, element("J", i, c), J[c], "a finite derivative, |J| <= 1e12");
+  double Js[4];
+  if (glint_aniso_) {  // the footprint of x_s = A_* uv (Algorithm 1, line 2)
+    Js[0] = p_.glint_ax * J[0];
+    Js[1] = p_.glint_ay * J[1];
+    Js[2] = p_.glint_ax * J[2];
+    Js[3] = p_.glint_ay * J[3];
+    J = Js;
+  }
   // Spatial covariance f^2 J J^T (Algorithm 1, line 11) with J = [[du/dx, du/dy], [dv/dx, dv/dy]].
   const double f2 = p_.filter * p_.filter;
   const double suu = f2 * (J[0] * J[0] + J[2] * J[2]), svv = f2 * (J[1] * J[1] + J[3] * J[3]);
@@ -606,6 +632,12 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
   px.ya = m[1];
   px.D = m[2];
   px.sigma = p_.alpha_star * std::sqrt(px.D);
+  px.sigma_y = px.sigma;
+  if (glint_aniso_) {  // Sigma_a = d (alpha_star A_*^-1)^2 (Algorithm 1, line 12)
+    px.sigma_y = px.sigma / p_.glint_ay;
+    px.sigma = px.sigma / p_.glint_ax;
+    if (!(px.sigma_y * px.sigma_y > 1e-300)) px.D = 0.0;
+  }
   // Where sigma^2 underflows (D(h) < 1e-240 at alpha_star >= 1e-30: the far grazing tail of Beckmann)
   // the lobes' 1 / (2 pi sigma^2) would give 0 x inf; the value D(h) x (a mass <= 1) is below 1e-240
   // there, and is returned as 0, the limit at grazing (docs/math/glinty_ndf.md#glinty-map).
@@ -616,6 +648,10 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
 double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, double u, double v, std::uint64_t seed,
                            bool all_angular, double* points, const double* palette, int n_colors,
                            double* rgb) const {
+  if (glint_aniso_) {  // x_s = A_* uv (Algorithm 1, line 2)
+    u *= p_.glint_ax;
+    v *= p_.glint_ay;
+  }
   const double cell = std::ldexp(1.0, level) / res_;  // spatial cell side at this level
   const std::int64_t na = std::int64_t{1} << level;   // angular cells per axis
   const double fna = static_cast<double>(na);
@@ -625,11 +661,11 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
   const auto j1 = static_cast<std::int64_t>(std::floor((v + px.half_v) / cell));
   std::int64_t a0, a1, b0, b1;
   if (all_angular) {
-    const double reach = kUnderflowRadius * px.sigma;
+    const double reach = kUnderflowRadius * px.sigma, reach_y = kUnderflowRadius * px.sigma_y;
     a0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.xa - reach) * fna)));
     a1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.xa + reach) * fna)));
-    b0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.ya - reach) * fna)));
-    b1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.ya + reach) * fna)));
+    b0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.ya - reach_y) * fna)));
+    b1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.ya + reach_y) * fna)));
     const double cells = static_cast<double>(i1 - i0 + 1) * static_cast<double>(j1 - j0 + 1) *
                          static_cast<double>(std::max<std::int64_t>(0, a1 - a0 + 1)) *
                          static_cast<double>(std::max<std::int64_t>(0, b1 - b0 + 1));
@@ -644,6 +680,7 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
   }
   const double inv_na = 1.0 / static_cast<double>(na);
   const double inv2s2 = 0.5 / (px.sigma * px.sigma);
+  const double inv2sx = inv2s2, inv2sy = 0.5 / (px.sigma_y * px.sigma_y);  // anisotropic glints
   const bool roulette = p_.blend == GlintBlend::roulette && weight < 1.0;
   double sum = 0.0, count = 0.0, rgb_raw[3] = {0.0, 0.0, 0.0};
   for (std::int64_t i = i0; i <= i1; ++i) {
@@ -664,7 +701,9 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
           if (roulette) keep = kpt25_roulette(unit(point_block(seed, level, i, j, a, b, 1)[0]), weight, p_.epsilon);
           if (keep == 0.0) continue;
           const double ex = mx - px.xa, ey = my - px.ya;
-          const double term = keep * px.norm * std::exp(-0.5 * q - (ex * ex + ey * ey) * inv2s2);
+          const double term =
+              glint_aniso_ ? keep * px.norm * std::exp(-0.5 * q - ex * ex * inv2sx - ey * ey * inv2sy)
+                           : keep * px.norm * std::exp(-0.5 * q - (ex * ex + ey * ey) * inv2s2);
           sum += term;
           if (rgb) {  // GlintColor(i_s, i_a, l): the second word of the point's roulette block
             const double cu = unit(point_block(seed, level, i, j, a, b, 1)[1]);
@@ -676,10 +715,12 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
     }
   }
   if (points) *points += count;
+  // The angular Gaussian's normalisation 1 / (2 pi sigma^2) (a 2D density: eq. 4 prints the 1D one);
+  // 1 / (2 pi sigma_x sigma_y) with anisotropic glints.
+  const double norm_a = glint_aniso_ ? 2.0 * kPi * px.sigma * px.sigma_y : 2.0 * kPi * px.sigma * px.sigma;
   if (rgb)
-    for (int c = 0; c < 3; ++c) rgb[c] += rgb_raw[c] / (2.0 * kPi * px.sigma * px.sigma);
-  // The angular Gaussian's normalisation 1 / (2 pi sigma^2) (a 2D density: eq. 4 prints the 1D one).
-  return sum / (2.0 * kPi * px.sigma * px.sigma);
+    for (int c = 0; c < 3; ++c) rgb[c] += rgb_raw[c] / norm_a;
+  return sum / norm_a;
 }
 
 double Kpt25Ndf::compensation(const GlintPixel& px, int level) const {
@@ -699,8 +740,9 @@ double Kpt25Ndf::compensation(const GlintPixel& px, int level) const {
            gaussian_in_disk_rect(px.xa, px.ya, s, bx0, bx1, by0, by1);
   }
   // eq. 10: the unit square minus its part in B(k), products of 1D normal masses.
-  const double square = mass_1d(px.xa, s, 0.0, 1.0) * mass_1d(px.ya, s, 0.0, 1.0);
-  const double in_b = mass_1d(px.xa, s, bx0, bx1) * mass_1d(px.ya, s, by0, by1);
+  const double sy = px.sigma_y;  // = s but with anisotropic glints
+  const double square = mass_1d(px.xa, s, 0.0, 1.0) * mass_1d(px.ya, sy, 0.0, 1.0);
+  const double in_b = mass_1d(px.xa, s, bx0, bx1) * mass_1d(px.ya, sy, by0, by1);
   return p_.compensation == GlintCompensation::square_flipped ? square + in_b : square - in_b;
 }
 
@@ -720,7 +762,7 @@ void Kpt25Ndf::evaluate(const double* uv, const double* jac, const double* h, st
         explicit_sum += level_sum(px, px.levels[l], px.weights[l], u, v, seed, false, nullptr);
         comp += px.weights[l] * compensation(px, px.levels[l]);  // blended linearly (Fig. 5)
       }
-      out[i] = px.D * (explicit_sum / p_.density + comp);  // eq. 11 with |J_T| read as D(h)
+      out[i] = px.D * (explicit_sum / kp_ + comp);  // eq. 11 with |J_T| read as D(h)
     }
   });
 }
@@ -736,13 +778,14 @@ void Kpt25Ndf::reference(const double* uv, const double* jac, const double* h, s
       if (px.D > 0.0)
         for (int l = 0; l < px.n_levels; ++l)
           sum += level_sum(px, px.levels[l], px.weights[l], u, v, seed, true, &points);
-      out[i] = px.D * sum / p_.density;
+      out[i] = px.D * sum / kp_;
       if (out_points) out_points[i] = points;
     }
   });
 }
 
 void Kpt25Ndf::expected(const double* jac, const double* h, std::size_t m, double* e_ref, double* e_alg) const {
+  refuse_glint_anisotropy("expected");
   // E over r of R(r, w): w for the linear blend and in the interior of the roulette; by quadrature at
   // the ends, where the clamps of eq. 8 make it differ from w (rho(w) + rho(1 - w) = 1 still holds).
   auto rho = [&](double w) {
@@ -878,6 +921,7 @@ double Kpt25Ndf::pixel_pdf(const GlintPixel& px, double u, double v, std::uint64
 
 void Kpt25Ndf::pdf(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
                    double* out) const {
+  refuse_glint_anisotropy("pdf");
   detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       check_uv(uv, i);
@@ -896,6 +940,7 @@ void Kpt25Ndf::pdf(const double* uv, const double* jac, const double* h, std::si
 
 void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std::size_t m, std::uint64_t seed,
                       std::uint64_t draw_seed, double* h_out, double* pdf_out, double* wi_out) const {
+  refuse_glint_anisotropy("sample");
   detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       check_uv(uv, i);
@@ -977,6 +1022,7 @@ void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std
 // R (both levels), so that the expected count is K_P |det J| times the area of the angular disk in U.
 void Kpt25Ndf::visible_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
                               double radius, double* out) const {
+  refuse_glint_anisotropy("visible_glints");
   const double q_max = 1.0 / (kPi * p_.filter * p_.filter);
   if (!(q_max <= kFilterRadius * kFilterRadius))
     throw_invalid(kWhere, "filter", p_.filter, "a filter std >= 1 / (3 sqrt(pi)) for visible glint counts");
@@ -1026,7 +1072,7 @@ void Kpt25Ndf::evaluate_rgb(const double* uv, const double* jac, const double* h
         level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, false, nullptr, palette, n_colors, rgb);
         comp += px.weights[l] * compensation(px, px.levels[l]);
       }
-      for (int c = 0; c < 3; ++c) o[c] = px.D * (rgb[c] / p_.density + comp * mean[c]);
+      for (int c = 0; c < 3; ++c) o[c] = px.D * (rgb[c] / kp_ + comp * mean[c]);
     }
   });
 }
@@ -1042,7 +1088,7 @@ void Kpt25Ndf::reference_rgb(const double* uv, const double* jac, const double* 
       if (px.D > 0.0)
         for (int l = 0; l < px.n_levels; ++l)
           level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, true, nullptr, palette, n_colors, rgb);
-      for (int c = 0; c < 3; ++c) out3[3 * i + c] = px.D * rgb[c] / p_.density;
+      for (int c = 0; c < 3; ++c) out3[3 * i + c] = px.D * rgb[c] / kp_;
     }
   });
 }

@@ -212,3 +212,40 @@ def test_colored_means_are_the_expected_color_and_an_uncolored_compensation_fail
     for bad in ([[1.0, 0.0]], [[1.0, -0.1, 0.0]], [[1.0, float("nan"), 0.0]], np.zeros((0, 3))):
         with pytest.raises(ValueError, match="colors"):
             gl.glinty_ndf("kpt25", colors=bad)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Anisotropic glints: Algorithm 1's A_* = diag(a_x, a_y)
+
+def test_anisotropic_glints_keep_the_mean_and_the_printed_density_does_not():
+    kw = dict(density=1e6, target="beckmann", alpha=0.5, alpha_star=0.03, k=4)
+    n = 6000
+    rng = np.random.default_rng(17)
+    uv = rng.uniform(-5, 5, (n, 2))
+    J = np.tile([0.002, 0.0003, -0.0002, 0.0018], (n, 1))
+    h = np.tile([0.2236, 0.0, 1.0], (n, 1))
+    D = float(gl.glinty_ndf("kpt25", **kw).smooth(h[0]))
+    nd = gl.glinty_ndf("kpt25", anisotropy=(4.0, 0.5), **kw)
+    printed = gl.glinty_ndf("kpt25", anisotropy=(4.0, 0.5), anisotropy_density="printed", **kw)
+    # The lobes (std alpha_star sqrt(D) / a per axis) lie well inside U here: E = D(h).
+    ref = np.concatenate([nd.reference(uv, J, h, seed=s) for s in (1, 2)])
+    alg = np.concatenate([nd.evaluate(uv, J, h, seed=s) for s in (1, 2)])
+    for x in (ref, alg):
+        assert abs(z_score(x, D)) < Z
+    # As printed: grid resolution sqrt(N) det(A_*^-1) (N / det^2 points per unit x_s area) and line 19's
+    # 1 / N: a mean of D / det(A_*)^2 = D / 4, rejected against D.
+    p_ref = np.concatenate([printed.reference(uv, J, h, seed=s) for s in (1, 2)])
+    assert abs(z_score(p_ref, D / 4.0)) < Z and abs(z_score(p_ref, D)) > Z
+    # The glints are stretched: the angular lobe is narrower along x (a_x = 4) than along y.
+    px = nd.pixel(J[0], h[0])
+    assert px["sigma"] == pytest.approx(0.03 * math.sqrt(D) / 4.0, rel=1e-12)
+    # The identity A_* is the isotropic NDF, to the bit.
+    iso = gl.glinty_ndf("kpt25", anisotropy=(1.0, 1.0), **kw)
+    np.testing.assert_array_equal(iso.evaluate(uv[:300], J[:300], h[:300], seed=1),
+                                  gl.glinty_ndf("kpt25", **kw).evaluate(uv[:300], J[:300], h[:300], seed=1))
+    with pytest.raises(ValueError, match="anisotropy"):
+        nd.expected(J[:1], h[:1])
+    with pytest.raises(ValueError, match="anisotropy"):
+        gl.glinty_ndf("kpt25", anisotropy=(0.0, 1.0))
+    with pytest.raises(ValueError, match="compensation"):
+        gl.glinty_ndf("kpt25", anisotropy=(2.0, 1.0), compensation="disk")

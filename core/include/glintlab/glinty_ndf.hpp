@@ -59,6 +59,12 @@ struct Kpt25Params {
   // Anisotropic roughness (eq. 6's stretch M = diag(1 / alpha, 1 / alpha_y, 1), Atanasov et al.): alpha is
   // then alpha_x; 0 = isotropic (alpha_y = alpha). docs/math/glinty_ndf.md#glinty-anisotropy.
   double alpha_y = 0.0;
+  // Anisotropic glints (Algorithm 1's A_* = diag(glint_ax, glint_ay): x_s = A_* uv, angular std
+  // alpha_star sqrt(D) / a per axis). The grid resolution: sqrt(K_P / det A_*) (policy: K_P points per
+  // unit uv area, the mean stays D(h)) or, printed, sqrt(K_P) det(A_*^-1) (line 1).
+  // docs/math/glinty_ndf.md#glinty-astar.
+  double glint_ax = 1.0, glint_ay = 1.0;
+  bool glint_printed_density = false;
 };
 
 // Maximum MIP level: the angular grid has 2^l x 2^l cells, l <= 15 (the random-number layout's limit).
@@ -69,7 +75,8 @@ inline constexpr int kGlintMaxLevel = 15;
 struct GlintPixel {
   double D = 0.0;            // D(h) of the smooth target (0 below the horizon)
   double xa = 0.5, ya = 0.5; // T(h) in the unit square (the disk U has centre (1/2, 1/2), radius 1/2)
-  double sigma = 0.0;        // angular std alpha_star sqrt(D(h)) (Algorithm 1, line 12)
+  double sigma = 0.0;        // angular std alpha_star sqrt(D(h)) (Algorithm 1, line 12); along x with A_*
+  double sigma_y = 0.0;      // along y (= sigma without anisotropic glints)
   double lambda = 0.0;       // fractional MIP level
   int levels[2] = {0, 0};
   double weights[2] = {1.0, 0.0};
@@ -151,8 +158,11 @@ class Kpt25Ndf {
   std::array<double, 3> inverse_map_aniso(double dx, double dy, double r2) const;
   double disk_D_aniso(double dx, double dy, double r2) const;
   bool aniso_ = false;
+  bool glint_aniso_ = false;  // A_* != identity
+  void refuse_glint_anisotropy(const char* what) const;
   Kpt25Params p_;
-  double res_ = 0.0;  // sqrt(K_P): cells per unit uv at level 0
+  double res_ = 0.0;  // sqrt(K_P): cells per unit uv at level 0 (per unit of x_s = A_* uv)
+  double kp_ = 0.0;   // the density line 19 divides by (K_P; K_P / det A_* with anisotropic glints)
 };
 
 // The integral over the rectangle [x0, x1] x [y0, y1] intersected with the disk U (centre (1/2, 1/2),

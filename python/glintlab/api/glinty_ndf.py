@@ -320,7 +320,9 @@ class KPT25(GlintyNDF):
     ``density`` K_P (points per unit texture area), ``target`` and ``alpha`` (the smooth NDF; a pair
     (alpha_x, alpha_y) for anisotropic roughness, docs/math/glinty_ndf.md#glinty-anisotropy), ``colors``
     (an (m, 3) RGB palette: each point takes one entry; ``evaluate`` and ``reference`` then return RGB,
-    docs/math/glinty_ndf.md#glinty-colour),
+    docs/math/glinty_ndf.md#glinty-colour), ``anisotropy`` (a_x, a_y): Algorithm 1's A_* (anisotropic
+    glints; evaluate and reference only) with ``anisotropy_density`` "preserved" (K_P points per unit uv
+    area) or "printed" (line 1's grid resolution), docs/math/glinty_ndf.md#glinty-astar,
     ``alpha_star`` (micro-roughness), ``k`` (angular neighbours per level: 1, 4, 9, 16), ``epsilon``
     (eq. 8's mollification; 0 = exact roulette), ``filter`` (Gaussian pixel filter std in pixels; the
     default 1 / (2 sqrt(pi)) gives an effective area abs(det J), DB23's footprint), ``compensation``
@@ -345,7 +347,8 @@ class KPT25(GlintyNDF):
     def __init__(self, density: float = 1e6, target: str = "beckmann", alpha: float = 0.5, alpha_star: float = 0.02,
                  k: int = 4, epsilon: float = 0.1, filter: float = 0.5 / math.sqrt(math.pi),
                  compensation: str = "square", blend: str = "roulette", sample_smooth: float = 0.0,
-                 sample_weight: str = "lobe_mass", ggx_map: str = "orthographic", colors=None):
+                 sample_weight: str = "lobe_mass", ggx_map: str = "orthographic", colors=None,
+                 anisotropy=(1.0, 1.0), anisotropy_density: str = "preserved"):
         alpha_y = 0.0
         if isinstance(alpha, (tuple, list, np.ndarray)):  # (alpha_x, alpha_y): anisotropic roughness
             pair = np.asarray(alpha, dtype=object).reshape(-1)
@@ -362,9 +365,15 @@ class KPT25(GlintyNDF):
         for pname, value in (("compensation", compensation), ("blend", blend), ("sample_weight", sample_weight)):
             if not isinstance(value, str):
                 V.fail(pname, value, "a string")
+        aniso = np.asarray(V.as_float_array("anisotropy", anisotropy), float).reshape(-1)
+        if aniso.shape != (2,) or not np.all((aniso >= 1e-3) & (aniso <= 1e3)):
+            V.fail("anisotropy", anisotropy, "a pair (a_x, a_y) of stretches in [1e-3, 1e3]")
+        if anisotropy_density not in ("preserved", "printed"):
+            V.fail("anisotropy_density", anisotropy_density, "'preserved' or 'printed'")
         self._core = _core.Kpt25Ndf(self.density, target, self.alpha, V.real("alpha_star", alpha_star), int(k),
                                     V.real("epsilon", epsilon), V.real("filter", filter), compensation, blend,
-                                    V.real("sample_smooth", sample_smooth), sample_weight, ggx_map, alpha_y)
+                                    V.real("sample_smooth", sample_smooth), sample_weight, ggx_map, alpha_y,
+                                    float(aniso[0]), float(aniso[1]), anisotropy_density == "printed")
         self.params = {"density": self.density, "target": target,
                        "alpha": (self.alpha, self.alpha_y) if alpha_y else self.alpha,
                        "alpha_star": float(alpha_star), "k": int(k), "epsilon": float(epsilon),
@@ -376,6 +385,10 @@ class KPT25(GlintyNDF):
         self.ggx_map = ggx_map
         if ggx_map != "orthographic":
             self.params["ggx_map"] = ggx_map
+        self.anisotropy = (float(aniso[0]), float(aniso[1]))
+        if self.anisotropy != (1.0, 1.0):
+            self.params["anisotropy"] = self.anisotropy
+            self.params["anisotropy_density"] = anisotropy_density
         self.colors = None
         if colors is not None:  # an (m, 3) palette: RGB output (docs/math/glinty_ndf.md#glinty-colour)
             pal = V.as_float_array("colors", colors)
