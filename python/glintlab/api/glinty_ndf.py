@@ -399,6 +399,12 @@ class KPT25(GlintyNDF):
             self.colors = np.ascontiguousarray(pal, dtype=float)
             self.params["colors"] = self.colors.shape[0]
 
+    def image(self, inputs, seed: int = 0, frame: int = 0) -> np.ndarray:
+        """As :meth:`GlintyNDF.image` (scalar images: a palette's RGB output is refused by name)."""
+        if self.colors is not None:
+            V.fail("colors", f"a palette of {self.colors.shape[0]} colours", "None for scene images (scalar)")
+        return super().image(inputs, seed, frame)
+
     @property
     def expected_color(self):
         """E[GlintColor] (Algorithm 1, line 20): the palette's mean (each entry equally likely per point);
