@@ -53,7 +53,8 @@ void bind_glinty_ndf(py::module_& m) {
   py::class_<Kpt25Ndf>(m, "Kpt25Ndf")
       .def(py::init([](double density, const std::string& target, double alpha, double alpha_star, int k,
                        double epsilon, double filter, const std::string& compensation, const std::string& blend,
-                       double sample_smooth, const std::string& sample_weight) {
+                       double sample_smooth, const std::string& sample_weight, const std::string& ggx_map,
+                       double alpha_y, double glint_ax, double glint_ay, bool glint_printed_density) {
              Kpt25Params p;
              p.density = density;
              p.target = parse_target(target);
@@ -68,11 +69,20 @@ void bind_glinty_ndf(py::module_& m) {
              if (sample_weight == "lobe_mass") p.sample_lobe_mass = true;
              else if (sample_weight == "printed") p.sample_lobe_mass = false;
              else throw_invalid(kWhere, "sample_weight", sample_weight, "\"lobe_mass\" or \"printed\"");
+             p.alpha_y = alpha_y;
+             p.glint_ax = glint_ax;
+             p.glint_ay = glint_ay;
+             p.glint_printed_density = glint_printed_density;
+             if (ggx_map == "orthographic") p.ggx_lambert = false;
+             else if (ggx_map == "lambert" && p.target == GlintTarget::ggx) p.ggx_lambert = true;
+             else throw_invalid(kWhere, "ggx_map", ggx_map, "\"orthographic\", or \"lambert\" with target \"ggx\"");
              return Kpt25Ndf(p);
            }),
            py::arg("density"), py::arg("target"), py::arg("alpha"), py::arg("alpha_star"), py::arg("k"),
            py::arg("epsilon"), py::arg("filter"), py::arg("compensation"), py::arg("blend"),
-           py::arg("sample_smooth") = 0.0, py::arg("sample_weight") = "lobe_mass")
+           py::arg("sample_smooth") = 0.0, py::arg("sample_weight") = "lobe_mass", py::arg("ggx_map") = "orthographic",
+           py::arg("alpha_y") = 0.0, py::arg("glint_ax") = 1.0, py::arg("glint_ay") = 1.0,
+           py::arg("glint_printed_density") = false)
       .def("evaluate", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
              const std::size_t n = pixels(uv, &jac, h);
              py::array_t<double> out(static_cast<py::ssize_t>(n));
@@ -107,6 +117,31 @@ void bind_glinty_ndf(py::module_& m) {
              }
              return py::make_tuple(er, ea);
            }, py::arg("J"), py::arg("h"))
+      .def("visible_counts", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed,
+                                double radius) {
+             const std::size_t n = pixels(uv, &jac, h);
+             py::array_t<double> out(static_cast<py::ssize_t>(n));
+             double* o = out.mutable_data();
+             {
+               glintlab::bindings::LongCall release;
+               g.visible_counts(uv.data(), jac.data(), h.data(), n, seed, radius, o);
+             }
+             return out;
+           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("radius"))
+      .def("evaluate_rgb", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed,
+                              const Array& palette, bool reference) {
+             const std::size_t n = pixels(uv, &jac, h);
+             if (palette.size() % 3 != 0) throw std::invalid_argument("glinty_ndf: colors must hold 3 numbers per colour");
+             const int nc = static_cast<int>(palette.size() / 3);
+             py::array_t<double> out(static_cast<py::ssize_t>(3 * n));
+             double* o = out.mutable_data();
+             {
+               glintlab::bindings::LongCall release;
+               if (reference) g.reference_rgb(uv.data(), jac.data(), h.data(), n, seed, palette.data(), nc, o);
+               else g.evaluate_rgb(uv.data(), jac.data(), h.data(), n, seed, palette.data(), nc, o);
+             }
+             return out;
+           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("palette"), py::arg("reference"))
       .def("pdf", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
              const std::size_t n = pixels(uv, &jac, h);
              py::array_t<double> out(static_cast<py::ssize_t>(n));

@@ -215,7 +215,7 @@ void for_points(const Kpt25Params& p, double res, const GlintPixel& px, int leve
           double keep = weight;
           if (roulette) keep = kpt25_roulette(unit(point_block(seed, level, i, j, a, b, 1)[0]), weight, p.epsilon);
           if (keep == 0.0) continue;
-          f(a, b, mx, my, keep * std::exp(-0.5 * q));
+          f(a, b, mx, my, keep * std::exp(-0.5 * q), keep, q);
         }
 }
 
@@ -349,12 +349,110 @@ Kpt25Ndf::Kpt25Ndf(const Kpt25Params& params) : p_(params) {
     throw_invalid(kWhere, "filter", p_.filter, "a finite pixel filter std > 0 (pixels)");
   if (!(p_.sample_smooth >= 0.0 && p_.sample_smooth <= 1.0))
     throw_invalid(kWhere, "sample_smooth", p_.sample_smooth, "a probability in [0, 1]");
+  if (!(p_.alpha_y == 0.0 || (p_.alpha_y > 0.0 && std::isfinite(p_.alpha_y))))
+    throw_invalid(kWhere, "alpha_y", p_.alpha_y, "a finite number > 0 (or 0: isotropic)");
+  aniso_ = p_.alpha_y > 0.0 && p_.alpha_y != p_.alpha;
+  for (double a : {p_.glint_ax, p_.glint_ay})
+    if (!(a >= 1e-3 && a <= 1e3)) throw_invalid(kWhere, "anisotropy", a, "stretches in [1e-3, 1e3]");
+  glint_aniso_ = !(p_.glint_ax == 1.0 && p_.glint_ay == 1.0);
+  if (glint_aniso_ && p_.compensation == GlintCompensation::disk)
+    throw_invalid(kWhere, "compensation", std::string("disk"), "\"square\" or \"none\" with anisotropic glints");
   res_ = std::sqrt(p_.density);
+  if (glint_aniso_)  // cells per unit of x_s = A_* uv
+    res_ = p_.glint_printed_density ? std::sqrt(p_.density) / (p_.glint_ax * p_.glint_ay)
+                                    : std::sqrt(p_.density / (p_.glint_ax * p_.glint_ay));
+  // Line 19's 1 / K_P: the points per unit area of x_s (K_P / det A_*) when the uv density is preserved,
+  // so that E = D(h); K_P as printed (then E = D(h) / det(A_*)^2 with the printed resolution).
+  kp_ = p_.density;
+  if (glint_aniso_ && !p_.glint_printed_density) kp_ = p_.density / (p_.glint_ax * p_.glint_ay);
+}
+
+void Kpt25Ndf::refuse_glint_anisotropy(const char* what) const {
+  if (glint_aniso_)
+    throw_invalid(kWhere, "anisotropy", "(" + short_value(p_.glint_ax) + ", " + short_value(p_.glint_ay) + ")",
+                  std::string("(1, 1) for ") + what + " (anisotropic glints: evaluate and reference only)");
+}
+
+// Anisotropic roughness: the stretch M = diag(1 / ax, 1 / ay, 1) of eq. 6 applied to the slopes
+// (Beckmann) or to the half vector (GGX); the same constructions as the isotropic map below.
+std::array<double, 3> Kpt25Ndf::map_aniso(const double h[3]) const {
+  const double ax = p_.alpha, ay = p_.alpha_y, hx = h[0], hy = h[1], hz = h[2];
+  double dx, dy, D;
+  if (p_.target == GlintTarget::beckmann) {
+    // Stretched slopes (s_x / ax, s_y / ay) are Gaussian with the isotropic law of alpha = 1; D =
+    // exp(-t) / (pi ax ay cos^4), t = |stretched slope|^2.
+    const double sx = hx / hz / ax, sy = hy / hz / ay, t = sx * sx + sy * sy;
+    const double s2 = (hx * hx + hy * hy) / (hz * hz);
+    if (!(t < 800.0)) {
+      const double r = std::sqrt(sx * sx + sy * sy);
+      return {0.5 + 0.5 * sx / r, 0.5 + 0.5 * sy / r, 0.0};
+    }
+    const double scale = t > 1e-300 ? std::sqrt(-std::expm1(-t) / t) : 1.0;
+    dx = sx * scale;
+    dy = sy * scale;
+    D = std::exp(-t + 2.0 * std::log1p(s2)) / (kPi * ax * ay);
+  } else {
+    // GGX: D = 1 / (pi ax ay (hx^2 / ax^2 + hy^2 / ay^2 + hz^2)^2), the stretched normal cosine distributed.
+    const double px = hx / ax, py = hy / ay, n2 = px * px + py * py + hz * hz, n = std::sqrt(n2);
+    dx = px / n;
+    dy = py / n;
+    if (p_.ggx_lambert) {
+      const double l = 1.0 / std::sqrt(1.0 + hz / n);
+      dx *= l;
+      dy *= l;
+    }
+    D = 1.0 / (kPi * ax * ay * n2 * n2);
+  }
+  return {0.5 + 0.5 * dx, 0.5 + 0.5 * dy, D};
+}
+
+std::array<double, 3> Kpt25Ndf::inverse_map_aniso(double dx, double dy, double r2) const {
+  const double ax = p_.alpha, ay = p_.alpha_y;
+  double v[3];
+  if (p_.target == GlintTarget::beckmann) {
+    const double ratio = r2 > 1e-300 ? std::sqrt(-std::log1p(-r2) / r2) : 1.0;
+    v[0] = ax * dx * ratio;
+    v[1] = ay * dy * ratio;
+    v[2] = 1.0;
+  } else if (p_.ggx_lambert) {
+    const double l = std::sqrt(2.0 - r2);
+    v[0] = ax * dx * l;
+    v[1] = ay * dy * l;
+    v[2] = 1.0 - r2;
+  } else {
+    v[0] = ax * dx;
+    v[1] = ay * dy;
+    v[2] = std::sqrt(std::max(0.0, 1.0 - r2));
+  }
+  double h[3];
+  if (!unit_vector(v, h)) return {kNaN, kNaN, kNaN};
+  return {h[0], h[1], h[2]};
+}
+
+double Kpt25Ndf::disk_D_aniso(double dx, double dy, double r2) const {
+  const double ax = p_.alpha, ay = p_.alpha_y;
+  if (p_.target == GlintTarget::beckmann) {
+    // |s|^2 = (t / r2)(ax^2 dx^2 + ay^2 dy^2), t = -log(1 - r2); D = (1 - r2)(1 + |s|^2)^2 / (pi ax ay).
+    const double t_r2 = r2 > 1e-300 ? -std::log1p(-r2) / r2 : 1.0;
+    const double g = 1.0 + t_r2 * (ax * ax * dx * dx + ay * ay * dy * dy);
+    return (1.0 - r2) * g * g / (kPi * ax * ay);
+  }
+  // The unstretched v = (ax w_x, ay w_y, w_z) of the unit stretched normal w: D = |v|^4 / (pi ax ay).
+  double wx = dx, wy = dy, wz = std::sqrt(std::max(0.0, 1.0 - r2));
+  if (p_.ggx_lambert) {
+    const double l = std::sqrt(2.0 - r2);
+    wx *= l;
+    wy *= l;
+    wz = 1.0 - r2;
+  }
+  const double v2 = ax * ax * wx * wx + ay * ay * wy * wy + wz * wz;
+  return v2 * v2 / (kPi * ax * ay);
 }
 
 std::array<double, 3> Kpt25Ndf::map(const double hin[3]) const {
   double h[3];
   if (!unit_vector(hin, h) || !(h[2] > 0.0)) return {0.5, 0.5, 0.0};  // below the horizon: D = 0
+  if (aniso_) return map_aniso(h);
   const double hx = h[0], hy = h[1], hz = h[2];
   const double a2 = p_.alpha * p_.alpha;
   double dx, dy, D;
@@ -385,6 +483,12 @@ std::array<double, 3> Kpt25Ndf::map(const double hin[3]) const {
     const double n = std::sqrt(px * px + py * py + hz * hz);
     dx = px / n;
     dy = py / n;
+    if (p_.ggx_lambert) {
+      // Eq. 7: L(x, y, z) = (x, y) / sqrt(1 + z), |L|^2 = 1 - z on the unit hemisphere (equal-area).
+      const double l = 1.0 / std::sqrt(1.0 + hz / n);
+      dx *= l;
+      dy *= l;
+    }
     const double q = (a2 - 1.0) * hz * hz + 1.0;
     D = a2 / (kPi * q * q);
   }
@@ -394,6 +498,7 @@ std::array<double, 3> Kpt25Ndf::map(const double hin[3]) const {
 std::array<double, 3> Kpt25Ndf::inverse_map(double x, double y) const {
   const double dx = 2.0 * x - 1.0, dy = 2.0 * y - 1.0, r2 = dx * dx + dy * dy;
   if (!(r2 < 1.0)) return {kNaN, kNaN, kNaN};
+  if (aniso_) return inverse_map_aniso(dx, dy, r2);
   double v[3];
   if (p_.target == GlintTarget::beckmann) {
     // |s|^2 = alpha^2 t with t = -log(1 - |d|^2) (the map above, inverted); t / |d|^2 -> 1 as d -> 0.
@@ -401,6 +506,11 @@ std::array<double, 3> Kpt25Ndf::inverse_map(double x, double y) const {
     v[0] = p_.alpha * dx * ratio;
     v[1] = p_.alpha * dy * ratio;
     v[2] = 1.0;
+  } else if (p_.ggx_lambert) {  // L^-1: z = 1 - |d|^2, (x, y) = d sqrt(1 + z); then unstretched
+    const double l = std::sqrt(2.0 - r2);
+    v[0] = p_.alpha * dx * l;
+    v[1] = p_.alpha * dy * l;
+    v[2] = 1.0 - r2;
   } else {  // the stretched normal (dx, dy, sqrt(1 - |d|^2)), unstretched
     v[0] = p_.alpha * dx;
     v[1] = p_.alpha * dy;
@@ -417,12 +527,25 @@ double Kpt25Ndf::disk_D(double x, double y) const {
   const double dx = 2.0 * x - 1.0, dy = 2.0 * y - 1.0, r2 = dx * dx + dy * dy;
   const double a2 = p_.alpha * p_.alpha;
   if (!(r2 < 1.0)) return 0.0;
+  if (aniso_) return disk_D_aniso(dx, dy, r2);
   if (p_.target == GlintTarget::beckmann) {
     const double g = 1.0 - a2 * std::log1p(-r2);
     return (1.0 - r2) * g * g / (kPi * a2);
   }
+  if (p_.ggx_lambert) {
+    // The stretched normal has z = 1 - r2 and |(x, y)|^2 = 1 - z^2 = r2 (2 - r2); GGX D at its
+    // unstretched h is (alpha^2 |(x, y)|^2 + z^2)^2 / (pi alpha^2).
+    const double z = 1.0 - r2;
+    const double g = a2 * r2 * (2.0 - r2) + z * z;
+    return g * g / (kPi * a2);
+  }
   const double g = a2 * r2 + 1.0 - r2;
   return g * g / (kPi * a2);
+}
+
+double Kpt25Ndf::jacobian(double D, double hz) const {
+  if (p_.target == GlintTarget::ggx && p_.ggx_lambert) return 0.125 * kPi * D;
+  return 0.25 * kPi * D * hz;
 }
 
 void Kpt25Ndf::map_points(const double* h, std::size_t m, double* xy) const {
@@ -451,6 +574,14 @@ void Kpt25Ndf::footprint(GlintPixel& px, const double* jac, std::size_t i) const
   for (int c = 0; c < 4; ++c)
     if (!std::isfinite(J[c]) || std::abs(J[c]) > 1e12)
       throw_invalid(kWhere, element("J", i, c), J[c], "a finite derivative, |J| <= 1e12");
+  double Js[4];
+  if (glint_aniso_) {  // the footprint of x_s = A_* uv (Algorithm 1, line 2)
+    Js[0] = p_.glint_ax * J[0];
+    Js[1] = p_.glint_ay * J[1];
+    Js[2] = p_.glint_ax * J[2];
+    Js[3] = p_.glint_ay * J[3];
+    J = Js;
+  }
   // Spatial covariance f^2 J J^T (Algorithm 1, line 11) with J = [[du/dx, du/dy], [dv/dx, dv/dy]].
   const double f2 = p_.filter * p_.filter;
   const double suu = f2 * (J[0] * J[0] + J[2] * J[2]), svv = f2 * (J[1] * J[1] + J[3] * J[3]);
@@ -501,6 +632,12 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
   px.ya = m[1];
   px.D = m[2];
   px.sigma = p_.alpha_star * std::sqrt(px.D);
+  px.sigma_y = px.sigma;
+  if (glint_aniso_) {  // Sigma_a = d (alpha_star A_*^-1)^2 (Algorithm 1, line 12)
+    px.sigma_y = px.sigma / p_.glint_ay;
+    px.sigma = px.sigma / p_.glint_ax;
+    if (!(px.sigma_y * px.sigma_y > 1e-300)) px.D = 0.0;
+  }
   // Where sigma^2 underflows (D(h) < 1e-240 at alpha_star >= 1e-30: the far grazing tail of Beckmann)
   // the lobes' 1 / (2 pi sigma^2) would give 0 x inf; the value D(h) x (a mass <= 1) is below 1e-240
   // there, and is returned as 0, the limit at grazing (docs/math/glinty_ndf.md#glinty-map).
@@ -509,7 +646,12 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
 }
 
 double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, double u, double v, std::uint64_t seed,
-                           bool all_angular, double* points) const {
+                           bool all_angular, double* points, const double* palette, int n_colors,
+                           double* rgb) const {
+  if (glint_aniso_) {  // x_s = A_* uv (Algorithm 1, line 2)
+    u *= p_.glint_ax;
+    v *= p_.glint_ay;
+  }
   const double cell = std::ldexp(1.0, level) / res_;  // spatial cell side at this level
   const std::int64_t na = std::int64_t{1} << level;   // angular cells per axis
   const double fna = static_cast<double>(na);
@@ -519,11 +661,11 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
   const auto j1 = static_cast<std::int64_t>(std::floor((v + px.half_v) / cell));
   std::int64_t a0, a1, b0, b1;
   if (all_angular) {
-    const double reach = kUnderflowRadius * px.sigma;
+    const double reach = kUnderflowRadius * px.sigma, reach_y = kUnderflowRadius * px.sigma_y;
     a0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.xa - reach) * fna)));
     a1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.xa + reach) * fna)));
-    b0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.ya - reach) * fna)));
-    b1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.ya + reach) * fna)));
+    b0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.ya - reach_y) * fna)));
+    b1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.ya + reach_y) * fna)));
     const double cells = static_cast<double>(i1 - i0 + 1) * static_cast<double>(j1 - j0 + 1) *
                          static_cast<double>(std::max<std::int64_t>(0, a1 - a0 + 1)) *
                          static_cast<double>(std::max<std::int64_t>(0, b1 - b0 + 1));
@@ -538,8 +680,9 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
   }
   const double inv_na = 1.0 / static_cast<double>(na);
   const double inv2s2 = 0.5 / (px.sigma * px.sigma);
+  const double inv2sx = inv2s2, inv2sy = 0.5 / (px.sigma_y * px.sigma_y);  // anisotropic glints
   const bool roulette = p_.blend == GlintBlend::roulette && weight < 1.0;
-  double sum = 0.0, count = 0.0;
+  double sum = 0.0, count = 0.0, rgb_raw[3] = {0.0, 0.0, 0.0};
   for (std::int64_t i = i0; i <= i1; ++i) {
     for (std::int64_t j = j0; j <= j1; ++j) {
       for (std::int64_t a = a0; a <= a1; ++a) {
@@ -558,14 +701,26 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
           if (roulette) keep = kpt25_roulette(unit(point_block(seed, level, i, j, a, b, 1)[0]), weight, p_.epsilon);
           if (keep == 0.0) continue;
           const double ex = mx - px.xa, ey = my - px.ya;
-          sum += keep * px.norm * std::exp(-0.5 * q - (ex * ex + ey * ey) * inv2s2);
+          const double term =
+              glint_aniso_ ? keep * px.norm * std::exp(-0.5 * q - ex * ex * inv2sx - ey * ey * inv2sy)
+                           : keep * px.norm * std::exp(-0.5 * q - (ex * ex + ey * ey) * inv2s2);
+          sum += term;
+          if (rgb) {  // GlintColor(i_s, i_a, l): the second word of the point's roulette block
+            const double cu = unit(point_block(seed, level, i, j, a, b, 1)[1]);
+            const int idx = std::min(n_colors - 1, static_cast<int>(cu * n_colors));
+            for (int c = 0; c < 3; ++c) rgb_raw[c] += term * palette[3 * idx + c];
+          }
         }
       }
     }
   }
   if (points) *points += count;
-  // The angular Gaussian's normalisation 1 / (2 pi sigma^2) (a 2D density: eq. 4 prints the 1D one).
-  return sum / (2.0 * kPi * px.sigma * px.sigma);
+  // The angular Gaussian's normalisation 1 / (2 pi sigma^2) (a 2D density: eq. 4 prints the 1D one);
+  // 1 / (2 pi sigma_x sigma_y) with anisotropic glints.
+  const double norm_a = glint_aniso_ ? 2.0 * kPi * px.sigma * px.sigma_y : 2.0 * kPi * px.sigma * px.sigma;
+  if (rgb)
+    for (int c = 0; c < 3; ++c) rgb[c] += rgb_raw[c] / norm_a;
+  return sum / norm_a;
 }
 
 double Kpt25Ndf::compensation(const GlintPixel& px, int level) const {
@@ -585,8 +740,9 @@ double Kpt25Ndf::compensation(const GlintPixel& px, int level) const {
            gaussian_in_disk_rect(px.xa, px.ya, s, bx0, bx1, by0, by1);
   }
   // eq. 10: the unit square minus its part in B(k), products of 1D normal masses.
-  const double square = mass_1d(px.xa, s, 0.0, 1.0) * mass_1d(px.ya, s, 0.0, 1.0);
-  const double in_b = mass_1d(px.xa, s, bx0, bx1) * mass_1d(px.ya, s, by0, by1);
+  const double sy = px.sigma_y;  // = s but with anisotropic glints
+  const double square = mass_1d(px.xa, s, 0.0, 1.0) * mass_1d(px.ya, sy, 0.0, 1.0);
+  const double in_b = mass_1d(px.xa, s, bx0, bx1) * mass_1d(px.ya, sy, by0, by1);
   return p_.compensation == GlintCompensation::square_flipped ? square + in_b : square - in_b;
 }
 
@@ -606,7 +762,7 @@ void Kpt25Ndf::evaluate(const double* uv, const double* jac, const double* h, st
         explicit_sum += level_sum(px, px.levels[l], px.weights[l], u, v, seed, false, nullptr);
         comp += px.weights[l] * compensation(px, px.levels[l]);  // blended linearly (Fig. 5)
       }
-      out[i] = px.D * (explicit_sum / p_.density + comp);  // eq. 11 with |J_T| read as D(h)
+      out[i] = px.D * (explicit_sum / kp_ + comp);  // eq. 11 with |J_T| read as D(h)
     }
   });
 }
@@ -622,13 +778,14 @@ void Kpt25Ndf::reference(const double* uv, const double* jac, const double* h, s
       if (px.D > 0.0)
         for (int l = 0; l < px.n_levels; ++l)
           sum += level_sum(px, px.levels[l], px.weights[l], u, v, seed, true, &points);
-      out[i] = px.D * sum / p_.density;
+      out[i] = px.D * sum / kp_;
       if (out_points) out_points[i] = points;
     }
   });
 }
 
 void Kpt25Ndf::expected(const double* jac, const double* h, std::size_t m, double* e_ref, double* e_alg) const {
+  refuse_glint_anisotropy("expected");
   // E over r of R(r, w): w for the linear blend and in the interior of the roulette; by quadrature at
   // the ends, where the clamps of eq. 8 make it differ from w (rho(w) + rho(1 - w) = 1 still holds).
   auto rho = [&](double w) {
@@ -702,7 +859,7 @@ double Kpt25Ndf::level_pdf(const GlintPixel& px, int level, double u, double v, 
   const std::int64_t b0 = whole ? 0 : fy0, b1 = whole ? na - 1 : fy1 + side - 1;
   double G[4][4] = {}, W[4][4] = {};
   for_points(p_, res_, px, level, px.weights[level == px.levels[0] ? 0 : 1], u, v, seed, a0, a1, b0, b1,
-             [&](std::int64_t a, std::int64_t b, double mx, double my, double w) {
+             [&](std::int64_t a, std::int64_t b, double mx, double my, double w, double, double) {
                const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
                if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
                const double ex = x - mx, ey = y - my;
@@ -764,6 +921,7 @@ double Kpt25Ndf::pixel_pdf(const GlintPixel& px, double u, double v, std::uint64
 
 void Kpt25Ndf::pdf(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
                    double* out) const {
+  refuse_glint_anisotropy("pdf");
   detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       check_uv(uv, i);
@@ -775,13 +933,14 @@ void Kpt25Ndf::pdf(const double* uv, const double* jac, const double* h, std::si
       double hu[3];
       unit_vector(h + 3 * i, hu);
       // dx dy = (pi / 4) D(h) (h.n) dOmega: T maps D(h)(h.n)dOmega to the uniform density 4 / pi on U.
-      out[i] = 0.25 * kPi * px.D * hu[2] * pixel_pdf(px, uv[2 * i], uv[2 * i + 1], seed, px.xa, px.ya);
+      out[i] = jacobian(px.D, hu[2]) * pixel_pdf(px, uv[2 * i], uv[2 * i + 1], seed, px.xa, px.ya);
     }
   });
 }
 
 void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std::size_t m, std::uint64_t seed,
                       std::uint64_t draw_seed, double* h_out, double* pdf_out, double* wi_out) const {
+  refuse_glint_anisotropy("sample");
   detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       check_uv(uv, i);
@@ -814,7 +973,7 @@ void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std
         // w_i / (sum of the weights so far), which leaves point i chosen with probability w_i / W_B.
         double total = 0.0, gx = 0.0, gy = 0.0, gs = 0.0;
         for_points(p_, res_, px, level, px.weights[li], u, v, seed, a0, a1, b0, b1,
-                   [&](std::int64_t, std::int64_t, double mx, double my, double w) {
+                   [&](std::int64_t, std::int64_t, double mx, double my, double w, double, double) {
                      const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
                      if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
                      const double mass = mass_1d(mx, sg, bx0, bx1) * mass_1d(my, sg, by0, by1);
@@ -848,11 +1007,88 @@ void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std
       const auto t = map(H);
       double hu[3];
       unit_vector(H, hu);
-      pdf_out[i] = t[2] > 0.0 ? 0.25 * kPi * t[2] * hu[2] * pixel_pdf(px, u, v, seed, t[0], t[1]) : 0.0;
+      pdf_out[i] = t[2] > 0.0 ? jacobian(t[2], hu[2]) * pixel_pdf(px, u, v, seed, t[0], t[1]) : 0.0;
       if (Wi) {
         const double d = 2.0 * (o[0] * hv[0] + o[1] * hv[1] + o[2] * hv[2]);
         for (int c = 0; c < 3; ++c) Wi[c] = d * hv[c] - o[c];
       }
+    }
+  });
+}
+
+// The visible glints of a pixel (docs/math/glinty_ndf.md#glinty-matched): the points inside DB23's
+// footprint ellipse J {|x| <= 1 / sqrt(pi)} (area |det J|; q <= 1 / (pi f^2) in the filter's Mahalanobis
+// distance) whose normal lies within `radius` lobe stds of T(h), each counted with its roulette weight
+// R (both levels), so that the expected count is K_P |det J| times the area of the angular disk in U.
+void Kpt25Ndf::visible_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                              double radius, double* out) const {
+  refuse_glint_anisotropy("visible_glints");
+  const double q_max = 1.0 / (kPi * p_.filter * p_.filter);
+  if (!(q_max <= kFilterRadius * kFilterRadius))
+    throw_invalid(kWhere, "filter", p_.filter, "a filter std >= 1 / (3 sqrt(pi)) for visible glint counts");
+  if (!(radius > 0.0 && radius <= 10.0)) throw_invalid(kWhere, "radius", radius, "a number of lobe stds in (0, 10]");
+  detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      check_uv(uv, i);
+      const GlintPixel px = pixel(jac, h, i);
+      double count = 0.0;
+      if (px.D > 0.0) {
+        const double r = radius * px.sigma, r2 = r * r;
+        for (int l = 0; l < px.n_levels; ++l) {
+          const int level = px.levels[l];
+          const std::int64_t na = std::int64_t{1} << level;
+          const double fna = static_cast<double>(na);
+          const auto a0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.xa - r) * fna)));
+          const auto a1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.xa + r) * fna)));
+          const auto b0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.ya - r) * fna)));
+          const auto b1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.ya + r) * fna)));
+          for_points(p_, res_, px, level, px.weights[l], uv[2 * i], uv[2 * i + 1], seed, a0, a1, b0, b1,
+                     [&](std::int64_t, std::int64_t, double mx, double my, double, double keep, double q) {
+                       const double ex = mx - px.xa, ey = my - px.ya;
+                       if (q <= q_max && ex * ex + ey * ey < r2) count += keep;
+                     });
+        }
+      }
+      out[i] = count;
+    }
+  });
+}
+
+void Kpt25Ndf::evaluate_rgb(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                            const double* palette, int n_colors, double* out3) const {
+  if (n_colors < 1) throw_invalid(kWhere, "colors", static_cast<double>(n_colors), "at least one RGB colour");
+  double mean[3] = {0.0, 0.0, 0.0};  // E[GlintColor] (Algorithm 1, line 20): each entry equally likely
+  for (int k = 0; k < n_colors; ++k)
+    for (int c = 0; c < 3; ++c) mean[c] += palette[3 * k + c] / n_colors;
+  detail::parallel_chunks(m, 64, 128, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      check_uv(uv, i);
+      const GlintPixel px = pixel(jac, h, i);
+      double* o = out3 + 3 * i;
+      o[0] = o[1] = o[2] = 0.0;
+      if (px.D == 0.0) continue;
+      double rgb[3] = {0.0, 0.0, 0.0}, comp = 0.0;
+      for (int l = 0; l < px.n_levels; ++l) {
+        level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, false, nullptr, palette, n_colors, rgb);
+        comp += px.weights[l] * compensation(px, px.levels[l]);
+      }
+      for (int c = 0; c < 3; ++c) o[c] = px.D * (rgb[c] / kp_ + comp * mean[c]);
+    }
+  });
+}
+
+void Kpt25Ndf::reference_rgb(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                             const double* palette, int n_colors, double* out3) const {
+  if (n_colors < 1) throw_invalid(kWhere, "colors", static_cast<double>(n_colors), "at least one RGB colour");
+  detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      check_uv(uv, i);
+      const GlintPixel px = pixel(jac, h, i);
+      double rgb[3] = {0.0, 0.0, 0.0};
+      if (px.D > 0.0)
+        for (int l = 0; l < px.n_levels; ++l)
+          level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, true, nullptr, palette, n_colors, rgb);
+      for (int c = 0; c < 3; ++c) out3[3 * i + c] = px.D * rgb[c] / kp_;
     }
   });
 }

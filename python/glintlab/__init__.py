@@ -16,6 +16,7 @@ from .api.exact import binomial, poisson
 from .api.glinty_ndf import GlintyNDF, glinty_ndf, glinty_ndfs
 from .api.wwh18 import WWH18  # registers the "wwh18" glinty NDF (docs/math/wwh18.md)
 from .api.glinty_ndf import image_methods
+from .api.glinty_ndf import matched_density, db23_visible_glints
 from .api.method_shaders import ShaderMethod, shader_method
 from .api.grids import AnisoCounter, aniso_counter, footprint_shapes, grid_schemes
 from .api.laws import (CustomLaw, Law, custom_law, law, law_label, law_summaries, law_traits, law_variants, laws,
@@ -69,3 +70,4 @@ __all__ = [
     "furnace",
 ]
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)
+__all__ += ["matched_density", "db23_visible_glints"]  # KPT25 <-> DB23 (docs/math/glinty_ndf.md#glinty-matched)

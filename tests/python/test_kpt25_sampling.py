@@ -26,13 +26,24 @@ def inverse_map(nd, y):
     """T^-1 of docs/math/glinty_ndf.md#glinty-map written independently of the C++ (points y (n, 2) of U)."""
     d = 2.0 * np.asarray(y, float) - 1.0
     r2 = np.sum(d * d, axis=1)
-    a = nd.alpha
+    a, b = nd.alpha, getattr(nd, "alpha_y", nd.alpha)  # (alpha_x, alpha_y): the stretch of eq. 6
     if nd.target == "beckmann":
         ratio = np.sqrt(np.where(r2 > 0, -np.log1p(-r2) / np.where(r2 > 0, r2, 1.0), 1.0))
-        v = np.column_stack([a * d[:, 0] * ratio, a * d[:, 1] * ratio, np.ones_like(r2)])
+        v = np.column_stack([a * d[:, 0] * ratio, b * d[:, 1] * ratio, np.ones_like(r2)])
+    elif getattr(nd, "ggx_map", "orthographic") == "lambert":  # eq. 7 inverted: z = 1 - |d|^2
+        l = np.sqrt(2.0 - r2)
+        v = np.column_stack([a * d[:, 0] * l, b * d[:, 1] * l, 1.0 - r2])
     else:
-        v = np.column_stack([a * d[:, 0], a * d[:, 1], np.sqrt(np.maximum(0.0, 1.0 - r2))])
+        v = np.column_stack([a * d[:, 0], b * d[:, 1], np.sqrt(np.maximum(0.0, 1.0 - r2))])
     return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def t_jacobian(nd, h):
+    """dy / dOmega of T at h: (pi / 4) D(h)(h.n), or (pi / 8) D(h) for the Lambert map (which makes D(h) dOmega,
+    of mass 2, uniform on U; docs/math/glinty_ndf.md#glinty-lambert)."""
+    if getattr(nd, "ggx_map", "orthographic") == "lambert":
+        return 0.125 * math.pi * nd.smooth(h)
+    return 0.25 * math.pi * nd.smooth(h) * h[:, 2]
 
 
 def bin_edges(nd, J, h_probe=(0.0, 0.0, 1.0), sub=2):
@@ -84,7 +95,7 @@ def expected_per_bin(nd, uv, J, seed, edges, pdf_fn=None, order=10):
     m = h.shape[0]
     if pdf_fn is None:
         pdf_fn = lambda hh: nd.pdf(np.tile(uv, (m, 1)), np.tile(J, (m, 1)), hh, seed=seed)  # noqa: E731
-    jac = 1.0 / (0.25 * math.pi * nd.smooth(h) * h[:, 2])
+    jac = 1.0 / t_jacobian(nd, h)
     return np.bincount(ids, weights=w * pdf_fn(h) * jac, minlength=nb)
 
 
@@ -132,6 +143,12 @@ PIXELS = [
     (dict(density=1e6, target="ggx", alpha=0.2, alpha_star=0.03, k=16), (3.3, 0.1), (0.002, 0, 0, 0.002)),
     (dict(density=4e3, target="beckmann", alpha=0.5, alpha_star=0.05, k=4, sample_weight="printed"), (0.31, 0.57),
      (0.03, 0.004, -0.006, 0.025)),
+    # The paper's Lambert map for GGX (eq. 7): the sampler and its pdf through the other Jacobian of T.
+    (dict(density=4e3, target="ggx", alpha=0.4, alpha_star=0.05, k=4, ggx_map="lambert"), (0.31, 0.57),
+     (0.03, 0.004, -0.006, 0.025)),
+    # Anisotropic roughness (alpha_x, alpha_y): the stretched map and its Jacobian.
+    (dict(density=4e3, target="beckmann", alpha=(0.6, 0.3), alpha_star=0.05, k=4), (0.31, 0.57),
+     (0.03, 0.004, -0.006, 0.025)),
 ]
 
 
@@ -156,7 +173,7 @@ def test_pdf_integrates_to_one_less_the_lost_mass(case):
     # not integrate to 1.
     wrong = expected_per_bin(nd, uv, J, 3, edges,
                              pdf_fn=lambda hh: nd.pdf(np.tile(uv, (len(hh), 1)), np.tile(J, (len(hh), 1)), hh, seed=3)
-                             / (0.25 * math.pi * nd.smooth(hh) * hh[:, 2]))
+                             / t_jacobian(nd, hh))
     assert abs(wrong.sum() - 1.0) > 0.05
 
 
@@ -180,7 +197,7 @@ def test_samples_follow_their_pdf_and_wrong_pdfs_are_rejected(case):
     # Wrong: the pdf without the Jacobian (pi / 4) D(h) (h.n) of T^-1.
     def no_jacobian(hh):
         m = len(hh)
-        return nd.pdf(np.tile(uv, (m, 1)), np.tile(J, (m, 1)), hh, seed=5) / (0.25 * math.pi * nd.smooth(hh) * hh[:, 2])
+        return nd.pdf(np.tile(uv, (m, 1)), np.tile(J, (m, 1)), hh, seed=5) / t_jacobian(nd, hh)
 
     assert chi2_pvalue(obs, lost, expected_per_bin(nd, uv, J, 5, edges, pdf_fn=no_jacobian), N) < ALPHA_P
     # Wrong: another realization's pdf (seed 6) for the draws of seed 5.
@@ -258,6 +275,90 @@ def test_sample_bad_input_is_refused_by_name():
 # ---------------------------------------------------------------------------------------------------
 # nd.map
 
+RINGS, SECTORS = 10, 8  # 80 bins of equal area on the disk U
+
+
+def ring_sector_counts(y):
+    """Counts of points y (n, 2) of U in RINGS equal-area rings (|d|^2 in [i / RINGS, (i + 1) / RINGS))
+    x SECTORS equal sectors, d = 2 y - 1: bins of equal probability under the uniform distribution."""
+    d = 2 * np.asarray(y) - 1
+    ring = np.minimum((np.sum(d * d, axis=1) * RINGS).astype(int), RINGS - 1)
+    sec = ((np.arctan2(d[:, 1], d[:, 0]) + math.pi) / (2 * math.pi) * SECTORS).astype(int) % SECTORS
+    return np.bincount(ring * SECTORS + sec, minlength=RINGS * SECTORS)
+
+
+def ring_sector_p(y):
+    """Chi-square p-value of points y against the uniform distribution on U (79 degrees of freedom)."""
+    return stats.chisquare(ring_sector_counts(y)).pvalue
+
+
+def inversion_draws(target, alpha, n, seed, weight="projected"):
+    """Half vectors drawn by inverting the CDF of theta (phi uniform): from D(h)(h.n) dOmega ("projected":
+    tan^2 theta = -alpha^2 log u for Beckmann, alpha^2 u / (1 - u) for GGX, Walter et al. 2007) or, for
+    GGX, from D(h) dOmega / 2 ("area": the GGX mass of D itself is 2; tan^2 theta = alpha^2 (1 - u^2) / u^2)."""
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(size=n)
+    if target == "beckmann":
+        t2 = -alpha * alpha * np.log(u)
+    elif weight == "projected":
+        t2 = alpha * alpha * u / (1.0 - u)
+    else:
+        t2 = alpha * alpha * (1.0 - u * u) / (u * u)
+    phi = rng.uniform(0, 2 * math.pi, n)
+    ct = 1 / np.sqrt(1 + t2)
+    st = np.sqrt(t2) * ct
+    return np.column_stack([st * np.cos(phi), st * np.sin(phi), ct])
+
+
+@pytest.mark.parametrize("target,alpha", [("beckmann", 0.5), ("beckmann", 0.15), ("ggx", 0.3), ("ggx", 1.6)])
+def test_map_sends_the_target_to_the_uniform_disk_and_wrong_maps_are_rejected(target, alpha):
+    # T tested on its own (docs/math/glinty_ndf.md#glinty-map): directions from D(h)(h.n), drawn by
+    # inversion (not through T^-1), map to the uniform distribution on U; a map with alpha 10 % off and
+    # the other target's map are rejected at the same sample size (p < 1e-6 each).
+    n = 40000
+    h = inversion_draws(target, alpha, n, seed=21)
+    assert ring_sector_p(gl.glinty_ndf("kpt25", target=target, alpha=alpha).map(h)) > ALPHA_P
+    assert ring_sector_p(gl.glinty_ndf("kpt25", target=target, alpha=1.1 * alpha).map(h)) < ALPHA_P
+    other = "ggx" if target == "beckmann" else "beckmann"
+    assert ring_sector_p(gl.glinty_ndf("kpt25", target=other, alpha=alpha).map(h)) < ALPHA_P
+
+
+def lambert_ring_probabilities():
+    """Exact ring probabilities of the Lambert map applied to D(h)(h.n) dOmega: the stretched normal is
+    cosine distributed, z = 1 - |d|^2 under eq. 7, so s = |d|^2 has density 2 (1 - s) on [0, 1)."""
+    e = np.linspace(0.0, 1.0, RINGS + 1)
+    return np.diff(2 * e - e * e)
+
+
+def test_lambert_map_uniformises_d_not_d_cos_and_its_departure_is_exact():
+    # The paper's T = L o M~ (eq. 6-7) for GGX makes D(h) dOmega (the NDF's own mass, 2 for GGX)
+    # uniform on U, not D(h)(h.n) dOmega: glintlab's orthographic map is the exact one for the latter.
+    n = 40000
+    for alpha in (0.3, 1.6):
+        lam = gl.glinty_ndf("kpt25", target="ggx", alpha=alpha, ggx_map="lambert")
+        ortho = gl.glinty_ndf("kpt25", target="ggx", alpha=alpha)
+        area = inversion_draws("ggx", alpha, n, seed=22, weight="area")
+        proj = inversion_draws("ggx", alpha, n, seed=23)
+        assert ring_sector_p(lam.map(area)) > ALPHA_P
+        assert ring_sector_p(ortho.map(area)) < ALPHA_P
+        assert ring_sector_p(lam.map(proj)) < ALPHA_P
+        # T^-1 o T is the identity on U for the Lambert map too.
+        y = 0.5 + 0.5 * np.random.default_rng(3).uniform(-0.7, 0.7, (200, 2))
+        np.testing.assert_allclose(lam.map(inverse_map(lam, y)), y, atol=1e-12)
+        # The departure of the Lambert map's image of D(h)(h.n) from uniform: the per-sample Pearson
+        # statistic chi2 / n of the rings converges to the exact divergence sum (p_i - 1/R)^2 R (0.33 for
+        # 10 rings; total variation 1/4 exactly, whatever alpha); the sampled value is within 5 of its
+        # standard errors, sqrt(4 div / n) at most (the delta method's leading term, bounded).
+        rings = ring_sector_counts(lam.map(proj)).reshape(RINGS, SECTORS).sum(axis=1)
+        stat = float(np.sum((rings - n / RINGS) ** 2 / (n / RINGS))) / n
+        p = lambert_ring_probabilities()
+        div = float(np.sum((p - 1 / RINGS) ** 2 * RINGS))
+        assert abs(stat - div) < 5 * math.sqrt(4 * div / n) + (RINGS - 1) / n, (stat, div)
+    with pytest.raises(ValueError, match="ggx_map"):
+        gl.glinty_ndf("kpt25", target="beckmann", ggx_map="lambert")
+    with pytest.raises(ValueError, match="ggx_map"):
+        gl.glinty_ndf("kpt25", target="ggx", ggx_map="stereographic")
+
 def test_map_is_vectorized_and_uniformises_the_target():
     for target, alpha in (("beckmann", 0.5), ("ggx", 0.3)):
         nd = gl.glinty_ndf("kpt25", target=target, alpha=alpha)
@@ -278,13 +379,6 @@ def test_map_is_vectorized_and_uniformises_the_target():
     ct = 1 / np.sqrt(1 + t2)
     st = np.sqrt(t2) * ct
     h = np.column_stack([st * np.cos(phi), st * np.sin(phi), ct])
-
-    def ring_sector_p(y):
-        d = 2 * y - 1
-        ring = np.minimum((np.sum(d * d, axis=1) * 10).astype(int), 9)
-        sec = ((np.arctan2(d[:, 1], d[:, 0]) + math.pi) / (2 * math.pi) * 8).astype(int) % 8
-        obs = np.bincount(ring * 8 + sec, minlength=80)
-        return stats.chisquare(obs).pvalue
 
     assert ring_sector_p(gl.glinty_ndf("kpt25", alpha=a).map(h)) > ALPHA_P
     assert ring_sector_p(gl.glinty_ndf("kpt25", target="ggx", alpha=a).map(h)) < ALPHA_P

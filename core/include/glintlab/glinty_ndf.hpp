@@ -52,6 +52,19 @@ struct Kpt25Params {
   // proportional to eq. 11's explicit terms), false = R f alone, as printed (the integral names the
   // Gaussian at x_a - x, the same for every point), lobes with no mass in B left out.
   bool sample_lobe_mass = true;
+  // GGX only: T = L o M~ with the Lambert projection of eq. 7 (true, the paper as printed: it makes
+  // D(h) dOmega uniform on U, not D(h)(h.n) dOmega) instead of the orthographic one (false, the default:
+  // exact for D(h)(h.n) dOmega). docs/math/glinty_ndf.md#glinty-lambert.
+  bool ggx_lambert = false;
+  // Anisotropic roughness (eq. 6's stretch M = diag(1 / alpha, 1 / alpha_y, 1), Atanasov et al.): alpha is
+  // then alpha_x; 0 = isotropic (alpha_y = alpha). docs/math/glinty_ndf.md#glinty-anisotropy.
+  double alpha_y = 0.0;
+  // Anisotropic glints (Algorithm 1's A_* = diag(glint_ax, glint_ay): x_s = A_* uv, angular std
+  // alpha_star sqrt(D) / a per axis). The grid resolution: sqrt(K_P / det A_*) (policy: K_P points per
+  // unit uv area, the mean stays D(h)) or, printed, sqrt(K_P) det(A_*^-1) (line 1).
+  // docs/math/glinty_ndf.md#glinty-astar.
+  double glint_ax = 1.0, glint_ay = 1.0;
+  bool glint_printed_density = false;
 };
 
 // Maximum MIP level: the angular grid has 2^l x 2^l cells, l <= 15 (the random-number layout's limit).
@@ -62,7 +75,8 @@ inline constexpr int kGlintMaxLevel = 15;
 struct GlintPixel {
   double D = 0.0;            // D(h) of the smooth target (0 below the horizon)
   double xa = 0.5, ya = 0.5; // T(h) in the unit square (the disk U has centre (1/2, 1/2), radius 1/2)
-  double sigma = 0.0;        // angular std alpha_star sqrt(D(h)) (Algorithm 1, line 12)
+  double sigma = 0.0;        // angular std alpha_star sqrt(D(h)) (Algorithm 1, line 12); along x with A_*
+  double sigma_y = 0.0;      // along y (= sigma without anisotropic glints)
   double lambda = 0.0;       // fractional MIP level
   int levels[2] = {0, 0};
   double weights[2] = {1.0, 0.0};
@@ -105,8 +119,20 @@ class Kpt25Ndf {
   // The density per steradian of h with which sample() draws h at pixel i (0 below the horizon).
   void pdf(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
            double* out) const;
+  // Per-facet colour (Algorithm 1, lines 17 and 20; docs/math/glinty_ndf.md#glinty-colour): each point
+  // takes the entry floor(u n) of the palette (n RGB triples) from a random number u of its own cell,
+  // so E[GlintColor] is the palette's mean. out3[3i..] = RGB of evaluate (compensation x the mean
+  // colour) or of reference; the same realization as the scalar calls.
+  void evaluate_rgb(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                    const double* palette, int n_colors, double* out3) const;
+  void reference_rgb(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                     const double* palette, int n_colors, double* out3) const;
   // T(h) for m half vectors: xy[2i..] in the unit square (NaN for h_z <= 0, which T does not map).
   void map_points(const double* h, std::size_t m, double* xy) const;
+  // The visible glints per pixel (docs/math/glinty_ndf.md#glinty-matched): roulette-weighted count of
+  // the points in DB23's footprint ellipse whose normal lies within radius x sigma of T(h).
+  void visible_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                      double radius, double* out) const;
   // T^-1: the half vector of a point (x, y) of the disk U.
   std::array<double, 3> inverse_map(double x, double y) const;
 
@@ -117,14 +143,26 @@ class Kpt25Ndf {
 
  private:
   double level_sum(const GlintPixel& px, int level, double weight, double u, double v, std::uint64_t seed,
-                   bool all_angular, double* points) const;
+                   bool all_angular, double* points, const double* palette = nullptr, int n_colors = 0,
+                   double* rgb = nullptr) const;
   double compensation(const GlintPixel& px, int level) const;
   void footprint(GlintPixel& px, const double* jac, std::size_t index) const;
   double disk_D(double x, double y) const;  // D(T^-1(x, y)), the target at a point of U
   double level_pdf(const GlintPixel& px, int level, double u, double v, std::uint64_t seed, double x, double y) const;
   double pixel_pdf(const GlintPixel& px, double u, double v, std::uint64_t seed, double x, double y) const;
+  // dx dy / dOmega of T at h: (pi / 4) D(h)(h.n) for the maps that uniformise D(h)(h.n), (pi / 8) D(h)
+  // for the Lambert map (which uniformises D(h) dOmega, of mass 2 for GGX).
+  double jacobian(double D, double hz) const;
+  // The maps and D for alpha_x != alpha_y (the isotropic code paths stay as they were, bit for bit).
+  std::array<double, 3> map_aniso(const double h[3]) const;
+  std::array<double, 3> inverse_map_aniso(double dx, double dy, double r2) const;
+  double disk_D_aniso(double dx, double dy, double r2) const;
+  bool aniso_ = false;
+  bool glint_aniso_ = false;  // A_* != identity
+  void refuse_glint_anisotropy(const char* what) const;
   Kpt25Params p_;
-  double res_ = 0.0;  // sqrt(K_P): cells per unit uv at level 0
+  double res_ = 0.0;  // sqrt(K_P): cells per unit uv at level 0 (per unit of x_s = A_* uv)
+  double kp_ = 0.0;   // the density line 19 divides by (K_P; K_P / det A_* with anisotropic glints)
 };
 
 // The integral over the rectangle [x0, x1] x [y0, y1] intersected with the disk U (centre (1/2, 1/2),

@@ -262,10 +262,67 @@ class FacetNDF(GlintyNDF):
         return np.where(np.isfinite(d), d, 0.0)
 
 
+#: A KPT25 point is a visible glint at h when its normal lies within this many lobe stds of T(h): the
+#: disk of radius 2 sigma has the area 4 pi sigma^2 = (integral of G)^2 / (integral of G^2) of the
+#: Gaussian lobe, its equivalent area (docs/math/glinty_ndf.md#glinty-matched).
+VISIBLE_RADIUS = 2.0
+
+
+def _disk_overlap(r, R, c):
+    """Area of the intersection of disks of radii r and R whose centres are c apart (arrays, closed form)."""
+    r, c = np.broadcast_arrays(np.asarray(r, float), np.asarray(c, float))
+    out = np.zeros(r.shape)
+    inside = c <= np.abs(R - r)
+    out[inside] = math.pi * np.minimum(r[inside], R) ** 2
+    cut = ~inside & (c < r + R) & (r > 0)
+    rr, cc = r[cut], c[cut]
+    a1 = np.arccos(np.clip((cc * cc + rr * rr - R * R) / (2 * cc * rr), -1, 1))
+    a2 = np.arccos(np.clip((cc * cc + R * R - rr * rr) / (2 * cc * R), -1, 1))
+    out[cut] = rr * rr * (a1 - 0.5 * np.sin(2 * a1)) + R * R * (a2 - 0.5 * np.sin(2 * a2))
+    return out
+
+
+def db23_visible_glints(density, target: str, alpha: float, J, h, R: float) -> np.ndarray:
+    """DB23's expected visible glints per pixel: the reflecting facets of its footprint, N abs(det J) p
+    with p = min(1, R D(h) / D(n)) (eq. 3-4; docs/math/glinty_ndf.md#glinty-matched)."""
+    _, J, h, _ = pixel_arrays(None, J, h, unit_h=True)
+    p, _ = smooth_ndf(target, alpha).success_probability(h[..., 2], R)
+    return V.real("density", density) * footprint_area(J) * p
+
+
+def matched_density(density, alpha_star: float, target: str = "beckmann", alpha: float = 0.5, R: float = 0.5,
+                    radius: float = VISIBLE_RADIUS) -> float:
+    """``gl.matched_density(N, alpha_star, target, alpha, R)``: the KPT25 point density K_P that gives the
+    same expected number of visible glints per pixel as DB23 with facet density N and ratio R, at every
+    footprint and every half vector h with R D(h) <= D(n) whose lobe disk lies inside U:
+    K_P = N R / (pi radius^2 alpha_star^2 D(n)) (docs/math/glinty_ndf.md#glinty-matched)."""
+    density, alpha_star = V.real("density", density), V.real("alpha_star", alpha_star)
+    if not (math.isfinite(density) and density > 0):
+        V.fail("density", density, "a finite facet density > 0")
+    if not (math.isfinite(alpha_star) and alpha_star > 0):
+        V.fail("alpha_star", alpha_star, "a finite micro-roughness > 0")
+    R, radius = V.real("R", R), V.real("radius", radius)
+    if not (0 < R <= 1):
+        V.fail("R", R, "a number in (0, 1]")
+    if not (0 < radius <= 10):
+        V.fail("radius", radius, "a number of lobe stds in (0, 10]")
+    if isinstance(alpha, (tuple, list, np.ndarray)):  # (alpha_x, alpha_y): D(n) = 1 / (pi alpha_x alpha_y)
+        ax, ay = (smooth_ndf(target, a).alpha for a in np.asarray(alpha, dtype=object).reshape(-1)[:2])
+        d_n = 1.0 / (math.pi * ax * ay)
+    else:
+        d_n = smooth_ndf(target, alpha).D_normal
+    return density * R / (math.pi * radius**2 * alpha_star**2 * d_n)
+
+
 class KPT25(GlintyNDF):
     """KPT25's glinty NDF (docs/math/glinty_ndf.md).
 
-    ``density`` K_P (points per unit texture area), ``target`` and ``alpha`` (the smooth NDF),
+    ``density`` K_P (points per unit texture area), ``target`` and ``alpha`` (the smooth NDF; a pair
+    (alpha_x, alpha_y) for anisotropic roughness, docs/math/glinty_ndf.md#glinty-anisotropy), ``colors``
+    (an (m, 3) RGB palette: each point takes one entry; ``evaluate`` and ``reference`` then return RGB,
+    docs/math/glinty_ndf.md#glinty-colour), ``anisotropy`` (a_x, a_y): Algorithm 1's A_* (anisotropic
+    glints; evaluate and reference only) with ``anisotropy_density`` "preserved" (K_P points per unit uv
+    area) or "printed" (line 1's grid resolution), docs/math/glinty_ndf.md#glinty-astar,
     ``alpha_star`` (micro-roughness), ``k`` (angular neighbours per level: 1, 4, 9, 16), ``epsilon``
     (eq. 8's mollification; 0 = exact roulette), ``filter`` (Gaussian pixel filter std in pixels; the
     default 1 / (2 sqrt(pi)) gives an effective area abs(det J), DB23's footprint), ``compensation``
@@ -274,7 +331,8 @@ class KPT25(GlintyNDF):
     the probability beta that a draw samples the smooth target instead of the lobes; 0 = the paper,
     which does not sample the compensation term) and ``sample_weight`` (Algorithm 2's reservoir weight
     of a point: "lobe_mass", its lobe's mass in the block, or "printed", the filter and roulette weight
-    alone; docs/math/glinty_ndf.md#glinty-sampling).
+    alone; docs/math/glinty_ndf.md#glinty-sampling) and ``ggx_map`` (GGX only: "orthographic", the exact
+    uniformising map, or "lambert", the paper's eq. 7; docs/math/glinty_ndf.md#glinty-lambert).
 
     >>> nd = KPT25(density=1e4, alpha=0.5, alpha_star=0.05)
     >>> h, pdf = nd.sample([[0.3, 0.7]] * 2, [[0.01, 0, 0, 0.01]] * 2, seed=1)
@@ -289,27 +347,106 @@ class KPT25(GlintyNDF):
     def __init__(self, density: float = 1e6, target: str = "beckmann", alpha: float = 0.5, alpha_star: float = 0.02,
                  k: int = 4, epsilon: float = 0.1, filter: float = 0.5 / math.sqrt(math.pi),
                  compensation: str = "square", blend: str = "roulette", sample_smooth: float = 0.0,
-                 sample_weight: str = "lobe_mass"):
+                 sample_weight: str = "lobe_mass", ggx_map: str = "orthographic", colors=None,
+                 anisotropy=(1.0, 1.0), anisotropy_density: str = "preserved"):
+        alpha_y = 0.0
+        if isinstance(alpha, (tuple, list, np.ndarray)):  # (alpha_x, alpha_y): anisotropic roughness
+            pair = np.asarray(alpha, dtype=object).reshape(-1)
+            if pair.size != 2:
+                V.fail("alpha", alpha, "a roughness > 0 or a pair (alpha_x, alpha_y)")
+            ax, ay = (smooth_ndf(target if target in NDFS else "beckmann", a).alpha for a in pair)
+            alpha, alpha_y = ax, (ay if ay != ax else 0.0)
         super().__init__(target, alpha, density)
+        self.alpha_y = alpha_y or self.alpha
+        if ggx_map not in ("orthographic", "lambert") or (ggx_map == "lambert" and target != "ggx"):
+            V.fail("ggx_map", ggx_map, "'orthographic', or 'lambert' with target 'ggx'")
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or int(k) not in (1, 4, 9, 16):
             V.fail("k", k, "1, 4, 9 or 16")
         for pname, value in (("compensation", compensation), ("blend", blend), ("sample_weight", sample_weight)):
             if not isinstance(value, str):
                 V.fail(pname, value, "a string")
+        aniso = np.asarray(V.as_float_array("anisotropy", anisotropy), float).reshape(-1)
+        if aniso.shape != (2,) or not np.all((aniso >= 1e-3) & (aniso <= 1e3)):
+            V.fail("anisotropy", anisotropy, "a pair (a_x, a_y) of stretches in [1e-3, 1e3]")
+        if anisotropy_density not in ("preserved", "printed"):
+            V.fail("anisotropy_density", anisotropy_density, "'preserved' or 'printed'")
         self._core = _core.Kpt25Ndf(self.density, target, self.alpha, V.real("alpha_star", alpha_star), int(k),
                                     V.real("epsilon", epsilon), V.real("filter", filter), compensation, blend,
-                                    V.real("sample_smooth", sample_smooth), sample_weight)
-        self.params = {"density": self.density, "target": target, "alpha": self.alpha,
+                                    V.real("sample_smooth", sample_smooth), sample_weight, ggx_map, alpha_y,
+                                    float(aniso[0]), float(aniso[1]), anisotropy_density == "printed")
+        self.params = {"density": self.density, "target": target,
+                       "alpha": (self.alpha, self.alpha_y) if alpha_y else self.alpha,
                        "alpha_star": float(alpha_star), "k": int(k), "epsilon": float(epsilon),
                        "filter": float(filter), "compensation": compensation, "blend": blend}
         if sample_smooth:
             self.params["sample_smooth"] = float(sample_smooth)
         if sample_weight != "lobe_mass":
             self.params["sample_weight"] = sample_weight
+        self.ggx_map = ggx_map
+        if ggx_map != "orthographic":
+            self.params["ggx_map"] = ggx_map
+        self.anisotropy = (float(aniso[0]), float(aniso[1]))
+        if self.anisotropy != (1.0, 1.0):
+            self.params["anisotropy"] = self.anisotropy
+            self.params["anisotropy_density"] = anisotropy_density
+        self.colors = None
+        if colors is not None:  # an (m, 3) palette: RGB output (docs/math/glinty_ndf.md#glinty-colour)
+            pal = V.as_float_array("colors", colors)
+            if pal.ndim != 2 or pal.shape[1] != 3 or pal.shape[0] < 1 or pal.shape[0] > 2**20:
+                V.fail("colors", f"an array of shape {pal.shape}", "an (m, 3) palette of RGB colours, 1 <= m <= 2^20")
+            if not np.all(np.isfinite(pal)) or np.any(pal < 0):
+                V.fail("colors", "a palette with a negative or non-finite entry", "finite RGB values >= 0")
+            self.colors = np.ascontiguousarray(pal, dtype=float)
+            self.params["colors"] = self.colors.shape[0]
+
+    def image(self, inputs, seed: int = 0, frame: int = 0) -> np.ndarray:
+        """As :meth:`GlintyNDF.image` (scalar images: a palette's RGB output is refused by name)."""
+        if self.colors is not None:
+            V.fail("colors", f"a palette of {self.colors.shape[0]} colours", "None for scene images (scalar)")
+        return super().image(inputs, seed, frame)
+
+    @property
+    def expected_color(self):
+        """E[GlintColor] (Algorithm 1, line 20): the palette's mean (each entry equally likely per point);
+        None without a palette."""
+        return None if self.colors is None else self.colors.mean(axis=0)
+
+    def _rgb(self, uv, J, h, seed, reference):
+        uv, J, h, shape = pixel_arrays(uv, J, h)
+        out = _core_call(shape, self._core.evaluate_rgb, uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed),
+                         self.colors.reshape(-1), reference)
+        return out.reshape(shape + (3,))
+
+    @property
+    def D_normal(self) -> float:
+        """D(n) of the target: 1 / (pi alpha_x alpha_y) for both Beckmann and GGX."""
+        return 1.0 / (math.pi * self.alpha * self.alpha_y)
+
+    def smooth(self, h) -> np.ndarray:
+        """The target D(h), anisotropic when alpha = (alpha_x, alpha_y) (docs/math/glinty_ndf.md#glinty-anisotropy)."""
+        if self.alpha_y == self.alpha:
+            return super().smooth(h)
+        h = V.as_float_array("h", h)
+        if h.ndim < 1 or h.shape[-1] != 3:
+            V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
+        u = V.unit_vectors(h)
+        hz = np.where(u[..., 2] > 0, u[..., 2], 1.0)
+        ax, ay = self.alpha, self.alpha_y
+        with np.errstate(over="ignore", under="ignore"):
+            if self.target == "beckmann":
+                t = (u[..., 0] / (hz * ax)) ** 2 + (u[..., 1] / (hz * ay)) ** 2
+                d = np.exp(-t) / (math.pi * ax * ay * hz**4)
+            else:
+                q = (u[..., 0] / ax) ** 2 + (u[..., 1] / ay) ** 2 + hz**2
+                d = 1.0 / (math.pi * ax * ay * q * q)
+        return np.where(u[..., 2] > 0, d, 0.0)
 
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D^f per pixel by Algorithm 1 (B(k) per level, compensation, two levels with the roulette).
-        Constant time per pixel; the same realization as ``reference`` for the same ``seed``."""
+        Constant time per pixel; the same realization as ``reference`` for the same ``seed``. With
+        ``colors``, RGB: shape (..., 3)."""
+        if self.colors is not None:
+            return self._rgb(uv, J, h, seed, False)
         uv, J, h, shape = pixel_arrays(uv, J, h)
         return _core_call(shape, self._core.evaluate, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
                           V.seed(seed)).reshape(shape)
@@ -318,7 +455,9 @@ class KPT25(GlintyNDF):
         """The full sum of eq. 11's first term over every point of the same realization whose position
         falls in the filter (both levels, same roulette; no truncation to B(k), no compensation). With
         ``return_points``, also the number of points summed per pixel. Its cost grows with the number
-        of points in the footprint."""
+        of points in the footprint. With ``colors``, RGB (..., 3) (and no point counts)."""
+        if self.colors is not None:
+            return self._rgb(uv, J, h, seed, True)
         uv, J, h, shape = pixel_arrays(uv, J, h)
         d, pts = _core_call(shape, self._core.reference, uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed))
         return (d.reshape(shape), pts.reshape(shape)) if return_points else d.reshape(shape)
@@ -380,6 +519,39 @@ class KPT25(GlintyNDF):
             V.fail("h", f"an array of shape {h.shape}", "an array of shape (..., 3)")
         shape = h.shape[:-1]
         return _core_call(shape, self._core.map, h.reshape(-1)).reshape(shape + (2,))
+
+    def visible_glints(self, uv, J, h, seed: int = 0, radius: float = VISIBLE_RADIUS) -> np.ndarray:
+        """The visible glints per pixel (docs/math/glinty_ndf.md#glinty-matched): the points of realization
+        ``seed`` inside DB23's footprint ellipse J {|x| <= 1 / sqrt(pi)} (area abs(det J)) whose normal lies
+        within ``radius`` lobe stds sigma = alpha_star sqrt(D(h)) of T(h), each counted with its roulette
+        weight (both levels). Its mean over realizations is :meth:`expected_visible_glints`."""
+        uv, J, h, shape = pixel_arrays(uv, J, h)
+        return _core_call(shape, self._core.visible_counts, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
+                          V.seed(seed), V.real("radius", radius)).reshape(shape)
+
+    def expected_visible_glints(self, J, h, radius: float = VISIBLE_RADIUS) -> np.ndarray:
+        """E[visible_glints] = K_P abs(det J) |disk(T(h), radius sigma) cap U| exactly (one point per 4D cell at
+        each level, levels weighted by the roulette whose means add to 1); K_P abs(det J) pi radius^2
+        alpha_star^2 D(h) while the disk lies inside U."""
+        _, J, h, shape = pixel_arrays(None, J, h, unit_h=True)
+        radius = V.real("radius", radius)
+        if not (0 < radius <= 10):
+            V.fail("radius", radius, "a number of lobe stds in (0, 10]")
+        t = self.map(h)
+        d = self.smooth(h)
+        r = radius * self.params["alpha_star"] * np.sqrt(d)
+        c = np.hypot(t[..., 0] - 0.5, t[..., 1] - 0.5)
+        area = np.where(d > 0, _disk_overlap(np.where(d > 0, r, 0.0), 0.5, np.where(d > 0, c, 0.0)), 0.0)
+        return self.density * footprint_area(J) * area
+
+    def db23_density(self, R: float) -> float:
+        """The facet density N of DB23 (ratio ``R``) that gives the same expected visible glints per
+        pixel as this NDF at every footprint and half vector (inverse of :func:`matched_density`)."""
+        R = V.real("R", R)
+        if not (0 < R <= 1):
+            V.fail("R", R, "a number in (0, 1]")
+        a2 = self.params["alpha_star"] ** 2
+        return self.density * math.pi * VISIBLE_RADIUS**2 * a2 * self.D_normal / R
 
     def pixel_sampler(self, uv, J, seed: int = 0, wo=None) -> "PixelSampler":
         """Algorithm 2 at one pixel as a direction sampler: ``.sample(size, seed)`` returns
