@@ -35,7 +35,7 @@ import numpy as np
 
 from .. import _core
 from . import checks as V
-from .glinty_ndf import GLINTY_NDFS, GlintyNDF, pixel_arrays
+from .glinty_ndf import GLINTY_NDFS, GlintyNDF, pixel_arrays, register_image_method
 
 # The paper's Table 2: the blur level (degrees) used for each roughness.
 TABLE2_LOD = ((0.05, 1.0), (0.1, 2.0), (0.5, 10.0), (0.8, 30.0))
@@ -214,3 +214,9 @@ class WWH18(GlintyNDF):
 
 
 GLINTY_NDFS.register("wwh18", WWH18)
+
+
+# WWH18 as an image method: the filterable model at the scene's flake density, read against its own
+# discrete-flake truth on the same flakes (``reference``; docs/math/glint_images.md#glint-own-truth).
+register_image_method("wwh18", lambda m: WWH18(density=m.density, target=m.target, alpha=m.alpha),
+                      label="WWH18", truth="reference")
