@@ -640,7 +640,8 @@ register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16")
 # KPT25's constant-time NDF (Algorithm 1: k = 4 angular neighbours, eps = 0.1) over its own point
 # process, whose density is the scene's facet density (docs/math/glinty_ndf.md).
 register_image_method("kpt25", lambda m: glinty_ndf("kpt25", density=m.density, target=m.target, alpha=m.alpha,
-                                                    alpha_star=0.02, k=4, epsilon=0.1), label="KPT25", truth="reference")
+                                                    alpha_star=0.02, k=4, epsilon=0.1),
+                      label="KPT25", truth="reference")
 #: The built-in glinty-NDF image methods (the scene images' default list; method shaders registered
 #: later, WB16's among them, are listed by ``image_methods()`` but not rendered by default).
 BUILTIN_IMAGE_METHODS = tuple(IMAGE_METHODS.names())

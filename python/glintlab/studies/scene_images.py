@@ -21,7 +21,10 @@ MEANING = ("The first thing users of glint methods compare: on DB23's Table 1 sc
            "the facet ground truth beside DB23's grids (three inner laws, trilinear and tetrahedral, and the 48-evaluation "
            "shader configuration), ZK16 and KPT25's constant-time NDF, "
            "with each method's temporal deviation relative to the truth's and its rate of pops (glints that "
-           "appear or vanish with no cause in the truth) along sub-pixel pans and zoom steps.")
+           "appear or vanish with no cause in the truth) along sub-pixel pans and zoom steps. The panel shows renders "
+           "(the microfacet BRDF under the scene's light, one exposure fixed on the smooth render), each method beside "
+           "its own truth (KPT25: its reference over every point); the aliasing table compares each method, WB16's "
+           "sparkle shader and its baselines included, with itself box-filtered over 4 x 4 sub-pixels.")
 DEFAULTS = {
     "scenes": str(data_path("scenes")),
     "scale": 0.2,             # images at this fraction of 1920 x 1080 per side, density x scale^2 (same n per pixel)
@@ -43,9 +46,9 @@ DEFAULTS = {
     "crop_px": 40,            # the 1:1 crops (pixels per side) around the smooth highlight
     # Aliasing (docs/math/glint_images.md#glint-aliasing): small frames, each method against itself
     # box-filtered over aliasing_supersample^2 sub-pixels; "" to skip.
-    "aliasing_methods": "truth,db23_trilinear[gated],db23_shader_48[gated],zk16,kpt25,wb16,wb16_star,wb16_lookup_noise",
-    "aliasing_scale": 0.04,
-    "aliasing_frames": 4,
+    "aliasing_methods": "truth,db23_trilinear[gated],zk16,kpt25,wb16,wb16_star,wb16_lookup_noise",
+    "aliasing_scale": 0.03,
+    "aliasing_frames": 3,
     "aliasing_supersample": SUPERSAMPLE,
     # WB16's density against depth and sparkle size: one frame of this scene at this scale ("" to skip).
     "sparkle_scene": "plane_25",
@@ -147,8 +150,8 @@ def density_statement(methods) -> str:
     mapped = [m for m in methods if m in DENSITY_MAPPINGS]
     base = "every method at the scene's facet density N (KPT25's point density K_P = N, WWH18's flake density = N)"
     if mapped:
-        return base.replace("every method", "every method not listed") + "; matched to equal expected glint counts: " + \
-            ", ".join(mapped)
+        return (base.replace("every method", "every method not listed") + "; matched to equal expected glint counts: "
+                + ", ".join(mapped))
     return base + "; densities not matched to equal expected glint counts (no mapping registered)"
 
 
@@ -388,9 +391,16 @@ def write_animation(path, methods, out: Path, fps: int = 4) -> Path:
     h, w = seen[crop].shape
     fig, axes = plt.subplots(1, len(methods), figsize=(2.6 * len(methods), 2.6 * h / w + 0.5), squeeze=False)
     ims = []
+    # The panel's display: the BRDF-shaded radiance at the smooth render's exposure (glint-shading).
+    white = exposure_of(path) if path.shade is not None else None
+
+    def show(m, t):
+        if white is None:
+            return display(path.images[m][t][crop], path.material)
+        return shaded(path, m, path.images[m][t], white, frame=t)[crop]
+
     for ax, m in zip(axes[0], methods):
-        ims.append(ax.imshow(display(path.images[m][0][crop], path.material), cmap="gray", vmin=0, vmax=1,
-                             interpolation="nearest"))
+        ims.append(ax.imshow(show(m, 0), cmap="gray", vmin=0, vmax=1, interpolation="nearest"))
         ax.set_title(IMAGE_METHODS.get(m).label, fontsize=8)
         ax.set_xticks([])
         ax.set_yticks([])
@@ -399,7 +409,7 @@ def write_animation(path, methods, out: Path, fps: int = 4) -> Path:
 
     def step(t):
         for im, m in zip(ims, methods):
-            im.set_data(display(path.images[m][t][crop], path.material))
+            im.set_data(show(m, t))
         text.set_text(f"{path.scene}: frame {t + 1}/{T} ({'pan' if t <= T // 2 else 'zoom'})")
         return ims
 

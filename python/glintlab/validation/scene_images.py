@@ -246,7 +246,8 @@ class PathImages:
     truth_seconds: float = 0.0
 
 
-SUPERSAMPLE = 4  # sub-pixels per side of a "supersampled" truth and of the aliasing tables (docs/math/glint_images.md#glint-aliasing)
+#: Sub-pixels per side of a "supersampled" truth and of the aliasing tables (docs/math/glint_images.md#glint-aliasing).
+SUPERSAMPLE = 4
 
 
 def truth_kind(name: str) -> str:
@@ -340,7 +341,8 @@ def shading(inputs: FrameInputs, material: Material, f0: float = F0) -> np.ndarr
     co, ci = (v * n).sum(-1), (lt * n).sum(-1)
     vh = np.clip((v * h).sum(-1), 0.0, 1.0)
     F = f0 + (1.0 - f0) * (1.0 - vh) ** 5
-    G = 1.0 / (1.0 + smith_lambda(material.target, material.alpha, co) + smith_lambda(material.target, material.alpha, ci))
+    lam_o, lam_i = (smith_lambda(material.target, material.alpha, c) for c in (co, ci))
+    G = 1.0 / (1.0 + lam_o + lam_i)
     out[m] = F * G / (4.0 * np.clip(co, 1e-9, None))
     return out
 
@@ -583,7 +585,11 @@ def aliasing_table(scene: Scene, methods, frames: int = 4, n: int = SUPERSAMPLE,
     valid = np.all(masks, axis=0)
     rows = []
     for name in methods:
-        a, b = np.asarray(one[name])[:, valid], np.asarray(ss[name])[:, valid]
+        # A method shader may return NaN at a few pixels (WB16's unguarded normalisations, as printed):
+        # those pixels are left out of that method's row.
+        A, B = np.asarray(one[name]), np.asarray(ss[name])
+        ok = valid & np.isfinite(A).all(axis=0) & np.isfinite(B).all(axis=0)
+        a, b = A[:, ok], B[:, ok]
         scale = b.mean() if b.size and b.mean() > 0 else math.nan
         err = np.sqrt(((a - b) ** 2).mean(axis=1)) / scale if a.size else np.full(len(path), math.nan)
         s1, s2 = a.std(axis=0).mean(), b.std(axis=0).mean()
@@ -592,7 +598,7 @@ def aliasing_table(scene: Scene, methods, frames: int = 4, n: int = SUPERSAMPLE,
                      "alias_rel_rmse": float(np.mean(err)), "alias_rel_rmse_spread": float(np.std(err)),
                      "std_ratio_vs_supersampled": float(s1 / s2) if s2 > 0 else math.nan,
                      "mean_ratio_vs_supersampled": float(a.mean() / scale) if scale == scale else math.nan,
-                     "pixels": int(valid.sum()), "frames": len(path), "seconds": secs[name]})
+                     "pixels": int(ok.sum()), "frames": len(path), "seconds": secs[name]})
     return pd.DataFrame(rows)
 
 
