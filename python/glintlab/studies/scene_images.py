@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from ..api import checks as V
+from ..api.glinty_ndf import DENSITY_MAPPINGS
 from ..resources import data_path
 from ..validation.scene import table1_scenes
 from ..validation.scene_images import (ANGULAR_TEXEL, DEFAULT_METHODS, IMAGE_METHODS, SUPERSAMPLE, TAU, aliasing_table,
@@ -146,7 +147,6 @@ def density_statement(methods) -> str:
     """What the densities of the methods shown are. Every method runs at the scene's facet density N:
     KPT25's point density K_P = N and WWH18's flake density = N; no mapping to equal expected glint
     counts between KPT25 and DB23 is applied (``glinty_ndf.matched_density`` is the hook where one goes)."""
-    from ..api.glinty_ndf import DENSITY_MAPPINGS
     mapped = [m for m in methods if m in DENSITY_MAPPINGS]
     base = "every method at the scene's facet density N (KPT25's point density K_P = N, WWH18's flake density = N)"
     if mapped:
@@ -261,8 +261,10 @@ def _columns(path, methods):
 
 
 def _crop(path, size: int):
-    """The (rows, cols) slices of a size x size crop centred on the smooth render's brightest pixel."""
-    L = path.target[0] * path.shade[0]
+    """The (rows, cols) slices of a size x size crop centred on the highlight: the pixel of the largest
+    smooth D(h) in the first frame (the radiance's own maximum sits on a grazing rim, where Fresnel
+    and 1 / cos_o grow)."""
+    L = np.where(path.mask[0], path.target[0], 0.0)
     H, W = L.shape
     r, c = np.unravel_index(int(np.argmax(L)), L.shape)
     size = max(4, min(int(size), H, W))
@@ -337,6 +339,8 @@ def aliasing_figure(al: pd.DataFrame):
                     yerr=[f.loc[(s, m)].alias_rel_rmse_spread for s in scenes], label=IMAGE_METHODS.get(m).label,
                     error_kw={"lw": 0.6})
         axes[1].bar(x + k * width, [f.loc[(s, m)].std_ratio_vs_supersampled for s in scenes], width)
+    axes[0].set_yscale("log")
+    axes[1].set_yscale("log")
     axes[1].axhline(1, color="k", lw=0.8)
     for ax, title in ((axes[0], "1-sample vs own supersampled: RMS error / mean (± spread over frames)"),
                       (axes[1], "temporal std, 1-sample / supersampled")):
@@ -431,7 +435,8 @@ def write_images(scenes, out, seed: int = 1, **params) -> tuple[list, dict]:
     if not scenes:
         V.fail("scenes", scenes, "at least one scene")
     names = [s.name for s in scenes]
-    prm = {**DEFAULTS, "animation_scene": names[0], "timing_scene": names[0], **params}
+    prm = {**DEFAULTS, "animation_scene": names[0], "timing_scene": names[0],
+           "sparkle_scene": DEFAULTS["sparkle_scene"] if DEFAULTS["sparkle_scene"] in names else names[0], **params}
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     ctx = Context(out, V.seed(seed))
