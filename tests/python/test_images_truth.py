@@ -166,3 +166,20 @@ def test_aliasing_table_separates_a_filtered_method_from_a_point_sampled_one():
         assert (t.frames == 2).all() and (t.supersample == "2x2").all()
     finally:
         IMAGE_METHODS._items.pop("x_dots", None)
+
+
+def test_a_density_mapping_is_applied_and_stated():
+    from glintlab.api.glinty_ndf import DENSITY_MAPPINGS, matched_density
+    from glintlab.studies.scene_images import density_statement
+    mat = si.Material(density=1e4, target="beckmann", alpha=0.5, R=0.5)
+    assert matched_density("kpt25", mat) == 1e4 and si.make_method("kpt25", mat).density == 1e4
+    assert "not matched" in density_statement(["truth", "kpt25"])
+    DENSITY_MAPPINGS["kpt25"] = lambda m: 4 * m.density
+    try:
+        assert si.make_method("kpt25", mat).density == 4e4
+        assert si.make_method("zk16", mat).density == 1e4
+        assert "matched to equal expected glint counts: kpt25" in density_statement(["truth", "kpt25"])
+    finally:
+        DENSITY_MAPPINGS.pop("kpt25")
+    with pytest.raises(ValueError, match="nope"):
+        matched_density("nope", mat)

@@ -14,8 +14,13 @@ for a method shader its own output.
 several methods; :func:`flicker_metrics` compares each method's sequence with the ground truth's:
 temporal standard deviation and pops.
 
-A new method is one entry: ``register_image_method("name", lambda m: evaluator, label="...")``, with
-``m`` the scene's :class:`Material` (density, target NDF, alpha, R, angular texel).
+A new method is one entry: ``register_image_method("name", lambda m: evaluator, label="...", truth=...)``,
+with ``m`` the scene's :class:`Material` (density, target NDF, alpha, R, angular texel) and ``truth`` the
+kind of its own truth ("facets", "reference", "supersampled"; docs/math/glint_images.md#glint-own-truth):
+:func:`render_path` renders each method's own truth beside it and :func:`flicker_table` reads the
+flicker against it (``own_*`` columns) and against the smooth image. :func:`shading` is the microfacet
+BRDF's factor that turns an NDF image into the radiance the panels show; :func:`aliasing_table` and
+:func:`sparkle_table` measure aliasing against the method's own supersampled image and WB16's claims.
 """
 from __future__ import annotations
 
