@@ -47,8 +47,8 @@ DEFAULTS = {
     "crop_px": 40,            # the 1:1 crops (pixels per side) around the smooth highlight
     # Aliasing (docs/math/glint_images.md#glint-aliasing): small frames, each method against itself
     # box-filtered over aliasing_supersample^2 sub-pixels; "" to skip.
-    "aliasing_methods": "truth,db23_trilinear[gated],zk16,kpt25,wb16,wb16_star,wb16_lookup_noise",
-    "aliasing_scale": 0.03,
+    "aliasing_methods": "truth,db23_trilinear[gated],kpt25,wb16,wb16_star,wb16_lookup_noise",
+    "aliasing_scale": 0.025,
     "aliasing_frames": 3,
     "aliasing_supersample": SUPERSAMPLE,
     # WB16's density against depth and sparkle size: one frame of this scene at this scale ("" to skip).
