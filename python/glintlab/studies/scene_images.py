@@ -55,7 +55,7 @@ DEFAULTS = {
     "sparkle_scene": "plane_25",
     "sparkle_scale": 0.25,
 }
-QUICK = {"scale": 1.0 / 12, "frames": 4, "timing_scale": 1.0 / 12, "aliasing_scale": 0.03, "aliasing_frames": 2,
+QUICK = {"scale": 1.0 / 12, "frames": 4, "timing_scale": 1.0 / 12, "aliasing_scale": 0.02, "aliasing_frames": 2,
          "sparkle_scale": 1.0 / 12}
 NOTEBOOK = "scene_images.ipynb"
 TABLE = {"scene_images_flicker": ["scene", "method", "std_ratio", "pop_rate", "pop_rate_wider", "change_rate",
