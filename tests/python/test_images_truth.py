@@ -156,16 +156,27 @@ def test_sparkle_table_counts_components_and_their_size():
         IMAGE_METHODS._items.pop("x_dots", None)
 
 
+class _Stripes:
+    """A point-sampled intensity method: thin stripes of the texture far finer than a pixel."""
+    returns = "intensity"
+
+    def image(self, inputs, seed=0, frame=0):
+        period = 0.3 * np.abs(inputs.J[..., 0]).max()
+        return np.where(inputs.mask & (np.mod(inputs.uv[..., 0], period) < 0.1 * period), 1.0, 0.0)
+
+
 def test_aliasing_table_separates_a_filtered_method_from_a_point_sampled_one():
-    register_image_method("x_dots", lambda m: _Dots(), returns="intensity", replace=True)
+    register_image_method("x_stripes", lambda m: _Stripes(), returns="intensity", replace=True)
     try:
         sc = _frame("plane_90", 1 / 40)
-        t = si.aliasing_table(sc, ["smooth", "truth"], frames=2, n=2, seed=SEED).set_index("method")
+        t = si.aliasing_table(sc, ["smooth", "truth", "x_stripes"], frames=2, n=4, seed=SEED).set_index("method")
         assert t.loc["smooth", "alias_rel_rmse"] < 0.02
         assert np.isfinite(t.loc["truth", "alias_rel_rmse"])
-        assert (t.frames == 2).all() and (t.supersample == "2x2").all()
+        # Stripes of a third of a pixel: the 1-sample image is 0 or 1, the 4 x 4 filter about 0.1 each.
+        assert t.loc["x_stripes", "alias_rel_rmse"] > 1.0
+        assert (t.frames == 2).all() and (t.supersample == "4x4").all()
     finally:
-        IMAGE_METHODS._items.pop("x_dots", None)
+        IMAGE_METHODS._items.pop("x_stripes", None)
 
 
 def test_a_density_mapping_is_applied_and_stated():
