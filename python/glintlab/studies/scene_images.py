@@ -274,30 +274,36 @@ def _crop(path, size: int):
 
 def panel_figure(paths: dict, methods, flicker: pd.DataFrame, scale: float = 1.0, density_factor: float = 1.0,
                  exposure=(99.0, 2.0), crop_px: int = 40):
-    """Per scene two rows: the first frame of each method (and of its own truth where that is not the
+    """Per scene three rows: the first frame of each method (and of its own truth where that is not the
     facets) shaded with the microfacet BRDF under the scene's light at one exposure, titled with its
-    flicker against its own truth; below, a crop_px x crop_px crop at 1:1 (nearest) around the highlight."""
+    flicker against its own truth; below, a crop_px x crop_px crop at 1:1 (nearest) around the highlight,
+    and the temporal difference of that crop between the first two frames (display values)."""
     import matplotlib.pyplot as plt
     scenes = list(paths)
     h, w = next(iter(paths.values())).target.shape[1:]
     ncol = len(_columns(next(iter(paths.values())), methods))
     cw = 2.0
-    fig, axes = plt.subplots(2 * len(scenes), ncol, figsize=(cw * ncol, (cw * h / w + cw + 0.9) * len(scenes) + 0.9),
-                             squeeze=False, gridspec_kw={"height_ratios": [h / w, 1.0] * len(scenes)})
+    rows = 3  # per scene: the frame, its 1:1 crop, the temporal difference |frame 2 - frame 1| of the crop
+    fig, axes = plt.subplots(rows * len(scenes), ncol,
+                             figsize=(cw * ncol, (cw * h / w + 2 * cw + 1.0) * len(scenes) + 0.9), squeeze=False,
+                             gridspec_kw={"height_ratios": [h / w, 1.0, 1.0] * len(scenes)})
     f = flicker.set_index(["scene", "method"])
     for i, sc in enumerate(scenes):
         p = paths[sc]
         white = exposure_of(p, *exposure)
         cr = _crop(p, crop_px)
         for j, (label, m, seq) in enumerate(_columns(p, methods)):
-            ax, axc = axes[2 * i, j], axes[2 * i + 1, j]
+            ax, axc, axd = axes[rows * i, j], axes[rows * i + 1, j], axes[rows * i + 2, j]
             img = shaded(p, m, seq[0], white)
             ax.imshow(img, cmap="gray", vmin=0, vmax=1, interpolation="antialiased")
             axc.imshow(img[cr], cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+            if seq.shape[0] > 1:
+                diff = np.abs(shaded(p, m, seq[1], white, frame=1) - img)
+                axd.imshow(diff[cr], cmap="magma", vmin=0, vmax=1, interpolation="nearest")
             if j == 0:
                 ax.add_patch(plt.Rectangle((cr[1].start, cr[0].start), cr[1].stop - cr[1].start,
                                            cr[0].stop - cr[0].start, fill=False, ec="tab:red", lw=0.7))
-            for a in (ax, axc):
+            for a in (ax, axc, axd):
                 a.set_xticks([])
                 a.set_yticks([])
             r = f.loc[(sc, m)]
@@ -313,6 +319,7 @@ def panel_figure(paths: dict, methods, flicker: pd.DataFrame, scale: float = 1.0
             if j == 0:
                 ax.set_ylabel(sc, fontsize=9)
                 axc.set_ylabel(f"{crop_px} px 1:1", fontsize=7)
+                axd.set_ylabel("|frame 2 - frame 1|", fontsize=7)
     fig.suptitle(f"Glint renders (microfacet BRDF: glinty D x Schlick F x Smith G / (4 cos_o), one directional light; "
                  f"white = {exposure[1]:g} x the {exposure[0]:g}th percentile of the smooth render, every method; "
                  f"intensity methods as they return) at {w} x {h}, frame 1.\nFacet density {density_factor:g} x the "
