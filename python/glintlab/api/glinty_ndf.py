@@ -27,6 +27,7 @@ here; h_z <= 0 gives 0). The result has shape (...).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from dataclasses import dataclass
@@ -717,25 +718,45 @@ class Material:
 @dataclass(frozen=True)
 class ImageMethod:
     """A registered image method: ``factory(material)`` returns a :class:`GlintyNDF` (or any object with
-    ``evaluate(uv, J, h, seed)``); ``label`` is the figure's name for it; ``truth`` marks the ground
-    truth; ``returns`` is "ndf" (an NDF value per pixel) or "intensity" (a method shader's output)."""
+    ``evaluate(uv, J, h, seed)``); ``label`` is the figure's name for it; ``truth`` is the kind of the
+    method's own truth, what its flicker and pops are read against (docs/math/glint_images.md#glint-own-truth):
+    "self" (the method is the facet ground truth), "facets" (the stratified facet truth), "reference"
+    (the evaluator's ``reference(uv, J, h, seed)``: the exact model on the same realization) or
+    "supersampled" (the same method box-filtered over 4 x 4 sub-pixels); ``returns`` is "ndf" (an NDF
+    value per pixel) or "intensity" (a method shader's output)."""
     name: str
     label: str
     factory: Callable
-    truth: bool = False
+    truth: str = "facets"
     returns: str = "ndf"
+
+    @property
+    def is_truth(self) -> bool:
+        """Whether the method is the facet ground truth itself."""
+        return self.truth == "self"
 
 
 IMAGE_METHODS: Registry = Registry("image method")
 
 
-def register_image_method(name: str, factory: Callable, label: str | None = None, truth: bool = False,
+TRUTH_KINDS = ("self", "facets", "reference", "supersampled")
+
+
+def register_image_method(name: str, factory: Callable, label: str | None = None, truth=None,
                           replace: bool = False, returns: str = "ndf") -> ImageMethod:
-    """Adds an image method: ``factory(material)`` -> a glinty NDF; returns its entry."""
+    """Adds an image method: ``factory(material)`` -> a glinty NDF; returns its entry. ``truth``: the
+    kind of its own truth (``TRUTH_KINDS``; True means "self", the ground truth itself); default
+    "facets" for an NDF method, "supersampled" for an intensity method."""
     if not callable(factory):
         V.fail("factory", factory, "a callable material -> evaluator")
     if returns not in ("ndf", "intensity"):
         V.fail("returns", returns, "'ndf' or 'intensity'")
+    if truth is None or truth is False:
+        truth = "facets" if returns == "ndf" else "supersampled"
+    elif truth is True:
+        truth = "self"
+    if truth not in TRUTH_KINDS:
+        V.fail("truth", truth, f"one of {', '.join(TRUTH_KINDS)} (or True for the ground truth itself)")
     return IMAGE_METHODS.register(name, ImageMethod(name, label or name, factory, truth, returns), replace=replace)
 
 
@@ -749,9 +770,27 @@ def image_methods(returns: str | None = None) -> list[str]:
     return [n for n in IMAGE_METHODS.names() if IMAGE_METHODS.get(n).returns == returns]
 
 
+#: Density mappings: image method name -> f(material) -> the density at which the method shows the
+#: same expected glint count as the facet truth at the material's density N. Empty here: every method
+#: runs at N (docs/math/glint_images.md#glint-own-truth); a mapping registered here is applied by
+#: :func:`make_method` and stated on the scene panel.
+DENSITY_MAPPINGS: dict = {}
+
+
+def matched_density(name: str, material: Material) -> float:
+    """The density image method ``name`` runs at for ``material``: its mapping's (``DENSITY_MAPPINGS``)
+    or the material's N."""
+    IMAGE_METHODS.get(name)
+    f = DENSITY_MAPPINGS.get(name)
+    return float(f(material)) if f is not None else material.density
+
+
 def make_method(name: str, material: Material):
-    """The evaluator (a glinty NDF) of image method ``name`` for ``material``."""
-    return IMAGE_METHODS.get(name).factory(material)
+    """The evaluator (a glinty NDF) of image method ``name`` for ``material`` (at its matched density)."""
+    entry = IMAGE_METHODS.get(name)
+    if name in DENSITY_MAPPINGS and material is not None:
+        material = dataclasses.replace(material, density=matched_density(name, material))
+    return entry.factory(material)
 
 
 def _counted(scheme, inner):
@@ -773,7 +812,8 @@ register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16")
 # KPT25's constant-time NDF (Algorithm 1: k = 4 angular neighbours, eps = 0.1) over its own point
 # process, whose density is the scene's facet density (docs/math/glinty_ndf.md).
 register_image_method("kpt25", lambda m: glinty_ndf("kpt25", density=m.density, target=m.target, alpha=m.alpha,
-                                                    alpha_star=0.02, k=4, epsilon=0.1), label="KPT25")
+                                                    alpha_star=0.02, k=4, epsilon=0.1),
+                      label="KPT25", truth="reference")
 #: The built-in glinty-NDF image methods (the scene images' default list; method shaders registered
 #: later, WB16's among them, are listed by ``image_methods()`` but not rendered by default).
 BUILTIN_IMAGE_METHODS = tuple(IMAGE_METHODS.names())

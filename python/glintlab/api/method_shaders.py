@@ -349,3 +349,8 @@ def noise3(p, seed) -> np.ndarray:
 
 # WB16 is an image method like the others: compiled on first use (needs Vulkan), never by import.
 register_image_method("wb16", lambda m: wb16_method(), label="WB16 sparkles", returns="intensity")
+# The paper's baselines as image methods of their own (the aliasing tables compare them with WB16):
+# Shopf's star shape (Code 1) and Shopf's noise on the lookup instead of on the grid centres.
+register_image_method("wb16_star", lambda m: wb16_method(shape=1), label="WB16 / Shopf star", returns="intensity")
+register_image_method("wb16_lookup_noise", lambda m: wb16_method(noise=1), label="WB16 / lookup noise",
+                      returns="intensity")

@@ -29,13 +29,14 @@ True
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from .. import _core
 from . import checks as V
-from .glinty_ndf import GLINTY_NDFS, GlintyNDF, pixel_arrays
+from .glinty_ndf import GLINTY_NDFS, GlintyNDF, pixel_arrays, register_image_method
 
 # The paper's Table 2: the blur level (degrees) used for each roughness.
 TABLE2_LOD = ((0.05, 1.0), (0.1, 2.0), (0.5, 10.0), (0.8, 30.0))
@@ -214,3 +215,17 @@ class WWH18(GlintyNDF):
 
 
 GLINTY_NDFS.register("wwh18", WWH18)
+
+
+# WWH18 as an image method: the filterable model at the scene's flake density, read against its own
+# discrete-flake truth on the same flakes (``reference``; docs/math/glint_images.md#glint-own-truth).
+# The threshold test is the flipped reading (a flake counts when lambda < P): the printed H(lambda - P)
+# counts with probability 1 - P and renders the surface 1 / p_gamma too bright away from the highlight
+# (docs/math/wwh18.md#wwh18-threshold-test; measured on the scenes: mean 125-275 x the smooth render).
+# Its table takes seconds to build: one evaluator per material (a frozen, hashable dataclass) is kept.
+@functools.lru_cache(maxsize=8)
+def _wwh18_image_method(material) -> WWH18:
+    return WWH18(density=material.density, target=material.target, alpha=material.alpha, threshold_test="flipped")
+
+
+register_image_method("wwh18", _wwh18_image_method, label="WWH18 (flipped test)", truth="reference")

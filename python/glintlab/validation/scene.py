@@ -353,7 +353,10 @@ class Scene:
         uv = np.where(hit[:, None], uv, 0.0)
         return {"hit": hit.reshape(shape), "t": t.reshape(shape), "x": x.reshape(shape + (3,)),
                 "uv": uv.reshape(shape + (2,)), "J": J.reshape(shape + (4,)),
-                "shading_normal": shading.reshape(shape + (3,)), "direction": d.reshape(shape + (3,))}
+                "shading_normal": shading.reshape(shape + (3,)), "direction": d.reshape(shape + (3,)),
+                # The hit point's derivatives along the pixel axes (ray differentials on the tangent plane):
+                # what a sub-pixel sample's position is to first order (scene_images.subpixel_inputs).
+                "dxdpx": dx[0].reshape(shape + (3,)), "dxdpy": dx[1].reshape(shape + (3,))}
 
     def geometry(self) -> Geometry:
         """Every pixel: uv, J, footprint (P, r, phi), half vector, D(h), p (clamped, reported) and n."""

@@ -14,8 +14,13 @@ for a method shader its own output.
 several methods; :func:`flicker_metrics` compares each method's sequence with the ground truth's:
 temporal standard deviation and pops.
 
-A new method is one entry: ``register_image_method("name", lambda m: evaluator, label="...")``, with
-``m`` the scene's :class:`Material` (density, target NDF, alpha, R, angular texel).
+A new method is one entry: ``register_image_method("name", lambda m: evaluator, label="...", truth=...)``,
+with ``m`` the scene's :class:`Material` (density, target NDF, alpha, R, angular texel) and ``truth`` the
+kind of its own truth ("facets", "reference", "supersampled"; docs/math/glint_images.md#glint-own-truth):
+:func:`render_path` renders each method's own truth beside it and :func:`flicker_table` reads the
+flicker against it (``own_*`` columns) and against the smooth image. :func:`shading` is the microfacet
+BRDF's factor that turns an NDF image into the radiance the panels show; :func:`aliasing_table` and
+:func:`sparkle_table` measure aliasing against the method's own supersampled image and WB16's claims.
 """
 from __future__ import annotations
 
@@ -113,6 +118,11 @@ class FrameInputs:
     view: np.ndarray | None = None
     light: np.ndarray | None = None
     h_world: np.ndarray | None = None
+    # For sub-pixel samples (subpixel_inputs): the hit point's derivatives along the pixel axes (H, W, 3)
+    # and the camera's position (3,).
+    dxdpx: np.ndarray | None = None
+    dxdpy: np.ndarray | None = None
+    camera: np.ndarray | None = None
 
 
 def _tangent_frame(scene: Scene, tr) -> tuple:
@@ -160,7 +170,8 @@ def frame_inputs(scene: Scene) -> FrameInputs:
     mask = tr["hit"] & lit & np.isfinite(J).all(-1) & (np.abs(det) > 0)
     hl = np.where(mask[..., None], hl, np.array([0.0, 0.0, 1.0]))
     return FrameInputs(tr["uv"], J, hl, mask, time.perf_counter() - t0, hit=tr["hit"], world_pos=pos, n=nb, t=tb,
-                       b=bb, view=view_raw, light=np.ascontiguousarray(lt), h_world=h)
+                       b=bb, view=view_raw, light=np.ascontiguousarray(lt), h_world=h, dxdpx=tr["dxdpx"],
+                       dxdpy=tr["dxdpy"], camera=np.asarray(scene.position, float))
 
 
 def render(method, inputs: FrameInputs, seed: int = 0, frame: int = 0) -> np.ndarray:
@@ -224,7 +235,10 @@ def render_image(method, scene, frame: int = 0, seed: int = 0, scale: float = 1.
 class PathImages:
     """Images of one scene along a camera path: ``images[method]`` (T, H, W), ``target`` (T, H, W) the
     smooth D(h) (the pops' reference level), ``mask`` (T, H, W), seconds per method (all frames) and
-    for the per-frame inputs."""
+    for the per-frame inputs; ``truths[method]`` (T, H, W) each method's own truth
+    (:func:`truth_kind`; the facet truth's array itself where that is the method's truth),
+    ``shade`` (T, H, W) the BRDF's factor F G / (4 cos_o) per pixel (:func:`shading`), so that
+    ``images[m] * shade`` is the radiance under the scene's light for an NDF method."""
     scene: str
     images: dict
     target: np.ndarray
@@ -232,12 +246,119 @@ class PathImages:
     seconds: dict
     input_seconds: float
     material: Material
+    truths: dict | None = None
+    shade: np.ndarray | None = None
+    truth_seconds: float = 0.0
+
+
+#: Sub-pixels per side of a "supersampled" truth and of the aliasing tables (docs/math/glint_images.md#glint-aliasing).
+SUPERSAMPLE = 4
+
+
+def truth_kind(name: str) -> str:
+    """The kind of image method ``name``'s own truth (``register_image_method(..., truth=...)``):
+    "self" (it is the facet ground truth), "facets", "reference" (its evaluator's ``reference`` on the
+    same realization) or "supersampled" (the same method averaged over SUPERSAMPLE^2 sub-pixels)."""
+    return IMAGE_METHODS.get(name).truth
+
+
+def subpixel_inputs(inputs: FrameInputs, ox: float, oy: float, n: int) -> FrameInputs:
+    """The inputs of one of the n x n sub-pixels of every pixel, at offset (ox, oy) pixels from the
+    centre: the hit point moved along the tangent plane (x + ox dx/dpx + oy dx/dpy), uv + J (ox, oy)
+    (first order, DB23's footprint Jacobian), the footprint J / n (the sub-pixel's), the view and half
+    vectors recomputed from the moved point, the shading frame and the light kept (first order);
+    the pixel's mask, less sub-pixels whose h or view falls below the horizon."""
+    if inputs.dxdpx is None or inputs.camera is None:
+        V.fail("inputs", "frame inputs without ray differentials", "FrameInputs from frame_inputs(scene)")
+    J = inputs.J
+    pos = inputs.world_pos + ox * inputs.dxdpx + oy * inputs.dxdpy
+    uv = inputs.uv + np.stack([J[..., 0] * ox + J[..., 2] * oy, J[..., 1] * ox + J[..., 3] * oy], axis=-1)
+    view_raw = inputs.camera - pos
+    view = view_raw / np.linalg.norm(view_raw, axis=-1, keepdims=True).clip(1e-300)
+    h = view + inputs.light
+    h /= np.linalg.norm(h, axis=-1, keepdims=True).clip(1e-300)
+    hl = np.stack([(h * inputs.t).sum(-1), (h * inputs.b).sum(-1), (h * inputs.n).sum(-1)], axis=-1)
+    mask = inputs.mask & (hl[..., 2] > 0) & ((view * inputs.n).sum(-1) > 0)
+    hl = np.where(mask[..., None], hl, np.array([0.0, 0.0, 1.0]))
+    return FrameInputs(uv, J / n, hl, mask, 0.0, hit=inputs.hit, world_pos=pos, n=inputs.n, t=inputs.t, b=inputs.b,
+                       view=view_raw, light=inputs.light, h_world=h, dxdpx=inputs.dxdpx / n, dxdpy=inputs.dxdpy / n,
+                       camera=inputs.camera)
+
+
+def supersampled(method, inputs: FrameInputs, seed: int = 0, frame: int = 0, n: int = SUPERSAMPLE) -> np.ndarray:
+    """``method``'s image of one frame box-filtered over each pixel: the mean of its n x n sub-pixel
+    images (:func:`subpixel_inputs`, offsets ((i + 1/2) / n - 1/2) pixels), 0 outside the pixel mask."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 64:
+        V.fail("n", n, "an integer number of sub-pixels per side in [1, 64]")
+    acc = None
+    offs = (np.arange(n) + 0.5) / n - 0.5
+    for oy in offs:
+        for ox in offs:
+            img = render(method, subpixel_inputs(inputs, float(ox), float(oy), int(n)), seed, frame=frame)
+            acc = img if acc is None else acc + img
+    out = acc / (n * n)
+    out[~inputs.mask] = 0
+    return out
+
+
+def reference_image(method, inputs: FrameInputs, seed: int = 0) -> np.ndarray:
+    """The method's exact model on the same realization: its ``reference(uv, J, h, seed)`` on the lit
+    pixels (KPT25: the sum over every point; WWH18: the discrete-flake count), 0 elsewhere."""
+    img = np.zeros(inputs.mask.shape)
+    m = inputs.mask
+    if m.any():
+        img[m] = method.reference(inputs.uv[m], inputs.J[m], inputs.h[m], seed=seed)
+    return img
+
+
+F0 = 0.04  # Schlick's reflectance at normal incidence (a dielectric coat; docs/math/glint_images.md#glint-shading)
+
+
+def smith_lambda(target: str, alpha: float, cos_theta) -> np.ndarray:
+    """Smith's Lambda of the target NDF for directions at cos_theta from the normal (Beckmann: with
+    a = 1 / (alpha tan), (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi)); GGX: (sqrt(1 + alpha^2 tan^2) - 1) / 2)."""
+    from scipy.special import erf
+    c = np.clip(np.asarray(cos_theta, float), 1e-9, 1.0)
+    tan2 = np.maximum(1.0 - c * c, 0.0) / (c * c)
+    if target == "ggx":
+        return 0.5 * (np.sqrt(1.0 + alpha * alpha * tan2) - 1.0)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        a = 1.0 / (alpha * np.sqrt(tan2))
+        lam = 0.5 * (erf(a) - 1.0) + np.exp(-a * a) / (2.0 * a * math.sqrt(math.pi))
+    return np.where(np.isfinite(a), lam, 0.0)
+
+
+def shading(inputs: FrameInputs, material: Material, f0: float = F0) -> np.ndarray:
+    """The microfacet BRDF's factor F G / (4 cos_o) per pixel (H, W) (0 outside the mask): under a
+    directional light of unit irradiance the radiance is L = f cos_i = D F G / (4 cos_o) with
+    f = D F G / (4 cos_i cos_o), Schlick's F(v.h) with F0 = ``f0`` and the height-correlated Smith
+    G = 1 / (1 + Lambda(o) + Lambda(i)) of the target NDF (docs/math/glint_images.md#glint-shading).
+    An NDF method's radiance is its image times this factor; the smooth render is D(h) times it."""
+    if inputs.view is None:
+        V.fail("inputs", "frame inputs without world-space fields", "FrameInputs from frame_inputs(scene)")
+    m = inputs.mask
+    out = np.zeros(m.shape)
+    if not m.any():
+        return out
+    v = inputs.view[m]
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    n, lt, h = inputs.n[m], inputs.light[m], inputs.h_world[m]
+    co, ci = (v * n).sum(-1), (lt * n).sum(-1)
+    vh = np.clip((v * h).sum(-1), 0.0, 1.0)
+    F = f0 + (1.0 - f0) * (1.0 - vh) ** 5
+    lam_o, lam_i = (smith_lambda(material.target, material.alpha, c) for c in (co, ci))
+    G = 1.0 / (1.0 + lam_o + lam_i)
+    out[m] = F * G / (4.0 * np.clip(co, 1e-9, None))
+    return out
 
 
 def render_path(scene: Scene, methods=DEFAULT_METHODS, frames: int = 8, pan_px: float = 0.25, zoom: float = 0.99,
-                seed: int = 1, angular_texel: float = ANGULAR_TEXEL, directional: bool = True) -> PathImages:
+                seed: int = 1, angular_texel: float = ANGULAR_TEXEL, directional: bool = True,
+                own_truths: bool = True, supersample: int = SUPERSAMPLE) -> PathImages:
     """Every method's images of ``scene`` along :func:`camera_path` (one directional light unless
-    ``directional`` is False). The inputs of each frame are computed once and shared."""
+    ``directional`` is False). The inputs of each frame are computed once and shared. With
+    ``own_truths`` each method's own truth is rendered too (``PathImages.truths``, :func:`truth_kind`;
+    "supersampled" with ``supersample`` x ``supersample`` sub-pixels)."""
     seed = V.seed(seed)
     if isinstance(methods, str) or not len(methods):
         V.fail("methods", methods, "a non-empty list of image method names")
@@ -251,19 +372,39 @@ def render_path(scene: Scene, methods=DEFAULT_METHODS, frames: int = 8, pan_px: 
     path = camera_path(scene, frames, pan_px, zoom)
     shape = (frames, scene.height, scene.width)
     images = {name: np.zeros(shape) for name in methods}
-    target, mask = np.zeros(shape), np.zeros(shape, bool)
+    target, mask, shade = np.zeros(shape), np.zeros(shape, bool), np.zeros(shape)
     seconds = dict.fromkeys(methods, 0.0)
-    t_in = 0.0
+    kinds = {name: truth_kind(name) for name in methods} if own_truths else {}
+    extra = {name: np.zeros(shape) for name, k in kinds.items() if k in ("reference", "supersampled")}
+    need_facets = any(k == "facets" for k in kinds.values()) and "truth" not in methods
+    facet_seq = np.zeros(shape) if need_facets else None
+    facet_ev = make_method("truth", mat) if need_facets else None
+    t_in = t_truth = 0.0
     for k, cam in enumerate(path):
         inp = frame_inputs(cam)
         t_in += inp.seconds
         mask[k] = inp.mask
         target[k] = render(smooth, inp)
+        shade[k] = shading(inp, mat)
         for name, ev in evaluators.items():
             t0 = time.perf_counter()
             images[name][k] = render(ev, inp, seed, frame=k)
             seconds[name] += time.perf_counter() - t0
-    return PathImages(scene.name, images, target, mask, seconds, t_in, mat)
+        t0 = time.perf_counter()
+        if need_facets:
+            facet_seq[k] = render(facet_ev, inp, seed, frame=k)
+        for name, seq in extra.items():
+            if kinds[name] == "reference":
+                seq[k] = reference_image(evaluators[name], inp, seed)
+            else:
+                seq[k] = supersampled(evaluators[name], inp, seed, frame=k, n=supersample)
+        t_truth += time.perf_counter() - t0
+    truths = None
+    if own_truths:
+        facets = images["truth"] if "truth" in images else facet_seq
+        truths = {name: (images[name] if k == "self" else facets if k == "facets" else extra[name])
+                  for name, k in kinds.items()}
+    return PathImages(scene.name, images, target, mask, seconds, t_in, mat, truths, shade, t_truth)
 
 
 def time_methods(scene: Scene, methods=DEFAULT_METHODS, seed: int = 1, angular_texel: float = ANGULAR_TEXEL,
@@ -368,13 +509,142 @@ def flicker_table(path: PathImages, truth: str = "truth", tau: float = TAU, radi
     for name, seq in path.images.items():
         r = flicker_metrics(seq, path.images[truth], path.target, path.mask, tau, radius)
         near = flicker_metrics(seq, path.images[truth], path.target, path.mask, tau, radius + 1)
-        rows.append({"scene": path.scene, "method": name, "label": IMAGE_METHODS.get(name).label
-                     if name in IMAGE_METHODS else name, **r, "pop_rate_wider": near["pop_rate"],
-                     "seconds_per_frame": path.seconds[name] / frames})
+        row = {"scene": path.scene, "method": name, "label": IMAGE_METHODS.get(name).label
+               if name in IMAGE_METHODS else name, **r, "pop_rate_wider": near["pop_rate"],
+               "seconds_per_frame": path.seconds[name] / frames}
+        if path.truths is not None and name in path.truths:
+            row.update(own_truth_metrics(name, seq, path.truths[name], path.target, path.mask, tau, radius))
+        rows.append(row)
     return pd.DataFrame(rows)
+
+
+#: An intensity method (WB16's sparkles in [0, 1]) shows a glint where its value exceeds this level:
+#: there is no D(h) to compare it with (docs/math/glint_images.md#glint-own-truth).
+INTENSITY_GLINT_LEVEL = 0.5
+
+
+def own_truth_metrics(name: str, images, truth, target, mask, tau: float = TAU, radius: int = 0) -> dict:
+    """The flicker of method ``name`` against its own truth (:func:`truth_kind`): ``own_truth`` (the
+    kind), ``own_std_ratio``, ``own_pop_rate`` and ``own_truth_change_rate`` (:func:`flicker_metrics`
+    with the own truth in place of the facets; an intensity method's glints are its values above
+    ``INTENSITY_GLINT_LEVEL``), and against the smooth image D(h) (NDF methods only, NaN for an
+    intensity): ``smooth_mean_ratio`` (mean / the smooth mean) and ``smooth_rel_rmse`` (RMS of the
+    difference / the smooth mean), over the pixels valid in every frame."""
+    entry = IMAGE_METHODS.get(name)
+    intensity = entry.returns == "intensity"
+    level = np.full(np.shape(target), INTENSITY_GLINT_LEVEL / tau) if intensity else target
+    r = flicker_metrics(images, truth, level, mask, tau, radius)
+    out = {"own_truth": entry.truth, "own_std_ratio": r["std_ratio"], "own_pop_rate": r["pop_rate"],
+           "own_truth_change_rate": r["truth_change_rate"], "own_mean_ratio": r["mean_ratio"]}
+    valid = np.asarray(mask, bool).all(axis=0) if np.ndim(mask) == 3 else np.asarray(mask, bool)
+    x, d = np.asarray(images)[:, valid], np.asarray(target)[:, valid]
+    if intensity or d.mean() <= 0:
+        out["smooth_mean_ratio"] = out["smooth_rel_rmse"] = math.nan
+    else:
+        out["smooth_mean_ratio"] = float(x.mean() / d.mean())
+        out["smooth_rel_rmse"] = float(np.sqrt(((x - d) ** 2).mean()) / d.mean())
+    return out
 
 
 def display(images: np.ndarray, material: Material, white: float = 2.0, gamma: float = 2.2) -> np.ndarray:
     """Images (NDF values) as display values in [0, 1]: (value / (white D(n)))^(1 / gamma), clipped."""
     d_n = 1.0 / (math.pi * material.alpha**2)
     return np.clip(np.asarray(images) / (white * d_n), 0.0, 1.0) ** (1.0 / gamma)
+
+
+# --------------------------------------------------------------------------------------------------
+# Aliasing: each method's 1-sample image against its own supersampled image
+
+def aliasing_table(scene: Scene, methods, frames: int = 4, n: int = SUPERSAMPLE, pan_px: float = 0.25,
+                   zoom: float = 0.99, seed: int = 1, angular_texel: float = ANGULAR_TEXEL,
+                   directional: bool = True) -> pd.DataFrame:
+    """Per method, its 1-sample image (one evaluation at the pixel centre with the pixel's footprint)
+    against its own image box-filtered over n x n sub-pixels (:func:`supersampled`) along the camera
+    path (docs/math/glint_images.md#glint-aliasing), over the pixels valid in every frame:
+    ``alias_rel_rmse`` (RMS of the difference over the supersampled mean, the mean over frames) and
+    ``alias_rel_rmse_spread`` (its standard deviation over frames), ``std_ratio_vs_supersampled`` (the
+    mean temporal standard deviation of the 1-sample sequence over the supersampled one's: aliasing
+    shows as flicker the filtered image does not have), and ``seconds`` (both renders, all frames)."""
+    seed = V.seed(seed)
+    if isinstance(methods, str) or not len(methods):
+        V.fail("methods", methods, "a non-empty list of image method names")
+    for name in methods:
+        IMAGE_METHODS.get(name)
+    if directional:
+        scene = with_directional_light(scene)
+    mat = Material.of(scene, angular_texel)
+    evaluators = {name: make_method(name, mat) for name in methods}
+    path = camera_path(scene, frames, pan_px, zoom)
+    one = {name: [] for name in methods}
+    ss = {name: [] for name in methods}
+    secs = dict.fromkeys(methods, 0.0)
+    masks = []
+    for k, cam in enumerate(path):
+        inp = frame_inputs(cam)
+        masks.append(inp.mask)
+        for name, ev in evaluators.items():
+            t0 = time.perf_counter()
+            one[name].append(render(ev, inp, seed, frame=k))
+            ss[name].append(supersampled(ev, inp, seed, frame=k, n=n))
+            secs[name] += time.perf_counter() - t0
+    valid = np.all(masks, axis=0)
+    rows = []
+    for name in methods:
+        # A method shader may return NaN at a few pixels (WB16's unguarded normalisations, as printed):
+        # those pixels are left out of that method's row.
+        A, B = np.asarray(one[name]), np.asarray(ss[name])
+        ok = valid & np.isfinite(A).all(axis=0) & np.isfinite(B).all(axis=0)
+        a, b = A[:, ok], B[:, ok]
+        scale = b.mean() if b.size and b.mean() > 0 else math.nan
+        err = np.sqrt(((a - b) ** 2).mean(axis=1)) / scale if a.size else np.full(len(path), math.nan)
+        s1, s2 = a.std(axis=0).mean(), b.std(axis=0).mean()
+        rows.append({"scene": scene.name, "method": name, "label": IMAGE_METHODS.get(name).label,
+                     "returns": IMAGE_METHODS.get(name).returns, "supersample": f"{n}x{n}",
+                     "alias_rel_rmse": float(np.mean(err)), "alias_rel_rmse_spread": float(np.std(err)),
+                     "std_ratio_vs_supersampled": float(s1 / s2) if s2 > 0 else math.nan,
+                     "mean_ratio_vs_supersampled": float(a.mean() / scale) if scale == scale else math.nan,
+                     "pixels": int(ok.sum()), "frames": len(path), "seconds": secs[name]})
+    return pd.DataFrame(rows)
+
+
+def sparkle_table(scene: Scene, method: str = "wb16", bins: int = 4, seed: int = 1, level: float = 0.0,
+                  directional: bool = True) -> pd.DataFrame:
+    """WB16's claims of density against depth and of sparkle size, on one frame of ``scene``: the
+    sparkles are the 8-connected components of pixels whose value exceeds ``level``; per bin of the
+    distance to the camera (``bins`` quantile bins of the hit pixels), the sparkles per 1000 pixels
+    (a component counted in the bin of its brightest pixel) and their mean and 90th-percentile size
+    in pixels (docs/math/glint_images.md#glint-aliasing)."""
+    from scipy import ndimage
+    if directional:
+        scene = with_directional_light(scene)
+    if isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or not 1 <= bins <= 64:
+        V.fail("bins", bins, "an integer in [1, 64]")
+    inp = frame_inputs(scene)
+    ev = make_method(method, Material.of(scene))
+    img = np.asarray(render(ev, inp, V.seed(seed)), float)
+    if img.ndim == 3:
+        img = img.mean(axis=-1)
+    hit = inp.hit & np.isfinite(img)
+    lit = hit & (img > level)
+    lab, count = ndimage.label(lit, structure=np.ones((3, 3)))
+    dist = np.linalg.norm(inp.view, axis=-1)
+    edges = np.quantile(dist[hit], np.linspace(0, 1, bins + 1)) if hit.any() else np.zeros(bins + 1)
+    rows = []
+    if count:
+        idx = np.arange(1, count + 1)
+        sizes = ndimage.sum(lit, lab, idx)
+        peaks = ndimage.maximum_position(np.where(lit, img, -1.0), lab, idx)
+        peak_d = np.array([dist[p] for p in peaks])
+    else:
+        sizes, peak_d = np.zeros(0), np.zeros(0)
+    for i in range(bins):
+        lo, hi = edges[i], edges[i + 1]
+        inb = (dist >= lo) & ((dist <= hi) if i == bins - 1 else (dist < hi)) & hit
+        sel = (peak_d >= lo) & ((peak_d <= hi) if i == bins - 1 else (peak_d < hi))
+        rows.append({"scene": scene.name, "method": method, "width": scene.width, "height": scene.height,
+                     "distance_lo": float(lo), "distance_hi": float(hi), "pixels": int(inb.sum()),
+                     "sparkles": int(sel.sum()),
+                     "sparkles_per_1000_px": float(1000 * sel.sum() / max(int(inb.sum()), 1)),
+                     "mean_size_px": float(sizes[sel].mean()) if sel.any() else math.nan,
+                     "p90_size_px": float(np.quantile(sizes[sel], 0.9)) if sel.any() else math.nan})
+    return pd.DataFrame(rows)
