@@ -5,6 +5,8 @@ import math
 import numpy as np
 import pytest
 
+import glintlab as gl
+
 from glintlab.api.glinty_ndf import IMAGE_METHODS, register_image_method
 from glintlab.api.ndf import ndf as smooth_ndf
 from glintlab.validation import scene_images as si
@@ -180,17 +182,19 @@ def test_aliasing_table_separates_a_filtered_method_from_a_point_sampled_one():
 
 
 def test_a_density_mapping_is_applied_and_stated():
-    from glintlab.api.glinty_ndf import DENSITY_MAPPINGS, matched_density
+    from glintlab.api.glinty_ndf import DENSITY_MAPPINGS, method_density
     from glintlab.studies.scene_images import density_statement
     mat = si.Material(density=1e4, target="beckmann", alpha=0.5, R=0.5)
-    assert matched_density("kpt25", mat) == 1e4 and si.make_method("kpt25", mat).density == 1e4
-    assert "not matched" in density_statement(["truth", "kpt25"])
-    DENSITY_MAPPINGS["kpt25"] = lambda m: 4 * m.density
+    # KPT25's registered mapping: the point density with DB23's expected visible glints per pixel.
+    kp = gl.matched_density(1e4, 0.02, "beckmann", 0.5, 0.5)
+    assert method_density("kpt25", mat) == kp and si.make_method("kpt25", mat).density == kp
+    assert si.make_method("zk16", mat).density == 1e4
+    assert "matched to equal expected glint counts: kpt25" in density_statement(["truth", "kpt25"])
+    saved = DENSITY_MAPPINGS.pop("kpt25")
     try:
-        assert si.make_method("kpt25", mat).density == 4e4
-        assert si.make_method("zk16", mat).density == 1e4
-        assert "matched to equal expected glint counts: kpt25" in density_statement(["truth", "kpt25"])
+        assert si.make_method("kpt25", mat).density == 1e4
+        assert "not matched" in density_statement(["truth", "kpt25"])
     finally:
-        DENSITY_MAPPINGS.pop("kpt25")
+        DENSITY_MAPPINGS["kpt25"] = saved
     with pytest.raises(ValueError, match="nope"):
-        matched_density("nope", mat)
+        method_density("nope", mat)

@@ -771,13 +771,13 @@ def image_methods(returns: str | None = None) -> list[str]:
 
 
 #: Density mappings: image method name -> f(material) -> the density at which the method shows the
-#: same expected glint count as the facet truth at the material's density N. Empty here: every method
-#: runs at N (docs/math/glint_images.md#glint-own-truth); a mapping registered here is applied by
-#: :func:`make_method` and stated on the scene panel.
+#: same expected glint count as the facet truth at the material's density N (docs/math/glint_images.md#glint-own-truth);
+#: a mapping registered here is applied by :func:`make_method` and stated on the scene panel. KPT25's
+#: is :func:`matched_density` (docs/math/glinty_ndf.md#glinty-matched), registered with its image method.
 DENSITY_MAPPINGS: dict = {}
 
 
-def matched_density(name: str, material: Material) -> float:
+def method_density(name: str, material: Material) -> float:
     """The density image method ``name`` runs at for ``material``: its mapping's (``DENSITY_MAPPINGS``)
     or the material's N."""
     IMAGE_METHODS.get(name)
@@ -789,7 +789,7 @@ def make_method(name: str, material: Material):
     """The evaluator (a glinty NDF) of image method ``name`` for ``material`` (at its matched density)."""
     entry = IMAGE_METHODS.get(name)
     if name in DENSITY_MAPPINGS and material is not None:
-        material = dataclasses.replace(material, density=matched_density(name, material))
+        material = dataclasses.replace(material, density=method_density(name, material))
     return entry.factory(material)
 
 
@@ -814,6 +814,7 @@ register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16")
 register_image_method("kpt25", lambda m: glinty_ndf("kpt25", density=m.density, target=m.target, alpha=m.alpha,
                                                     alpha_star=0.02, k=4, epsilon=0.1),
                       label="KPT25", truth="reference")
+DENSITY_MAPPINGS["kpt25"] = lambda m: matched_density(m.density, 0.02, m.target, m.alpha, m.R)
 #: The built-in glinty-NDF image methods (the scene images' default list; method shaders registered
 #: later, WB16's among them, are listed by ``image_methods()`` but not rendered by default).
 BUILTIN_IMAGE_METHODS = tuple(IMAGE_METHODS.names())

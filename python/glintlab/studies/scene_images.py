@@ -146,7 +146,7 @@ def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
 def density_statement(methods) -> str:
     """What the densities of the methods shown are. Every method runs at the scene's facet density N:
     KPT25's point density K_P = N and WWH18's flake density = N; no mapping to equal expected glint
-    counts between KPT25 and DB23 is applied (``glinty_ndf.matched_density`` is the hook where one goes)."""
+    counts between KPT25 and DB23 is applied (``glinty_ndf.DENSITY_MAPPINGS`` holds them: KPT25's is ``gl.matched_density``)."""
     mapped = [m for m in methods if m in DENSITY_MAPPINGS]
     base = "every method at the scene's facet density N (KPT25's point density K_P = N, WWH18's flake density = N)"
     if mapped:
