@@ -25,6 +25,7 @@ from .api.ndf import NDF, ndf
 from .api.plugins import load_plugin, loaded_plugins
 from .api.shaders import ShaderLaw, shader_law, shipped_shader, vulkan_devices
 from .api.shaders import ShaderDeviceBusy, ShaderOutputError
+from .api.shaders import emit_shader, shipped_shaders
 from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 from .report.html import write_extremes_report
 from .validation.advisor import Advice, advise
@@ -63,4 +64,5 @@ __all__ = [
     "image_methods", "ShaderMethod", "shader_method", "render",
     "ShaderDeviceBusy", "ShaderOutputError",
 ]
+__all__ += ["emit_shader", "shipped_shaders"]  # shipped shaders: declared in law traits, emitted paste-ready
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)

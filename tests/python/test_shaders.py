@@ -34,7 +34,7 @@ shader_law = functools.partial(gl.shader_law, register=False)
 SAMPLES = 10**6
 P_PASS = 1e-4
 ROW_SHARE = 1e-4  # rows allowed to differ from the C++ twin (by one count at most)
-SHIPPED = [(name, lang) for name in S.SHIPPED for lang in S.LANGUAGES]
+SHIPPED = [(name, lang) for name in S.shipped_shaders() for lang in S.LANGUAGES]
 _laws = {}
 
 
@@ -80,7 +80,7 @@ def test_shipped_shader_against_exact_pmf(name, language, n, p):
 POINTS = FIGURE9_POINTS + [(3.5, 0.3), (50, 0.02), (1e5, 0.9)]
 
 
-@pytest.mark.parametrize("name", list(S.SHIPPED))
+@pytest.mark.parametrize("name", list(S.shipped_shaders()))
 def test_shipped_shader_row_by_row_against_cpp_twin(name):
     law, twin = shipped(name, "hlsl"), S.shipped_twin(name)
     u = gl.uniforms(200_000, 2, seed=5)
@@ -96,7 +96,7 @@ def test_shipped_shader_row_by_row_against_cpp_twin(name):
     assert np.mean(k != c) <= 1e-3 and np.abs(k - c).max() <= 1
 
 
-@pytest.mark.parametrize("name", list(S.SHIPPED))
+@pytest.mark.parametrize("name", list(S.shipped_shaders()))
 def test_hlsl_and_glsl_agree_row_by_row(name):
     u = gl.uniforms(200_000, 2, seed=6)
     for n, p in POINTS:
@@ -227,7 +227,7 @@ def test_no_device_names_the_package():
 
 def test_registered_by_name_and_usable_in_an_experiment(tmp_path):
     src = tmp_path / "hc.glsl"
-    src.write_text(S.shipped_shader("head_cf", "glsl").read_text())
+    src.write_text(gl.emit_shader("head_cf", "glsl"))  # self-contained: nothing to include in tmp_path
     doc = tmp_path / "e.json"
     doc.write_text(json.dumps({"name": "shader_exp", "laws": [{"shader": "hc.glsl", "name": "test_shader_exp"}],
                                "grid": {"n": [8, 1000], "p": [0.1]}, "metrics": ["tv"], "samples": 200_000,

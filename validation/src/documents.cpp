@@ -1,5 +1,7 @@
 #include "glintlab/validation/documents.hpp"
 
+#include "glintlab/errors.hpp"
+
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -83,7 +85,7 @@ struct Checker {
 const std::string& schema_text(const std::string& name) {
   const auto it = schema_texts().find(name);
   if (it == schema_texts().end())
-    throw std::invalid_argument("unknown schema \"" + name + "\" (experiment, bounds, scene or report)");
+    glintlab::throw_invalid_message("unknown schema \"" + name + "\" (experiment, bounds, scene or report)");
   return it->second;
 }
 
@@ -165,7 +167,7 @@ json parse_document(const std::string& kind, std::string_view text, const std::s
   if (kind == "bounds") return parse_bounds(text, source);
   if (kind == "scene") return parse_scene(text, source);
   if (kind == "report") return parse_report(text, source);
-  throw std::invalid_argument("unknown document kind \"" + kind + "\" (experiment, bounds, scene or report)");
+  glintlab::throw_invalid_message("unknown document kind \"" + kind + "\" (experiment, bounds, scene or report)");
 }
 
 }  // namespace glintlab::validation
