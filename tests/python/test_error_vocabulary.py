@@ -9,8 +9,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 HELPERS = {"core/include/glintlab/errors.hpp", "core/src/errors.cpp"}
-# Files allowed a direct throw, each with its reason (none today).
-ALLOWED: dict[str, str] = {}
+# Files allowed a direct throw, each with its reason.
+ALLOWED: dict[str, str] = {
+    "validation/src/documents.cpp": "the document parser is its own library (glintlab_documents), built and fuzzed "
+                                    "without glintlab_core, so it cannot link errors.cpp",
+}
 DIRECT = re.compile(r"throw\s+std::invalid_argument\s*\(")
 LENGTH = re.compile(r"values; expected 1 or")
 
@@ -43,4 +46,5 @@ def test_the_grep_finds_a_direct_throw():
                  'if (bad) throw  std::invalid_argument(where + ": p");'):
         assert DIRECT.search(code), code
     assert not DIRECT.search("throw_invalid_message(msg);")
-    assert all(path in {n for n, _ in sources()} for path in HELPERS)  # the allowlist names real files
+    names = {n for n, _ in sources()}
+    assert all(path in names for path in HELPERS | set(ALLOWED))  # the lists name real files

@@ -1,7 +1,5 @@
 #include "glintlab/validation/documents.hpp"
 
-#include "glintlab/errors.hpp"
-
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -85,7 +83,7 @@ struct Checker {
 const std::string& schema_text(const std::string& name) {
   const auto it = schema_texts().find(name);
   if (it == schema_texts().end())
-    glintlab::throw_invalid_message("unknown schema \"" + name + "\" (experiment, bounds, scene or report)");
+    throw std::invalid_argument("unknown schema \"" + name + "\" (experiment, bounds, scene or report)");
   return it->second;
 }
 
@@ -167,7 +165,7 @@ json parse_document(const std::string& kind, std::string_view text, const std::s
   if (kind == "bounds") return parse_bounds(text, source);
   if (kind == "scene") return parse_scene(text, source);
   if (kind == "report") return parse_report(text, source);
-  glintlab::throw_invalid_message("unknown document kind \"" + kind + "\" (experiment, bounds, scene or report)");
+  throw std::invalid_argument("unknown document kind \"" + kind + "\" (experiment, bounds, scene or report)");
 }
 
 }  // namespace glintlab::validation
