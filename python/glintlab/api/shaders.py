@@ -36,6 +36,13 @@ _CHUNK = 1 << 22  # rows handed to the runner at once (the runner submits 2^20 a
 _INCLUDE_LINE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 
 
+def vulkan_devices() -> list[dict]:
+    """Every Vulkan device the loader sees: ``index``, ``name`` (e.g. "llvmpipe (LLVM 15.0.6, 256
+    bits)"), ``type`` ("discrete_gpu", "integrated_gpu", "cpu", ...), ``api_version`` and ``driver``.
+    Empty when there is none (then install mesa-vulkan-drivers for lavapipe)."""
+    return list(_core.vulkan_devices())
+
+
 def shipped_shaders() -> dict[str, str]:
     """The shaders glintlab ships, each declared by the C++ law that is its twin (same arithmetic in
     float32) in that law's traits (``law_traits(law)["shader"]``): {shader name: twin law's name}.
