@@ -27,7 +27,7 @@ from pathlib import Path
 import pandas as pd
 
 import glintlab as gl
-from glintlab.api.shaders import SHIPPED, shipped_shader, shipped_twin
+from glintlab.api.shaders import shipped_shader, shipped_shaders, shipped_twin
 
 POINTS = [(8, 0.1), (8, 0.5), (1000, 0.002), (1000, 0.5)]
 
@@ -49,7 +49,7 @@ def main() -> int:
     first, cached = map(float, subprocess.run([sys.executable, "-c", COMPILE], capture_output=True, text=True,
                                               check=True).stdout.split())
     rows = []
-    for name in SHIPPED:
+    for name in shipped_shaders():
         for language in ("hlsl", "glsl"):
             law = gl.shader_law(shipped_shader(name, language), name=f"bench_{name}.{language}")
             twin = shipped_twin(name)

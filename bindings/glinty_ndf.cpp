@@ -22,28 +22,27 @@ using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
 constexpr char kWhere[] = "glinty_ndf kpt25";
 
 GlintTarget parse_target(const std::string& s) {
-  if (s == "beckmann") return GlintTarget::beckmann;
-  if (s == "ggx") return GlintTarget::ggx;
-  throw_invalid(kWhere, "target", s, "\"beckmann\" or \"ggx\"");
+  static constexpr std::pair<std::string_view, GlintTarget> kTargets[] = {{"beckmann", GlintTarget::beckmann},
+                                                                          {"ggx", GlintTarget::ggx}};
+  return parse_enum(kWhere, "target", s, kTargets);
 }
 GlintCompensation parse_compensation(const std::string& s) {
-  if (s == "square") return GlintCompensation::square;
-  if (s == "disk") return GlintCompensation::disk;
-  if (s == "none") return GlintCompensation::none;
-  if (s == "square_flipped") return GlintCompensation::square_flipped;
-  throw_invalid(kWhere, "compensation", s, "\"square\", \"disk\", \"none\" or \"square_flipped\"");
+  static constexpr std::pair<std::string_view, GlintCompensation> kCompensations[] = {
+      {"square", GlintCompensation::square}, {"disk", GlintCompensation::disk},
+      {"none", GlintCompensation::none}, {"square_flipped", GlintCompensation::square_flipped}};
+  return parse_enum(kWhere, "compensation", s, kCompensations);
 }
 GlintBlend parse_blend(const std::string& s) {
-  if (s == "roulette") return GlintBlend::roulette;
-  if (s == "linear") return GlintBlend::linear;
-  throw_invalid(kWhere, "blend", s, "\"roulette\" or \"linear\"");
+  static constexpr std::pair<std::string_view, GlintBlend> kBlends[] = {{"roulette", GlintBlend::roulette},
+                                                                        {"linear", GlintBlend::linear}};
+  return parse_enum(kWhere, "blend", s, kBlends);
 }
 
 std::size_t pixels(const Array& uv, const Array* jac, const Array& h) {
   const auto m = static_cast<std::size_t>(h.size() / 3);
   if (static_cast<std::size_t>(h.size()) != 3 * m || (jac && static_cast<std::size_t>(jac->size()) != 4 * m) ||
       static_cast<std::size_t>(uv.size()) != 2 * m)
-    throw std::invalid_argument("glinty_ndf: uv, J and h must hold 2, 4 and 3 numbers per pixel");
+    glintlab::throw_invalid_message("glinty_ndf: uv, J and h must hold 2, 4 and 3 numbers per pixel");
   return m;
 }
 
@@ -107,7 +106,7 @@ void bind_glinty_ndf(py::module_& m) {
       .def("expected", [](const Kpt25Ndf& g, const Array& jac, const Array& h) {
              const auto n = static_cast<std::size_t>(h.size() / 3);
              if (static_cast<std::size_t>(jac.size()) != 4 * n || static_cast<std::size_t>(h.size()) != 3 * n)
-               throw std::invalid_argument("glinty_ndf: J and h must hold 4 and 3 numbers per pixel");
+               glintlab::throw_invalid_message("glinty_ndf: J and h must hold 4 and 3 numbers per pixel");
              py::array_t<double> er(static_cast<py::ssize_t>(n)), ea(static_cast<py::ssize_t>(n));
              double* a = er.mutable_data();
              double* b = ea.mutable_data();
@@ -157,7 +156,7 @@ void bind_glinty_ndf(py::module_& m) {
              const auto n = static_cast<std::size_t>(uv.size() / 2);
              if (static_cast<std::size_t>(uv.size()) != 2 * n || static_cast<std::size_t>(jac.size()) != 4 * n ||
                  (wo && static_cast<std::size_t>(wo->size()) != 3 * n))
-               throw std::invalid_argument("glinty_ndf: uv, J and wo must hold 2, 4 and 3 numbers per row");
+               glintlab::throw_invalid_message("glinty_ndf: uv, J and wo must hold 2, 4 and 3 numbers per row");
              py::array_t<double> h(static_cast<py::ssize_t>(3 * n)), pdf(static_cast<py::ssize_t>(n));
              py::array_t<double> wi(static_cast<py::ssize_t>(wo ? 3 * n : 0));
              double* ph = h.mutable_data();
@@ -172,7 +171,7 @@ void bind_glinty_ndf(py::module_& m) {
            }, py::arg("uv"), py::arg("J"), py::arg("seed"), py::arg("draw_seed"), py::arg("wo"))
       .def("map", [](const Kpt25Ndf& g, const Array& h) {
              const auto n = static_cast<std::size_t>(h.size() / 3);
-             if (static_cast<std::size_t>(h.size()) != 3 * n) throw std::invalid_argument("glinty_ndf: h must hold 3 numbers per row");
+             if (static_cast<std::size_t>(h.size()) != 3 * n) glintlab::throw_invalid_message("glinty_ndf: h must hold 3 numbers per row");
              py::array_t<double> xy(static_cast<py::ssize_t>(2 * n));
              double* o = xy.mutable_data();
              {
@@ -182,7 +181,7 @@ void bind_glinty_ndf(py::module_& m) {
              return xy;
            }, py::arg("h"))
       .def("pixel", [](const Kpt25Ndf& g, const Array& jac, const Array& h) {
-             if (jac.size() != 4 || h.size() != 3) throw std::invalid_argument("glinty_ndf: pixel takes one J and one h");
+             if (jac.size() != 4 || h.size() != 3) glintlab::throw_invalid_message("glinty_ndf: pixel takes one J and one h");
              const GlintPixel px = g.pixel(jac.data(), h.data(), 0);
              py::dict d;
              d["D"] = px.D;

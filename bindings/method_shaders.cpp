@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include "bindings.hpp"
+#include "glintlab/errors.hpp"
 #include "glintlab/validation/method_shader.hpp"
 
 namespace py = pybind11;
@@ -43,7 +44,7 @@ void bind_method_shaders(py::module_& m) {
            })
       .def("run", [](const MethodKernel& k, const Rows& rows, double timeout) {
              if (rows.ndim() != 2 || static_cast<std::size_t>(rows.shape(1)) != shader::kMethodInputWords)
-               throw std::invalid_argument("rows must have shape (count, " + std::to_string(shader::kMethodInputWords) + ")");
+               glintlab::throw_invalid_message("rows must have shape (count, " + std::to_string(shader::kMethodInputWords) + ")");
              const auto count = static_cast<std::size_t>(rows.shape(0));
              py::array_t<float> out({static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(shader::kMethodOutputWords)});
              const auto* in = reinterpret_cast<const float*>(rows.data());

@@ -45,13 +45,13 @@ using OutArray = py::array_t<double, py::array::c_style>;
 OutArray output_array(const py::object& out, std::size_t count) {
   if (out.is_none()) return OutArray(static_cast<py::ssize_t>(count));
   if (!py::isinstance<OutArray>(out))
-    throw std::invalid_argument("out is not a C-contiguous float64 array; expected one of " +
+    glintlab::throw_invalid_message("out is not a C-contiguous float64 array; expected one of " +
                                 std::to_string(count) + " elements");
   auto a = py::reinterpret_borrow<OutArray>(out);
   if (static_cast<std::size_t>(a.size()) != count)
-    throw std::invalid_argument("out has " + std::to_string(a.size()) + " elements; expected " +
+    glintlab::throw_invalid_message("out has " + std::to_string(a.size()) + " elements; expected " +
                                 std::to_string(count));
-  if (!a.writeable()) throw std::invalid_argument("out is read-only; expected a writeable float64 array");
+  if (!a.writeable()) glintlab::throw_invalid_message("out is read-only; expected a writeable float64 array");
   return a;
 }
 
@@ -67,7 +67,7 @@ LawParams to_params(const py::dict& kwargs) {
       try {
         params[key] = item.second.cast<double>();
       } catch (const py::cast_error&) {
-        throw std::invalid_argument("law parameter " + key + " = " +
+        glintlab::throw_invalid_message("law parameter " + key + " = " +
                                     py::repr(item.second).cast<std::string>() +
                                     " is invalid; expected a number or a string");
       }
@@ -102,7 +102,7 @@ InnerLaw python_inner(py::function fn, int n_uniforms, const std::string& inner_
       if (k > 0) std::memcpy(ua.mutable_data(), u, rows_count * static_cast<std::size_t>(k) * sizeof(double));
       const auto result = fn(na, pa, ua).cast<Array>();
       if (result.size() != rows)
-        throw std::invalid_argument("custom inner law returned " + std::to_string(result.size()) + " values; expected " +
+        glintlab::throw_invalid_message("custom inner law returned " + std::to_string(result.size()) + " values; expected " +
                                     std::to_string(rows_count));
       std::memcpy(out, result.data(), rows_count * sizeof(double));
     };
@@ -151,6 +151,7 @@ py::dict traits_dict(const LawInfo& info) {
   domain["max_n"] = t.domain.max_n;
   domain["note"] = t.domain.note;
   d["domain"] = domain;
+  d["shader"] = t.shader;
   return d;
 }
 
@@ -190,7 +191,7 @@ PYBIND11_MODULE(_core, m) {
                            "total_mass, cdf(x), and whether tails of mass < 1e-14 were trimmed. Pickles exactly.")
       .def(py::init([](const Array& support, const Array& probs, bool normalize) {
              if (support.ndim() != 1 || probs.ndim() != 1)
-               throw std::invalid_argument("Distribution: support and probs must be 1-D arrays");
+               glintlab::throw_invalid_message("Distribution: support and probs must be 1-D arrays");
              std::vector<double> s(support.data(), support.data() + support.size());
              std::vector<double> p(probs.data(), probs.data() + probs.size());
              return Distribution(std::move(s), std::move(p), normalize);
@@ -221,7 +222,7 @@ PYBIND11_MODULE(_core, m) {
             return py::make_tuple(to_numpy(d.support()), to_numpy(d.probs()), d.trimmed_below(), d.trimmed_above());
           },
           [](const py::tuple& t) {
-            if (t.size() != 4) throw std::invalid_argument("Distribution: a pickled state of 4 items was expected");
+            if (t.size() != 4) glintlab::throw_invalid_message("Distribution: a pickled state of 4 items was expected");
             const auto s = t[0].cast<std::vector<double>>();
             const auto p = t[1].cast<std::vector<double>>();
             return Distribution::with_trimmed_tails(s, p, t[2].cast<bool>(), t[3].cast<bool>());
@@ -263,7 +264,7 @@ PYBIND11_MODULE(_core, m) {
              const Precision prec = precision_from_name(precision);
              const auto count = static_cast<std::size_t>(u.ndim() == 2 ? u.shape(0) : 0);
              if (u.ndim() != 2 || u.shape(1) != law.n_uniforms())
-               throw std::invalid_argument(law.name() + ".evaluate: u must have shape (m, " +
+               glintlab::throw_invalid_message(law.name() + ".evaluate: u must have shape (m, " +
                                            std::to_string(law.n_uniforms()) + ")");
              py::array_t<double> out(static_cast<py::ssize_t>(count));
              double* o = out.mutable_data();
@@ -358,7 +359,7 @@ PYBIND11_MODULE(_core, m) {
           },
           [](const py::tuple& t) {
             if (t.size() != 9 && t.size() != 10)
-              throw std::invalid_argument("Chi2Result: a pickled state of 9 or 10 items was expected");
+              glintlab::throw_invalid_message("Chi2Result: a pickled state of 9 or 10 items was expected");
             Chi2Result r;
             r.statistic = t[0].cast<double>();
             r.dof = t[1].cast<int>();
@@ -381,8 +382,8 @@ PYBIND11_MODULE(_core, m) {
   m.def("sidak_alpha", &sidak_alpha, py::arg("alpha"), py::arg("tests"));
 
   m.def("uniforms", [](std::size_t start, std::size_t count, int k, std::uint64_t s, int stream) {
-    if (k < 0) throw std::invalid_argument("n_uniforms = " + std::to_string(k) + " is invalid; expected an integer >= 0");
-    if (stream < 0 || stream > 65535) throw std::invalid_argument("stream = " + std::to_string(stream) + " is invalid; expected an integer in [0, 65535]");
+    if (k < 0) glintlab::throw_invalid("", "n_uniforms", std::to_string(k), "an integer >= 0");
+    if (stream < 0 || stream > 65535) glintlab::throw_invalid("", "stream", std::to_string(stream), "an integer in [0, 65535]");
     py::array_t<double> out({static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(k)});
     double* o = out.mutable_data();
     {
@@ -453,7 +454,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("joint_counts", [](const std::string& layout, double density, double p, const std::vector<Footprint>& fps,
                            const std::vector<std::pair<double, double>>& centers, std::size_t count, std::uint64_t seed) {
     if (fps.size() != centers.size())
-      throw std::invalid_argument("joint_counts: " + std::to_string(fps.size()) + " footprints but " +
+      glintlab::throw_invalid_message("joint_counts: " + std::to_string(fps.size()) + " footprints but " +
                                   std::to_string(centers.size()) + " centers; expected one center per footprint");
     std::vector<spatial::Placed> placed;
     for (std::size_t j = 0; j < fps.size(); ++j) placed.push_back({fps[j], centers[j].first, centers[j].second});
@@ -614,10 +615,10 @@ PYBIND11_MODULE(_core, m) {
                               const Array& jac, std::optional<Array> slope, std::uint64_t seed) {
              const auto m_rows = static_cast<std::size_t>(uv.size() / 2);
              if (static_cast<std::size_t>(jac.size()) != 4 * m_rows)
-               throw std::invalid_argument("J has " + std::to_string(jac.size() / 4) + " pixels; uv has " +
+               glintlab::throw_invalid_message("J has " + std::to_string(jac.size() / 4) + " pixels; uv has " +
                                            std::to_string(m_rows));
              if (slope && static_cast<std::size_t>(slope->size()) != 2 * m_rows)
-               throw std::invalid_argument("slope has " + std::to_string(slope->size() / 2) + " pixels; uv has " +
+               glintlab::throw_invalid_message("slope has " + std::to_string(slope->size() / 2) + " pixels; uv has " +
                                            std::to_string(m_rows));
              const auto rows = static_cast<py::ssize_t>(m_rows);
              py::array_t<double> k(rows);

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "bindings.hpp"
+#include "glintlab/errors.hpp"
 #include "glintlab/glint_image.hpp"
 
 namespace py = pybind11;
@@ -21,10 +22,10 @@ void bind_scene_images(py::module_& m) {
                            std::optional<Array> slope, std::uint64_t seed, double max_cells) {
     const auto rows = static_cast<std::size_t>(uv.size() / 2);
     if (static_cast<std::size_t>(jac.size()) != 4 * rows)
-      throw std::invalid_argument("J has " + std::to_string(jac.size() / 4) + " pixels; uv has " +
+      glintlab::throw_invalid_message("J has " + std::to_string(jac.size() / 4) + " pixels; uv has " +
                                   std::to_string(rows));
     if (slope && static_cast<std::size_t>(slope->size()) != 2 * rows)
-      throw std::invalid_argument("slope has " + std::to_string(slope->size() / 2) + " pixels; uv has " +
+      glintlab::throw_invalid_message("slope has " + std::to_string(slope->size() / 2) + " pixels; uv has " +
                                   std::to_string(rows));
     const auto n = static_cast<py::ssize_t>(rows);
     py::array_t<double> k(n), tested(n);

@@ -5,6 +5,7 @@
 #include <pybind11/stl.h>
 
 #include "bindings.hpp"
+#include "glintlab/errors.hpp"
 #include "glintlab/validation/shader.hpp"
 
 namespace py = pybind11;
@@ -65,7 +66,7 @@ void bind_shaders(py::module_& m) {
              const auto count = static_cast<std::size_t>(u.ndim() == 2 ? u.shape(0) : 0);
              const auto kk = static_cast<std::size_t>(k.n_uniforms());
              if (u.ndim() != 2 || static_cast<std::size_t>(u.shape(1)) != kk)
-               throw std::invalid_argument("u must have shape (rows, " + std::to_string(kk) + ")");
+               glintlab::throw_invalid_message("u must have shape (rows, " + std::to_string(kk) + ")");
              py::array_t<float> out(static_cast<py::ssize_t>(count));
              const double* nd = n.data();
              const double* pd = p.data();

@@ -24,7 +24,7 @@ std::size_t pixels(const Array& uv, const Array& jac, const Array& h) {
   const auto m = static_cast<std::size_t>(h.size() / 3);
   if (static_cast<std::size_t>(h.size()) != 3 * m || static_cast<std::size_t>(jac.size()) != 4 * m ||
       static_cast<std::size_t>(uv.size()) != 2 * m)
-    throw std::invalid_argument("glinty_ndf wwh18: uv, J and h must hold 2, 4 and 3 numbers per pixel");
+    glintlab::throw_invalid_message("glinty_ndf wwh18: uv, J and h must hold 2, 4 and 3 numbers per pixel");
   return m;
 }
 
@@ -93,7 +93,7 @@ void bind_wwh18(py::module_& m) {
              if (has_wi) {
                wi = wi_obj.cast<Array>();
                if (static_cast<std::size_t>(wi.size()) != 3 * n)
-                 throw std::invalid_argument("glinty_ndf wwh18: wi must hold 3 numbers per pixel");
+                 glintlab::throw_invalid_message("glinty_ndf wwh18: wi must hold 3 numbers per pixel");
              }
              py::array_t<double> out(static_cast<py::ssize_t>(n)), pv(static_cast<py::ssize_t>(n));
              py::array_t<int> mode(static_cast<py::ssize_t>(n));
@@ -127,7 +127,7 @@ void bind_wwh18(py::module_& m) {
            }, py::arg("h"))
       .def("dpf", [](const Wwh18Ndf& g, const Array& wi, const Array& wo) {
              const auto n = static_cast<std::size_t>(wi.size() / 3);
-             if (static_cast<std::size_t>(wo.size()) != 3 * n) throw std::invalid_argument("glinty_ndf wwh18: wi and wo differ in size");
+             if (static_cast<std::size_t>(wo.size()) != 3 * n) glintlab::throw_invalid_message("glinty_ndf wwh18: wi and wo differ in size");
              py::array_t<double> out(static_cast<py::ssize_t>(n));
              double* o = out.mutable_data();
              for (std::size_t i = 0; i < n; ++i) o[i] = g.dpf(wi.data() + 3 * i, wo.data() + 3 * i);
@@ -141,7 +141,7 @@ void bind_wwh18(py::module_& m) {
              return out;
            }, py::arg("h"))
       .def("lambdas", [](const Wwh18Ndf& g, std::uint64_t seed, int level, const IArray& i, const IArray& j, std::uint32_t k) {
-             if (i.size() != j.size()) throw std::invalid_argument("glinty_ndf wwh18: i and j differ in size");
+             if (i.size() != j.size()) glintlab::throw_invalid_message("glinty_ndf wwh18: i and j differ in size");
              py::array_t<double> out(i.size());
              double* o = out.mutable_data();
              for (py::ssize_t q = 0; q < i.size(); ++q) o[q] = g.lambda(seed, level, i.data()[q], j.data()[q], k);

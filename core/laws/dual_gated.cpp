@@ -145,7 +145,8 @@ const bool registered = register_parameterless_law<DualGatedLaw>(
      .bench_variants = {LawParams{}},
      .test_variants = {LawParams{}},
      .bounds = {{.regime = {{"p_range", {0, 0.5}}}, .metrics = {"tv", "mean_rel_err"}, .reason = "KK25, p <= 1/2"},
-                {.metrics = {"tv"}, .reason = "KK25 over the whole grid (fixes the gate's p -> 1 failure)"}}});
+                {.metrics = {"tv"}, .reason = "KK25 over the whole grid (fixes the gate's p -> 1 failure)"}},
+     .shader = "dual_gated"});
 
 }  // namespace
 }  // namespace glintlab

@@ -96,7 +96,8 @@ const bool registered = register_parameterless_law<GatedContinuousLaw>(
      .study_variants = {LawParams{}},
      .bench_variants = {LawParams{}},
      .test_variants = {LawParams{}},
-     .bounds = {{.regime = {{"p_range", {0, 0.5}}}, .metrics = {"tv", "mean_rel_err"}, .reason = "KK24, p <= 1/2"}}});
+     .bounds = {{.regime = {{"p_range", {0, 0.5}}}, .metrics = {"tv", "mean_rel_err"}, .reason = "KK24, p <= 1/2"}},
+     .shader = "gated_continuous"});
 
 }  // namespace
 }  // namespace glintlab

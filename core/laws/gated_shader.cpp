@@ -201,7 +201,8 @@ const bool registered = register_parameterless_law<GatedShaderLaw>(
      .test_variants = {LawParams{}},
      .bounds = {{.regime = {{"p_range", {0, 0.5}}},
                  .metrics = {"tv", "mean_rel_err"},
-                 .reason = "the public shader's path, p <= 1/2"}}});
+                 .reason = "the public shader's path, p <= 1/2"}},
+     .shader = "gated"});
 
 }  // namespace
 }  // namespace glintlab

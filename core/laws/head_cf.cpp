@@ -236,11 +236,11 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
     const auto [lo_k, hi_k] = cdf.reach();
     // Above 2^53 consecutive integers are not representable: k += 1 below would stop advancing.
     if (hi_k >= 0x1p53)
-      throw std::invalid_argument("head_cf.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
+      throw_invalid_message("head_cf.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
                                   " puts the support at counts above 2^53 (9.007e15), where doubles no longer "
                                   "hold consecutive integers; expected n p below 9e15");
     if (hi_k - lo_k + 2 > static_cast<double>(max_support))
-      throw std::invalid_argument("head_cf.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
+      throw_invalid_message("head_cf.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
                                   " needs more than max_support = " + std::to_string(max_support) +
                                   " support points");
     std::vector<double> ys, py;
@@ -289,7 +289,8 @@ const bool registered = register_parameterless_law<HeadCfLaw>(
      .study_variants = {LawParams{}},
      .bench_variants = {LawParams{}},
      .test_variants = {LawParams{}},
-     .bounds = {{.metrics = {"tv", "mean_rel_err"}, .reason = "glintlab's law over the whole standard grid"}}});
+     .bounds = {{.metrics = {"tv", "mean_rel_err"}, .reason = "glintlab's law over the whole standard grid"}},
+     .shader = "head_cf"});
 
 }  // namespace
 }  // namespace glintlab

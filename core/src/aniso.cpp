@@ -94,34 +94,21 @@ std::unique_ptr<GridScheme> make_grid_scheme(const std::string& name, const LawP
 }
 
 namespace {
-template <class E>
-E from_name(const std::string& what, const std::string& name, const std::vector<std::pair<std::string, E>>& table) {
-  std::string known;
-  for (const auto& [n, e] : table) {
-    if (n == name) return e;
-    known += (known.empty() ? "" : ", ") + n;
-  }
-  throw std::invalid_argument(what + " = '" + name + "': expected one of " + known);
-}
 const std::vector<std::pair<std::string, Spatial>> kSpatial = {
     {"none", Spatial::kNone}, {"square", Spatial::kSquare}, {"simplex", Spatial::kSimplex}};
 const std::vector<std::pair<std::string, Angular>> kAngular = {{"none", Angular::kNone}, {"bilinear", Angular::kBilinear}};
 const std::vector<std::pair<std::string, Realization>> kRealization = {{"blend", Realization::kBlend},
                                                                        {"select", Realization::kSelect}};
-template <class E>
-std::string to_name(E e, const std::vector<std::pair<std::string, E>>& table) {
-  for (const auto& [n, v] : table)
-    if (v == e) return n;
-  return "?";
-}
 }  // namespace
 
-Spatial spatial_from_name(const std::string& name) { return from_name("spatial", name, kSpatial); }
-Angular angular_from_name(const std::string& name) { return from_name("angular", name, kAngular); }
-Realization realization_from_name(const std::string& name) { return from_name("realization", name, kRealization); }
-std::string spatial_name(Spatial s) { return to_name(s, kSpatial); }
-std::string angular_name(Angular a) { return to_name(a, kAngular); }
-std::string realization_name(Realization r) { return to_name(r, kRealization); }
+Spatial spatial_from_name(const std::string& name) { return parse_enum("", "spatial", name, kSpatial); }
+Angular angular_from_name(const std::string& name) { return parse_enum("", "angular", name, kAngular); }
+Realization realization_from_name(const std::string& name) {
+  return parse_enum("", "realization", name, kRealization);
+}
+std::string spatial_name(Spatial s) { return enum_name(s, kSpatial); }
+std::string angular_name(Angular a) { return enum_name(a, kAngular); }
+std::string realization_name(Realization r) { return enum_name(r, kRealization); }
 
 // ---------------------------------------------------------------------------------------------
 // Interpolation weights
@@ -273,9 +260,9 @@ constexpr std::size_t kMaxRows = 16;  // 4 spatial x 4 angular
 
 AnisoCounter::AnisoCounter(std::shared_ptr<const GridScheme> scheme, InnerLaw inner, CounterOptions options)
     : scheme_(std::move(scheme)), inner_(std::move(inner)), options_(options) {
-  if (!scheme_) throw std::invalid_argument("scheme: missing");
+  if (!scheme_) throw_invalid_message("scheme: missing");
   if (inner_.n_uniforms < 0 || inner_.n_uniforms > 16)
-    throw std::invalid_argument("inner law: n_uniforms = " + std::to_string(inner_.n_uniforms) + ", expected 0 to 16");
+    throw_invalid_message("inner law: n_uniforms = " + std::to_string(inner_.n_uniforms) + ", expected 0 to 16");
 }
 
 int AnisoCounter::evaluations_per_term() const {
@@ -297,7 +284,7 @@ std::vector<Term> AnisoCounter::terms(double density, const Shape& shape, bool* 
   const std::string where = "aniso_counter('" + scheme_->name() + "')";
   check_n(where, density, "N");
   if (shape.status == ShapeStatus::kDegenerate || shape.status == ShapeStatus::kNonFinite)
-    throw std::invalid_argument(where + ": the footprint is " + status_name(shape.status));
+    throw_invalid_message(where + ": the footprint is " + status_name(shape.status));
   std::vector<Term> out;
   const bool c = scheme_->terms(shape, density, out);
   if (clamped) *clamped = c;
@@ -312,7 +299,7 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
   const bool select = options_.realization == Realization::kSelect;
   const Spatial angular_lattice = options_.angular == Angular::kNone ? Spatial::kNone : Spatial::kSquare;
   auto refuse = [&](double trials, double p) {
-    throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(trials) +
+    throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(trials) +
                                 " at p = " + format_value(p));
   };
   // Rows a chunk can gather at most: every buffer is sized once per chunk, so the gather never
@@ -448,7 +435,7 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
     inner_.evaluate(n, pp, g->u.data(), gathered, g->k.data());
     for (std::size_t q = 0; q < gathered; ++q) {
       if (!std::isfinite(kk[q]))
-        throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
+        throw_invalid_message(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
                                     format_value(n[q]) + ", p = " + format_value(pp[q]));
       if (coef[q] != 0.0) k_out[owner[q]] += coef[q] * kk[q];
     }
@@ -465,7 +452,7 @@ void check_trials(const std::string& where, const InnerLaw& inner, const std::ve
   if (!inner.law) return;
   for (const Term& t : terms)
     if (t.trials > 0 && !inner.law->accepts(t.trials, p))
-      throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(t.trials) +
+      throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(t.trials) +
                                   " at p = " + format_value(p));
 }
 }  // namespace
@@ -474,9 +461,7 @@ void AnisoCounter::count_pixels(double density, ParamArray p, const double* uv, 
                                 const double* slope, std::size_t m, std::uint64_t seed, PixelOutput out) const {
   const std::string where = "aniso_counter('" + scheme_->name() + "').count_image";
   check_n(where, density, "N");
-  if (p.size != 1 && p.size != m)
-    throw std::invalid_argument(where + ": p has " + std::to_string(p.size) + " values; expected 1 or " +
-                                std::to_string(m));
+  check_length(where, "p", p.size, m);
   for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
   for (std::size_t i = 0; i < 2 * m; ++i) {
     if (!std::isfinite(uv[i]) || std::abs(uv[i]) > 1e9)

@@ -237,7 +237,7 @@ Distribution distribution(double n, double p, std::size_t max_support) {
   // Width check before walking: the trimmed support spans about +-8.5 standard deviations.
   const double sd = std::sqrt(variance(n, p));
   if (std::min(hi + 1, 17.0 * sd + 40.0) > static_cast<double>(max_support))
-    throw std::invalid_argument("binomial.distribution: n = " + format_value(n) + ", p = " +
+    throw_invalid_message("binomial.distribution: n = " + format_value(n) + ", p = " +
                                 format_value(p) + " needs about " + format_value(std::floor(17 * sd)) +
                                 " support points, more than max_support = " +
                                 std::to_string(max_support) + "; use cdf/sf/log_pmf instead");
@@ -639,7 +639,7 @@ Distribution distribution(double lambda, std::size_t max_support) {
   check_lambda("poisson.distribution", lambda);
   const double sd = std::sqrt(lambda);
   if (17.0 * sd + 40.0 > static_cast<double>(max_support))
-    throw std::invalid_argument("poisson.distribution: lambda = " + format_value(lambda) +
+    throw_invalid_message("poisson.distribution: lambda = " + format_value(lambda) +
                                 " needs more than max_support = " + std::to_string(max_support) +
                                 " support points; use cdf/sf/log_pmf instead");
   return Distribution::from_log_concave([&](double k) { return log_pmf(k, lambda); }, 0.0,

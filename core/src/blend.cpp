@@ -199,12 +199,8 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
                      CellOf cell_of, double* out) const {
   const std::string where = "blended_law('" + rule_->name() + "', inner='" + inner_.name + "')";
   check_n(where, density, "N");
-  if (area.size != 1 && area.size != count)
-    throw std::invalid_argument(where + ": P has " + std::to_string(area.size) + " values; expected 1 or " +
-                                std::to_string(count));
-  if (p.size != 1 && p.size != count)
-    throw std::invalid_argument(where + ": p has " + std::to_string(p.size) + " values; expected 1 or " +
-                                std::to_string(count));
+  check_length(where, "P", area.size, count);
+  check_length(where, "p", p.size, count);
   // Validate everything before drawing anything: a bad element is named, no partial output.
   for (std::size_t i = 0; i < area.size; ++i) {
     const double a = area[i];
@@ -224,7 +220,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       const auto trials = snap_trials(rule_->trials(density, area[i], b));
       for (double t : trials)
         if (t > 0 && !inner_.law->accepts(t, p[i]))
-          throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(t) +
+          throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(t) +
                                       " at p = " + format_value(p[i]) + " (P = " + format_value(area[i]) + ")");
     };
     // On every thread; the lowest bad index is then checked again to throw its own message, as a
@@ -255,7 +251,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   auto check_finite = [&](const double* kk, std::size_t rows, const double* n, const double* pp) {
     for (std::size_t q = 0; q < rows; ++q)
       if (!std::isfinite(kk[q]))
-        throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
+        throw_invalid_message(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
                                     format_value(n[q]) + ", p = " + format_value(pp[q]));
   };
   // The level counts into K; the facet streams only for rules that thin (roulette).
@@ -476,9 +472,7 @@ void BlendedLaw::sample_at(double density, ParamArray area, ParamArray p, ParamA
                            std::size_t count, std::uint64_t seed, double* out) const {
   const std::string where = "blended_law('" + rule_->name() + "').sample_at";
   for (auto [name, arr] : {std::pair<const char*, ParamArray>{"x", x}, {"y", y}}) {
-    if (arr.size != 1 && arr.size != count)
-      throw std::invalid_argument(where + ": " + name + " has " + std::to_string(arr.size) +
-                                  " values; expected 1 or " + std::to_string(count));
+    check_length(where, name, arr.size, count);
     for (std::size_t i = 0; i < arr.size; ++i)
       if (!std::isfinite(arr[i]) || std::abs(arr[i]) > 1e9)
         throw_invalid(where, indexed_name(name, i, arr.size > 1), arr[i], "a finite texture coordinate, |x| <= 1e9");
@@ -505,7 +499,7 @@ double thin(double k, double q, double u) {
 Distribution thinned(const Distribution& counts, double q, std::size_t max_support) {
   const double hi = counts.support().back();
   if (hi + 1 > static_cast<double>(max_support))
-    throw std::invalid_argument("roulette pmf: the law needs more than max_support = " + std::to_string(max_support) +
+    throw_invalid_message("roulette pmf: the law needs more than max_support = " + std::to_string(max_support) +
                                 " support points");
   std::vector<double> probs(static_cast<std::size_t>(hi) + 1, 0.0);
   for (std::size_t i = 0; i < counts.size(); ++i) {

@@ -174,7 +174,7 @@ ExactLr exact_lr_pvalue(const std::vector<double>& obs, const std::vector<double
 Chi2Result chi2_test(const double* samples, std::size_t count, const Distribution& law,
                      double min_expected, int fitted_params, double alpha) {
   constexpr const char* where = "chi2_test";
-  if (count == 0) throw std::invalid_argument("chi2_test: samples is empty");
+  if (count == 0) throw_invalid_message("chi2_test: samples is empty");
   if (!(min_expected > 0.0) || !std::isfinite(min_expected))
     throw_invalid(where, "min_expected", min_expected, "a finite number > 0");
   if (fitted_params < 0) throw_invalid(where, "fitted_params", fitted_params, "an integer >= 0");

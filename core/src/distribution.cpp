@@ -15,9 +15,9 @@ Distribution::Distribution(std::vector<double> support, std::vector<double> prob
     : support_(std::move(support)), probs_(std::move(probs)) {
   constexpr std::string_view where = "Distribution";
   if (support_.size() != probs_.size())
-    throw std::invalid_argument("Distribution: support has " + std::to_string(support_.size()) +
+    throw_invalid_message("Distribution: support has " + std::to_string(support_.size()) +
                                 " points but probs has " + std::to_string(probs_.size()));
-  if (support_.empty()) throw std::invalid_argument("Distribution: support is empty");
+  if (support_.empty()) throw_invalid_message("Distribution: support is empty");
   double sum = 0.0;
   for (std::size_t i = 0; i < support_.size(); ++i) {
     if (!std::isfinite(support_[i]))
@@ -76,7 +76,7 @@ Distribution Distribution::from_log_concave(const std::function<double(double)>&
   mode = std::clamp(std::floor(mode), lo, hi);
   std::deque<double> ks{mode}, ps{std::exp(log_pmf(mode))};
   auto too_large = [&] {
-    throw std::invalid_argument(std::string(where) + ": the distribution needs more than " +
+    throw_invalid_message(std::string(where) + ": the distribution needs more than " +
                                 std::to_string(max_support) +
                                 " support points to hold all but 1e-14 of its mass; use the cdf/sf "
                                 "functions for such parameters or raise max_support");
@@ -121,7 +121,7 @@ Distribution Distribution::with_trimmed_tails(std::vector<double> support, std::
 }
 
 Distribution Distribution::empirical(const double* samples, std::size_t count) {
-  if (count == 0) throw std::invalid_argument("empirical distribution: samples is empty");
+  if (count == 0) throw_invalid_message("empirical distribution: samples is empty");
   std::vector<double> v(samples, samples + count);
   for (std::size_t i = 0; i < count; ++i)
     if (!std::isfinite(v[i])) throw_invalid("empirical distribution", indexed_name("samples", i, true), v[i], "finite samples");
@@ -151,7 +151,7 @@ Distribution scaled_sum(const Distribution& x, double a, const Distribution& y, 
   const double lo = bin(a * x.support().front() + b * y.support().front());
   const double hi = bin(a * x.support().back() + b * y.support().back());
   if (hi - lo + 1 > static_cast<double>(max_support))
-    throw std::invalid_argument(std::string(where) + ": the law needs more than max_support = " +
+    throw_invalid_message(std::string(where) + ": the law needs more than max_support = " +
                                 std::to_string(max_support) + " support points");
   std::vector<double> probs(static_cast<std::size_t>(hi - lo) + 1, 0.0);
   for (std::size_t i = 0; i < x.size(); ++i) {

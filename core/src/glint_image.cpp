@@ -25,7 +25,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kChunk = 64;
 
 void fail(const std::string& what, double value, const std::string& expected) {
-  throw std::invalid_argument("facet_counts: " + what + " = " + format_value(value) + " is invalid; expected " +
+  throw_invalid_message("facet_counts: " + what + " = " + format_value(value) + " is invalid; expected " +
                               expected);
 }
 }  // namespace
@@ -35,9 +35,7 @@ void facet_counts(double density, const double* p, std::size_t p_size, const dou
                   std::uint8_t* status_out, double* tested_out) {
   if (!(std::isfinite(density) && density > 0)) fail("density", density, "a finite facet density > 0");
   if (!(max_cells >= 1)) fail("max_cells", max_cells, "a number >= 1");
-  if (p_size != 1 && p_size != m)
-    throw std::invalid_argument("facet_counts: p has " + std::to_string(p_size) + " values; expected 1 or " +
-                                std::to_string(m));
+  check_length("facet_counts", "p", p_size, m);
   for (std::size_t i = 0; i < p_size; ++i)
     if (!(p[i] >= 0.0 && p[i] <= 1.0)) fail("p[" + std::to_string(i) + "]", p[i], "a probability in [0, 1]");
   for (std::size_t i = 0; i < 2 * m; ++i) {

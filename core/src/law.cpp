@@ -58,12 +58,8 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) std::size_t count_e
 }
 
 void validate_all(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count) {
-  if (n.size != 1 && n.size != count)
-    throw std::invalid_argument("n has " + std::to_string(n.size) + " values; expected 1 or " +
-                                std::to_string(count));
-  if (p.size != 1 && p.size != count)
-    throw std::invalid_argument("p has " + std::to_string(p.size) + " values; expected 1 or " +
-                                std::to_string(count));
+  check_length("", "n", n.size, count);
+  check_length("", "p", p.size, count);
   // The check is a virtual call per element (2 ns of a per-pixel draw's ~30): split across the
   // threads like the draws, then the first bad element (lowest index) is named, as a serial scan would.
   const std::size_t m = std::max(n.size, p.size);
@@ -139,9 +135,9 @@ double CountingLaw::evaluate_f32(double, double, const double*) const {
 }
 
 Precision precision_from_name(const std::string& name) {
-  if (name == "float64") return Precision::kFloat64;
-  if (name == "float32") return Precision::kFloat32;
-  throw_invalid("precision", "precision", "'" + name + "'", "'float64' or 'float32'");
+  static constexpr std::pair<std::string_view, Precision> kPrecisions[] = {{"float64", Precision::kFloat64},
+                                                                           {"float32", Precision::kFloat32}};
+  return parse_enum("", "precision", name, kPrecisions);
 }
 
 std::string precision_name(Precision precision) {
@@ -182,7 +178,7 @@ void CountingLaw::validate(double n, double p, std::size_t index, bool is_array)
   if (n > max_n_)
     throw_invalid(where, indexed_name("n", index, is_array), n,
                   "n <= " + format_value(max_n_) + ", the law's numeric domain (" + domain_note_ + ")");
-  throw std::invalid_argument(where + ": (n, p) = (" + format_value(n) + ", " + format_value(p) +
+  throw_invalid_message(where + ": (n, p) = (" + format_value(n) + ", " + format_value(p) +
                               ") is outside the law's domain");
 }
 
@@ -255,7 +251,7 @@ void ParamReader::finish() const {
     if (std::find(known_.begin(), known_.end(), key) == known_.end()) {
       std::string options;
       for (const auto& k : known_) options += (options.empty() ? "" : ", ") + k;
-      throw std::invalid_argument("law '" + law_ + "': unknown parameter '" + key + "'; expected " +
+      throw_invalid_message("law '" + law_ + "': unknown parameter '" + key + "'; expected " +
                                   (options.empty() ? "no parameters" : "one of: " + options));
     }
   }

@@ -48,13 +48,7 @@ double kl_term(double x, double y) {
 
 }  // namespace
 
-Metric metric_from_name(const std::string& name) {
-  for (const auto& m : kMetrics)
-    if (name == m.name) return m.metric;
-  std::string names;
-  for (const auto& m : kMetrics) names += (names.empty() ? "" : ", ") + std::string(m.name);
-  throw_invalid("distance", "metric", "'" + name + "'", "one of: " + names);
-}
+Metric metric_from_name(const std::string& name) { return parse_enum("distance", "metric", name, kMetrics); }
 
 std::string metric_name(Metric metric) {
   for (const auto& m : kMetrics)

@@ -16,11 +16,11 @@ LatticeLaw discretized(double mean, double sd, double top, double shift, std::si
   // Beyond 2^53 doubles are no longer spaced by 1: k += 1 would not advance (and lo == hi could pass
   // the size check below), so the support loop would never end. Refuse such a lattice by name.
   if (hi >= 0x1p53)
-    throw std::invalid_argument(std::string(where) + ": mean = " + format_value(mean) + ", sd = " +
+    throw_invalid_message(std::string(where) + ": mean = " + format_value(mean) + ", sd = " +
                                 format_value(sd) + " puts the support at counts above 2^53 (9.007e15), where "
                                 "doubles no longer hold consecutive integers; expected a mean below 9e15");
   if (hi - lo + 1 > static_cast<double>(max_support))
-    throw std::invalid_argument(std::string(where) + ": mean = " + format_value(mean) + ", sd = " +
+    throw_invalid_message(std::string(where) + ": mean = " + format_value(mean) + ", sd = " +
                                 format_value(sd) + " needs more than max_support = " +
                                 std::to_string(max_support) + " support points");
   LatticeLaw out;

@@ -101,10 +101,9 @@ void check_length(std::string_view where, std::string_view name, double v) {
 }  // namespace
 
 Layout parse_layout(const std::string& name) {
-  if (name == "uniform") return Layout::kUniform;
-  if (name == "poisson") return Layout::kPoisson;
-  if (name == "stratified") return Layout::kStratified;
-  throw_invalid("ground_truth", "layout", name, "one of uniform, poisson, stratified");
+  static constexpr std::pair<std::string_view, Layout> kLayouts[] = {
+      {"uniform", Layout::kUniform}, {"poisson", Layout::kPoisson}, {"stratified", Layout::kStratified}};
+  return parse_enum("ground_truth", "layout", name, kLayouts);
 }
 
 std::string layout_name(Layout layout) {
@@ -494,7 +493,7 @@ Distribution poisson_binomial(const std::vector<double>& q, std::size_t max_supp
   const double width = 12 * std::sqrt(var) + 30;
   const double lo = std::max(0.0, std::floor(mean - width)), hi = std::min(static_cast<double>(q.size()), std::ceil(mean + width));
   if (hi - lo + 1 > static_cast<double>(max_support))
-    throw std::invalid_argument("ground_truth.pmf: the boundary law needs more than max_support = " +
+    throw_invalid_message("ground_truth.pmf: the boundary law needs more than max_support = " +
                                 std::to_string(max_support) + " support points");
   // dp[k - base] = P(S = k) over the live window [base, base + dp.size()).
   std::vector<double> dp{1.0}, next;
@@ -572,7 +571,7 @@ Distribution GroundTruth::pmf(std::size_t max_support, int quadrature) const {
   std::vector<double> support, probs;
   for (auto [k, v] : mix) support.push_back(k), probs.push_back(v);
   if (support.size() > max_support)
-    throw std::invalid_argument("ground_truth.pmf: the law needs more than max_support = " + std::to_string(max_support) +
+    throw_invalid_message("ground_truth.pmf: the law needs more than max_support = " + std::to_string(max_support) +
                                 " support points");
   return Distribution::with_trimmed_tails(std::move(support), std::move(probs), below, above);
 }
@@ -600,7 +599,7 @@ std::vector<double> joint_counts(Layout layout, double density, double p, const 
                                  std::size_t count, std::uint64_t seed) {
   check_density(layout, density);
   check_p("joint_counts", p);
-  if (footprints.empty()) throw std::invalid_argument("joint_counts: footprints is empty; expected at least one");
+  if (footprints.empty()) throw_invalid_message("joint_counts: footprints is empty; expected at least one");
   const std::vector<Placed> placed = gather(footprints);
   const Scanner scanner(layout, density, p, placed);
   const std::size_t m = placed.size();

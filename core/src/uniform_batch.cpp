@@ -18,6 +18,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "glintlab/errors.hpp"
+
 namespace glintlab::detail {
 
 namespace {
@@ -281,7 +283,7 @@ std::atomic<int> simd_setting{2};
 }  // namespace
 
 void set_simd_level(int level) {
-  if (level < 0 || level > 2) throw std::invalid_argument("set_simd_level: level = " + std::to_string(level) +
+  if (level < 0 || level > 2) throw_invalid_message("set_simd_level: level = " + std::to_string(level) +
                                                           " is not 0 (portable), 1 (AVX2) or 2 (AVX-512)");
   simd_setting.store(level, std::memory_order_relaxed);
 }

@@ -26,6 +26,7 @@ from .api.ndf import NDF, ndf
 from .api.plugins import load_plugin, loaded_plugins
 from .api.shaders import ShaderLaw, shader_law, shipped_shader, vulkan_devices
 from .api.shaders import ShaderDeviceBusy, ShaderOutputError
+from .api.shaders import emit_shader, shipped_shaders
 from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 from .report.html import write_extremes_report
 from .validation.advisor import Advice, advise
@@ -69,5 +70,6 @@ __all__ = [
     "Sampler", "sampler", "samplers", "wrong_sampler", "SamplerTestResult", "sampler_test",
     "furnace",
 ]
+__all__ += ["emit_shader", "shipped_shaders"]  # shipped shaders: declared in law traits, emitted paste-ready
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)
 __all__ += ["matched_density", "db23_visible_glints"]  # KPT25 <-> DB23 (docs/math/glinty_ndf.md#glinty-matched)

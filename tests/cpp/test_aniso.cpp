@@ -47,5 +47,5 @@ TEST_CASE("unknown grid schemes and parameters are refused by name", "[aniso]") 
   CHECK_THROWS_WITH(make_grid_scheme("db99"), Catch::Contains("unknown grid scheme 'db99'"));
   CHECK_THROWS_WITH(make_grid_scheme("db23_trilinear", {{"orientation_step", 50.0}}),
                     Catch::Contains("orientation_step = 50"));
-  CHECK_THROWS_WITH(spatial_from_name("hex"), Catch::Contains("spatial = 'hex'"));
+  CHECK_THROWS_WITH(spatial_from_name("hex"), Catch::Contains("unknown spatial 'hex'; known: none, square, simplex"));
 }

@@ -51,7 +51,7 @@ TEST_CASE("metrics: identity, disjoint supports, symmetry, finite KL", "[metrics
     CHECK(d(a, b, m) == Approx(d(b, a, m)));
   // KL(a || b) = .2 log(2/3) + .5 log(5/4).
   CHECK(d(a, b, "kl") == Approx(0.2 * std::log(2.0 / 3) + 0.5 * std::log(1.25)));
-  CHECK_THROWS_WITH(metric_from_name("foo"), Contains("metric = 'foo'"));
+  CHECK_THROWS_WITH(metric_from_name("foo"), Contains("unknown metric 'foo'; known: tv, "));
 }
 
 TEST_CASE("empirical distributions", "[metrics][distribution]") {

@@ -232,7 +232,7 @@ def test_non_numeric_parameters():
 
 
 def test_unknown_metric_is_named():
-    with pytest.raises(ValueError, match=r"metric = 'foo'"):
+    with pytest.raises(ValueError, match=r"unknown metric 'foo'; known: tv, "):
         gl.distance(np.array([0.0, 1.0]), np.array([1.0]), "foo")
     with pytest.raises(ValueError, match="metric"):
         gl.distance(np.array([0.0, 1.0]), np.array([1.0]), None)

@@ -34,7 +34,7 @@ shader_law = functools.partial(gl.shader_law, register=False)
 SAMPLES = 10**6
 P_PASS = 1e-4
 ROW_SHARE = 1e-4  # rows allowed to differ from the C++ twin (by one count at most)
-SHIPPED = [(name, lang) for name in S.SHIPPED for lang in S.LANGUAGES]
+SHIPPED = [(name, lang) for name in S.shipped_shaders() for lang in S.LANGUAGES]
 _laws = {}
 
 
@@ -80,7 +80,7 @@ def test_shipped_shader_against_exact_pmf(name, language, n, p):
 POINTS = FIGURE9_POINTS + [(3.5, 0.3), (50, 0.02), (1e5, 0.9)]
 
 
-@pytest.mark.parametrize("name", list(S.SHIPPED))
+@pytest.mark.parametrize("name", list(S.shipped_shaders()))
 def test_shipped_shader_row_by_row_against_cpp_twin(name):
     law, twin = shipped(name, "hlsl"), S.shipped_twin(name)
     u = gl.uniforms(200_000, 2, seed=5)
@@ -96,7 +96,7 @@ def test_shipped_shader_row_by_row_against_cpp_twin(name):
     assert np.mean(k != c) <= 1e-3 and np.abs(k - c).max() <= 1
 
 
-@pytest.mark.parametrize("name", list(S.SHIPPED))
+@pytest.mark.parametrize("name", list(S.shipped_shaders()))
 def test_hlsl_and_glsl_agree_row_by_row(name):
     u = gl.uniforms(200_000, 2, seed=6)
     for n, p in POINTS:
@@ -227,7 +227,7 @@ def test_no_device_names_the_package():
 
 def test_registered_by_name_and_usable_in_an_experiment(tmp_path):
     src = tmp_path / "hc.glsl"
-    src.write_text(S.shipped_shader("head_cf", "glsl").read_text())
+    src.write_text(gl.emit_shader("head_cf", "glsl"))  # self-contained: nothing to include in tmp_path
     doc = tmp_path / "e.json"
     doc.write_text(json.dumps({"name": "shader_exp", "laws": [{"shader": "hc.glsl", "name": "test_shader_exp"}],
                                "grid": {"n": [8, 1000], "p": [0.1]}, "metrics": ["tv"], "samples": 200_000,
@@ -281,3 +281,70 @@ def test_blends_and_grid_schemes_take_a_shader():
         d = gl.aniso_counter("db23_trilinear", inner=inner_b, base_area=area).sample(n, 50 * area, 3.0, 0.2, 0.1,
                                                                                      size=100, seed=1)
         assert np.array_equal(c, d) and c.sum() > 0
+
+
+# ---- Each shipped shader written once (docs/guide/shaders.md#shaders-shipped) ----
+
+SHADER_DIR = S.shipped_shader("gated").parent
+FUNCTION_DEF = r"^\s*float\s+(\w+)\s*\("
+
+
+def test_shipped_shaders_are_declared_by_the_law_traits():
+    """The list of shipped shaders is the laws' own declaration (LawTraits::shader), and every law
+    shader file glintlab ships is declared by a law (the method shaders are the other kind)."""
+    from glintlab import _core
+    declared = {t["shader"]: name for name, t in _core.all_law_traits().items() if t["shader"]}
+    assert S.shipped_shaders() == declared and len(declared) >= 4
+    assert all(gl.law_traits(law)["shader"] == shader for shader, law in declared.items())
+    assert gl.law_traits("binomial")["shader"] == ""
+    from glintlab.api.method_shaders import WB16_SHADER
+    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl") if p.name != WB16_SHADER}
+    assert wrappers == set(declared)
+    assert S.shipped_shader("gated_shader", "glsl") == S.shipped_shader("gated", "glsl")  # the law's name too
+    with pytest.raises(ValueError, match="a shipped shader among"):
+        S.shipped_shader("binomial")
+
+
+@pytest.mark.parametrize("name", list(S.shipped_shaders()))
+def test_each_shader_is_written_once(name):
+    """The .hlsl and .glsl files are thin wrappers around one body: no code of their own, and they
+    differ only in the language's name; no function is defined twice among the shipped headers."""
+    import re
+    texts = {lang: S.shipped_shader(name, lang).read_text() for lang in S.LANGUAGES}
+    for lang, text in texts.items():
+        code = [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("//")]
+        assert code == [f"#define GLINTLAB_{lang.upper()}", '#include "glintlab_prelude.h"',
+                        f'#include "{name}_body.h"'], (lang, code)
+    swap = {"hlsl": "glsl", "glsl": "hlsl", "HLSL": "GLSL", "GLSL": "HLSL"}
+    assert re.sub(r"hlsl|glsl|HLSL|GLSL", lambda m: swap[m.group()], texts["hlsl"]) == texts["glsl"]
+    defined = [f for path in sorted(SHADER_DIR.glob("*.h")) if not path.name.startswith("glintlab_method")
+               for f in re.findall(FUNCTION_DEF, path.read_text(), re.M) if f != "count"]
+    assert len(defined) == len(set(defined)), sorted(defined)
+
+
+@pytest.mark.parametrize("name,language", SHIPPED)
+def test_emitted_shader_compiles_alone_and_gives_the_same_rows(name, language, tmp_path):
+    """``emit_shader`` (``glintlab shader --emit``) is one paste-ready file: no #include left, the
+    comments kept, and compiled alone (nothing next to it to include) it computes what the shipped
+    wrapper computes, bit for bit."""
+    text = S.emit_shader(name, language)
+    assert not any(line.lstrip().startswith("#include") for line in text.splitlines())
+    body = (SHADER_DIR / f"{name}_body.h").read_text()
+    assert body.splitlines()[0] in text  # the law's own comments travel with it
+    path = tmp_path / f"pasted.{language}"
+    path.write_text(text)
+    alone = shader_law(path, name=f"test_emitted_{name}_{language}")
+    assert alone.included_files == []
+    u = gl.uniforms(50_000, 2, seed=7)
+    for n, p in POINTS + [(0.0, 0.5), (1.5, 1.0), (2.0, 0.0)]:
+        assert np.array_equal(alone.evaluate_raw(n, p, u), shipped(name, language).evaluate_raw(n, p, u)), (n, p)
+
+
+def test_cli_emits_a_shipped_shader(capsys):
+    assert main(["shader", "--emit", "head_cf", "--lang", "glsl"]) == 0
+    assert capsys.readouterr().out == S.emit_shader("head_cf", "glsl")
+    assert main(["shader", "--emit", "gated_shader"]) == 0  # the law's name; HLSL by default
+    assert capsys.readouterr().out == S.emit_shader("gated", "hlsl")
+    assert main(["shader", "--emit", "binomial"]) == 2
+    assert "a shipped shader among" in capsys.readouterr().err
+    assert main(["shader"]) == 2  # neither FILE nor --emit

@@ -3,6 +3,8 @@
 // raw-row path (Kernel::run_rows), so that compilation, caching, devices and timeouts are shared.
 #include "glintlab/validation/method_shader.hpp"
 
+#include "glintlab/errors.hpp"
+
 #include <sstream>
 #include <stdexcept>
 
@@ -96,7 +98,7 @@ std::string method_wrapper_source(const std::string& language, const std::string
 
 std::shared_ptr<Kernel> method_kernel(KernelSpec spec) {
   if (spec.language != "hlsl" && spec.language != "glsl")
-    throw std::invalid_argument("language = '" + spec.language + "' is invalid; expected 'hlsl' or 'glsl'");
+    glintlab::throw_invalid("", "language", "'" + spec.language + "'", "'hlsl' or 'glsl'");
   spec.n_uniforms = 0;
   // The wrapper's own resources (HLSL names its variables, GLSL its blocks); a method shader may
   // declare no other (Kernel refuses it by name before the driver sees it).

@@ -66,7 +66,7 @@ class PluginLaw final : public CountingLaw {
       len = e_->pmf(n, p, probs.data(), capacity, &first, &trimmed);
       if (len != GLINTLAB_PMF_CAPACITY) break;
       if (capacity >= limit)
-        throw std::invalid_argument(e_->name + ".pmf: the distribution at " + at + " needs more than " +
+        glintlab::throw_invalid_message(e_->name + ".pmf: the distribution at " + at + " needs more than " +
                                     std::to_string(max_support) + " points (max_support)");
       capacity = std::min(2 * capacity, limit);
     }
@@ -160,11 +160,11 @@ std::vector<std::string> load_plugin(const std::string& path, const std::vector<
   const std::string where = "plugin '" + path + "'";
   std::error_code ec;
   if (path.empty() || !fs::is_regular_file(path, ec))
-    throw std::invalid_argument(where + ": no such file (expected the path of a shared library)");
+    glintlab::throw_invalid_message(where + ": no such file (expected the path of a shared library)");
   // Canonical: "./lib.so" and "/abs/lib.so" are one plugin; and dlopen never searches
   // LD_LIBRARY_PATH for a name that contains a '/'.
   const std::string canonical = fs::canonical(path, ec).string();
-  if (ec) throw std::invalid_argument(where + ": " + ec.message());
+  if (ec) glintlab::throw_invalid_message(where + ": " + ec.message());
 
   std::lock_guard lock(load_mutex());
   for (const auto& l : loaded())
@@ -174,7 +174,7 @@ std::vector<std::string> load_plugin(const std::string& path, const std::vector<
   HandleGuard guard{dlopen(canonical.c_str(), RTLD_NOW | RTLD_LOCAL)};
   if (!guard.handle) {
     const char* err = dlerror();
-    throw std::invalid_argument(where + ": cannot load the library: " + (err ? err : "unknown dlopen error"));
+    glintlab::throw_invalid_message(where + ": cannot load the library: " + (err ? err : "unknown dlopen error"));
   }
   // The same file under another name (a hard link): dlopen returned the loaded object.
   for (const auto& l : loaded())
@@ -183,7 +183,7 @@ std::vector<std::string> load_plugin(const std::string& path, const std::vector<
   dlerror();
   void* sym = dlsym(guard.handle, GLINTLAB_PLUGIN_SYMBOL_V1);
   if (!sym)
-    throw std::invalid_argument(where + ": the library does not export " GLINTLAB_PLUGIN_SYMBOL_V1
+    glintlab::throw_invalid_message(where + ": the library does not export " GLINTLAB_PLUGIN_SYMBOL_V1
                                 " (define it with GLINTLAB_PLUGIN from glintlab/plugin.h, with C linkage)");
   glintlab_plugin_laws_v1_fn entry_fn;
   static_assert(sizeof entry_fn == sizeof sym);
@@ -194,7 +194,7 @@ std::vector<std::string> load_plugin(const std::string& path, const std::vector<
   if (count < 1 || count > kMaxLaws)
     throw_invalid(where, GLINTLAB_PLUGIN_SYMBOL_V1 " count", count,
                   "1 to " + std::to_string(kMaxLaws) + " laws");
-  if (!table) throw std::invalid_argument(where + ": " GLINTLAB_PLUGIN_SYMBOL_V1 " returned a NULL table");
+  if (!table) glintlab::throw_invalid_message(where + ": " GLINTLAB_PLUGIN_SYMBOL_V1 " returned a NULL table");
 
   // Validate everything before registering anything: a bad plugin leaves no trace.
   std::vector<std::string> taken;

@@ -2,6 +2,8 @@
 // glintlab's wrapper kernel around the user's function, Vulkan runs it on buffers of (n, p, u).
 #include "glintlab/validation/shader.hpp"
 
+#include "glintlab/errors.hpp"
+
 #include <vulkan/vulkan.h>
 
 #include <shaderc/shaderc.hpp>
@@ -156,7 +158,7 @@ int choose_device(const std::string& request) {
     return chosen;
   };
   if (request.empty())
-    throw std::invalid_argument("device = '' is invalid; expected 'auto', 'gpu', 'cpu', an index or part of a name among " + known);
+    glintlab::throw_invalid("", "device", "''", "'auto', 'gpu', 'cpu', an index or part of a name among " + known);
   int chosen = -1;
   if (request == "auto") {
     chosen = best([](const DeviceInfo&) { return true; });
@@ -171,13 +173,13 @@ int choose_device(const std::string& request) {
   } else if (!request.empty() && std::all_of(request.begin(), request.end(), ::isdigit)) {
     chosen = std::stoi(request);
     if (chosen >= static_cast<int>(all.size()))
-      throw std::invalid_argument("device = '" + request + "' is invalid; expected one of " + known);
+      glintlab::throw_invalid("", "device", "'" + request + "'", "one of " + known);
   } else {
     for (const auto& d : all)
       if (d.name.find(request) != std::string::npos) { chosen = d.index; break; }
     if (chosen < 0)
-      throw std::invalid_argument("device = '" + request +
-                                  "' is invalid; expected 'auto', 'gpu', 'cpu', an index or part of a name among " + known);
+      glintlab::throw_invalid("", "device", "'" + request + "'",
+                              "'auto', 'gpu', 'cpu', an index or part of a name among " + known);
   }
   return chosen;
 }
@@ -614,11 +616,11 @@ shaderc::CompileOptions options(const KernelSpec& spec, std::shared_ptr<IncludeS
         line.find("error(s) generated") == std::string::npos && line.find("errors generated") == std::string::npos)
       wrapper_only = false;
   if (wrapper_only)
-    throw std::invalid_argument("shader " + spec.source_name + ": no function " + spec.entry +
+    glintlab::throw_invalid_message("shader " + spec.source_name + ": no function " + spec.entry +
                                 " with the expected signature " +
                                 (signature.empty() ? expected_signature(spec.language, spec.entry) : signature) +
                                 " (" + spec.language + "); the compiler says:\n" + messages);
-  throw std::invalid_argument("shader " + spec.source_name + " does not compile (" + spec.language +
+  glintlab::throw_invalid_message("shader " + spec.source_name + " does not compile (" + spec.language +
                               "); the compiler says:\n" + messages);
 }
 
@@ -779,18 +781,18 @@ std::string wrapper_source(const std::string& language, const std::string& entry
 
 void validate_spec(const KernelSpec& spec) {
   if (spec.language != "hlsl" && spec.language != "glsl")
-    throw std::invalid_argument("language = '" + spec.language + "' is invalid; expected 'hlsl' or 'glsl'");
+    glintlab::throw_invalid("", "language", "'" + spec.language + "'", "'hlsl' or 'glsl'");
   if (!is_identifier(spec.entry))
-    throw std::invalid_argument("entry = '" + spec.entry + "' is invalid; expected a function name");
+    glintlab::throw_invalid("", "entry", "'" + spec.entry + "'", "a function name");
   if (spec.n_uniforms < 0 || spec.n_uniforms > 4)
-    throw std::invalid_argument("n_uniforms = " + std::to_string(spec.n_uniforms) + " is invalid; expected 0 to 4");
+    glintlab::throw_invalid("", "n_uniforms", std::to_string(spec.n_uniforms), "0 to 4");
   for (const auto& [name, value] : spec.defines) {
-    if (!is_identifier(name)) throw std::invalid_argument("defines: name '" + name + "' is invalid; expected an identifier");
+    if (!is_identifier(name)) glintlab::throw_invalid_message("defines: name '" + name + "' is invalid; expected an identifier");
     if (value.find_first_of("\r\n") != std::string::npos)
-      throw std::invalid_argument("defines: " + name + " = '" + value + "' is invalid; expected a value on one line");
+      glintlab::throw_invalid_message("defines: " + name + " = '" + value + "' is invalid; expected a value on one line");
   }
   if (spec.source_name.empty() || spec.source_name.rfind("glintlab_kernel.", 0) == 0)
-    throw std::invalid_argument("source_name = '" + spec.source_name + "' is invalid; expected a file name");
+    glintlab::throw_invalid("", "source_name", "'" + spec.source_name + "'", "a file name");
 }
 
 std::string preprocess(const KernelSpec& spec, const std::string& wrapper,
@@ -840,11 +842,11 @@ struct Instruction {
 };
 
 std::vector<Instruction> instructions(const std::vector<std::uint32_t>& code) {
-  if (code.size() < 5 || code[0] != spv::kMagic) throw std::invalid_argument("not a SPIR-V module");
+  if (code.size() < 5 || code[0] != spv::kMagic) glintlab::throw_invalid_message("not a SPIR-V module");
   std::vector<Instruction> out;
   for (std::size_t i = 5; i < code.size();) {
     const std::uint32_t count = code[i] >> 16;
-    if (count == 0 || i + count > code.size()) throw std::invalid_argument("truncated SPIR-V module");
+    if (count == 0 || i + count > code.size()) glintlab::throw_invalid_message("truncated SPIR-V module");
     out.push_back({code[i] & 0xFFFFu, std::vector<std::uint32_t>(code.begin() + static_cast<std::ptrdiff_t>(i) + 1,
                                                                  code.begin() + static_cast<std::ptrdiff_t>(i + count))});
     i += count;
@@ -929,7 +931,7 @@ void require_resources(const std::vector<std::uint32_t>& spirv, const std::vecto
     msg << "shader " << source_name << ": resource '" << r.name << "' (" << r.kind;
     if (r.set >= 0 || r.binding >= 0) msg << ", set " << r.set << ", binding " << r.binding;
     msg << ") is not bound by glintlab; expected " << contract;
-    throw std::invalid_argument(msg.str());
+    glintlab::throw_invalid_message(msg.str());
   }
 }
 
@@ -1125,9 +1127,9 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
                  std::size_t count, float* out, double timeout_s) const {
   if (count == 0) return;
   if (!(timeout_s > 0) || !std::isfinite(timeout_s))
-    throw std::invalid_argument("timeout = " + std::to_string(timeout_s) + " is invalid; expected seconds > 0");
-  if ((n_size != 1 && n_size != count) || (p_size != 1 && p_size != count))
-    throw std::invalid_argument("n and p must have 1 or count elements");
+    glintlab::throw_invalid("", "timeout", std::to_string(timeout_s), "seconds > 0");
+  glintlab::check_length("shader", "n", n_size, count);
+  glintlab::check_length("shader", "p", p_size, count);
   Device& d = *impl_->device;
   const Pipeline& pl = *impl_->pipeline;
   const std::size_t k = static_cast<std::size_t>(impl_->n_uniforms);
@@ -1238,8 +1240,8 @@ void Kernel::run_rows(const float* in, std::size_t in_stride, std::size_t count,
                       double timeout_s) const {
   if (count == 0) return;
   if (!(timeout_s > 0) || !std::isfinite(timeout_s))
-    throw std::invalid_argument("timeout = " + std::to_string(timeout_s) + " is invalid; expected seconds > 0");
-  if (in_stride == 0 || out_stride == 0) throw std::invalid_argument("run_rows: strides must be > 0");
+    glintlab::throw_invalid("", "timeout", std::to_string(timeout_s), "seconds > 0");
+  if (in_stride == 0 || out_stride == 0) glintlab::throw_invalid_message("run_rows: strides must be > 0");
   Device& d = *impl_->device;
   const Pipeline& pl = *impl_->pipeline;
   std::lock_guard<std::mutex> lock(d.mutex);

@@ -1,6 +1,9 @@
 // Parameter validation in one place, with one message format (Boost.Math's lesson): every entry
 // point reports "<where>: <name> = <value> is invalid; expected <what>" as std::invalid_argument,
-// which the Python layer surfaces as ValueError.
+// which the Python layer surfaces as ValueError. Two more shapes of bad input have one message each:
+// an array of the wrong length (check_length) and a name outside an enum's table (parse_enum).
+// Nothing in core/, validation/ or bindings/ throws std::invalid_argument itself
+// (tests/python/test_error_vocabulary.py keeps it so).
 #pragma once
 
 #include <cmath>
@@ -8,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace glintlab {
 
@@ -36,6 +40,37 @@ std::string format_value(double value);
                                 std::string_view expected);
 [[noreturn]] void throw_invalid(std::string_view where, std::string_view name,
                                 std::string_view value, std::string_view expected);
+
+// A message of its own, for the few checks that fit none of the shapes here (a document's
+// structure, a plugin that does not load): std::invalid_argument(message).
+[[noreturn]] void throw_invalid_message(std::string message);
+
+// A per-row argument `name` of `size` values broadcast against `count` rows: one value for all
+// rows or one per row, else "<where>: <name> has <size> values; expected 1 or <count>".
+void check_length(std::string_view where, std::string_view name, std::size_t size, std::size_t count);
+
+// "<where>: unknown <what> '<name>'; known: a, b, c" (the registries' message, registry.hpp).
+[[noreturn]] void throw_unknown_name(std::string_view where, std::string_view what, std::string_view name,
+                                     std::string_view known);
+
+// An enum's names in one table (any range of {name, value} pairs, in the order the message lists
+// them): parse_enum reads a name, refusing an unknown one with the message above; enum_name writes
+// one ("?" for a value not in the table).
+template <class Table>
+auto parse_enum(std::string_view where, std::string_view what, std::string_view name, const Table& table) {
+  std::string known;
+  for (const auto& [text, value] : table) {
+    if (std::string_view(text) == name) return value;
+    known.append(known.empty() ? "" : ", ").append(text);
+  }
+  throw_unknown_name(where, what, name, known);
+}
+template <class Table, class E>
+std::string enum_name(E value, const Table& table) {
+  for (const auto& [text, v] : table)
+    if (v == value) return std::string(text);
+  return "?";
+}
 
 // "n" or "n[12]" for array arguments, so a bad element can be found.
 std::string indexed_name(std::string_view name, std::size_t index, bool is_array);

@@ -205,6 +205,9 @@ struct LawTraits {
   // empty for constant-time laws (any point will do).
   std::vector<std::array<double, 2>> cost_points{};
   std::vector<BoundDomain> bounds{};
+  // The stem of the shader glintlab ships for this law (data/shaders/<shader>.hlsl and .glsl, its
+  // float32 twin compared row by row); empty when there is none.
+  std::string shader{};
   // Where the law is evaluated at all: n beyond max_n is refused with std::invalid_argument.
   NumericDomain domain{};
 

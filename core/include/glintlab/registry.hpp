@@ -21,6 +21,8 @@
 #include <utility>
 #include <vector>
 
+#include "glintlab/errors.hpp"
+
 namespace glintlab {
 
 template <class Info>
@@ -64,7 +66,7 @@ class Registry {
   Info find(const std::string& name) const {
     std::shared_lock lock(mutex_);
     const auto it = entries_.find(name);
-    if (it == entries_.end()) throw std::invalid_argument(unknown_message_locked(name));
+    if (it == entries_.end()) throw_invalid_message(unknown_message_locked(name));
     return it->second;
   }
   std::optional<Info> try_find(const std::string& name) const {
@@ -82,7 +84,7 @@ class Registry {
     {
       std::shared_lock lock(mutex_);
       const auto it = entries_.find(name);
-      if (it == entries_.end()) throw std::invalid_argument(unknown_message_locked(name));
+      if (it == entries_.end()) throw_invalid_message(unknown_message_locked(name));
       factory = it->second.make;
     }
     return factory(std::forward<Args>(args)...);

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -32,9 +33,7 @@ _EXTENSIONS = {".hlsl": "hlsl", ".hlsli": "hlsl", ".fx": "hlsl", ".glsl": "glsl"
 DEFAULT_TIMEOUT_S = 60.0
 _CHUNK = 1 << 22  # rows handed to the runner at once (the runner submits 2^20 at a time)
 
-# The shipped shaders: name -> the C++ law that is its twin (same arithmetic in float32).
-SHIPPED = {"gated": "gated_shader", "gated_continuous": "gated_continuous", "dual_gated": "dual_gated",
-           "head_cf": "head_cf"}
+_INCLUDE_LINE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 
 
 def vulkan_devices() -> list[dict]:
@@ -44,11 +43,33 @@ def vulkan_devices() -> list[dict]:
     return list(_core.vulkan_devices())
 
 
+def shipped_shaders() -> dict[str, str]:
+    """The shaders glintlab ships, each declared by the C++ law that is its twin (same arithmetic in
+    float32) in that law's traits (``law_traits(law)["shader"]``): {shader name: twin law's name}.
+
+    >>> shipped_shaders()["gated"]
+    'gated_shader'
+    """
+    return {traits["shader"]: name for name, traits in _core.all_law_traits().items() if traits["shader"]}
+
+
+def _shipped_name(name) -> str:
+    """A shipped shader's name from its own name or from the name of the law declaring it."""
+    shipped = shipped_shaders()
+    if isinstance(name, str) and name not in shipped:
+        name = {law_name: shader for shader, law_name in shipped.items()}.get(name, name)
+    if not isinstance(name, str) or name not in shipped:
+        v.fail("name", name, f"a shipped shader among {sorted(shipped)} (or the law declaring it: "
+                             f"{sorted(shipped.values())})")
+    return name
+
+
 def shipped_shader(name: str, language: str = "hlsl") -> Path:
-    """The path of a shader glintlab ships (``SHIPPED``: "gated", "gated_continuous", "dual_gated",
-    "head_cf"), in "hlsl" or "glsl"."""
-    if name not in SHIPPED:
-        v.fail("name", name, f"a shipped shader among {sorted(SHIPPED)}")
+    """The path of a shader glintlab ships (``shipped_shaders()``: "gated", "gated_continuous",
+    "dual_gated", "head_cf", or the name of the law whose traits declare it), in "hlsl" or "glsl".
+    The file is a thin wrapper including the law's one body (``<name>_body.h``, shared by both
+    languages); ``emit_shader`` gives it with its includes inlined."""
+    name = _shipped_name(name)
     if language not in LANGUAGES:
         v.fail("language", language, "'hlsl' or 'glsl'")
     return Path(data_path("shaders", f"{name}.{language}"))
@@ -56,9 +77,41 @@ def shipped_shader(name: str, language: str = "hlsl") -> Path:
 
 def shipped_twin(name: str):
     """The C++ law that computes what the shipped shader ``name`` computes (in float32)."""
-    if name not in SHIPPED:
-        v.fail("name", name, f"a shipped shader among {sorted(SHIPPED)}")
-    return law(SHIPPED[name])
+    return law(shipped_shaders()[_shipped_name(name)])
+
+
+def _inline_includes(path: Path, seen: set, out: list) -> None:
+    """``path``'s lines into ``out`` with each ``#include "x"`` (resolved next to the including file, as
+    the compiler does) replaced by x's lines, each file once (the shipped headers are guarded, so a
+    second inclusion would add nothing)."""
+    for line in _decode(path).splitlines():
+        match = _INCLUDE_LINE.match(line)
+        if match is None:
+            out.append(line)
+            continue
+        target = (path.parent / match.group(1)).resolve()
+        if target in seen:
+            out.append(f"// ({match.group(1)}: inlined above)")
+            continue
+        seen.add(target)
+        out.append(f"// ---- {match.group(1)} (inlined) ----")
+        _inline_includes(target, seen, out)
+        out.append(f"// ---- end of {match.group(1)} ----")
+
+
+def emit_shader(name: str, language: str = "hlsl") -> str:
+    """A shipped shader as one self-contained, paste-ready file: the wrapper with every ``#include``
+    inlined (the prelude, ``glintlab_math.h``, the law's body), comments kept. It compiles alone and
+    computes exactly what ``shipped_shader(name, language)`` does (the same preprocessed code).
+    ``name``: a shipped shader or the law declaring it. (``glintlab shader --emit NAME --lang L``.)
+
+    >>> any(line.lstrip().startswith("#include") for line in emit_shader("gated_continuous", "glsl").splitlines())
+    False
+    """
+    path = shipped_shader(name, language)
+    out = [f"// {path.name} as glintlab ships it, with its #includes inlined: one self-contained file."]
+    _inline_includes(path, {path.resolve()}, out)
+    return "\n".join(out) + "\n"
 
 
 def _utf8(name: str, text: str) -> str:

@@ -22,7 +22,7 @@ import pandas as pd
 from .._core import __version__
 from ..api.laws import law_summaries, parse_law_label
 from ..api.plugins import load_plugin
-from ..api.shaders import ShaderOutputError, shader_law
+from ..api.shaders import ShaderOutputError, emit_shader, shader_law
 from ..report.config import load_config as load_report_config
 from ..report.html import write_extremes_report
 from ..report.runner import print_summary as print_report_summary
@@ -301,6 +301,11 @@ def _count_arg(text: str) -> int:
 
 def _cmd_shader(args) -> int:
     _load_plugins(args.plugin)
+    if args.emit:  # a shipped shader as one paste-ready file, nothing measured
+        print(emit_shader(args.emit, args.lang or "hlsl"), end="")
+        return 0
+    if args.file is None:
+        raise ValueError("FILE is missing; expected a shader file (or --emit NAME for a shipped shader)")
     for flag in ("samples", "grid_samples", "grid_stride", "rows", "speed_evaluations"):
         if getattr(args, flag) < 1:
             raise ValueError(f"--{flag.replace('_', '-')} = {getattr(args, flag)} is invalid; expected an integer >= 1")
@@ -610,7 +615,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "DB23's Figure 9 points, a TV map over the standard grid, row-by-row agreement "
                                    "with --twin, the extremes suite, ns per evaluation. Exit 0: every check passes; "
                                    "1: one fails; 2: bad input (a compile error, an unknown law).")
-    p.add_argument("file", help="the shader source file (.hlsl, .glsl, ...; always a path, never code)")
+    p.add_argument("file", nargs="?", help="the shader source file (.hlsl, .glsl, ...; always a path, never code)")
+    p.add_argument("--emit", metavar="NAME", help="print the shipped shader NAME (or its law's name) in --lang (default hlsl) "
+                   "as one self-contained file, includes inlined, and exit")
     p.add_argument("--entry", default="count", help="the counting function (default: count)")
     p.add_argument("--lang", choices=["hlsl", "glsl"], help="the language (default: from the extension)")
     p.add_argument("--uniforms", type=int, default=2, help="uniforms the function reads, 0 to 4 (default: 2)")

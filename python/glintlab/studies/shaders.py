@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..api.shaders import LANGUAGES, SHIPPED, shader_law, shipped_shader, shipped_twin, vulkan_devices
+from ..api.shaders import LANGUAGES, shader_law, shipped_shader, shipped_shaders, shipped_twin, vulkan_devices
 from ..validation.shader_check import point_table, row_table, speed_table
 from .base import Context, Tables
 
@@ -33,7 +33,7 @@ def compute(params: dict, ctx: Context) -> Tables:
         return Tables({}, failures=["no Vulkan device: install mesa-vulkan-drivers (lavapipe)"])
     summary, per_point = [], []
     failures = []
-    for name in SHIPPED:
+    for name in shipped_shaders():
         for language in LANGUAGES:
             ctx.progress(f"{name}.{language}")
             law = shader_law(shipped_shader(name, language), name=f"{name}.{language}", register=False)
@@ -55,7 +55,7 @@ def compute(params: dict, ctx: Context) -> Tables:
     return Tables({"shaders_as_they_run": table},
                   {"device": devices[0]["name"] if len(devices) == 1 else table.device[0],
                    "largest share of rows differing (binned)": float(table.binned_differ_max.max()),
-                   "shader / C++ twin time (gated.hlsl)": float(table.ratio[0])},
+                   "shader / C++ twin time (gated.hlsl)": float(table.ratio[table.shader == "gated.hlsl"].iloc[0])},
                   failures, extra={"shaders_row_by_row": pd.concat(per_point, ignore_index=True)})
 
 

@@ -1,8 +1,11 @@
-// Float math shared by glintlab's shipped shaders gated_continuous and dual_gated: scalar float code
+// Float math shared by glintlab's shipped shaders gated_continuous, dual_gated and head_cf: scalar float code
 // that HLSL and GLSL both compile (no language-specific intrinsics), #included next to them. Written
 // for what a GPU's transcendentals allow: log and exp are accurate in relative terms away from 1 and
 // 0, but log near 1 only in absolute terms (Vulkan: 2^-21), so log1p and expm1 of small arguments
 // are computed by series (docs/guide/shaders.md#shaders-agreement).
+
+#ifndef GLINTLAB_MATH_H
+#define GLINTLAB_MATH_H
 
 // log(1 + x), x >= -1: the odd series 2 (s + s^3/3 + ...), s = x / (2 + x), for |x| <= 1/2 (|s| <= 1/3,
 // eight terms leave < 2e-8 relative); log(1 + x) itself beyond, where |log| >= 0.4 keeps the absolute
@@ -74,3 +77,5 @@ float glintlab_quantile(float u) {
     }
     return q < 0.0 ? -x : x;
 }
+
+#endif
