@@ -291,8 +291,7 @@ class KPT25(GlintyNDF):
                  compensation: str = "square", blend: str = "roulette", sample_smooth: float = 0.0,
                  sample_weight: str = "lobe_mass"):
         super().__init__(target, alpha, density)
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or int(k) not in (1, 4, 9, 16):
-            V.fail("k", k, "1, 4, 9 or 16")
+        V.choice("k", V.integer("k", k, expected="1, 4, 9 or 16"), (1, 4, 9, 16), "1, 4, 9 or 16")
         for pname, value in (("compensation", compensation), ("blend", blend), ("sample_weight", sample_weight)):
             if not isinstance(value, str):
                 V.fail(pname, value, "a string")

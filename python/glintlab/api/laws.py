@@ -110,8 +110,7 @@ class Law:
         support would exceed ``max_support`` points (use the cdf/sf functions then).
         """
         n, p = _scalar("n", n), _scalar("p", p)
-        if isinstance(max_support, bool) or not isinstance(max_support, (int, np.integer)) or max_support < 1:
-            v.fail("max_support", max_support, "an integer >= 1")
+        v.integer("max_support", max_support, minimum=1)
         return self._core.pmf(n, p, int(max_support))
 
     def cdf(self, k, n, p) -> np.ndarray:
@@ -216,8 +215,7 @@ class Law:
         Each probability has Monte Carlo standard error sqrt(q (1 - q) / samples).
         """
         n, p = _scalar("n", n), _scalar("p", p)
-        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-            v.fail("samples", samples, "an integer >= 1")
+        v.integer("samples", samples, minimum=1)
         return Distribution.empirical(self.sample(n, p, size=int(samples), seed=seed, precision=precision))
 
 
@@ -449,8 +447,7 @@ def custom_law(fn, n_uniforms: int = 2, name: str = "custom", binning: str = "no
     """
     if not callable(fn):
         v.fail("fn", fn, "a callable fn(n, p, u)")
-    if isinstance(n_uniforms, bool) or not isinstance(n_uniforms, (int, np.integer)) or n_uniforms < 0:
-        v.fail("n_uniforms", n_uniforms, "an integer >= 0")
+    v.integer("n_uniforms", n_uniforms, minimum=0)
     if not isinstance(name, str) or not name:
         v.fail("name", name, "a non-empty string")
     if name in {n for n, _ in _core.law_infos()}:
@@ -467,10 +464,8 @@ def uniforms(size: int, n_uniforms: int, seed=0, start: int = 0) -> np.ndarray:
     shape = v.size(size)
     if shape is None or len(shape) != 1:
         v.fail("size", size, "an integer >= 0")
-    if isinstance(n_uniforms, bool) or not isinstance(n_uniforms, (int, np.integer)) or n_uniforms < 0:
-        v.fail("n_uniforms", n_uniforms, "an integer >= 0")
-    if isinstance(start, bool) or not isinstance(start, (int, np.integer)) or start < 0:
-        v.fail("start", start, "an integer >= 0")
+    v.integer("n_uniforms", n_uniforms, minimum=0)
+    v.integer("start", start, minimum=0)
     return _core.uniforms(int(start), shape[0], int(n_uniforms), v.seed(seed), 0)
 
 

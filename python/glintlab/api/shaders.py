@@ -287,8 +287,7 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
     code, source_name, language = _read_source(source, language)
     if not isinstance(entry, str) or not entry.isidentifier():
         v.fail("entry", entry, "a function name")
-    if isinstance(n_uniforms, bool) or not isinstance(n_uniforms, (int, np.integer)) or not 0 <= n_uniforms <= 4:
-        v.fail("n_uniforms", n_uniforms, "an integer from 0 to 4")
+    v.integer("n_uniforms", n_uniforms, 0, 4, expected="an integer from 0 to 4")
     if name is None:
         name = Path(source_name).name if source_name != "<string>" else "shader"
     if not isinstance(name, str) or not name:
@@ -306,8 +305,7 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
     include_dirs = [_utf8("include_dirs", os.fspath(d)) for d in include_dirs]
     if binning not in BINNINGS:
         v.fail("binning", binning, "'round' (real outputs, unit bins) or 'none' (integer counts)")
-    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not (0 < timeout < float("inf")):
-        v.fail("timeout", timeout, "a number of seconds > 0")
+    v.positive("timeout", timeout, "a number of seconds > 0")
     device = _device_request(device)
     spec = {"code": code, "source_name": source_name, "entry": entry, "language": language,
             "n_uniforms": int(n_uniforms), "name": name, "defines": define_list,

@@ -91,8 +91,7 @@ class WWH18(GlintyNDF):
         _choice("rng", rng, ("tea", "philox"))
         _choice("dpf", dpf, ("table", "exact"))
         _choice("storage", storage, ("float32", "float64"))
-        if isinstance(tea_rounds, bool) or not isinstance(tea_rounds, (int, np.integer)):
-            V.fail("tea_rounds", tea_rounds, "an integer in [1, 64]")
+        V.integer("tea_rounds", tea_rounds, expected="an integer in [1, 64]")
         if isinstance(lod, str):
             _choice("lod", lod, ("table2", "none"))
             lod_deg = table2_lod(self.alpha) if lod == "table2" else 0.0

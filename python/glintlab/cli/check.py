@@ -5,7 +5,7 @@ import sys
 
 from ..resources import data_path
 from ..validation.bounds import check, format_table, write_junit
-from .common import add_plugins, add_quiet, load_plugins
+from .common import add_plugins, load_plugins
 
 
 def add_parser(sub):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import json
 
-from .common import add_laws, add_outputs, add_samples, add_seed, axis_arg, law_arg, run_experiment_cmd
+from .common import add_outputs, add_samples, add_seed, axis_arg, law_arg, run_experiment_cmd
 
 
 def add_parser(sub):

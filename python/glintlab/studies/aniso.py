@@ -318,8 +318,8 @@ def write_report(out, full: bool = False, samples: int | None = None, seed: int 
                  image: bool = True, grid: dict | None = None):
     """``glintlab aniso``: runs the study, the weight maps and (``image``) the 1920 x 1080 image timing;
     writes CSVs and PNGs into ``out``. Returns (figure paths, {name: table})."""
-    if samples is not None and (isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1):
-        V.fail("samples", samples, "an integer >= 1 (draws per footprint)")
+    if samples is not None:
+        V.integer("samples", samples, minimum=1, expected="an integer >= 1 (draws per footprint)")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     samples = (40_000 if full else 10_000) if samples is None else int(samples)

@@ -46,6 +46,7 @@ import pandas as pd
 
 from ..api.blends import BlendedLaw, blended_law, blends as blend_names
 from ..api.laws import CustomLaw, Law, law as get_law, law_label, law_traits, laws as law_names, uniforms
+from ..api import checks as V
 
 GRID_N = (0.0, 1e-6, 0.5, 1.0, 2.0, 16.0, 17.0, 1e9, 1e15)
 GRID_P = (0.0, 1e-300, 1e-12, 1e-7, 0.5, 1 - 1e-7, 1.0)
@@ -349,8 +350,7 @@ def extremes_table(laws=None, precisions=("float64", "float32"), samples: int = 
     ``table.attrs["seconds"]``.
     """
     t0 = time.perf_counter()
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 2:
-        raise ValueError(f"samples = {samples!r} is invalid; expected an integer >= 2")
+    V.integer("samples", samples, minimum=2)
     for prec in precisions:
         if prec not in _EPS:
             raise ValueError(f"precisions = {precisions!r} is invalid; expected 'float64' and/or 'float32'")

@@ -374,8 +374,7 @@ def profile_scene(scene, laws=None, schemes=DEFAULT_SCHEMES, seed: int = 1, scal
     if scale != 1.0:
         scene = scene.scaled(scale, keep_n=True)
     seed = V.seed(seed)
-    if isinstance(bins_per_decade, bool) or not isinstance(bins_per_decade, int) or not 1 <= bins_per_decade <= 64:
-        V.fail("bins_per_decade", bins_per_decade, "an integer in [1, 64]")
+    V.integer("bins_per_decade", bins_per_decade, 1, 64)
     schemes = list(schemes)
     for s in schemes:
         if s not in _scheme_labels():

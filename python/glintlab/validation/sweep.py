@@ -108,8 +108,7 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
     if len(set(labels)) != len(labels):
         v.fail("laws", labels, "distinct laws")
     if samples is not None:
-        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-            v.fail("samples", samples, "None (exact) or an integer >= 1")
+        v.integer("samples", samples, minimum=1, expected="None (exact) or an integer >= 1")
         samples = int(samples)
     seed = v.seed(seed)
     metrics = _metric_list(metrics, samples)
@@ -143,16 +142,14 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
     results: dict[tuple, dict] = dict(done)
     if threads is None:
         threads = os.cpu_count() or 2
-    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-        v.fail("threads", threads, "an integer >= 1")
-    if engine not in ("threads", "dask"):
-        v.fail("engine", engine, "'threads' or 'dask'")
+    threads = v.integer("threads", threads, minimum=1)
+    v.choice("engine", engine, ("threads", "dask"), "'threads' or 'dask'")
     if engine == "threads" and (scheduler is not None or workers is not None):
         v.fail("engine", engine, "'dask' when a scheduler or workers are given")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
-        v.fail("workers", workers, "an integer >= 1")
-    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1):
-        v.fail("chunk", chunk, "an integer >= 1")
+    if workers is not None:
+        workers = v.integer("workers", workers, minimum=1)
+    if chunk is not None:
+        chunk = v.integer("chunk", chunk, minimum=1)
     timeout = v.real("timeout", timeout)
     if not timeout > 0:
         v.fail("timeout", timeout, "a number of seconds > 0")
