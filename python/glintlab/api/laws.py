@@ -279,7 +279,7 @@ class CustomLaw(Law):
             if bad.any():
                 i = int(np.argmax(bad))
                 label = name if arr.size == 1 else f"{name}[{i}]"
-                raise ValueError(f"{self._name}: {label} = {arr[i]!r} is invalid; expected {expected}")
+                v.fail(f"{self._name}: {label}", arr[i], expected)
 
     def evaluate(self, n, p, u, precision: str = "float64"):
         precision = _precision(precision)
@@ -501,5 +501,5 @@ def _uniform_rows(u, k):
     bad = ~((u >= 0) & (u <= 1))
     if bad.any():
         i, j = np.argwhere(bad)[0]
-        raise ValueError(f"u[{i}, {j}] = {u[i, j]!r} is invalid; expected a uniform number in [0, 1]")
+        v.fail(f"u[{i}, {j}]", u[i, j], "a uniform number in [0, 1]")
     return np.ascontiguousarray(u)

@@ -9,6 +9,7 @@ from ..validation.advisor import advise
 from ..validation.profile import profile_scene
 from ..validation.scene import load_scene
 from .common import add_costs, add_outputs, add_scale, add_seed, print_table, scene_costs
+from ..api import checks as V
 
 
 def add_parser(sub):
@@ -34,7 +35,7 @@ def add_parser(sub):
 def run(args) -> int:
     for flag, value in (("--max-tv", args.max_tv), ("--max-rel-error", args.max_rel_error)):
         if value is not None and not value >= 0:
-            raise ValueError(f"{flag} = {value!r} is invalid; expected a number >= 0 (inf for no limit)")
+            V.fail(flag, value, "a number >= 0 (inf for no limit)")
     if args.max_tv is None and args.max_rel_error is None:
         raise ValueError("no budget given; expected --max-tv and/or --max-rel-error")
     scene = load_scene(args.scene)

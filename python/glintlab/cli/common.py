@@ -16,6 +16,7 @@ import pandas as pd
 
 from ..api.plugins import load_plugin
 from ..validation.experiment import run_experiment
+from ..api import checks as V
 
 
 # ---------------------------------------------------------------- argument types
@@ -45,23 +46,22 @@ def axis_arg(values, flag):
     if len(values) == 1 and ":" in values[0]:
         kind, *rest = values[0].split(":")
         if kind not in ("logspace", "linspace") or len(rest) != 3:
-            raise ValueError(f"{flag} = {values[0]!r} is invalid; expected numbers, 'standard', "
-                             "'logspace:LO:HI:COUNT' or 'linspace:LO:HI:COUNT'")
+            V.fail(flag, values[0], "numbers, 'standard', 'logspace:LO:HI:COUNT' or 'linspace:LO:HI:COUNT'")
         try:
             lo, hi, count = float(rest[0]), float(rest[1]), int(rest[2])
         except ValueError:
-            raise ValueError(f"{flag} = {values[0]!r} is invalid; expected LO and HI numbers and an integer COUNT") from None
+            V.fail(flag, values[0], "LO and HI numbers and an integer COUNT")
         if not (math.isfinite(lo) and math.isfinite(hi)):
-            raise ValueError(f"{flag} = {values[0]!r} is invalid; expected finite LO and HI")
+            V.fail(flag, values[0], "finite LO and HI")
         return {kind: [lo, hi, count]}
     try:
         numbers = [float(x) for x in values]
     except ValueError:
-        raise ValueError(f"{flag} = {' '.join(values)!r} is invalid; expected numbers") from None
+        V.fail(flag, " ".join(values), "numbers")
     # Checked here: a NaN would otherwise be reported against the JSON document the flags become.
     for text, x in zip(values, numbers):
         if not math.isfinite(x):
-            raise ValueError(f"{flag} = {text!r} is invalid; expected finite numbers")
+            V.fail(flag, text, "finite numbers")
     return numbers
 
 
@@ -200,8 +200,7 @@ def scene_costs(path):
     try:
         table = pd.read_csv(path)
     except (OSError, ValueError) as exc:
-        raise ValueError(f"--costs = {path!r} is invalid; expected a CSV with columns law, ns_per_eval "
-                         f"[, ns_per_trial] ({exc})") from None
+        V.fail("--costs", path, f"a CSV with columns law, ns_per_eval [, ns_per_trial] ({exc})")
     if not {"law", "ns_per_eval"} <= set(table.columns):
-        raise ValueError(f"--costs = {path!r} is invalid; expected columns law, ns_per_eval [, ns_per_trial]")
+        V.fail("--costs", path, "columns law, ns_per_eval [, ns_per_trial]")
     return table[[c for c in ("law", "ns_per_eval", "ns_per_trial") if c in table]].drop_duplicates("law")

@@ -11,6 +11,7 @@ from ..validation.bounds import check
 from ..validation.references import resolve_law
 from ..validation.shader_check import shader_verdict
 from .common import add_count, add_outputs, add_samples, add_seed, load_plugins, print_table
+from ..api import checks as V
 
 COUNTS = ("samples", "grid_samples", "grid_stride", "rows", "speed_evaluations")
 
@@ -49,9 +50,9 @@ def run(args) -> int:
     load_plugins(args.plugin)
     for flag in COUNTS:
         if getattr(args, flag) < 1:
-            raise ValueError(f"--{flag.replace('_', '-')} = {getattr(args, flag)} is invalid; expected an integer >= 1")
+            V.fail(f"--{flag.replace('_', '-')}", getattr(args, flag), "an integer >= 1")
     if not (args.timeout > 0 and math.isfinite(args.timeout)):
-        raise ValueError(f"--timeout = {args.timeout} is invalid; expected seconds > 0")
+        V.fail("--timeout", args.timeout, "seconds > 0")
     defines = {}
     for item in args.define:
         key, sep, value = item.partition("=")

@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 
 from .common import add_outputs, add_samples, add_seed, axis_arg, law_arg, run_experiment_cmd
+from ..api import checks as V
 
 
 def add_parser(sub):
@@ -30,8 +31,7 @@ def default_outputs(args):
     """The output folder defaults to out/sweeps/NAME; the name is checked first."""
     # The name becomes a folder under out/sweeps: a path (../../x) would write elsewhere.
     if not args.name or args.name in (".", "..") or any(c in args.name for c in "/\\\0"):
-        raise ValueError(f"--name = {args.name!r} is invalid; expected a plain name without '/' (it names "
-                         "the output folder out/sweeps/NAME)")
+        V.fail("--name", args.name, "a plain name without '/' (it names the output folder out/sweeps/NAME)")
     if args.out is None:
         args.out = "out/sweeps/" + args.name
 

@@ -106,7 +106,7 @@ def run(out: Path, quick: bool = False, seed: int | None = None, quiet: bool = F
         names = [e["name"] for e in entries]
         for name in only:
             if name not in names:
-                raise ValueError(f"only = {name!r} is invalid; expected a section of {source}: {', '.join(names)}")
+                V.fail("only", name, f"a section of {source}: {', '.join(names)}")
         entries = [e for e in entries if e["name"] in only]
     out = Path(out)
     (out / "sections").mkdir(parents=True, exist_ok=True)

@@ -276,8 +276,7 @@ STATS_CONFIGS = ("db23_trilinear", "db23_tetrahedral", "zk16_aniso")
 
 
 def compute(params: dict, ctx: Context) -> Tables:
-    if params["grid"] not in GRIDS:
-        raise ValueError(f"grid = {params['grid']!r} is invalid; expected one of {', '.join(GRIDS)}")
+    V.choice("grid", params["grid"], GRIDS, f"one of {', '.join(GRIDS)}")
     res = study_tables(GRIDS[params["grid"]], params["samples"], ctx.seed, params["image"],
                        image_width=V.integer("image_width", params["image_width"], minimum=16))
     by = res["aniso_summary"].groupby("config")

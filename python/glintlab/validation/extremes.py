@@ -353,7 +353,7 @@ def extremes_table(laws=None, precisions=("float64", "float32"), samples: int = 
     V.integer("samples", samples, minimum=2)
     for prec in precisions:
         if prec not in _EPS:
-            raise ValueError(f"precisions = {precisions!r} is invalid; expected 'float64' and/or 'float32'")
+            V.fail("precisions", precisions, "'float64' and/or 'float32'")
     unbounded = unbounded_laws() if unbounded is None else dict(unbounded)
     subjects = _subjects(laws, unbounded)
     nn, pp = (a.ravel() for a in np.meshgrid(np.asarray(n, dtype=float), np.asarray(p, dtype=float), indexing="ij"))
