@@ -1,7 +1,9 @@
 """``glintlab aniso``: anisotropic grid schemes against stratified facets in the ellipse."""
 from __future__ import annotations
 
-from ..studies.aniso import write_report as write_aniso_report
+from ..report.runner import write_section_files
+from ..studies import aniso
+from ..studies.base import Context
 from .common import add_outputs, add_samples, add_seed, print_table
 
 
@@ -21,8 +23,8 @@ def add_parser(sub):
 
 
 def run(args) -> int:
-    paths, tables = write_aniso_report(args.out, full=args.full, samples=args.samples, seed=args.seed,
-                                       image=not args.no_image)
+    tables = aniso.command_tables(full=args.full, samples=args.samples, seed=args.seed, image=not args.no_image)
+    paths = write_section_files(tables, aniso.figures, Context(args.out, args.seed))
     if not args.quiet:
         print_table(tables["aniso_summary"], args.quiet)
         if "aniso_image" in tables:

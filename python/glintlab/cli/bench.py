@@ -1,7 +1,11 @@
 """``glintlab bench``: ns/sample and accuracy of every law, table and Pareto plot."""
 from __future__ import annotations
 
-from ..studies.speed_accuracy import write_bench
+from pathlib import Path
+
+from ..report.runner import write_section_files
+from ..studies.base import Context
+from ..studies.speed_accuracy import bench_figures, bench_tables
 from ..validation.bench import speed_accuracy
 from .common import add_laws, add_outputs, add_samples, add_seed, law_arg, load_plugins, print_table
 
@@ -25,7 +29,8 @@ def run(args) -> int:
     laws = [law_arg(x) for x in args.laws] if args.laws else None
     summary, errors = speed_accuracy(laws, samples=args.samples, seed=args.seed, repeats=args.repeats,
                                      progress=None if not args.quiet else False)
-    files = write_bench(args.out, summary, errors)
+    figures = write_section_files(bench_tables(summary, errors), bench_figures, Context(args.out, args.seed))
+    files = [Path(args.out) / "bench.csv", Path(args.out) / "bench_errors.csv"] + figures
     if not args.quiet:
         print_table(summary[["law", "accuracy", "tv_max", "tv_median", "mean_rel_err_max", "ns_per_sample",
                              "speedup_vs_numpy", "ns_ratio_1e9_vs_16", "pareto"]], args.quiet)

@@ -7,7 +7,10 @@ import time
 import numpy as np
 
 from ..api.method_shaders import shader_method
-from ..studies.scene_images import write_images
+from ..api import checks as V
+from ..report.runner import write_section_files
+from ..studies import scene_images as image_study
+from ..studies.base import Context
 from ..validation.scene import load_scene
 from ..validation.scene_images import Material, frame_inputs, make_method, with_directional_light
 from .common import add_outputs, add_scale, add_scenes, add_seed, print_table
@@ -52,7 +55,9 @@ def run(args) -> int:
         if bad:
             return bad
     t0 = time.perf_counter()
-    paths, tables = write_images(scenes, args.out, seed=args.seed, **params)
+    ctx = Context(args.out, V.seed(args.seed))
+    tables = image_study.compute_scenes(scenes, image_study.command_params(scenes, **params), ctx)
+    paths = write_section_files(tables, image_study.figures, ctx)
     if not args.quiet:
         print_table(tables["scene_images_flicker"][["scene", "method", "std_ratio", "pop_rate", "change_rate",
                                                     "truth_change_rate", "mean_ratio"]], args.quiet)

@@ -4,7 +4,9 @@ from __future__ import annotations
 import time
 
 from ..api.laws import parse_law_label
-from ..studies.scenes import write_profiles
+from ..report.runner import write_section_files
+from ..studies import scenes as scene_study
+from ..studies.base import Context
 from ..validation.advisor import advice_table
 from ..validation.profile import profile_scene
 from ..validation.scene import load_scene
@@ -41,8 +43,9 @@ def run(args) -> int:
             print(f"{sc.name}: {prof.summary['width']} x {prof.summary['height']} profiled in "
                   f"{time.perf_counter() - t0:.2f} s ({', '.join(f'{k} {v:.2f}' for k, v in prof.seconds.items())})")
     note = f" (scale {args.scale:g}, density x {args.scale ** 2:g} to keep n)" if args.scale != 1 else ""
-    paths, tables = write_profiles(profiles, args.out, advice=advice_table(profiles, max_tv=args.max_tv),
-                                   title_note=note)
+    tables = scene_study.command_tables(profiles, advice=advice_table(profiles, max_tv=args.max_tv), title_note=note)
+    paths = write_section_files(tables, scene_study.figures, Context(args.out, args.seed))
+    tables = tables.tables
     if not args.quiet:
         print_table(tables["scene_table1"][["scene", "method", "mean_pixel", "mean_group", "worst_group",
                                             "simd_efficiency", "zk16_over_this_worst_group", "paper_ms"]], args.quiet)

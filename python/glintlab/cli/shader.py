@@ -6,7 +6,9 @@ import sys
 from pathlib import Path
 
 from ..api.shaders import ShaderOutputError, shader_law
-from ..studies.shaders import write_verdict
+from ..report.runner import write_section_files
+from ..studies.base import Context
+from ..studies.shaders import verdict_files, verdict_tables
 from ..validation.bounds import check
 from ..validation.references import resolve_law
 from ..validation.shader_check import shader_verdict
@@ -79,7 +81,8 @@ def run(args) -> int:
             verdict["tables"]["bounds"] = table
             verdict["failures"] += [f"bound {r.id}: {r.metric} = {r.worst:.6g} at n = {r.at_n:g}, p = {r.at_p:g} "
                                     f"(bound {r.bound:.6g})" for r in table[~table.ok].itertuples()]
-    path = write_verdict(args.out, verdict, law, args.against, args.twin)
+    path = write_section_files(verdict_tables(verdict, law, args.against, args.twin), verdict_files,
+                               Context(args.out, args.seed))[-1]
     if not args.quiet:
         print_table(verdict["tables"]["points"], False)
         if "rows" in verdict["tables"]:
