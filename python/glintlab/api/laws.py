@@ -254,12 +254,31 @@ class CustomLaw(Law):
             f"custom law {self._name!r} has no exact distribution; use "
             f"law.estimate_pmf(n, p, samples=..., seed=...) for a Monte Carlo estimate")
 
-    def _call(self, nf, pf, u, precision="float64"):
+    @staticmethod
+    def _rows(nf, pf, u, precision):
+        """The function's inputs for m rows: n and p broadcast to (m,); in float32, float32 n and p and
+        the uniforms by the float32 rule (uniforms_float32), as a shader would see them."""
         m = u.shape[0]
         n_rows = np.broadcast_to(nf, (m,)) if nf.size == 1 else nf
         p_rows = np.broadcast_to(pf, (m,)) if pf.size == 1 else pf
-        if precision == "float32":  # the function sees float32 inputs, as a shader would (uniforms_float32)
+        if precision == "float32":
             n_rows, p_rows, u = n_rows.astype(np.float32), p_rows.astype(np.float32), uniforms_float32(u)
+        return n_rows, p_rows, u
+
+    def raw(self, n, p, u, precision: str = "float64") -> np.ndarray:
+        """The function's output for rows (n, p, u) (u of shape (m, n_uniforms)), given its inputs exactly as ``evaluate`` gives them
+        (the float32 uniform rule included) but unchecked: a NaN or negative count is returned as is,
+        for the extremes suite to report (``evaluate`` refuses it). Flattened; its length is the
+        caller's to check."""
+        precision = _precision(precision)
+        u = np.asarray(u, dtype=np.float64)  # (m, n_uniforms)
+        nf = np.asarray(n, dtype=np.float64).reshape(-1)
+        pf = np.asarray(p, dtype=np.float64).reshape(-1)
+        return np.asarray(self._fn(*self._rows(nf, pf, u, precision)), dtype=np.float64).reshape(-1)
+
+    def _call(self, nf, pf, u, precision="float64"):
+        m = u.shape[0]
+        n_rows, p_rows, u = self._rows(nf, pf, u, precision)
         try:
             out = np.asarray(self._fn(n_rows, p_rows, u), dtype=np.float64)
         except Exception as exc:

@@ -101,15 +101,12 @@ class _Subject:
     def evaluate(self, n, p, u, precision, uniform_set):
         """Raw K for rows (n, p, u); a custom law's output is returned unchecked (NaN stays NaN)."""
         if isinstance(self.obj, CustomLaw):
-            lw = self.obj
-            n = np.asarray(n, dtype=np.float64)
-            p = np.asarray(p, dtype=np.float64)
-            m = u.shape[0]
-            n = np.broadcast_to(n, (m,))
-            p = np.broadcast_to(p, (m,))
-            if precision == "float32":
-                n, p, u = n.astype(np.float32), p.astype(np.float32), u.astype(np.float32)
-            out = np.asarray(lw._fn(n, p, u), dtype=np.float64).reshape(-1)
+            # The law's public unchecked path: float32 inputs by the one float32 uniform rule, as every
+            # other law gets them (docs/math/laws.md#float32-uniforms), never exact 0 or 1 uniforms.
+            lw, m = self.obj, u.shape[0]
+            n = np.broadcast_to(np.asarray(n, dtype=np.float64), (m,))
+            p = np.broadcast_to(np.asarray(p, dtype=np.float64), (m,))
+            out = lw.raw(n, p, u, precision)
             if out.shape != (m,):
                 raise ValueError(f"custom law {lw.name!r} returned {out.size} values; expected {m}")
             return out
