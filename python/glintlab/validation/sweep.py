@@ -181,7 +181,7 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
     store      a path: finished rows are written there as they finish and skipped on a rerun
     progress   True/False, or None: a progress bar when stderr is a terminal
     threads    rows computed at once by the "threads" engine (default: the number of cores)
-    engine     "threads" (this process) or "dask" (glintlab.dask_engine): ``scheduler`` the address of a
+    engine     "threads" (this process) or "dask" (glintlab.validation.engines): ``scheduler`` the address of a
                running Dask scheduler, or None for a LocalCluster of ``workers`` processes here;
                ``chunk`` rows per task (default: about four tasks per worker); ``timeout`` seconds
                to wait for the scheduler. The table is the same, bit for bit, with any engine.
