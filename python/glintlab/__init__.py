@@ -30,7 +30,7 @@ from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_
 from .report.html import write_extremes_report
 from .validation.advisor import Advice, advise
 from .validation.bounds import check, perturbed_law
-from .validation.experiment import run_experiment
+from .studies.experiment_plots import run_experiment
 from .validation.extremes import extremes_summary, extremes_table, invalid_inputs_table
 from .validation.grid import standard_grid
 from .validation.profile import SceneProfile, profile_scene

@@ -15,7 +15,7 @@ from pathlib import Path
 import pandas as pd
 
 from ..api.plugins import load_plugin
-from ..validation.experiment import run_experiment
+from ..studies.experiment_plots import run_experiment
 from ..api import checks as V
 
 
