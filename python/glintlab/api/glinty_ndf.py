@@ -127,8 +127,7 @@ class GlintyNDF:
     returns = "ndf"
 
     def __init__(self, target: str, alpha: float, density: float | None):
-        if not isinstance(target, str) or target not in NDFS:
-            V.fail("target", target, f"one of {', '.join(NDFS)}")
+        V.choice("target", target, NDFS, f"one of {', '.join(NDFS)}")
         self.target = target
         self.smooth_ndf = smooth_ndf(target, alpha)
         self.alpha = self.smooth_ndf.alpha
@@ -465,8 +464,7 @@ class DB23(GlintyNDF):
         if not (math.isfinite(ares) and ares > 0):
             V.fail("angular_resolution", angular_resolution, "a finite number > 0")
         self.R, self.angular_resolution = R, ares
-        if not isinstance(scheme, str) or scheme not in IMAGE_CONFIGS:
-            V.fail("scheme", scheme, f"a grid scheme configuration, one of {', '.join(IMAGE_CONFIGS)}")
+        V.choice("scheme", scheme, IMAGE_CONFIGS, f"a grid scheme configuration, one of {', '.join(IMAGE_CONFIGS)}")
         # A configuration is a scheme and its options (grids.IMAGE_CONFIGS: e.g. "db23_shader_48" is
         # the tetrahedral scheme with DB23's 48-evaluation interpolation). The finest cell holds one
         # facet on average (base_area 1 / N), as in DB23's renderer, unless given.
@@ -561,8 +559,7 @@ def register_image_method(name: str, factory: Callable, label: str | None = None
     """Adds an image method: ``factory(material)`` -> a glinty NDF; returns its entry."""
     if not callable(factory):
         V.fail("factory", factory, "a callable material -> evaluator")
-    if returns not in ("ndf", "intensity"):
-        V.fail("returns", returns, "'ndf' or 'intensity'")
+    V.choice("returns", returns, ("ndf", "intensity"), "'ndf' or 'intensity'")
     return IMAGE_METHODS.register(name, ImageMethod(name, label or name, factory, truth, returns), replace=replace)
 
 
@@ -571,8 +568,7 @@ def image_methods(returns: str | None = None) -> list[str]:
     ``returns`` ("ndf" or "intensity") only those of that kind."""
     if returns is None:
         return IMAGE_METHODS.names()
-    if returns not in ("ndf", "intensity"):
-        V.fail("returns", returns, "None, 'ndf' or 'intensity'")
+    V.choice("returns", returns, ("ndf", "intensity"), "None, 'ndf' or 'intensity'")
     return [n for n in IMAGE_METHODS.names() if IMAGE_METHODS.get(n).returns == returns]
 
 

@@ -358,8 +358,7 @@ def law_variants(use: str, reference=None) -> list[tuple[str, dict]]:
     trade study), "bench" (``make bench``) or "test" (the generic law tests); ``reference`` True or
     False keeps only the exact models or only the approximations. Derived from the registry: a new law
     appears here by declaring its variants in its own file."""
-    if use not in ("study", "bench", "test"):
-        v.fail("use", use, "'study', 'bench' or 'test'")
+    v.choice("use", use, ("study", "bench", "test"), "'study', 'bench' or 'test'")
     out = []
     for name in laws():
         traits = law_traits(name)
@@ -471,8 +470,7 @@ def custom_law(fn, n_uniforms: int = 2, name: str = "custom", binning: str = "no
         v.fail("name", name, "a non-empty string")
     if name in {n for n, _ in _core.law_infos()}:
         v.fail("name", name, "a name that no built-in law uses")
-    if binning not in BINNINGS:
-        v.fail("binning", binning, "'none' (integer counts) or 'round' (real outputs, unit bins)")
+    v.choice("binning", binning, BINNINGS, "'none' (integer counts) or 'round' (real outputs, unit bins)")
     law_ = CustomLaw(fn, int(n_uniforms), name, binning)
     CUSTOM_LAWS.register(name, law_, replace=True)
     return law_
@@ -499,8 +497,7 @@ def uniforms_float32(u) -> np.ndarray:
 
 
 def _precision(value):
-    if value not in PRECISIONS:
-        v.fail("precision", value, "'float64' or 'float32'")
+    v.choice("precision", value, PRECISIONS, "'float64' or 'float32'")
     return value
 
 

@@ -47,17 +47,14 @@ def vulkan_devices() -> list[dict]:
 def shipped_shader(name: str, language: str = "hlsl") -> Path:
     """The path of a shader glintlab ships (``SHIPPED``: "gated", "gated_continuous", "dual_gated",
     "head_cf"), in "hlsl" or "glsl"."""
-    if name not in SHIPPED:
-        v.fail("name", name, f"a shipped shader among {sorted(SHIPPED)}")
-    if language not in LANGUAGES:
-        v.fail("language", language, "'hlsl' or 'glsl'")
+    v.choice("name", name, SHIPPED, f"a shipped shader among {sorted(SHIPPED)}")
+    v.choice("language", language, LANGUAGES, "'hlsl' or 'glsl'")
     return Path(data_path("shaders", f"{name}.{language}"))
 
 
 def shipped_twin(name: str):
     """The C++ law that computes what the shipped shader ``name`` computes (in float32)."""
-    if name not in SHIPPED:
-        v.fail("name", name, f"a shipped shader among {sorted(SHIPPED)}")
+    v.choice("name", name, SHIPPED, f"a shipped shader among {sorted(SHIPPED)}")
     return law(SHIPPED[name])
 
 
@@ -303,8 +300,7 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
     if isinstance(include_dirs, (str, os.PathLike)):
         include_dirs = [include_dirs]
     include_dirs = [_utf8("include_dirs", os.fspath(d)) for d in include_dirs]
-    if binning not in BINNINGS:
-        v.fail("binning", binning, "'round' (real outputs, unit bins) or 'none' (integer counts)")
+    v.choice("binning", binning, BINNINGS, "'round' (real outputs, unit bins) or 'none' (integer counts)")
     v.positive("timeout", timeout, "a number of seconds > 0")
     device = _device_request(device)
     spec = {"code": code, "source_name": source_name, "entry": entry, "language": language,

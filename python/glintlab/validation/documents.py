@@ -42,8 +42,7 @@ def parse_document(kind: str, source) -> tuple[dict, str, Path | None]:
     (experiment, bounds, scene or report) given as a path, JSON text, or an already-loaded dict.
     A string that starts with "{" is JSON text, any other a path. An experiment may also be a results
     file (results.json), whose stored configuration is re-run with paths relative to where it ran."""
-    if kind not in KINDS:
-        V.fail("kind", kind, f"one of {', '.join(KINDS)}")
+    V.choice("kind", kind, KINDS, f"one of {', '.join(KINDS)}")
     if isinstance(source, dict):
         name, base = f"<{kind}>", None
         text = _dumps(source, name)

@@ -66,8 +66,7 @@ def _metric_list(metrics, samples):
     if not metrics:
         v.fail("metrics", metrics, "a non-empty list of metric names")
     for m in metrics:
-        if m not in SWEEP_METRICS:
-            v.fail("metric", m, "one of " + ", ".join(SWEEP_METRICS))
+        v.choice("metric", m, SWEEP_METRICS, "one of " + ", ".join(SWEEP_METRICS))
     if samples is None and "chi2_pvalue" in metrics:
         v.fail("metrics", metrics, "no 'chi2_pvalue' in an exact sweep (samples=None); pass samples=...")
     return list(dict.fromkeys(metrics))
