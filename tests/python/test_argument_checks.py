@@ -1,5 +1,5 @@
 """One argument vocabulary: bad input is refused through ``glintlab/api/checks.py`` (``fail``, ``integer``,
-``choice``, ``positive``, ``length``), as the layout test greps imports. The test greps the package for the
+``choice``, ``positive``, ``scalar_or_shape``), as the layout test greps imports. The test greps the package for the
 hand-written bool/int idiom, for hand-written "NAME = VALUE is invalid" raises, and for direct
 ``raise ValueError(`` outside checks.py beyond a per-file allowance, each with its reason: a new direct
 raise fails here until it goes through the helpers or its file's allowance and reason are updated."""
@@ -69,7 +69,7 @@ def test_direct_raises_stay_within_their_allowance():
     counts = {name: text.count("raise ValueError(") for name, text in sources()}
     over = [f"{name}: {n} direct raise ValueError(...), {ALLOWED.get(name, (0,))[0]} allowed"
             for name, n in counts.items() if n > ALLOWED.get(name, (0,))[0]]
-    assert not over, ("raise through glintlab/api/checks.py (fail, integer, choice, positive, length), or add "
+    assert not over, ("raise through glintlab/api/checks.py (fail, integer, choice, positive, scalar_or_shape), or add "
                       "the file to ALLOWED with the reason:\n" + "\n".join(over))
     stale = [name for name, (n, _) in ALLOWED.items() if counts.get(name, 0) < n]
     assert not stale, f"allowances larger than needed (lower them): {stale}"
@@ -88,7 +88,7 @@ def test_the_helpers_name_parameter_and_value():
         V.choice("engine", np.array(["dask", "x"]), ("threads", "dask"))
     with pytest.raises(ValueError, match=r"^timeout = nan is invalid; expected a finite number > 0$"):
         V.positive("timeout", float("nan"))
-    with pytest.raises(ValueError, match=r"^p has 3 values; expected 1 or 4$"):
-        V.length("p", 3, 4)
-    V.length("p", 1, 4)
-    V.length("p", 4, 4)
+    with pytest.raises(ValueError, match=r"^p = 'an array of shape \(3,\)' is invalid; expected a scalar or an array of shape \(4,\)$"):
+        V.scalar_or_shape("p", np.zeros(3), (4,))
+    V.scalar_or_shape("p", np.zeros(1), (4,))
+    V.scalar_or_shape("p", np.zeros(4), (4,))

@@ -84,15 +84,17 @@ def choice(name, value, options, expected: str | None = None):
     return value
 
 
-def length(name, size: int, count: int, what: str = "values") -> None:
-    """The broadcasting rule of per-element inputs: ``name`` holds 1 value or ``count`` of them.
+def scalar_or_shape(name, arr, shape) -> None:
+    """The broadcasting rule of per-pixel inputs (the Python twin of the core's "has N values; expected
+    1 or M"): ``arr`` holds one value or one per element of ``shape``.
 
-    >>> length("p", 3, 4)
+    >>> scalar_or_shape("p", np.zeros((2, 3)), (2, 2))
     Traceback (most recent call last):
-    ValueError: p has 3 values; expected 1 or 4
+    ValueError: p = 'an array of shape (2, 3)' is invalid; expected a scalar or an array of shape (2, 2)
     """
-    if size != 1 and size != count:
-        raise ValueError(f"{name} has {size} {what}; expected 1 or {count}")
+    shape = tuple(shape)
+    if arr.size != 1 and arr.shape != shape:
+        fail(name, f"an array of shape {arr.shape}", f"a scalar or an array of shape {shape}")
 
 
 def _integer_range(minimum, maximum) -> str:

@@ -211,8 +211,7 @@ def facet_counts(uv, J, p, density, slope=None, seed: int = 0, max_cells: float 
     the facets tested. Same seed, same counts, whatever the number of threads."""
     uv, J, _, shape = pixel_arrays(uv, J, None)
     pa = np.ascontiguousarray(V.as_float_array("p", p))
-    if pa.size != 1 and pa.shape != shape:
-        V.fail("p", f"an array of shape {pa.shape}", f"a scalar or an array of shape {shape}")
+    V.scalar_or_shape("p", pa, shape)
     sl = None
     if slope is not None:
         sl = np.ascontiguousarray(V.as_float_array("slope", slope))
