@@ -57,5 +57,6 @@ void bind_glinty_ndf(pybind11::module_& m);  // glinty_ndf.cpp: KPT25's glinty N
 void bind_shaders(pybind11::module_& m);  // shaders.cpp: shader laws, the Vulkan runner
 void bind_wwh18(pybind11::module_& m);  // wwh18.cpp: WWH18's filterable model and its flake truth
 void bind_method_shaders(pybind11::module_& m);  // method_shaders.cpp: per-pixel method shaders
+void bind_sampler_test(pybind11::module_& m);  // sampler_test.cpp: the direction-sampler harness
 
 }  // namespace glintlab::bindings

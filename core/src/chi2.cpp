@@ -206,33 +206,22 @@ Chi2Result chi2_test(const double* samples, std::size_t count, const Distributio
     }
   }
 
-  // Expected counts, normalized by the law's mass (a trimmed law holds 1 - 1e-14).
+  // Expected counts, normalized by the law's mass (a trimmed law holds 1 - 1e-14), merged by merge_starts.
   const double total = static_cast<double>(count), mass = law.total_mass();
-  std::size_t start = 0;
-  double acc_e = 0.0, acc_o = 0.0;
-  for (std::size_t i = 0; i < m; ++i) {
-    acc_e += total * ps[i] / mass;
-    acc_o += obs[i];
-    if (acc_e >= min_expected) {
-      r.lower.push_back(xs[start]);
-      r.upper.push_back(xs[i]);
-      r.expected.push_back(acc_e);
-      r.observed.push_back(acc_o);
-      start = i + 1;
-      acc_e = acc_o = 0.0;
+  std::vector<double> exp_cells(m);
+  for (std::size_t i = 0; i < m; ++i) exp_cells[i] = total * ps[i] / mass;
+  const auto starts = merge_starts(exp_cells.data(), m, min_expected);
+  for (std::size_t g = 0; g < starts.size(); ++g) {
+    const std::size_t end = g + 1 < starts.size() ? starts[g + 1] : m;
+    double acc_e = 0.0, acc_o = 0.0;
+    for (std::size_t i = starts[g]; i < end; ++i) {
+      acc_e += exp_cells[i];
+      acc_o += obs[i];
     }
-  }
-  if (start < m) {  // remainder below min_expected joins the last bin
-    if (r.expected.empty()) {
-      r.lower.push_back(xs[start]);
-      r.upper.push_back(xs.back());
-      r.expected.push_back(acc_e);
-      r.observed.push_back(acc_o);
-    } else {
-      r.upper.back() = xs.back();
-      r.expected.back() += acc_e;
-      r.observed.back() += acc_o;
-    }
+    r.lower.push_back(xs[starts[g]]);
+    r.upper.push_back(xs[end - 1]);
+    r.expected.push_back(acc_e);
+    r.observed.push_back(acc_o);
   }
 
   if (impossible > 0) {
@@ -272,6 +261,23 @@ Chi2Result chi2_test(const double* samples, std::size_t count, const Distributio
   const boost::math::chi_squared_distribution<double> chi2(r.dof);
   r.pvalue = boost::math::cdf(boost::math::complement(chi2, r.statistic));
   return r;
+}
+
+std::vector<std::size_t> merge_starts(const double* expected, std::size_t m, double min_expected) {
+  std::vector<std::size_t> starts;
+  std::size_t start = 0;
+  double acc = 0.0;
+  for (std::size_t i = 0; i < m; ++i) {
+    acc += expected[i];
+    if (acc >= min_expected) {
+      starts.push_back(start);
+      start = i + 1;
+      acc = 0.0;
+    }
+  }
+  // A remainder below min_expected joins the last bin (or is the only one).
+  if (start < m && starts.empty()) starts.push_back(start);
+  return starts;
 }
 
 double sidak_alpha(double alpha, int tests) {

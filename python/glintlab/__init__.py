@@ -37,6 +37,9 @@ from .validation.profile import SceneProfile, profile_scene
 from .validation.scene import Scene, load_scene
 from .validation.scene_images import render_image as render
 from .validation.sweep import error_table, sweep
+from .api.samplers import Sampler, sampler, samplers, wrong_sampler
+from .validation.sampler_test import SamplerTestResult, sampler_test
+from .validation.furnace import furnace
 
 
 def set_num_threads(threads: int) -> None:
@@ -62,5 +65,7 @@ __all__ = [
     "ShaderLaw", "shader_law", "shipped_shader", "vulkan_devices",
     "image_methods", "ShaderMethod", "shader_method", "render",
     "ShaderDeviceBusy", "ShaderOutputError",
+    "Sampler", "sampler", "samplers", "wrong_sampler", "SamplerTestResult", "sampler_test",
+    "furnace",
 ]
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)

@@ -47,7 +47,15 @@ def test_a_module_that_is_neither_study_nor_helper_is_an_error(tmp_path, monkeyp
         del sys.modules[name]
 
 
+# file -> why it still plots (each one is a debt: its drawing belongs in glintlab/studies)
+PLOTTING_ALLOWED = {
+    "validation/sampler_test.py": "the sampler harness's failure figure (plot_bins, written by "
+                                  "SamplerTestResult.write); arrived with the harness, not yet moved to studies",
+}
+
+
 def test_api_and_validation_do_not_plot():
-    bad = [str(p.relative_to(PACKAGE)) for layer in ("api", "validation") for p in (PACKAGE / layer).rglob("*.py")
-           if "matplotlib" in p.read_text(encoding="utf-8")]
-    assert not bad, bad
+    found = {p.relative_to(PACKAGE).as_posix() for layer in ("api", "validation") for p in (PACKAGE / layer).rglob("*.py")
+             if "matplotlib" in p.read_text(encoding="utf-8")}
+    assert found <= set(PLOTTING_ALLOWED), sorted(found - set(PLOTTING_ALLOWED))
+    assert set(PLOTTING_ALLOWED) <= found, "an allowance no longer needed: remove it"

@@ -36,6 +36,12 @@ struct Chi2Result {
 Chi2Result chi2_test(const double* samples, std::size_t count, const Distribution& law,
                      double min_expected = 5.0, int fitted_params = 0, double alpha = 0.0);
 
+// The merge rule of chi2_test on cells already in order: cells are merged greedily from the first
+// until each merged bin expects at least `min_expected`; a remainder below that joins the last bin.
+// Returns the index of the first cell of each merged bin (empty when m == 0). The direction-sampler
+// harness (sampler_test.hpp) merges its spatially ordered bins with the same rule.
+std::vector<std::size_t> merge_starts(const double* expected, std::size_t m, double min_expected);
+
 // Per-test significance that keeps the family-wise false-failure rate at `alpha` over `tests`
 // independent tests (Šidák): 1 - (1 - alpha)^(1/tests).
 double sidak_alpha(double alpha, int tests);

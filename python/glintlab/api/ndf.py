@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.special as sp
 
 from . import checks as V
 
@@ -46,6 +47,27 @@ class NDF:
             else:  # GGX: a^2 / (pi ((a^2 - 1) c^2 + 1)^2)
                 d = a2 / (math.pi * ((a2 - 1.0) * c2 + 1.0) ** 2)
         return np.where(c > 0, np.nan_to_num(d, nan=0.0, posinf=0.0), 0.0)
+
+    def smith_lambda(self, cos_theta):
+        """Smith's Lambda of a direction with (w . n) = cos_theta (docs/math/sampling.md#smith-masking):
+        GGX (sqrt(1 + alpha^2 tan^2) - 1) / 2; Beckmann (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi)),
+        a = 1 / (alpha tan). 0 at the normal; +inf at and below the horizon."""
+        c = np.clip(V.as_float_array("cos_theta", cos_theta), -1.0, 1.0)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            tan = np.sqrt(np.maximum(1.0 - c * c, 0.0)) / c
+            if self.name == "ggx":
+                lam = 0.5 * (np.sqrt(1.0 + (self.alpha * tan) ** 2) - 1.0)
+            else:
+                a = 1.0 / (self.alpha * tan)
+                # erfc and erfcx keep the difference accurate at large a (near the normal), where both
+                # terms tend to 0.
+                lam = 0.5 * (np.exp(-a * a) / (a * math.sqrt(math.pi)) - sp.erfc(a))
+                lam = np.where(np.isfinite(a), lam, 0.0)
+        return np.where(c > 0, np.where(tan == 0, 0.0, lam), np.inf)
+
+    def G1(self, cos_theta):
+        """Smith's masking 1 / (1 + Lambda) of a direction with (w . n) = cos_theta (0 below the horizon)."""
+        return 1.0 / (1.0 + self.smith_lambda(cos_theta))
 
     @property
     def D_normal(self) -> float:

@@ -1,0 +1,133 @@
+// The direction-sampler harness's core: Genz-Malik cubature on polynomials it must integrate exactly,
+// the area-preserving maps, the adaptive bins on a known density, and the chi-square with the lost bin.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "glintlab/sampler_test.hpp"
+
+using namespace glintlab::sampling;
+
+namespace {
+// Drives the pull interface with a C++ density (the Python driver does the same with a callable).
+template <class F>
+void fill(Bins& b, Domain d, F pdf) {
+  const int dim = domain_dim(d);
+  while (!b.done()) {
+    const auto& nodes = b.nodes();
+    std::vector<double> v(nodes.size() / dim);
+    for (std::size_t i = 0; i < v.size(); ++i) v[i] = pdf(&nodes[i * dim]);
+    b.supply(v.data(), v.size());
+  }
+}
+}  // namespace
+
+TEST_CASE("Genz-Malik is exact to degree 7 and its error estimate sees degree 6", "[sampler_test]") {
+  const Rect r{0.25, 0.5, 0.5, 0.25};
+  double st[2 * kGenzMalikNodes], f[kGenzMalikNodes];
+  genz_malik_nodes(r, st);
+  // integral of s^a t^b over [0.25, 0.75] x [0.5, 0.75]
+  auto exact = [](int a, int b) {
+    return (std::pow(0.75, a + 1) - std::pow(0.25, a + 1)) / (a + 1) * (std::pow(0.75, b + 1) - std::pow(0.5, b + 1)) / (b + 1);
+  };
+  for (int a = 0; a <= 7; ++a)
+    for (int b = 0; a + b <= 7; ++b) {
+      for (int k = 0; k < kGenzMalikNodes; ++k) f[k] = std::pow(st[2 * k], a) * std::pow(st[2 * k + 1], b) + 1.0;
+      double value = 0.0, error = 0.0;
+      genz_malik_integrate(r, f, value, error);
+      CHECK(value == Approx(exact(a, b) + 0.125).epsilon(1e-12));
+      if (a + b <= 5) CHECK(error == Approx(0.0).margin(1e-14));
+    }
+  for (int k = 0; k < kGenzMalikNodes; ++k) f[k] = std::pow(st[2 * k] - 0.5, 6);
+  double value = 0.0, error = 0.0;
+  genz_malik_integrate(r, f, value, error);
+  CHECK(error > 0.0);
+}
+
+TEST_CASE("the maps are area preserving and invert", "[sampler_test]") {
+  for (Domain d : {Domain::hemisphere, Domain::sphere, Domain::disk, Domain::square}) {
+    double p[3];
+    from_square(d, 0.3, 0.7, p);
+    double s = 0, t = 0;
+    std::uint8_t lost = 1;
+    to_square(d, p, 1, 1e-9, &s, &t, &lost);
+    CHECK(lost == 0);
+    CHECK(s == Approx(0.3));
+    CHECK(t == Approx(0.7));
+  }
+  const double below[3] = {0.0, 0.6, -0.8}, long_[3] = {0.0, 0.0, 1.01}, nan[3] = {NAN, 0.0, 1.0};
+  double s = 0, t = 0;
+  std::uint8_t lost = 0;
+  for (const double* p : {below, long_, nan}) {
+    to_square(Domain::hemisphere, p, 1, 1e-4, &s, &t, &lost);
+    CHECK(lost == 1);
+  }
+  CHECK(domain_measure(Domain::hemisphere) == Approx(2 * std::numbers::pi));
+}
+
+TEST_CASE("adaptive bins integrate a peaked density to 1 and split where its mass is", "[sampler_test]") {
+  // A normalised Beckmann lobe D(h)(h.n) of alpha = 0.1 on the hemisphere.
+  const double a2 = 0.01;
+  auto pdf = [&](const double* h) {
+    const double c = h[2];
+    if (c <= 0) return 0.0;
+    const double tan2 = (1 - c * c) / (c * c);
+    return std::exp(-tan2 / a2) / (std::numbers::pi * a2 * c * c * c * c) * c;
+  };
+  BinOptions o;
+  o.total = 1e6;
+  o.target = 1000;
+  Bins b(Domain::hemisphere, o, nullptr, nullptr, 0);
+  fill(b, Domain::hemisphere, pdf);
+  double sum = 0, err = 0;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    sum += b.integral()[i];
+    err += b.error()[i];
+    CHECK(o.total * b.error()[i] <= o.rel_tol * std::sqrt(std::max(o.total * b.integral()[i], 1.0)) * (1 + 1e-12));
+    CHECK(o.total * b.integral()[i] <= o.target);
+  }
+  CHECK(b.unconverged() == 0);
+  CHECK(sum == Approx(1.0).epsilon(1e-7));
+  CHECK(err * o.total < 0.1 * std::sqrt(o.total));  // far below the statistical resolution of the total
+  // Bins are small near the pole (s = cos theta -> 1) and large elsewhere.
+  int fine = 0;
+  for (std::size_t i = 0; i < b.size(); ++i)
+    if (b.rects()[i].s0 > 0.9 && b.depths()[i] >= 6) ++fine;
+  CHECK(fine > 100);
+  std::vector<double> s{0.999, 0.1, -1}, t{0.5, 0.5, -1};
+  std::vector<std::int64_t> bin(3);
+  b.locate(s.data(), t.data(), 3, bin.data());
+  CHECK(bin[2] == -1);
+  const Rect& r = b.rects()[static_cast<std::size_t>(bin[0])];
+  CHECK((r.s0 <= 0.999 && 0.999 < r.s0 + r.ws && r.t0 <= 0.5 && 0.5 < r.t0 + r.wt));
+}
+
+TEST_CASE("chi_square: merged bins, the lost bin and the no-power case", "[sampler_test]") {
+  // Four bins of mass 0.25 each, a perfect fit.
+  std::vector<double> integral(4, 0.25), error(4, 0.0), obs{250, 250, 250, 250};
+  auto r = chi_square(obs, integral, error, 0, 1000, 5);
+  CHECK(r.statistic == 0.0);
+  CHECK(r.dof == 3);
+  CHECK(r.pvalue == Approx(1.0));
+  // One sample lost where the pdf integrates to 1: an exact Poisson test at lambda ~ 0 rejects.
+  std::vector<double> obs2{250, 250, 250, 249};
+  r = chi_square(obs2, integral, error, 1, 1000, 5);
+  CHECK(r.pvalue_lost == 0.0);
+  CHECK(r.pvalue == 0.0);
+  // A pdf that integrates to 0.9: 100 expected lost samples; 100 lost pass, 0 lost and 200 lost reject.
+  std::vector<double> integral3(4, 0.225), obs3{225, 225, 225, 225};
+  r = chi_square(obs3, integral3, error, 100, 1000, 5);
+  CHECK(r.lost_expected == Approx(100));
+  CHECK(r.pvalue_lost > 0.5);
+  CHECK(chi_square(obs3, integral3, error, 0, 1000, 5).pvalue_lost < 1e-40);
+  CHECK(chi_square(obs3, integral3, error, 200, 1000, 5).pvalue_lost < 1e-15);
+  // A cubature error of 0.01 makes 110 lost samples unremarkable.
+  std::vector<double> error3(4, 0.0025);
+  CHECK(chi_square(obs3, integral3, error3, 110, 1000, 5).pvalue_lost == Approx(1.0));
+  // Too few samples: everything merges into one bin, NaN and a note.
+  std::vector<double> obs4{1, 0, 1, 0};
+  r = chi_square(obs4, integral, error, 0, 2, 5);
+  CHECK(std::isnan(r.pvalue));
+  CHECK(r.note.find("no power") != std::string::npos);
+}
