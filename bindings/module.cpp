@@ -1,5 +1,6 @@
-// Thin pybind11 layer over glintlab::core. Broadcasting, defaults and docstrings live in the Python
-// package (glintlab/__init__.py); this file only converts arrays, releases the GIL around long calls
+// Thin pybind11 layer over glintlab::core. Broadcasting, argument checks, defaults and docstrings live
+// in the Python package (glintlab/api/: checks.py broadcasts n and p, laws.py and the other api modules
+// wrap these functions); this file only converts arrays, releases the GIL around long calls
 // and maps C++ exceptions (std::invalid_argument -> ValueError, not_implemented -> NotImplementedError).
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>

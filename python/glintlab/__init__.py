@@ -10,6 +10,7 @@
 # The public names, re-exported from the layers (api <- validation <- studies <- report <- cli); no
 # module of the package imports this file, so the order of these imports does not matter.
 from . import _core
+from .api import checks as _checks
 from ._core import Chi2Result, Distribution, __version__
 from .api.blends import BlendedLaw, blend_summaries, blended_law, blends, roulette_keep_moments, zk16_variance_ratio
 from .api.exact import binomial, poisson
@@ -31,7 +32,7 @@ from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_
 from .report.html import write_extremes_report
 from .validation.advisor import Advice, advise
 from .validation.bounds import check, perturbed_law
-from .validation.experiment import run_experiment
+from .studies.experiment_plots import run_experiment
 from .validation.extremes import extremes_summary, extremes_table, invalid_inputs_table
 from .validation.grid import standard_grid
 from .validation.profile import SceneProfile, profile_scene
@@ -45,8 +46,7 @@ from .validation.furnace import furnace
 
 def set_num_threads(threads: int) -> None:
     """Threads used by sampling and evaluation (default: all cores, or $GLINTLAB_NUM_THREADS)."""
-    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-        raise ValueError(f"threads = {threads!r} is invalid; expected an integer >= 1")
+    threads = _checks.integer("threads", threads, minimum=1)
     _core.set_num_threads(threads)
 
 

@@ -104,9 +104,11 @@ def test_mean_z_is_finite_when_every_draw_is_equal():
 # --------------------------------------------------------------------------------------------------
 # Each check can fail (a law built to break it) and can pass (the binomial on the same inputs).
 
+# The corner uniforms 0 and 1 reach a float32 law as 2^-24 and 1 - 2^-24 (the float32 uniform rule,
+# docs/math/laws.md#float32-uniforms), a custom law as every other: the broken laws break at either.
 BROKEN = {
-    "nonfinite": lambda n, p, u: np.where(u[:, 0] == 0, np.nan, 0.0),         # NaN at u = 0
-    "below_zero": lambda n, p, u: np.where(u[:, 0] == 1, -1.0, 0.0),          # K = -1 at u = 1
+    "nonfinite": lambda n, p, u: np.where(u[:, 0] <= 2.0**-24, np.nan, 0.0),         # NaN at the u = 0 corner
+    "below_zero": lambda n, p, u: np.where(u[:, 0] >= 1 - 2.0**-24, -1.0, 0.0),      # K = -1 at the u = 1 corner
     "above_n": lambda n, p, u: np.where(p == 1, np.ceil(n) + 1, 0.0),        # n + 1 at p = 1
 }
 

@@ -85,8 +85,7 @@ class BlendedLaw:
         NotImplementedError when the inner law has no exact law or gives non-integer counts, and for
         the mollified roulette (its K has a continuous part).
         """
-        if isinstance(max_support, bool) or not isinstance(max_support, (int, np.integer)) or max_support < 1:
-            V.fail("max_support", max_support, "an integer >= 1")
+        V.integer("max_support", max_support, minimum=1)
         return self._core.pmf(_density(N), _number("P", P), _number("p", p), int(max_support))
 
     def sample(self, N, P, p, size=None, seed=None, out=None) -> np.ndarray:

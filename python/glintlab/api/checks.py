@@ -19,25 +19,82 @@ def json_pointer(path) -> str:
     return "/" + "/".join(str(p).replace("~", "~0").replace("/", "~1") for p in path) if path else "/"
 
 
-def real(name, value):
+def real(name, value, expected: str = "a real number"):
     """`value` as a Python float (bools, strings and other objects rejected by name)."""
     if isinstance(value, (bool, str, bytes)):  # float("5") would pass a string through
-        fail(name, value, "a real number")
+        fail(name, value, expected)
     try:
         return float(value)
     except (TypeError, ValueError):
-        fail(name, value, "a real number")
+        fail(name, value, expected)
 
 
-def integer(name, value, minimum: int | None = None, maximum: int | None = None) -> int:
+def positive(name, value, expected: str = "a finite number > 0") -> float:
+    """`value` as a Python float in (0, inf) (a timeout, a scale); bools and strings refused by name.
+
+    >>> positive("timeout", 2)
+    2.0
+    >>> positive("timeout", float("inf"), "a number of seconds > 0")
+    Traceback (most recent call last):
+    ValueError: timeout = inf is invalid; expected a number of seconds > 0
+    """
+    x = real(name, value, expected)
+    if not 0 < x < float("inf"):
+        fail(name, value, expected)
+    return x
+
+
+def integer(name, value, minimum: int | None = None, maximum: int | None = None, expected: str | None = None) -> int:
     """`value` as a Python int: Python and numpy integers are accepted (np.int64 from an array is as good
-    as 5), bools, floats and strings refused by name, as are values outside [minimum, maximum]."""
+    as 5), bools, floats and strings refused by name, as are values outside [minimum, maximum].
+    ``expected`` replaces the generated "an integer >= 1" where the message says more.
+
+    >>> integer("samples", np.int64(5), minimum=1)
+    5
+    >>> integer("threads", True, minimum=1)
+    Traceback (most recent call last):
+    ValueError: threads = True is invalid; expected an integer >= 1
+    """
+    expected = expected or _integer_range(minimum, maximum)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        fail(name, value, _integer_range(minimum, maximum))
+        fail(name, value, expected)
     value = int(value)
     if (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
-        fail(name, value, _integer_range(minimum, maximum))
+        fail(name, value, expected)
     return value
+
+
+def choice(name, value, options, expected: str | None = None):
+    """`value` if it is one of ``options``, else ValueError naming it and listing them (an array or
+    other odd value is refused by name, never a TypeError).
+
+    >>> choice("engine", "dask", ("threads", "dask"))
+    'dask'
+    >>> choice("engine", "mpi", ("threads", "dask"))
+    Traceback (most recent call last):
+    ValueError: engine = 'mpi' is invalid; expected one of 'threads', 'dask'
+    """
+    options = tuple(options)
+    try:  # True == 1: a bool never passes as a numeric option
+        ok = not isinstance(value, (bool, np.bool_)) and value in options
+    except (TypeError, ValueError):  # an array compared with the options
+        ok = False
+    if not ok:
+        fail(name, value, expected or "one of " + ", ".join(repr(o) for o in options))
+    return value
+
+
+def scalar_or_shape(name, arr, shape) -> None:
+    """The broadcasting rule of per-pixel inputs (the Python twin of the core's "has N values; expected
+    1 or M"): ``arr`` holds one value or one per element of ``shape``.
+
+    >>> scalar_or_shape("p", np.zeros((2, 3)), (2, 2))
+    Traceback (most recent call last):
+    ValueError: p = 'an array of shape (2, 3)' is invalid; expected a scalar or an array of shape (2, 2)
+    """
+    shape = tuple(shape)
+    if arr.size != 1 and arr.shape != shape:
+        fail(name, f"an array of shape {arr.shape}", f"a scalar or an array of shape {shape}")
 
 
 def _integer_range(minimum, maximum) -> str:

@@ -128,8 +128,7 @@ class GlintyNDF:
     returns = "ndf"
 
     def __init__(self, target: str, alpha: float, density: float | None):
-        if not isinstance(target, str) or target not in NDFS:
-            V.fail("target", target, f"one of {', '.join(NDFS)}")
+        V.choice("target", target, NDFS, f"one of {', '.join(NDFS)}")
         self.target = target
         self.smooth_ndf = smooth_ndf(target, alpha)
         self.alpha = self.smooth_ndf.alpha
@@ -213,8 +212,7 @@ def facet_counts(uv, J, p, density, slope=None, seed: int = 0, max_cells: float 
     the facets tested. Same seed, same counts, whatever the number of threads."""
     uv, J, _, shape = pixel_arrays(uv, J, None)
     pa = np.ascontiguousarray(V.as_float_array("p", p))
-    if pa.size != 1 and pa.shape != shape:
-        V.fail("p", f"an array of shape {pa.shape}", f"a scalar or an array of shape {shape}")
+    V.scalar_or_shape("p", pa, shape)
     sl = None
     if slope is not None:
         sl = np.ascontiguousarray(V.as_float_array("slope", slope))
@@ -361,8 +359,7 @@ class KPT25(GlintyNDF):
         self.alpha_y = alpha_y or self.alpha
         if ggx_map not in ("orthographic", "lambert") or (ggx_map == "lambert" and target != "ggx"):
             V.fail("ggx_map", ggx_map, "'orthographic', or 'lambert' with target 'ggx'")
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or int(k) not in (1, 4, 9, 16):
-            V.fail("k", k, "1, 4, 9 or 16")
+        V.choice("k", V.integer("k", k, expected="1, 4, 9 or 16"), (1, 4, 9, 16), "1, 4, 9 or 16")
         for pname, value in (("compensation", compensation), ("blend", blend), ("sample_weight", sample_weight)):
             if not isinstance(value, str):
                 V.fail(pname, value, "a string")
@@ -639,8 +636,7 @@ class DB23(GlintyNDF):
         if not (math.isfinite(ares) and ares > 0):
             V.fail("angular_resolution", angular_resolution, "a finite number > 0")
         self.R, self.angular_resolution = R, ares
-        if not isinstance(scheme, str) or scheme not in IMAGE_CONFIGS:
-            V.fail("scheme", scheme, f"a grid scheme configuration, one of {', '.join(IMAGE_CONFIGS)}")
+        V.choice("scheme", scheme, IMAGE_CONFIGS, f"a grid scheme configuration, one of {', '.join(IMAGE_CONFIGS)}")
         # A configuration is a scheme and its options (grids.IMAGE_CONFIGS: e.g. "db23_shader_48" is
         # the tetrahedral scheme with DB23's 48-evaluation interpolation). The finest cell holds one
         # facet on average (base_area 1 / N), as in DB23's renderer, unless given.
@@ -749,8 +745,7 @@ def register_image_method(name: str, factory: Callable, label: str | None = None
     "facets" for an NDF method, "supersampled" for an intensity method."""
     if not callable(factory):
         V.fail("factory", factory, "a callable material -> evaluator")
-    if returns not in ("ndf", "intensity"):
-        V.fail("returns", returns, "'ndf' or 'intensity'")
+    V.choice("returns", returns, ("ndf", "intensity"), "'ndf' or 'intensity'")
     if truth is None or truth is False:
         truth = "facets" if returns == "ndf" else "supersampled"
     elif truth is True:
@@ -765,8 +760,7 @@ def image_methods(returns: str | None = None) -> list[str]:
     ``returns`` ("ndf" or "intensity") only those of that kind."""
     if returns is None:
         return IMAGE_METHODS.names()
-    if returns not in ("ndf", "intensity"):
-        V.fail("returns", returns, "None, 'ndf' or 'intensity'")
+    V.choice("returns", returns, ("ndf", "intensity"), "None, 'ndf' or 'intensity'")
     return [n for n in IMAGE_METHODS.names() if IMAGE_METHODS.get(n).returns == returns]
 
 

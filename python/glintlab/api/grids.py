@@ -176,8 +176,7 @@ class AnisoCounter:
             V.fail("J", f"an array of shape {J.shape}", f"an array of shape {uv.shape[:-1] + (4,)}")
         shape = uv.shape[:-1]
         pa = np.ascontiguousarray(np.asarray(p, dtype=np.float64))
-        if pa.size != 1 and pa.shape != shape:
-            V.fail("p", f"an array of shape {pa.shape}", f"a scalar or an array of shape {shape}")
+        V.scalar_or_shape("p", pa, shape)
         sl = None
         if slope is not None:
             sl = np.ascontiguousarray(np.asarray(slope, dtype=np.float64))

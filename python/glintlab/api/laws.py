@@ -110,8 +110,7 @@ class Law:
         support would exceed ``max_support`` points (use the cdf/sf functions then).
         """
         n, p = _scalar("n", n), _scalar("p", p)
-        if isinstance(max_support, bool) or not isinstance(max_support, (int, np.integer)) or max_support < 1:
-            v.fail("max_support", max_support, "an integer >= 1")
+        v.integer("max_support", max_support, minimum=1)
         return self._core.pmf(n, p, int(max_support))
 
     def cdf(self, k, n, p) -> np.ndarray:
@@ -216,8 +215,7 @@ class Law:
         Each probability has Monte Carlo standard error sqrt(q (1 - q) / samples).
         """
         n, p = _scalar("n", n), _scalar("p", p)
-        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-            v.fail("samples", samples, "an integer >= 1")
+        v.integer("samples", samples, minimum=1)
         return Distribution.empirical(self.sample(n, p, size=int(samples), seed=seed, precision=precision))
 
 
@@ -256,12 +254,31 @@ class CustomLaw(Law):
             f"custom law {self._name!r} has no exact distribution; use "
             f"law.estimate_pmf(n, p, samples=..., seed=...) for a Monte Carlo estimate")
 
-    def _call(self, nf, pf, u, precision="float64"):
+    @staticmethod
+    def _rows(nf, pf, u, precision):
+        """The function's inputs for m rows: n and p broadcast to (m,); in float32, float32 n and p and
+        the uniforms by the float32 rule (uniforms_float32), as a shader would see them."""
         m = u.shape[0]
         n_rows = np.broadcast_to(nf, (m,)) if nf.size == 1 else nf
         p_rows = np.broadcast_to(pf, (m,)) if pf.size == 1 else pf
-        if precision == "float32":  # the function sees float32 inputs, as a shader would (uniforms_float32)
+        if precision == "float32":
             n_rows, p_rows, u = n_rows.astype(np.float32), p_rows.astype(np.float32), uniforms_float32(u)
+        return n_rows, p_rows, u
+
+    def raw(self, n, p, u, precision: str = "float64") -> np.ndarray:
+        """The function's output for rows (n, p, u) (u of shape (m, n_uniforms)), given its inputs exactly as ``evaluate`` gives them
+        (the float32 uniform rule included) but unchecked: a NaN or negative count is returned as is,
+        for the extremes suite to report (``evaluate`` refuses it). Flattened; its length is the
+        caller's to check."""
+        precision = _precision(precision)
+        u = np.asarray(u, dtype=np.float64)  # (m, n_uniforms)
+        nf = np.asarray(n, dtype=np.float64).reshape(-1)
+        pf = np.asarray(p, dtype=np.float64).reshape(-1)
+        return np.asarray(self._fn(*self._rows(nf, pf, u, precision)), dtype=np.float64).reshape(-1)
+
+    def _call(self, nf, pf, u, precision="float64"):
+        m = u.shape[0]
+        n_rows, p_rows, u = self._rows(nf, pf, u, precision)
         try:
             out = np.asarray(self._fn(n_rows, p_rows, u), dtype=np.float64)
         except Exception as exc:
@@ -281,7 +298,7 @@ class CustomLaw(Law):
             if bad.any():
                 i = int(np.argmax(bad))
                 label = name if arr.size == 1 else f"{name}[{i}]"
-                raise ValueError(f"{self._name}: {label} = {arr[i]!r} is invalid; expected {expected}")
+                v.fail(f"{self._name}: {label}", arr[i], expected)
 
     def evaluate(self, n, p, u, precision: str = "float64"):
         precision = _precision(precision)
@@ -341,8 +358,7 @@ def law_variants(use: str, reference=None) -> list[tuple[str, dict]]:
     trade study), "bench" (``make bench``) or "test" (the generic law tests); ``reference`` True or
     False keeps only the exact models or only the approximations. Derived from the registry: a new law
     appears here by declaring its variants in its own file."""
-    if use not in ("study", "bench", "test"):
-        v.fail("use", use, "'study', 'bench' or 'test'")
+    v.choice("use", use, ("study", "bench", "test"), "'study', 'bench' or 'test'")
     out = []
     for name in laws():
         traits = law_traits(name)
@@ -449,14 +465,12 @@ def custom_law(fn, n_uniforms: int = 2, name: str = "custom", binning: str = "no
     """
     if not callable(fn):
         v.fail("fn", fn, "a callable fn(n, p, u)")
-    if isinstance(n_uniforms, bool) or not isinstance(n_uniforms, (int, np.integer)) or n_uniforms < 0:
-        v.fail("n_uniforms", n_uniforms, "an integer >= 0")
+    v.integer("n_uniforms", n_uniforms, minimum=0)
     if not isinstance(name, str) or not name:
         v.fail("name", name, "a non-empty string")
     if name in {n for n, _ in _core.law_infos()}:
         v.fail("name", name, "a name that no built-in law uses")
-    if binning not in BINNINGS:
-        v.fail("binning", binning, "'none' (integer counts) or 'round' (real outputs, unit bins)")
+    v.choice("binning", binning, BINNINGS, "'none' (integer counts) or 'round' (real outputs, unit bins)")
     law_ = CustomLaw(fn, int(n_uniforms), name, binning)
     CUSTOM_LAWS.register(name, law_, replace=True)
     return law_
@@ -467,10 +481,8 @@ def uniforms(size: int, n_uniforms: int, seed=0, start: int = 0) -> np.ndarray:
     shape = v.size(size)
     if shape is None or len(shape) != 1:
         v.fail("size", size, "an integer >= 0")
-    if isinstance(n_uniforms, bool) or not isinstance(n_uniforms, (int, np.integer)) or n_uniforms < 0:
-        v.fail("n_uniforms", n_uniforms, "an integer >= 0")
-    if isinstance(start, bool) or not isinstance(start, (int, np.integer)) or start < 0:
-        v.fail("start", start, "an integer >= 0")
+    v.integer("n_uniforms", n_uniforms, minimum=0)
+    v.integer("start", start, minimum=0)
     return _core.uniforms(int(start), shape[0], int(n_uniforms), v.seed(seed), 0)
 
 
@@ -485,8 +497,7 @@ def uniforms_float32(u) -> np.ndarray:
 
 
 def _precision(value):
-    if value not in PRECISIONS:
-        v.fail("precision", value, "'float64' or 'float32'")
+    v.choice("precision", value, PRECISIONS, "'float64' or 'float32'")
     return value
 
 
@@ -506,5 +517,5 @@ def _uniform_rows(u, k):
     bad = ~((u >= 0) & (u <= 1))
     if bad.any():
         i, j = np.argwhere(bad)[0]
-        raise ValueError(f"u[{i}, {j}] = {u[i, j]!r} is invalid; expected a uniform number in [0, 1]")
+        v.fail(f"u[{i}, {j}]", u[i, j], "a uniform number in [0, 1]")
     return np.ascontiguousarray(u)

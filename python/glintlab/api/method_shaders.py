@@ -181,8 +181,7 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
             V.fail("defines", key, "macro names that are identifiers")
     if isinstance(include_dirs, (str, Path)):
         include_dirs = [include_dirs]
-    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not (0 < timeout < float("inf")):
-        V.fail("timeout", timeout, "a number of seconds > 0")
+    V.positive("timeout", timeout, "a number of seconds > 0")
     if not isinstance(device, str):
         V.fail("device", device, "'auto', 'gpu', 'cpu', a device index or part of a device name")
     spec = {"code": code, "source_name": source_name, "entry": entry, "language": language, "name": name,
@@ -221,8 +220,7 @@ def wb16_method(**params) -> ShaderMethod:
         if macro not in WB16_DEFAULTS:
             V.fail(key, value, f"a WB16 parameter among {', '.join(k[5:].lower() for k in WB16_DEFAULTS)}")
         if macro in _WB16_SWITCHES:
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value not in (0, 1):
-                V.fail(key, value, "0 or 1")
+            V.integer(key, value, 0, 1, expected="0 or 1")
             defines[macro] = int(value)
         else:
             defines[macro] = V.real(key, value)

@@ -51,8 +51,7 @@ def chi2_test(samples, dist: Distribution, min_expected: float = 5.0, fitted_par
     arr = v.as_float_array("samples", samples).ravel()
     if arr.size == 0:
         v.fail("samples", samples, "a non-empty array")
-    if isinstance(fitted_params, bool) or not isinstance(fitted_params, (int, np.integer)):
-        v.fail("fitted_params", fitted_params, "an integer >= 0")
+    v.integer("fitted_params", fitted_params, expected="an integer >= 0")
     # A number, not anything float() accepts ("5" is a mistake worth naming).
     min_expected = v.real("min_expected", min_expected)
     if alpha is None:
@@ -117,6 +116,5 @@ def chi2_test_two_sample(a, b, min_expected: float = 5.0) -> Chi2Result:
 
 def sidak_alpha(alpha: float, tests: int) -> float:
     """Per-test significance keeping the family-wise false-failure rate at alpha over `tests` tests."""
-    if isinstance(tests, bool) or not isinstance(tests, (int, np.integer)):  # 2.7 tests is not 2 tests
-        v.fail("tests", tests, "an integer >= 1")
+    v.integer("tests", tests, expected="an integer >= 1")  # 2.7 tests is not 2 tests
     return _core.sidak_alpha(v.real("alpha", alpha), int(tests))

@@ -27,8 +27,7 @@ class NDF:
     """``D(cos_theta_h)`` of an isotropic NDF of roughness ``alpha`` (Walter et al. 2007 conventions)."""
 
     def __init__(self, name: str, alpha: float):
-        if name not in NDFS:
-            V.fail("ndf", name, f"one of {', '.join(NDFS)}")
+        V.choice("ndf", name, NDFS, f"one of {', '.join(NDFS)}")
         alpha = V.real("alpha", alpha)
         if not (math.isfinite(alpha) and alpha > 0):
             V.fail("alpha", alpha, "a finite number > 0")

@@ -10,6 +10,7 @@ import os
 
 from .. import _core
 from .registry import Registry
+from . import checks as V
 
 # Laws written in Python (``custom_law``), by name: plugins must not take their names.
 CUSTOM_LAWS: Registry = Registry("custom law")
@@ -28,7 +29,7 @@ def load_plugin(path) -> list[str]:
     try:
         path = os.fspath(path)
     except TypeError:
-        raise ValueError(f"path = {path!r} is invalid; expected the path of a plugin library (str)") from None
+        V.fail("path", path, "the path of a plugin library (str)")
     if isinstance(path, bytes):
         path = os.fsdecode(path)
     return list(_core.load_plugin(path, sorted(CUSTOM_LAWS)))

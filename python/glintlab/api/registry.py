@@ -1,6 +1,8 @@
 """A registry of named things (report sections, custom laws): one name, one object, in registration order."""
 from __future__ import annotations
 
+from . import checks as V
+
 
 class Registry:
     """Objects by name. ``kind`` names what is registered in error messages ("report section", "law").
@@ -21,7 +23,7 @@ class Registry:
         """Adds ``obj`` under ``name`` and returns it. A name registered before is refused (ValueError)
         unless ``replace`` (then ``obj`` takes the name's place, keeping its position)."""
         if not isinstance(name, str) or not name:
-            raise ValueError(f"{self.kind} name = {name!r} is invalid; expected a non-empty string")
+            V.fail(f"{self.kind} name", name, "a non-empty string")
         if name in self._items and not replace:
             raise ValueError(f"{self.kind} {name!r} is already registered")
         self._items[name] = obj

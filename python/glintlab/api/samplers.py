@@ -234,8 +234,7 @@ class VMFMixture(Sampler):
     def __init__(self, lobes: int = 200, width_deg: float = 0.3, theta_deg=(5.0, 80.0), layout: str = "random",
                  layout_seed: int = 7, shift_deg: float = 0.0):
         super().__init__()
-        if isinstance(lobes, bool) or not isinstance(lobes, (int, np.integer)) or not 1 <= lobes <= 10**5:
-            V.fail("lobes", lobes, "an integer in [1, 100000]")
+        V.integer("lobes", lobes, 1, 10**5)
         width = V.real("width_deg", width_deg)
         if not (0.01 <= width <= 30.0):
             V.fail("width_deg", width_deg, "a number in [0.01, 30] (degrees)")

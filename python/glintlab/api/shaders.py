@@ -70,8 +70,7 @@ def shipped_shader(name: str, language: str = "hlsl") -> Path:
     The file is a thin wrapper including the law's one body (``<name>_body.h``, shared by both
     languages); ``emit_shader`` gives it with its includes inlined."""
     name = _shipped_name(name)
-    if language not in LANGUAGES:
-        v.fail("language", language, "'hlsl' or 'glsl'")
+    v.choice("language", language, LANGUAGES, "'hlsl' or 'glsl'")
     return Path(data_path("shaders", f"{name}.{language}"))
 
 
@@ -340,8 +339,7 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
     code, source_name, language = _read_source(source, language)
     if not isinstance(entry, str) or not entry.isidentifier():
         v.fail("entry", entry, "a function name")
-    if isinstance(n_uniforms, bool) or not isinstance(n_uniforms, (int, np.integer)) or not 0 <= n_uniforms <= 4:
-        v.fail("n_uniforms", n_uniforms, "an integer from 0 to 4")
+    v.integer("n_uniforms", n_uniforms, 0, 4, expected="an integer from 0 to 4")
     if name is None:
         name = Path(source_name).name if source_name != "<string>" else "shader"
     if not isinstance(name, str) or not name:
@@ -357,10 +355,8 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
     if isinstance(include_dirs, (str, os.PathLike)):
         include_dirs = [include_dirs]
     include_dirs = [_utf8("include_dirs", os.fspath(d)) for d in include_dirs]
-    if binning not in BINNINGS:
-        v.fail("binning", binning, "'round' (real outputs, unit bins) or 'none' (integer counts)")
-    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not (0 < timeout < float("inf")):
-        v.fail("timeout", timeout, "a number of seconds > 0")
+    v.choice("binning", binning, BINNINGS, "'round' (real outputs, unit bins) or 'none' (integer counts)")
+    v.positive("timeout", timeout, "a number of seconds > 0")
     device = _device_request(device)
     spec = {"code": code, "source_name": source_name, "entry": entry, "language": language,
             "n_uniforms": int(n_uniforms), "name": name, "defines": define_list,

@@ -118,8 +118,7 @@ def _center(name, value):
 
 
 def _layout(value):
-    if value not in LAYOUTS:
-        V.fail("layout", value, "one of " + ", ".join(LAYOUTS))
+    V.choice("layout", value, LAYOUTS, "one of " + ", ".join(LAYOUTS))
     return value
 
 

@@ -70,12 +70,6 @@ def _directions(name, x):
     return x
 
 
-def _choice(name, value, options):
-    if not isinstance(value, str) or value not in options:
-        V.fail(name, value, "one of " + ", ".join(repr(o) for o in options))
-    return value
-
-
 class WWH18(GlintyNDF):
     """WWH18's filterable model and JHY14's discrete-flake truth on the same flakes (module docstring,
     docs/math/wwh18.md)."""
@@ -87,15 +81,14 @@ class WWH18(GlintyNDF):
                  rng: str = "tea", tea_rounds: int = 4, error_eps: float = 0.0, flakes_per_cell: float = 4.0,
                  dpf: str = "table", table_res: float = 1.0, lod="table2", storage: str = "float32"):
         super().__init__(target, alpha, density)
-        _choice("lambda_seeding", lambda_seeding, ("node", "flake"))
-        _choice("threshold_test", threshold_test, ("printed", "flipped"))
-        _choice("rng", rng, ("tea", "philox"))
-        _choice("dpf", dpf, ("table", "exact"))
-        _choice("storage", storage, ("float32", "float64"))
-        if isinstance(tea_rounds, bool) or not isinstance(tea_rounds, (int, np.integer)):
-            V.fail("tea_rounds", tea_rounds, "an integer in [1, 64]")
+        V.choice("lambda_seeding", lambda_seeding, ("node", "flake"))
+        V.choice("threshold_test", threshold_test, ("printed", "flipped"))
+        V.choice("rng", rng, ("tea", "philox"))
+        V.choice("dpf", dpf, ("table", "exact"))
+        V.choice("storage", storage, ("float32", "float64"))
+        V.integer("tea_rounds", tea_rounds, expected="an integer in [1, 64]")
         if isinstance(lod, str):
-            _choice("lod", lod, ("table2", "none"))
+            V.choice("lod", lod, ("table2", "none"))
             lod_deg = table2_lod(self.alpha) if lod == "table2" else 0.0
         else:
             lod_deg = V.real("lod", lod)

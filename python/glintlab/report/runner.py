@@ -12,13 +12,14 @@ import platform
 import sys
 import time
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import pandas as pd
 
 from .._core import __version__
 from ..api import checks as V
-from ..studies.base import Context
+from ..studies.base import Context, Tables
 from .config import load_config, section_params
 from .html import fmt, write_report_page, write_section_pages
 from .sections import SECTIONS
@@ -69,6 +70,21 @@ def _jsonable(stats: dict) -> dict:
     return {k: (float(v) if isinstance(v, (np.floating, np.integer)) else v) for k, v in stats.items()}
 
 
+def write_section_files(tables: Tables, figures: Callable, ctx: Context) -> list:
+    """The one writing path of a section's files, shared by the report and the commands that write one
+    section's outputs (``glintlab aniso``, ``images``, ``profile``, ``bench``, ``shader``): the figures
+    ``figures(tables, ctx)`` draws into ``ctx.out`` and every table of ``tables.tables`` and
+    ``tables.extra`` as ``NAME.csv`` there. Returns the figure paths."""
+    import matplotlib
+    matplotlib.use("Agg")
+    out = Path(ctx.out)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = figures(tables, ctx)
+    for name, df in {**tables.tables, **tables.extra}.items():
+        df.to_csv(out / f"{name}.csv", index=False)
+    return paths
+
+
 def run_section(entry: dict, out: Path, seed: int, quick: bool, base: Path, config: str | None,
                 progress: Progress) -> dict:
     """Runs one configured section into ``out``: its CSV tables, figures and record; returns the record."""
@@ -78,11 +94,9 @@ def run_section(entry: dict, out: Path, seed: int, quick: bool, base: Path, conf
     ctx = Context(out, seed, quick, lambda label: progress.label(f"{sec.short}: {label}"), base)
     t0 = time.perf_counter()
     tables = sec.compute(prm, ctx)
-    figures = sec.figures(tables, ctx)
+    figures = write_section_files(tables, sec.figures, ctx)
     write_section_pages(sec.name, tables, out)
     seconds = time.perf_counter() - t0
-    for name, df in {**tables.tables, **tables.extra}.items():
-        df.to_csv(out / f"{name}.csv", index=False)
     record = {"name": sec.name, "title": sec.title, "meaning": sec.meaning, "params": prm, "seed": seed,
               "quick": quick, "seconds": round(seconds, 2), "notebook": sec.notebook,
               "command": command(out, sec.name, quick, seed, config),
@@ -106,7 +120,7 @@ def run(out: Path, quick: bool = False, seed: int | None = None, quiet: bool = F
         names = [e["name"] for e in entries]
         for name in only:
             if name not in names:
-                raise ValueError(f"only = {name!r} is invalid; expected a section of {source}: {', '.join(names)}")
+                V.fail("only", name, f"a section of {source}: {', '.join(names)}")
         entries = [e for e in entries if e["name"] in only]
     out = Path(out)
     (out / "sections").mkdir(parents=True, exist_ok=True)

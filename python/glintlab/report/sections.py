@@ -1,5 +1,6 @@
-"""The report's sections: every study of :mod:`glintlab.studies`, found by looking (a study is a module
-there that defines ``NAME``, ``compute`` and ``figures``), registered by name in :data:`SECTIONS`.
+"""The report's sections: every study of :mod:`glintlab.studies`, found by looking (each module there but
+the helpers the package names in ``HELPERS``; it defines ``NAME``, ``compute`` and ``figures``),
+registered by name in :data:`SECTIONS`.
 
 A study module describes itself (``NAME``, ``TITLE``, ``MEANING``, ``DEFAULTS``, ``QUICK``, ``NOTEBOOK``,
 ``TABLE``; see :mod:`glintlab.studies.base`); :class:`Section` is that description plus its two
@@ -50,14 +51,20 @@ class Section:
 
 
 def discover(package: ModuleType = studies) -> Registry:
-    """Sections of every study module of ``package`` (alphabetical; the configuration sets page order)."""
+    """Sections of every study module of ``package`` (alphabetical; the configuration sets page order):
+    each module but the package's ``HELPERS`` and names starting with "_". A module that is neither a
+    helper nor a complete study is an error (a study missing ``figures`` is not silently left out)."""
     found = Registry("report section")
+    helpers = set(getattr(package, "HELPERS", ()))
     for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
-        if info.name.startswith("_"):
+        if info.name.startswith("_") or info.name in helpers:
             continue
         module = importlib.import_module(f"{package.__name__}.{info.name}")
-        if all(hasattr(module, attr) for attr in REQUIRED):
-            found.register(module.NAME, Section.from_module(module))
+        missing = [attr for attr in REQUIRED if not hasattr(module, attr)]
+        if missing:
+            raise ValueError(f"{module.__name__} is neither a study (it lacks {', '.join(missing)}) nor one of "
+                             f"{package.__name__}.HELPERS")
+        found.register(module.NAME, Section.from_module(module))
     return found
 
 

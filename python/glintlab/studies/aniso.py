@@ -23,7 +23,6 @@ from __future__ import annotations
 import math
 import time
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -276,8 +275,7 @@ STATS_CONFIGS = ("db23_trilinear", "db23_tetrahedral", "zk16_aniso")
 
 
 def compute(params: dict, ctx: Context) -> Tables:
-    if params["grid"] not in GRIDS:
-        raise ValueError(f"grid = {params['grid']!r} is invalid; expected one of {', '.join(GRIDS)}")
+    V.choice("grid", params["grid"], GRIDS, f"one of {', '.join(GRIDS)}")
     res = study_tables(GRIDS[params["grid"]], params["samples"], ctx.seed, params["image"],
                        image_width=V.integer("image_width", params["image_width"], minimum=16))
     by = res["aniso_summary"].groupby("config")
@@ -314,19 +312,12 @@ def figures(tables: Tables, ctx: Context) -> list:
     return paths
 
 
-def write_report(out, full: bool = False, samples: int | None = None, seed: int = 1, progress=None,
-                 image: bool = True, grid: dict | None = None):
-    """``glintlab aniso``: runs the study, the weight maps and (``image``) the 1920 x 1080 image timing;
-    writes CSVs and PNGs into ``out``. Returns (figure paths, {name: table})."""
-    if samples is not None and (isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1):
-        V.fail("samples", samples, "an integer >= 1 (draws per footprint)")
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+def command_tables(full: bool = False, samples: int | None = None, seed: int = 1, progress=None,
+                   image: bool = True, grid: dict | None = None) -> Tables:
+    """``glintlab aniso``'s tables (written by the report runner's one writing path with ``figures``):
+    the study, the weight maps and (``image``) the 1920 x 1080 image timing."""
+    if samples is not None:
+        V.integer("samples", samples, minimum=1, expected="an integer >= 1 (draws per footprint)")
     samples = (40_000 if full else 10_000) if samples is None else int(samples)
-    res = study_tables(grid or (FULL_GRID if full else QUICK_GRID), samples, seed, image,
-                       map_resolution=80 if not full else 160, progress=progress)
-    paths = figures(res, Context(out, seed))
-    written = {"aniso_study": res.extra["aniso_study"], **res.tables, **res.extra}
-    for name, df in written.items():
-        df.to_csv(out / f"{name}.csv", index=False)
-    return paths, written
+    return study_tables(grid or (FULL_GRID if full else QUICK_GRID), samples, seed, image,
+                        map_resolution=80 if not full else 160, progress=progress)

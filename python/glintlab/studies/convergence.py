@@ -48,8 +48,7 @@ def convergence_table(ndfs=DEFAULT_NDFS, theta_deg=DEFAULT_THETA_DEG, n_values=D
     P = V.real("P", P)
     if not (0 < P <= 1):
         V.fail("P", P, "a footprint area in (0, 1]")
-    if isinstance(pixels, bool) or not isinstance(pixels, (int, np.integer)) or pixels < 100:
-        V.fail("pixels", pixels, "an integer >= 100")
+    V.integer("pixels", pixels, minimum=100)
     rows = []
     for blend, inner in pipelines:
         rows += _rows(_pipeline(inner, blend), f"{blend}[{inner}]", ndfs, theta_deg, n_values, R, P, pixels, seed)

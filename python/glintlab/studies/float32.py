@@ -24,6 +24,7 @@ from ..api.laws import law as get_law, law_variants, uniforms
 from ..validation.grid import standard_grid
 from .base import Context, Tables
 from .speed_accuracy import grid_maps
+from ..api import checks as V
 
 NAME = "float32"
 TITLE = "float32 against float64, and (1 - p)^n four ways"
@@ -72,8 +73,7 @@ def float32_table(laws, n=None, p=None, samples: int = 1024, seed: int = 1) -> p
     draws whose binned K differs between float32 and float64), mismatch_upper95, max_abs_diff (largest
     |K_f32 - K_f64| before binning), mean_f32 and
     mean_f64 (sample means), and per precision the shares of non-finite, negative and above-n K."""
-    if samples < 1:
-        raise ValueError(f"float32_table: samples = {samples} is invalid; expected an integer >= 1")
+    V.integer("float32_table: samples", samples, minimum=1)
     if n is None or p is None:
         gn, gp = standard_grid()
         n = gn if n is None else np.atleast_1d(np.asarray(n, dtype=float))

@@ -17,6 +17,7 @@ from ..api.blends import blended_law
 from ..api.laws import law as get_law
 from ..api.metrics import chi2_test, distance
 from ..api.spatial import Rect, ground_truth, joint_counts
+from ..api import checks as V
 
 # DB23 Fig. 4 settings: (M, cells per level-lo texel, p). Levels of c and 4c cells (ratio 4); the
 # footprint, a rectangle of whole cells, sits at area weight w_area = 1/4, 1/2, 3/4 between them,
@@ -160,8 +161,7 @@ def coherence_metrics(K, lag: int = 1) -> dict:
     K = np.asarray(K, dtype=np.float64)
     if K.ndim != 2 or K.shape[1] < 2:
         raise ValueError(f"K has shape {K.shape}; expected (paths, steps) with steps >= 2")
-    if not (isinstance(lag, (int, np.integer)) and 1 <= lag < K.shape[1]):
-        raise ValueError(f"lag = {lag!r} is invalid; expected an integer in [1, {K.shape[1] - 1}]")
+    V.integer("lag", lag, 1, K.shape[1] - 1)
     d = np.abs(np.diff(K, axis=1))
     c = K - K.mean(axis=0, keepdims=True)
     a, b = c[:, :-lag], c[:, lag:]

@@ -430,25 +430,14 @@ def write_animation(path, methods, out: Path, fps: int = 4) -> Path:
     return Path(out)
 
 
-def write_images(scenes, out, seed: int = 1, **params) -> tuple[list, dict]:
-    """``glintlab images``: the section's figures and CSV tables for ``scenes`` into ``out`` (parameters
-    as in ``DEFAULTS``; the animation and the timing use the first scene unless named). Returns
-    (figure paths, {name: table})."""
-    import matplotlib
-    matplotlib.use("Agg")
+def command_params(scenes, **params) -> dict:
+    """``glintlab images``' section parameters for ``scenes`` (as in ``DEFAULTS``; the animation and the
+    timing use the first scene unless named), checked; ``compute_scenes`` takes them."""
     unknown = sorted(set(params) - set(DEFAULTS))
     if unknown:
         V.fail("params", unknown, f"parameters among {', '.join(DEFAULTS)}")
     if not scenes:
         V.fail("scenes", scenes, "at least one scene")
     names = [s.name for s in scenes]
-    prm = {**DEFAULTS, "animation_scene": names[0], "timing_scene": names[0],
-           "sparkle_scene": DEFAULTS["sparkle_scene"] if DEFAULTS["sparkle_scene"] in names else names[0], **params}
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    ctx = Context(out, V.seed(seed))
-    tables = compute_scenes(scenes, prm, ctx)
-    paths = figures(tables, ctx)
-    for name, df in tables.tables.items():
-        df.to_csv(out / f"{name}.csv", index=False)
-    return paths, tables.tables
+    return {**DEFAULTS, "animation_scene": names[0], "timing_scene": names[0],
+            "sparkle_scene": DEFAULTS["sparkle_scene"] if DEFAULTS["sparkle_scene"] in names else names[0], **params}

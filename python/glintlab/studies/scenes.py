@@ -3,8 +3,6 @@ choice per scene, as figures (numbers: ``validation.profile`` and ``validation.a
 ``glintlab profile``)."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 
@@ -58,20 +56,13 @@ def profile_figures(profiles, table1: pd.DataFrame, ctx: Context, title_note: st
     return paths
 
 
-def write_profiles(profiles, out, advice=None, title_note: str = "", prefix: str = PREFIX):
-    """``glintlab profile``: CSV tables and PNG figures of profiles into ``out``; returns (figure paths,
-    {name: table})."""
-    import matplotlib
-    matplotlib.use("Agg")
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    tables = {prefix + k: v for k, v in combine_tables(profiles).items()}
+def command_tables(profiles, advice=None, title_note: str = "") -> Tables:
+    """``glintlab profile``'s tables of ``profiles`` (and the advisor table), in the form ``figures``
+    draws from; the report runner's one writing path writes them."""
+    tables = {PREFIX + k: v for k, v in combine_tables(profiles).items()}
     if advice is not None:
-        tables[prefix + "advice"] = advice
-    paths = profile_figures(profiles, tables[prefix + "table1"], Context(out, 1), title_note, prefix)
-    for name, df in tables.items():
-        df.to_csv(out / f"{name}.csv", index=False)
-    return paths, tables
+        tables[PREFIX + "advice"] = advice
+    return Tables(tables, data={"profiles": profiles, "title_note": title_note})
 
 
 def regime_figure(prof: SceneProfile, title_note: str = ""):

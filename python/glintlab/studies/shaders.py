@@ -2,8 +2,9 @@
 against its C++ float32 twin on the same uniforms (row by row), against the twin's exact pmf
 (chi-square at DB23's Figure 9 points) and for speed (ns per evaluation, the twin as the baseline).
 
-Also the writer of ``glintlab shader``'s report (``write_verdict``): tables as CSV, the verdict as
-JSON and Markdown, and the TV map of the shader against the law it claims to approximate.
+Also ``glintlab shader``'s report (``verdict_tables``, ``verdict_files``; the report runner writes the
+tables as CSV): the verdict as JSON and Markdown, and the TV map of the shader against the law it
+claims to approximate.
 """
 from __future__ import annotations
 
@@ -83,16 +84,20 @@ def figures(tables: Tables, ctx: Context) -> list:
     return [ctx.save(fig, "shaders_row_by_row.png", 110)]
 
 
-def write_verdict(out, verdict: dict, law, against: str, twin: str | None) -> Path:
-    """Writes ``glintlab shader``'s report in ``out``: one CSV per table, ``verdict.json``,
-    ``verdict.md`` and ``tv_map.png`` (TV of the shader's histograms to the exact pmf of ``against``
-    over the standard grid, and the sampling floor). Returns the Markdown page's path."""
+def verdict_tables(verdict: dict, law, against: str, twin: str | None) -> Tables:
+    """``glintlab shader``'s tables (one CSV each, written by the report runner's one writing path) and
+    what ``verdict_files`` needs besides them."""
+    return Tables(dict(verdict["tables"]), data={"verdict": verdict, "law": law, "against": against, "twin": twin})
+
+
+def verdict_files(tables: Tables, ctx: Context) -> list:
+    """``glintlab shader``'s report in ``ctx.out`` besides the CSVs: ``tv_map.png`` (TV of the shader's
+    histograms to the exact pmf of ``against`` over the standard grid, and the sampling floor),
+    ``verdict.json`` and ``verdict.md``. Returns their paths, the Markdown page last."""
     import matplotlib.pyplot as plt
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    tables = verdict["tables"]
-    for name, table in tables.items():
-        table.to_csv(out / f"{name}.csv", index=False)
+    out = Path(ctx.out)
+    verdict, law, against, twin = (tables[k] for k in ("verdict", "law", "against", "twin"))
+    tables = tables.tables
     grid = tables["grid"]
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), sharey=True)
     for ax, col, title in zip(axes, ("tv", "tv_floor"), (f"TV(shader, {against})", f"floor: TV({against} draws, {against})")):
@@ -145,4 +150,4 @@ def write_verdict(out, verdict: dict, law, against: str, twin: str | None) -> Pa
               f"ratio {speed.ratio:.3g}.", ""]
     path = out / "verdict.md"
     path.write_text("\n".join(lines))
-    return path
+    return [out / "tv_map.png", out / "verdict.json", path]

@@ -94,20 +94,17 @@ def grid_maps(path, table: pd.DataFrame, names, column: str, floor: float, cmap:
     return path
 
 
-def write_bench(out, summary: pd.DataFrame, errors: pd.DataFrame) -> list:
-    """``glintlab bench``'s files: bench.csv, bench_errors.csv, bench_pareto.png and, for exact laws,
-    bench_error_maps_tv.png."""
-    import matplotlib.pyplot as plt
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    files = [out / "bench.csv", out / "bench_errors.csv", out / "bench_pareto.png"]
-    summary.to_csv(files[0], index=False)
-    errors.to_csv(files[1], index=False)
-    fig = pareto_figure(summary)
-    fig.savefig(files[2], dpi=110)
-    plt.close(fig)
+def bench_tables(summary: pd.DataFrame, errors: pd.DataFrame) -> Tables:
+    """``glintlab bench``'s tables: bench (one row per law) and bench_errors (per grid point)."""
+    return Tables({"bench": summary}, extra={"bench_errors": errors})
+
+
+def bench_figures(tables: Tables, ctx: Context) -> list:
+    """``glintlab bench``'s figures: bench_pareto.png and, for exact laws, bench_error_maps_tv.png."""
+    summary = tables["bench"]
+    paths = [ctx.save(pareto_figure(summary), "bench_pareto.png", 110)]
     exact = list(summary[summary.accuracy == "exact"].law)
     if exact:
-        files.append(grid_maps(out / "bench_error_maps_tv.png", errors, exact, "tv", 1e-6, "magma",
-                               "TV to the binomial", "Exact TV over the standard grid: n (log, x) by p (y)"))
-    return files
+        paths.append(grid_maps(Path(ctx.out) / "bench_error_maps_tv.png", tables["bench_errors"], exact, "tv", 1e-6,
+                               "magma", "TV to the binomial", "Exact TV over the standard grid: n (log, x) by p (y)"))
+    return paths

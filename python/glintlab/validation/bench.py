@@ -49,8 +49,7 @@ def speed_accuracy(laws=None, samples: int = 10**6, seed: int = 1, repeats: int 
     """
     seed = v.seed(seed)
     for name, value in (("samples", samples), ("repeats", repeats)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            v.fail(name, value, "an integer >= 1")
+        v.integer(name, value, minimum=1)
     if laws is None:
         laws = [resolve_law({"name": name, "params": params}) for name, params in DEFAULT_LAWS]
     else:

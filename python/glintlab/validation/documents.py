@@ -15,6 +15,7 @@ import math
 from pathlib import Path
 
 from .. import _core
+from ..api import checks as V
 
 KINDS = ("experiment", "bounds", "scene", "report")
 # results.json written by run_experiment: {"glintlab_result": RESULT_FORMAT, "config": ..., "base_dir": ...}
@@ -41,8 +42,7 @@ def parse_document(kind: str, source) -> tuple[dict, str, Path | None]:
     (experiment, bounds, scene or report) given as a path, JSON text, or an already-loaded dict.
     A string that starts with "{" is JSON text, any other a path. An experiment may also be a results
     file (results.json), whose stored configuration is re-run with paths relative to where it ran."""
-    if kind not in KINDS:
-        raise ValueError(f"kind = {kind!r} is invalid; expected one of {', '.join(KINDS)}")
+    V.choice("kind", kind, KINDS, f"one of {', '.join(KINDS)}")
     if isinstance(source, dict):
         name, base = f"<{kind}>", None
         text = _dumps(source, name)
@@ -58,7 +58,7 @@ def parse_document(kind: str, source) -> tuple[dict, str, Path | None]:
     elif isinstance(source, str):
         text, name, base = source, f"<{kind}>", None
     else:
-        raise ValueError(f"{kind} = {source!r} is invalid; expected a path, JSON text or a dict")
+        V.fail(kind, source, "a path, JSON text or a dict")
     if kind == "experiment":
         try:
             raw = json.loads(text)

@@ -19,6 +19,8 @@ import socket
 import sys
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
+from ..api import checks as V
+
 DEFAULT_TIMEOUT = 10.0
 
 
@@ -72,8 +74,7 @@ def _probe_scheduler(distributed, address: str, timeout: float):
         scheme, location = parse_address(address)
         host, port = parse_host_port(location)
     except ValueError as exc:
-        raise ValueError(f"scheduler = {address!r} is invalid; expected an address such as 'tcp://host:8786' "
-                         f"({exc})") from None
+        V.fail("scheduler", address, f"an address such as 'tcp://host:8786' ({exc})")
     if scheme not in ("tcp", "tls"):
         return  # other transports (inproc, ucx) are left to the Client
     try:
@@ -132,7 +133,7 @@ class DaskEngine:
             address = self.cluster.scheduler_address
         else:
             if not isinstance(scheduler, str) or not scheduler:
-                raise ValueError(f"scheduler = {scheduler!r} is invalid; expected an address such as 'tcp://host:8786'")
+                V.fail("scheduler", scheduler, "an address such as 'tcp://host:8786'")
             address = scheduler
             _probe_scheduler(distributed, address, timeout)
         try:

@@ -46,6 +46,7 @@ import pandas as pd
 
 from ..api.blends import BlendedLaw, blended_law, blends as blend_names
 from ..api.laws import CustomLaw, Law, law as get_law, law_label, law_traits, laws as law_names, uniforms
+from ..api import checks as V
 
 GRID_N = (0.0, 1e-6, 0.5, 1.0, 2.0, 16.0, 17.0, 1e9, 1e15)
 GRID_P = (0.0, 1e-300, 1e-12, 1e-7, 0.5, 1 - 1e-7, 1.0)
@@ -100,15 +101,12 @@ class _Subject:
     def evaluate(self, n, p, u, precision, uniform_set):
         """Raw K for rows (n, p, u); a custom law's output is returned unchecked (NaN stays NaN)."""
         if isinstance(self.obj, CustomLaw):
-            lw = self.obj
-            n = np.asarray(n, dtype=np.float64)
-            p = np.asarray(p, dtype=np.float64)
-            m = u.shape[0]
-            n = np.broadcast_to(n, (m,))
-            p = np.broadcast_to(p, (m,))
-            if precision == "float32":
-                n, p, u = n.astype(np.float32), p.astype(np.float32), u.astype(np.float32)
-            out = np.asarray(lw._fn(n, p, u), dtype=np.float64).reshape(-1)
+            # The law's public unchecked path: float32 inputs by the one float32 uniform rule, as every
+            # other law gets them (docs/math/laws.md#float32-uniforms), never exact 0 or 1 uniforms.
+            lw, m = self.obj, u.shape[0]
+            n = np.broadcast_to(np.asarray(n, dtype=np.float64), (m,))
+            p = np.broadcast_to(np.asarray(p, dtype=np.float64), (m,))
+            out = lw.raw(n, p, u, precision)
             if out.shape != (m,):
                 raise ValueError(f"custom law {lw.name!r} returned {out.size} values; expected {m}")
             return out
@@ -349,11 +347,10 @@ def extremes_table(laws=None, precisions=("float64", "float32"), samples: int = 
     ``table.attrs["seconds"]``.
     """
     t0 = time.perf_counter()
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 2:
-        raise ValueError(f"samples = {samples!r} is invalid; expected an integer >= 2")
+    V.integer("samples", samples, minimum=2)
     for prec in precisions:
         if prec not in _EPS:
-            raise ValueError(f"precisions = {precisions!r} is invalid; expected 'float64' and/or 'float32'")
+            V.fail("precisions", precisions, "'float64' and/or 'float32'")
     unbounded = unbounded_laws() if unbounded is None else dict(unbounded)
     subjects = _subjects(laws, unbounded)
     nn, pp = (a.ravel() for a in np.meshgrid(np.asarray(n, dtype=float), np.asarray(p, dtype=float), indexing="ij"))

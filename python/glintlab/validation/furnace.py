@@ -146,8 +146,7 @@ def furnace(ndf, theta_o_deg=(0.0, 30.0, 60.0, 80.0), *, pixels: int = 256, dire
     if not (hasattr(ndf, "evaluate") and isinstance(getattr(ndf, "smooth_ndf", None), NDF)):
         V.fail("ndf", ndf, "gl.ndf(...) or a glinty NDF with evaluate(uv, J, h, seed) and smooth_ndf")
     for pname, value in (("pixels", pixels), ("directions", directions)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 2:
-            V.fail(pname, value, "an integer >= 2")
+        V.integer(pname, value, minimum=2)
     pts = V.as_float_array("points", points).reshape(-1)
     if pts.size == 0 or not np.all(pts > 0):
         V.fail("points", points, "expected points per footprint, numbers > 0")

@@ -377,8 +377,7 @@ def profile_scene(scene, laws=None, schemes=DEFAULT_SCHEMES, seed: int = 1, scal
     if scale != 1.0:
         scene = scene.scaled(scale, keep_n=True)
     seed = V.seed(seed)
-    if isinstance(bins_per_decade, bool) or not isinstance(bins_per_decade, int) or not 1 <= bins_per_decade <= 64:
-        V.fail("bins_per_decade", bins_per_decade, "an integer in [1, 64]")
+    V.integer("bins_per_decade", bins_per_decade, 1, 64)
     schemes = list(schemes)
     for s in schemes:
         if s not in _scheme_labels():
@@ -396,17 +395,31 @@ def profile_scene(scene, laws=None, schemes=DEFAULT_SCHEMES, seed: int = 1, scal
         raise ValueError(f"scene {scene.name!r}: no pixel sees the {scene.kind} (all {geo.width} x "
                          f"{geo.height} pixels are sky or degenerate); expected a camera that sees the primitive")
     n, p, r, phi = geo.n[valid], geo.p[valid], geo.r[valid], geo.phi[valid]
-    N = scene.density
 
-    # Regimes
-    regimes = regime_table(n, p, r)
-    hist = regime_histogram(n, p, r)
-
-    # Exact law errors per (n, p) bin
+    regimes, hist = regime_table(n, p, r), regime_histogram(n, p, r)
     t0 = time.perf_counter()
+    laws_table, errs, inv, rep_n = _law_stage(law_objs, n, p, bins_per_decade)
+    seconds["law_errors"] = time.perf_counter() - t0
+    schemes_table, evaluations, loops = _scheme_stage(schemes, law_objs, geo, scene.density, n, p, r, phi, seed,
+                                                      seconds)
+    prof = SceneProfile(scene.name, {}, {}, {}, valid, inv, errs, rep_n, evaluations, loops, cost_table, hist)
+    costs_table = _cost_stage(prof, schemes, labels)
+    table1 = _table1_stage(prof, costs_table, scene.name, schemes, labels)
+    _finish(prof, scene, geo, n, p, regimes, laws_table, schemes_table, costs_table, table1, schemes, labels,
+            bins_per_decade)
+    seconds["total"] = time.perf_counter() - t_all
+    prof.seconds = {k: round(v, 3) for k, v in seconds.items()}
+    prof.summary["profile_seconds"] = prof.seconds["total"]
+    prof.tables["summary"] = pd.DataFrame([prof.summary])
+    return prof
+
+
+def _law_stage(law_objs, n, p, bins_per_decade):
+    """Stage 1: exact law errors per (n, p) bin, pixel-weighted into one row per law. Returns (laws
+    table, per-bin errors, each pixel's bin, the bins' representative n)."""
+    labels = list(law_objs)
     inv, counts, rep_n, rep_p = _bin_pixels(n, p, bins_per_decade)
     errs = law_errors(law_objs, rep_n, rep_p)
-    seconds["law_errors"] = time.perf_counter() - t0
     w = counts / counts.sum()
     pos = rep_p > 0
     vis = rep_n * rep_p >= 1.0  # relative noise is only meaningful where glints are expected
@@ -423,7 +436,14 @@ def profile_scene(scene, laws=None, schemes=DEFAULT_SCHEMES, seed: int = 1, scal
                          "rel_rms_worst_np_ge_1": float(rms[vis].max()) if vis.any() else 0.0})
     laws_table = pd.DataFrame(law_rows)
 
-    # Grid schemes: evaluations per pixel (count_image), terms per bin (weight bias, ZK16 loops)
+    return laws_table, errs, inv, rep_n
+
+
+def _scheme_stage(schemes, law_objs, geo, N, n, p, r, phi, seed, seconds):
+    """Stage 2: per grid scheme, evaluations per pixel (count_image) and the terms per bin (weight
+    bias, each law's work per pixel). Returns (schemes table, evaluations, loops); adds each
+    scheme's seconds to ``seconds``."""
+    valid = geo.valid
     H, W = geo.hit.shape
     p_img = np.where(valid, geo.p, 0.0)
     J = np.where(valid[..., None], geo.J, 0.0)
@@ -453,23 +473,28 @@ def profile_scene(scene, laws=None, schemes=DEFAULT_SCHEMES, seed: int = 1, scal
                             "image_K_over_np": k_ratio, "clamped_footprints": int((res.status[valid] == 3).sum()),
                             "seconds": round(seconds[f"scheme {label}"], 3)})
         kmaps[label] = res.K
-    schemes_table = pd.DataFrame(scheme_rows)
+    return pd.DataFrame(scheme_rows), evaluations, loops
 
-    # Costs per (scheme, law)
-    prof = SceneProfile(scene.name, {}, {}, {}, valid, inv, errs, rep_n, evaluations, loops, cost_table, hist)
+
+
+def _cost_stage(prof, schemes, labels):
+    """Stage 3: the SIMD cost statistics of every (scheme, law) pair."""
     cost_rows = []
     for label in schemes:
         for lab in labels:
-            st = simd_stats(prof.pixel_cost(label, lab), valid)
+            st = simd_stats(prof.pixel_cost(label, lab), prof.valid)
             cost_rows.append({"scheme": label, "law": lab, **st})
-    costs_table = pd.DataFrame(cost_rows)
+    return pd.DataFrame(cost_rows)
 
-    # DB23 Table 1 comparison
+
+def _table1_stage(prof, costs_table, scene_name, schemes, labels):
+    """Stage 4: DB23 Table 1's methods on this scene, with the ZK16 / method cost ratios."""
+    valid = prof.valid
     t1_rows = []
     for method, sch, lab in TABLE1_METHODS:
         if sch in schemes and lab in labels:
             row = costs_table[(costs_table.scheme == sch) & (costs_table.law == lab)].iloc[0]
-            t1_rows.append({"scene": scene.name, "method": method, "scheme": sch, "law": lab,
+            t1_rows.append({"scene": scene_name, "method": method, "scheme": sch, "law": lab,
                             **{k: row[k] for k in ("mean_pixel", "mean_group", "p95_group", "worst_group",
                                                    "simd_efficiency")},
                             "cost_pixel_std": float(prof.pixel_cost(sch, lab)[valid].std())})
@@ -478,11 +503,19 @@ def profile_scene(scene, laws=None, schemes=DEFAULT_SCHEMES, seed: int = 1, scal
         zk = table1[table1.method == "ZK16"]
         for col in ("worst_group", "mean_group"):
             table1[f"zk16_over_this_{col}"] = float(zk[col].iloc[0]) / table1[col] if len(zk) else np.nan
-        ms = TABLE1_MS.get(scene.name)
+        ms = TABLE1_MS.get(scene_name)
         if ms:
             table1["paper_ms"] = [f"{ms[1][0]}-{ms[1][1]}" if m == "ZK16" else f"{ms[0][0]}-{ms[0][1]}"
                                   for m in table1.method]
 
+    return table1
+
+
+def _finish(prof, scene, geo, n, p, regimes, laws_table, schemes_table, costs_table, table1, schemes, labels,
+            bins_per_decade):
+    """Stage 5: the summary, the profile's tables and its maps."""
+    valid, cost_table, rep_n = prof.valid, prof.costs, prof.bin_n
+    H, W = geo.hit.shape
     summary = {"scene": scene.name, "primitive": scene.kind, "width": W, "height": H, **geo.summary(),
                "clamp_intensity_loss_mean": float(np.mean(1 - np.where(geo.p_raw[valid] > 0, p / np.where(
                    geo.p_raw[valid] > 0, geo.p_raw[valid], 1), 1))),
@@ -499,11 +532,6 @@ def profile_scene(scene, laws=None, schemes=DEFAULT_SCHEMES, seed: int = 1, scal
         if sch in schemes and lab in labels:
             maps[f"group cost {method}"] = group_max(prof.pixel_cost(sch, lab), valid)[0]
     prof.maps = maps
-    seconds["total"] = time.perf_counter() - t_all
-    prof.seconds = {k: round(v, 3) for k, v in seconds.items()}
-    prof.summary["profile_seconds"] = prof.seconds["total"]
-    prof.tables["summary"] = pd.DataFrame([prof.summary])
-    return prof
 
 
 def _wquantile(x, w, q):

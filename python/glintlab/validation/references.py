@@ -44,13 +44,11 @@ class GroundTruthReference:
     uniformly random position."""
 
     def __init__(self, layout="stratified", density=None, footprint="rect", aspect=1.0, angle=0.0):
-        if layout not in LAYOUTS:
-            v.fail("layout", layout, "one of " + ", ".join(LAYOUTS))
+        v.choice("layout", layout, LAYOUTS, "one of " + ", ".join(LAYOUTS))
         self.layout, self.density = layout, v.real("density", density)
         if not (self.density >= 1 and math.isfinite(self.density)):
             v.fail("density", density, "a number >= 1")
-        if footprint not in ("rect", "ellipse"):
-            v.fail("footprint", footprint, "'rect' or 'ellipse'")
+        v.choice("footprint", footprint, ("rect", "ellipse"), "'rect' or 'ellipse'")
         self.footprint, self.aspect, self.angle = footprint, v.real("aspect", aspect), v.real("angle", angle)
         if not self.aspect >= 1:
             v.fail("aspect", aspect, "a number >= 1")

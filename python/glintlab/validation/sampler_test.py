@@ -255,8 +255,7 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
     if domain not in DOMAINS:
         V.fail("domain", domain, "one of " + ", ".join(DOMAINS))
     dim = _DIM[domain]
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= 10**10:
-        V.fail("samples", samples, "an integer in [1, 1e10]")
+    V.integer("samples", samples, 1, 10**10, expected="an integer in [1, 1e10]")
     samples = int(samples)
     key = V.seed(seed)
     significance = V.real("significance", significance)
@@ -271,8 +270,7 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
     unit_tol = V.real("unit_tol", unit_tol)
     if not unit_tol > 0:
         V.fail("unit_tol", unit_tol, "a number > 0")
-    if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
-        V.fail("chunk", chunk, "an integer >= 1")
+    V.integer("chunk", chunk, minimum=1)
     if write not in ("failure", "always", "never"):
         V.fail("write", write, "'failure', 'always' or 'never'")
     if target is None:

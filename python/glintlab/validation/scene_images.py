@@ -74,8 +74,7 @@ def camera_path(scene: Scene, frames: int, pan_px: float = 0.25, zoom: float = 0
     """``frames`` cameras: the first half pans by ``pan_px`` pixel per frame (sub-pixel steps, along the
     image's x axis, measured at the look-at distance), the second half then moves the camera towards
     its look-at point by the factor ``zoom`` per frame (a dolly: footprints shrink, the LOD moves)."""
-    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 2:
-        V.fail("frames", frames, "an integer >= 2")
+    V.integer("frames", frames, minimum=2)
     pan_px, zoom = V.real("pan_px", pan_px), V.real("zoom", zoom)
     if not (math.isfinite(pan_px) and abs(pan_px) <= 8):
         V.fail("pan_px", pan_px, "a number of pixels in [-8, 8]")
@@ -206,10 +205,8 @@ def render_image(method, scene, frame: int = 0, seed: int = 0, scale: float = 1.
     shipped scene's name ("sphere", "plane_25", ...), a path or a JSON document. Returns (rows, columns)
     or (rows, columns, 3) for a colour method shader; NaN where no surface is hit."""
     scene = _scene_of(scene)
-    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
-        V.fail("frames", frames, "an integer >= 1")
-    if isinstance(frame, bool) or not isinstance(frame, (int, np.integer)) or not 0 <= frame < frames:
-        V.fail("frame", frame, f"an integer in [0, {frames - 1}] (frames = {frames})")
+    V.integer("frames", frames, minimum=1)
+    V.integer("frame", frame, 0, frames - 1, expected=f"an integer in [0, {frames - 1}] (frames = {frames})")
     seed = V.seed(seed)
     if scale != 1.0:
         scene = scene.scaled(scale, keep_n=True)
@@ -471,8 +468,7 @@ def flicker_metrics(images, truth, target, mask=None, tau: float = TAU, radius: 
     tau = V.real("tau", tau)
     if not (math.isfinite(tau) and tau > 0):
         V.fail("tau", tau, "a finite number > 0")
-    if isinstance(radius, bool) or not isinstance(radius, (int, np.integer)) or not 0 <= radius <= 16:
-        V.fail("radius", radius, "an integer in [0, 16]")
+    V.integer("radius", radius, 0, 16)
     valid = np.ones(images.shape[1:], bool) if mask is None else np.asarray(mask, bool).all(axis=0) \
         if np.ndim(mask) == 3 else np.asarray(mask, bool)
     if valid.shape != images.shape[1:]:

@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 from .._core import __version__ as _version
+from ..api import checks as V
 
 # 2: the configuration holds each law's identity (format 1 keyed custom laws by name only).
 STORE_FORMAT = 2
@@ -50,8 +51,7 @@ class SweepStore:
                              f"(this glintlab writes format {STORE_FORMAT}, which records each law's identity); "
                              "use another store path, or delete it to start over")
         if not isinstance(header, dict) or header.get("glintlab_store") != STORE_FORMAT:
-            raise ValueError(f"store = {str(self.path)!r} is invalid; expected a glintlab sweep store "
-                             "(a JSON-lines file written by sweep(store=...))")
+            V.fail("store", str(self.path), "a glintlab sweep store (a JSON-lines file written by sweep(store=...))")
         if header.get("key") != self.key:
             old = header.get("config", {})
             diff = sorted(k for k in set(old) | set(self.config) if old.get(k) != self.config.get(k))

@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import os
 import sys
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -39,7 +41,7 @@ from .rows import MOMENT_METRICS, SAMPLED_ONLY, SWEEP_METRICS, compute_chunk
 from .store import STORE_FORMAT, SweepStore, row_key
 
 DEFAULT_METRICS = ("tv", "mean_rel_err", "var_rel_err")
-__all__ = ["sweep", "DEFAULT_METRICS", "SWEEP_METRICS", "MOMENT_METRICS", "SAMPLED_ONLY", "STORE_FORMAT"]
+__all__ = ["sweep", "SweepSpec", "CheckedSweep", "run_sweep", "DEFAULT_METRICS", "SWEEP_METRICS", "MOMENT_METRICS", "SAMPLED_ONLY", "STORE_FORMAT"]
 
 
 def _axis(name, values, which):
@@ -64,17 +66,107 @@ def _metric_list(metrics, samples):
     if not metrics:
         v.fail("metrics", metrics, "a non-empty list of metric names")
     for m in metrics:
-        if m not in SWEEP_METRICS:
-            v.fail("metric", m, "one of " + ", ".join(SWEEP_METRICS))
+        v.choice("metric", m, SWEEP_METRICS, "one of " + ", ".join(SWEEP_METRICS))
     if samples is None and "chi2_pvalue" in metrics:
         v.fail("metrics", metrics, "no 'chi2_pvalue' in an exact sweep (samples=None); pass samples=...")
     return list(dict.fromkeys(metrics))
+
+
+@dataclass
+class SweepSpec:
+    """What a sweep computes and how: the arguments of :func:`sweep`, as one object. ``check()``
+    validates every field (a ValueError naming the first bad one) and returns the resolved plan
+    (:class:`CheckedSweep`); nothing is computed or written before it passes."""
+    laws: Any
+    n: Any = None
+    p: Any = None
+    metrics: Any = DEFAULT_METRICS
+    reference: Any = "binomial"
+    samples: Any = None
+    seed: Any = 1
+    store: Any = None
+    progress: Any = None
+    threads: Any = None
+    points: Any = None
+    engine: str = "threads"
+    scheduler: Any = None
+    workers: Any = None
+    chunk: Any = None
+    timeout: Any = 10.0
+
+    def check(self) -> "CheckedSweep":
+        laws = self.laws
+        if isinstance(laws, (str, Law, dict)):
+            laws = [laws]
+        laws = [resolve_law(x) for x in laws]
+        if not laws:
+            v.fail("laws", laws, "a non-empty list of laws")
+        labels = [lw.label for lw in laws]
+        if len(set(labels)) != len(labels):
+            v.fail("laws", labels, "distinct laws")
+        samples = self.samples
+        if samples is not None:
+            samples = v.integer("samples", samples, minimum=1, expected="None (exact) or an integer >= 1")
+        seed = v.seed(self.seed)
+        metrics = _metric_list(self.metrics, samples)
+        ref = make_reference(self.reference)
+        if samples is None:
+            for lw in laws:
+                if not lw.has_pmf:
+                    raise ValueError(f"law {lw.label!r} has no exact pmf (no exact distribution); an exact sweep "
+                                     "(samples=None) needs one (pass samples=... for a Monte Carlo sweep)")
+            if not ref.has_pmf:
+                raise ValueError("the reference has no exact distribution; pass samples=...")
+        if self.points is None:
+            nn, pp = _axis("n", self.n, "n"), _axis("p", self.p, "p")
+            grid = [(float(a), float(b)) for a in nn for b in pp]
+        else:
+            arr = v.as_float_array("points", self.points)
+            if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] == 0:
+                v.fail("points", self.points, "a non-empty list of (n, p) pairs")
+            _axis("points[:, 0]", arr[:, 0], "n"), _axis("points[:, 1]", arr[:, 1], "p")
+            grid = [(float(a), float(b)) for a, b in arr]
+        threads = v.integer("threads", (os.cpu_count() or 2) if self.threads is None else self.threads, minimum=1)
+        engine = v.choice("engine", self.engine, ("threads", "dask"), "'threads' or 'dask'")
+        if engine == "threads" and (self.scheduler is not None or self.workers is not None):
+            v.fail("engine", engine, "'dask' when a scheduler or workers are given")
+        workers = None if self.workers is None else v.integer("workers", self.workers, minimum=1)
+        chunk = None if self.chunk is None else v.integer("chunk", self.chunk, minimum=1)
+        timeout = v.real("timeout", self.timeout)
+        if not timeout > 0:
+            v.fail("timeout", timeout, "a number of seconds > 0")
+        return CheckedSweep(laws, labels, grid, metrics, ref, samples, seed, self.store, self.progress, threads,
+                            engine, self.scheduler, workers, chunk, timeout)
+
+
+@dataclass(frozen=True)
+class CheckedSweep:
+    """A :class:`SweepSpec` after ``check()``: laws resolved (with their labels), the grid as (n, p)
+    pairs, the reference object, every number validated."""
+    laws: list
+    labels: list
+    grid: list
+    metrics: list
+    ref: Any
+    samples: int | None
+    seed: int
+    store: Any
+    progress: Any
+    threads: int
+    engine: str
+    scheduler: Any
+    workers: int | None
+    chunk: int | None
+    timeout: float
 
 
 def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", samples=None, seed=1,
           store=None, progress=None, threads=None, points=None, engine="threads", scheduler=None, workers=None,
           chunk=None, timeout=10.0) -> pd.DataFrame:
     """Evaluates every law at every grid point; one row per law and point, in law, n, p order.
+
+    ``sweep(SweepSpec(...))`` takes the arguments as one object (checked by ``SweepSpec.check``); the
+    keyword form below builds that object.
 
     laws       names, Law objects or experiment law specs (a single one is allowed)
     n, p       grid axes (arrays; None or "standard": the standard grid's axes); the grid is n x p
@@ -88,7 +180,7 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
     store      a path: finished rows are written there as they finish and skipped on a rerun
     progress   True/False, or None: a progress bar when stderr is a terminal
     threads    rows computed at once by the "threads" engine (default: the number of cores)
-    engine     "threads" (this process) or "dask" (glintlab.dask_engine): ``scheduler`` the address of a
+    engine     "threads" (this process) or "dask" (glintlab.validation.engines): ``scheduler`` the address of a
                running Dask scheduler, or None for a LocalCluster of ``workers`` processes here;
                ``chunk`` rows per task (default: about four tasks per worker); ``timeout`` seconds
                to wait for the scheduler. The table is the same, bit for bit, with any engine.
@@ -99,37 +191,16 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
     (with mean_rel_err), samples and the row's seed. ``df.attrs`` holds the configuration and, for
     stored sweeps, how many rows came from the store.
     """
-    if isinstance(laws, (str, Law, dict)):
-        laws = [laws]
-    laws = [resolve_law(x) for x in laws]
-    if not laws:
-        v.fail("laws", laws, "a non-empty list of laws")
-    labels = [lw.label for lw in laws]
-    if len(set(labels)) != len(labels):
-        v.fail("laws", labels, "distinct laws")
-    if samples is not None:
-        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-            v.fail("samples", samples, "None (exact) or an integer >= 1")
-        samples = int(samples)
-    seed = v.seed(seed)
-    metrics = _metric_list(metrics, samples)
-    ref = make_reference(reference)
-    if samples is None:
-        for lw in laws:
-            if not lw.has_pmf:
-                raise ValueError(f"law {lw.label!r} has no exact pmf (no exact distribution); an exact sweep "
-                                 "(samples=None) needs one (pass samples=... for a Monte Carlo sweep)")
-        if not ref.has_pmf:
-            raise ValueError("the reference has no exact distribution; pass samples=...")
-    if points is None:
-        nn, pp = _axis("n", n, "n"), _axis("p", p, "p")
-        grid = [(float(a), float(b)) for a in nn for b in pp]
-    else:
-        arr = v.as_float_array("points", points)
-        if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] == 0:
-            v.fail("points", points, "a non-empty list of (n, p) pairs")
-        _axis("points[:, 0]", arr[:, 0], "n"), _axis("points[:, 1]", arr[:, 1], "p")
-        grid = [(float(a), float(b)) for a, b in arr]
+    spec = laws if isinstance(laws, SweepSpec) else SweepSpec(
+        laws, n, p, metrics, reference, samples, seed, store, progress, threads, points, engine, scheduler, workers,
+        chunk, timeout)
+    return run_sweep(spec.check())
+
+
+def run_sweep(plan: CheckedSweep) -> pd.DataFrame:
+    """Runs a checked sweep (``SweepSpec(...).check()``); the table :func:`sweep` returns."""
+    laws, labels, grid, metrics, ref = plan.laws, plan.labels, plan.grid, plan.metrics, plan.ref
+    samples, seed, store, progress, engine = plan.samples, plan.seed, plan.store, plan.progress, plan.engine
     tasks = [(i, j, a, b) for i in range(len(laws)) for j, (a, b) in enumerate(grid)]
     # law_identities: what each law IS (a custom law's source, a plugin's file), not only its name, so
     # a store never hands one function's rows to another function registered under the same name.
@@ -141,26 +212,12 @@ def sweep(laws, n=None, p=None, metrics=DEFAULT_METRICS, reference="binomial", s
     todo = [t for t in tasks if (labels[t[0]], t[2].hex(), t[3].hex()) not in done]
     resumed = len(tasks) - len(todo)
     results: dict[tuple, dict] = dict(done)
-    if threads is None:
-        threads = os.cpu_count() or 2
-    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-        v.fail("threads", threads, "an integer >= 1")
-    if engine not in ("threads", "dask"):
-        v.fail("engine", engine, "'threads' or 'dask'")
-    if engine == "threads" and (scheduler is not None or workers is not None):
-        v.fail("engine", engine, "'dask' when a scheduler or workers are given")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
-        v.fail("workers", workers, "an integer >= 1")
-    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1):
-        v.fail("chunk", chunk, "an integer >= 1")
-    timeout = v.real("timeout", timeout)
-    if not timeout > 0:
-        v.fail("timeout", timeout, "a number of seconds > 0")
+    chunk = plan.chunk
 
     if engine == "dask":
-        eng = DaskEngine(scheduler, workers, timeout)
+        eng = DaskEngine(plan.scheduler, plan.workers, plan.timeout)
     else:
-        eng = ThreadEngine(threads)
+        eng = ThreadEngine(plan.threads)
     if samples is None:  # exact rows at one point share the reference's pmf: run them point by point
         todo.sort(key=lambda t: (t[1], t[0]))
     if chunk is None:  # a few chunks per worker: balance, and little lost work on an interruption

@@ -1,0 +1,77 @@
+"""``glintlab sampler``: a direction sampler against its pdf, chi-square on adaptive bins (exit 0/1/2)."""
+from __future__ import annotations
+
+import sys
+
+from ..api import checks as V
+from ..api.samplers import WRONG_KINDS, load_sampler, wrong_sampler
+from ..validation.sampler_test import sampler_test
+from .common import add_outputs, add_seed
+
+
+def add_parser(sub):
+    p = sub.add_parser("sampler", help="a direction sampler against its pdf: chi-square on adaptive bins (exit 0/1/2)",
+                       description="Tests a registered sampler (gl.samplers(): beckmann, ggx, ggx_vndf, "
+                                   "beckmann_vndf, vmf_mixture) or a sampler file against its pdf "
+                                   "(docs/math/sampling.md). Exit 0 pass, 1 fail, 2 bad input. On failure the "
+                                   "bins (NPZ, CSV) and a figure are written to --out.")
+    p.add_argument("sampler", metavar="NAME_OR_FILE", help="a registered sampler name or a sampler file")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="a sampler parameter (repeatable): alpha=0.3, wo=0.6,0,0.8")
+    p.add_argument("--samples", type=int, default=10**6, help="samples (default: 1e6)")
+    add_seed(p, help="seed (default: 1)")
+    p.add_argument("--bins", default="adaptive", help="'adaptive' (default) or a fixed grid N1xN2, e.g. 30x60")
+    p.add_argument("--significance", type=float, default=1e-3,
+                   help="fail below this p-value (the false-failure rate; default 1e-3)")
+    p.add_argument("--write-always", action="store_true", help="write the bins and figure even on a pass")
+    p.add_argument("--wrong", choices=WRONG_KINDS,
+                   help="test a deliberately wrong variant of the sampler instead (it must fail: exit 1)")
+    add_outputs(p, "out/sampler", plugins=False)
+    p.set_defaults(func=run)
+    return p
+
+
+def sampler_params(items):
+    """--param k=v (repeatable): numbers, comma-separated tuples of numbers, or strings."""
+    params = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            V.fail("--param", item, "NAME=VALUE (e.g. alpha=0.3, wo=0.6,0,0.8)")
+        parts = value.split(",")
+        try:
+            nums = [float(p) for p in parts]
+            params[key] = tuple(nums) if len(nums) > 1 else (int(nums[0]) if parts[0].strip().lstrip("-").isdigit()
+                                                             else nums[0])
+        except ValueError:
+            params[key] = value
+    return params
+
+
+def check_sampler(sampler, args) -> int:
+    """Runs the harness on a sampler object with the command's options and prints the verdict: the exit
+    status (0 pass, 1 fail). The hook for every kind of sampler (registered by name, shader files)."""
+    bins = args.bins
+    if bins != "adaptive":
+        try:
+            bins = tuple(int(x) for x in bins.lower().split("x"))
+        except ValueError:
+            V.fail("--bins", args.bins, "'adaptive' or a grid N1xN2 (e.g. 30x60)")
+    res = sampler_test(sampler, samples=args.samples, seed=args.seed, bins=bins, significance=args.significance,
+                       out=args.out, write="always" if args.write_always else "failure")
+    if not args.quiet:
+        print(repr(res))
+        for path in res.files:
+            print(f"wrote {path}")
+    if not res.passed:
+        print(f"glintlab sampler: FAIL {res.name}: p = {res.pvalue:.4g}" + (f" ({res.note})" if res.notes else ""),
+              file=sys.stderr)
+    elif not args.quiet:
+        print(f"verdict: pass (p = {res.pvalue:.4g} >= {args.significance:g})")
+    return 0 if res.passed else 1
+
+
+def run(args) -> int:
+    V.integer("--samples", args.samples, minimum=1)
+    s = load_sampler(args.sampler, **sampler_params(args.param))
+    return check_sampler(wrong_sampler(s, args.wrong) if args.wrong else s, args)
