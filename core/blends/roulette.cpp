@@ -100,13 +100,16 @@ class Roulette final : public BlendRule {
   explicit Roulette(double eps) : eps_(eps) {}
   std::string name() const override { return "roulette"; }
   LawParams params() const override { return {{"epsilon", eps_}}; }
+  // The upper level at w = 0 (P on a level's area) keeps none of its facets, whatever its count
+  // (kept() of any k at weight 0 is 0): it is not drawn, as the other rules skip a level of weight 0.
+  // The same K, bit for bit.
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
-    return {density * b.area_lo, density * b.area_hi};
+    return {density * b.area_lo, b.w_lod > 0 ? density * b.area_hi : 0.0};
   }
   bool thins() const override { return true; }
   bool has_pmf() const override { return eps_ == 0; }
 
-  double kept(double k, double weight, CounterRng& facets) const {
+  double kept(double k, double weight, FacetStream& facets) const {
     if (k <= 0) return 0.0;
     const double whole = std::floor(k), part = k - whole;
     if (eps_ == 0) {
@@ -121,11 +124,14 @@ class Roulette final : public BlendRule {
     }
     const auto m = recent_roulette_moments(weight, eps_);
     const double sd = std::sqrt(std::max(0.0, k * (m[1] - m[0] * m[0])));
-    return std::clamp(k * m[0] + sd * normal::quantile(facets.uniform()), 0.0, k);
+    // sd = 0 (weight 0 or 1: every facet's R is 0 or 1): sd times the finite quantile of a uniform in
+    // (0, 1) adds a signed zero, which leaves k m[0] unchanged, so the quantile is not computed.
+    const double u = facets.uniform();
+    return std::clamp(sd > 0 ? k * m[0] + sd * normal::quantile(u) : k * m[0], 0.0, k);
   }
 
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
-                 std::array<CounterRng, 2>& facets) const override {
+                 std::array<FacetStream, 2>& facets) const override {
     return area / b.area_lo * kept(k_lo, 1.0 - b.w_lod, facets[0]) +
            area / b.area_hi * kept(k_hi, b.w_lod, facets[1]);
   }

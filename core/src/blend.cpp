@@ -30,10 +30,19 @@ constexpr std::size_t kChunk = 2048;
 // Left alone, the stratified rule turns such an ulp into a Bernoulli facet, so K could reach
 // ceil(n) + 1 (found by the extremes suite). Counts within 4 ulps of the pair's total from an
 // integer are that integer; elsewhere the counts are untouched.
+// std::round (half away from zero) without the libm call the baseline ISA makes of it (two per
+// level and sample): x - trunc(x) is exact, so the comparison with 1/2 decides as round() does.
+inline double round_half_away(double x) {
+  if (!(std::abs(x) < 0x1p52)) return std::round(x);  // already an integer, or not finite
+  const double t = static_cast<double>(static_cast<std::int64_t>(x));
+  const double f = x - t;
+  return f >= 0.5 ? t + 1.0 : f <= -0.5 ? t - 1.0 : t;
+}
+
 std::array<double, 2> snap_trials(std::array<double, 2> t) {
   const double tolerance = 4 * std::numeric_limits<double>::epsilon() * (std::abs(t[0]) + std::abs(t[1]));
   for (double& x : t) {
-    const double r = std::round(x);
+    const double r = round_half_away(x);
     if (std::abs(x - r) <= tolerance) x = r;
   }
   return t;
@@ -214,15 +223,35 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   // The brackets the validation computes, kept for the draws when P is an array of at most 2^20 samples
   // (one bracket per sample instead of two: a logarithm and the level's settling).
   constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 20;  // 40 MiB of brackets at most
-  std::vector<LevelBracket> kept_brackets;
-  if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax) kept_brackets.resize(count);
+  // Uninitialized (every entry is written by the validation): no 40-byte memset per sample.
+  std::unique_ptr<LevelBracket[]> kept_brackets;
+  if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax)
+    kept_brackets.reset(new LevelBracket[count]);
   if (inner_.law) {
-    auto check_trials = [&](std::size_t i) {
+    // The inner law's domain check, remembered per chunk of samples for the last (n, p) pairs it
+    // accepted: a rule drawing N A_l trials asks the same few pairs (one per level) at every sample.
+    struct AcceptedMemo {
+      double t[4], p[4];
+      unsigned next = 0;
+      AcceptedMemo() {
+        for (int e = 0; e < 4; ++e) t[e] = p[e] = std::numeric_limits<double>::quiet_NaN();
+      }
+    };
+    auto accepted = [&](AcceptedMemo& memo, double t, double pi) {
+      for (int e = 0; e < 4; ++e)
+        if (memo.t[e] == t && memo.p[e] == pi) return true;
+      if (!inner_.law->accepts(t, pi)) return false;
+      memo.t[memo.next] = t;
+      memo.p[memo.next] = pi;
+      memo.next = (memo.next + 1) % 4;
+      return true;
+    };
+    auto check_trials = [&](std::size_t i, AcceptedMemo& memo) {
       const LevelBracket b = ladder_.bracket(area[i]);
-      if (!kept_brackets.empty()) kept_brackets[i] = b;
+      if (kept_brackets) kept_brackets[i] = b;
       const auto trials = snap_trials(rule_->trials(density, area[i], b));
       for (double t : trials)
-        if (t > 0 && !inner_.law->accepts(t, p[i]))
+        if (t > 0 && !accepted(memo, t, p[i]))
           throw std::invalid_argument(where + ": the inner law refuses its trial count n = " + format_value(t) +
                                       " at p = " + format_value(p[i]) + " (P = " + format_value(area[i]) + ")");
     };
@@ -231,9 +260,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     const std::size_t m = std::max(area.size, p.size);
     std::atomic<std::size_t> first_bad{m};
     detail::parallel_chunks(m, kChunk, kChunk, [&](std::size_t i0, std::size_t i1) {
+      AcceptedMemo memo;
       for (std::size_t i = i0; i < i1; ++i) {
         try {
-          check_trials(i);
+          check_trials(i, memo);
         } catch (const std::exception&) {
           std::size_t seen = first_bad.load();
           while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
@@ -242,7 +272,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         }
       }
     });
-    if (first_bad.load() < m) check_trials(first_bad.load());
+    if (first_bad.load() < m) {
+      AcceptedMemo memo;
+      check_trials(first_bad.load(), memo);
+    }
   }
 
   const std::size_t k = static_cast<std::size_t>(inner_.n_uniforms);
@@ -260,14 +293,45 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   // The level counts into K; the facet streams only for rules that thin (roulette).
   auto combine_rows = [&](std::size_t i0, std::size_t m, const LevelBracket* brackets, std::size_t bracket_step,
                           const double* k_lo, const double* k_hi) {
-    std::array<CounterRng, 2> facets = {CounterRng(seed, 0, 0), CounterRng(seed, 0, 0)};
+    std::array<FacetStream, 2> facets;
+    // sample()'s facet streams (index cells): the first Philox block of each row's stream at each
+    // level, computed ahead as vectorized rows (one block per level the chunk spans; a scalar Philox
+    // block per row and level was most of the roulette's cost). The same numbers.
+    int level_min = 0, span = 0;
+    std::unique_ptr<double[]> first_blocks;
+    constexpr int kMaxFacetLevels = 7;
+    if constexpr (kIndexCells) {
+      if (thins && m > 0) {
+        int lmin = std::numeric_limits<int>::max(), lmax = std::numeric_limits<int>::min();
+        for (std::size_t r = 0; r < m; ++r) {
+          const int lo = brackets[r * bracket_step].lo;
+          lmin = std::min(lmin, lo);
+          lmax = std::max(lmax, lo + 1);
+          if (bracket_step == 0) break;
+        }
+        if (lmax - lmin < kMaxFacetLevels) {
+          level_min = lmin;
+          span = lmax - lmin + 1;
+          first_blocks.reset(new double[static_cast<std::size_t>(span) * m * 2]);
+          for (int l = 0; l < span; ++l)
+            detail::philox_uniform_rows_level(seed, level_key(level_min + l), kStreamLevelFacets, i0, m, 2,
+                                              first_blocks.get() + static_cast<std::size_t>(l) * m * 2);
+        }
+      }
+    }
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
       const LevelBracket& b = brackets[r * bracket_step];
       if (thins) {
         for (int j = 0; j < 2; ++j) {
           const auto [cx, cy] = cell_of(i, j == 0 ? b.area_lo : b.area_hi);
-          facets[static_cast<std::size_t>(j)] = CounterRng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
+          const CounterRng rng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
+          if (first_blocks) {
+            const auto l = static_cast<std::size_t>(b.lo + j - level_min);
+            facets[static_cast<std::size_t>(j)] = FacetStream(first_blocks.get() + (l * m + r) * 2, rng);
+          } else {
+            facets[static_cast<std::size_t>(j)] = FacetStream(rng);
+          }
         }
       }
       out[i] = rule_->combine(area[i], b, k_lo[r], k_hi[r], facets);
@@ -335,7 +399,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     int level_min = std::numeric_limits<int>::max(), level_max = std::numeric_limits<int>::min();
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
-      brackets[r] = kept_brackets.empty() ? ladder_.bracket(area[i]) : kept_brackets[i];
+      brackets[r] = kept_brackets ? kept_brackets[i] : ladder_.bracket(area[i]);
       const auto trials = snap_trials(rule_->trials(density, area[i], brackets[r]));
       for (int j = 0; j < 2; ++j) {
         if (!(trials[j] > 0)) continue;
@@ -351,12 +415,62 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       rows[j].resize(drawn_at[j]);
       n[j].resize(drawn_at[j]);
       pp[j].resize(drawn_at[j]);
-      u[j].resize(drawn_at[j] * k);
     }
+    constexpr int kMaxVectorLevels = 6;
+    // Level by level, without sorting rows (sample(), a built-in law, and every row that draws a
+    // level doing so at one (n, p): the rules that draw N A_l trials, with one p or runs of equal p).
+    // Level l's uniforms for rows i0.. are one block of vectorized Philox rows, so the fixed
+    // evaluator of level l runs over the whole block in place and each row picks its two levels'
+    // counts. Rows that do not draw level l are evaluated too (about half of them with footprints
+    // spread over two levels) and dropped: cheaper than gathering uniforms and scattering counts per
+    // group. Each kept count is evaluate() on the row's own uniforms: the same bits.
+    if constexpr (kIndexCells) {
+      const bool narrow = level_min <= level_max && level_max - level_min < kMaxVectorLevels;
+      if (k > 0 && narrow && inner_.fixed_evaluator && m >= kTabulateMinBatch) {
+        const auto span = static_cast<std::size_t>(level_max - level_min + 1);
+        std::array<double, kMaxVectorLevels> level_n, level_p;
+        level_n.fill(std::numeric_limits<double>::quiet_NaN());
+        level_p.fill(std::numeric_limits<double>::quiet_NaN());
+        bool one_pair = true;
+        for (int j = 0; j < 2; ++j) {
+          for (std::size_t q = 0; q < rows[j].size(); ++q) {
+            const auto l = static_cast<std::size_t>(brackets[rows[j][q]].lo + j - level_min);
+            if (level_n[l] != level_n[l]) [[unlikely]] {
+              level_n[l] = n[j][q];
+              level_p[l] = pp[j][q];
+            }
+            one_pair &= level_n[l] == n[j][q] && level_p[l] == pp[j][q];
+          }
+        }
+        if (one_pair) {
+          const std::size_t stride = m * k;
+          const std::unique_ptr<double[]> block(new double[stride]);
+          const std::unique_ptr<double[]> counts(new double[span * m]);
+          for (std::size_t l = 0; l < span; ++l) {
+            if (level_n[l] != level_n[l]) continue;  // no row draws this level
+            detail::philox_uniform_rows_level(seed, level_key(level_min + static_cast<int>(l)), kStreamLevelCount, i0,
+                                              m, static_cast<int>(k), block.get());
+            cache.get(inner_, level_n[l], level_p[l], count)->evaluate(block.get(), m, counts.get() + l * m);
+          }
+          for (int j = 0; j < 2; ++j) {
+            const std::size_t drawn = rows[j].size();
+            kk[j].resize(drawn);
+            for (std::size_t q = 0; q < drawn; ++q) {
+              const std::size_t r = rows[j][q];
+              kk[j][q] = counts[static_cast<std::size_t>(brackets[r].lo + j - level_min) * m + r];
+            }
+            check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data());
+            for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
+          }
+          combine_rows(i0, m, brackets.data(), 1, k_level[0].data(), k_level[1].data());
+          return;
+        }
+      }
+    }
+    for (int j = 0; j < 2; ++j) u[j].resize(drawn_at[j] * k);
     // A chunk whose levels span a few indices (footprints within a few levels of each other): one
     // block of vectorized Philox rows per level of the span (uninitialized: every row is written),
     // each row then picking its level's block.
-    constexpr int kMaxVectorLevels = 6;
     if (kIndexCells && k > 0 && level_min <= level_max && level_max - level_min < kMaxVectorLevels) {
       const std::size_t stride = m * k;
       const auto span = static_cast<std::size_t>(level_max - level_min + 1);

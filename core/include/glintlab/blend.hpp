@@ -84,6 +84,28 @@ struct InnerLaw {
   static InnerLaw from_law(std::shared_ptr<const CountingLaw> law);
 };
 
+// A level cell's per-facet stream (roulette): CounterRng(seed, cell, level, kStreamLevelFacets), whose
+// first Philox block may have been computed ahead by the vectorized rows (detail::
+// philox_uniform_rows_level with k = 2, the same two numbers); the stream then continues from its
+// second block. The same draws either way.
+class FacetStream {
+ public:
+  FacetStream() : rng_(0, 0, 0) {}
+  explicit FacetStream(const CounterRng& rng) : rng_(rng) {}
+  FacetStream(const double* first_two, const CounterRng& rng) : first_{first_two[0], first_two[1]}, pos_(0), rng_(rng) {
+    rng_.skip_blocks(1);  // the prefetched one
+  }
+  double uniform() {
+    if (pos_ < 2) return first_[pos_++];
+    return rng_.uniform();
+  }
+
+ private:
+  double first_[2] = {0, 0};
+  int pos_ = 2;
+  CounterRng rng_;
+};
+
 // One blend rule (a file in core/blends/, registered by name).
 class BlendRule {
  public:
@@ -96,7 +118,7 @@ class BlendRule {
   virtual bool thins() const { return false; }
   // K from the level counts; `facets[j]` is level j's stream for per-facet decisions (thins() only).
   virtual double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
-                         std::array<CounterRng, 2>& facets) const = 0;
+                         std::array<FacetStream, 2>& facets) const = 0;
   // Whether combine_pmf can give an exact law (given exact inner laws).
   virtual bool has_pmf() const { return true; }
   // Whether K is an integer when the inner counts are.
