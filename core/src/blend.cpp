@@ -146,6 +146,16 @@ InnerLaw InnerLaw::from_law(std::shared_ptr<const CountingLaw> law) {
   return inner;
 }
 
+void BlendRule::combine_rows(double area, const LevelBracket& b, std::size_t m, const double* k_lo, const double* k_hi,
+                             const FacetRows& facets, double* out) const {
+  std::array<FacetStream, 2> streams;
+  const bool reads_facets = thins();
+  for (std::size_t r = 0; r < m; ++r) {
+    if (reads_facets) streams = {facets.stream(r, 0), facets.stream(r, 1)};
+    out[r] = combine(area, b, k_lo[r], k_hi[r], streams);
+  }
+}
+
 Registry<BlendInfo>& blend_registry() {
   static Registry<BlendInfo> blends("blend");
   return blends;
@@ -291,8 +301,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
                                     format_value(n[q]) + ", p = " + format_value(pp[q]));
   };
   // The level counts into K; the facet streams only for rules that thin (roulette).
+  // drawn: for one footprint area (bracket_step 0), which levels have trials (an undrawn level's
+  // facets are never read).
   auto combine_rows = [&](std::size_t i0, std::size_t m, const LevelBracket* brackets, std::size_t bracket_step,
-                          const double* k_lo, const double* k_hi) {
+                          const double* k_lo, const double* k_hi, std::array<bool, 2> drawn = {true, true}) {
     std::array<FacetStream, 2> facets;
     // sample()'s facet streams (index cells): the first Philox block of each row's stream at each
     // level, computed ahead as vectorized rows (one block per level the chunk spans; a scalar Philox
@@ -313,11 +325,31 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
           level_min = lmin;
           span = lmax - lmin + 1;
           first_blocks.reset(new double[static_cast<std::size_t>(span) * m * 2]);
-          for (int l = 0; l < span; ++l)
+          for (int l = 0; l < span; ++l) {
+            if (bracket_step == 0 && !drawn[static_cast<std::size_t>(level_min + l - brackets[0].lo)]) continue;
             detail::philox_uniform_rows_level(seed, level_key(level_min + l), kStreamLevelFacets, i0, m, 2,
                                               first_blocks.get() + static_cast<std::size_t>(l) * m * 2);
+          }
         }
       }
+    }
+    if (bracket_step == 0) {
+      // One bracket for every row: the rule's batch form (the same bits as combine() per row).
+      const LevelBracket& b = brackets[0];
+      BlendRule::FacetRows rows;
+      if (first_blocks)
+        for (int j = 0; j < 2; ++j)
+          if (drawn[static_cast<std::size_t>(j)])
+            rows.first[static_cast<std::size_t>(j)] =
+                first_blocks.get() + static_cast<std::size_t>(b.lo + j - level_min) * m * 2;
+      rows.stream = [&](std::size_t r, int j) {
+        const auto [cx, cy] = cell_of(i0 + r, j == 0 ? b.area_lo : b.area_hi);
+        const CounterRng rng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
+        const double* first = rows.first[static_cast<std::size_t>(j)];
+        return first ? FacetStream(first + 2 * r, rng) : FacetStream(rng);
+      };
+      rule_->combine_rows(area[0], b, m, k_lo, k_hi, rows, out + i0);
+      return;
     }
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
@@ -371,7 +403,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         else inner_.evaluate(n_rows.data(), p_rows.data(), u.data(), m, k_level[j].data());
         check_finite(k_level[j].data(), m, n_rows.data(), p_rows.data());
       }
-      combine_rows(i0, m, &b, 0, k_level[0].data(), k_level[1].data());
+      combine_rows(i0, m, &b, 0, k_level[0].data(), k_level[1].data(), {trials[0] > 0, trials[1] > 0});
     };
     if (inner_.thread_safe) {
       detail::parallel_chunks(count, kChunk, kChunk, chunk_body);

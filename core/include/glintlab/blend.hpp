@@ -119,6 +119,19 @@ class BlendRule {
   // K from the level counts; `facets[j]` is level j's stream for per-facet decisions (thins() only).
   virtual double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                          std::array<FacetStream, 2>& facets) const = 0;
+  // The facet streams of rows r < m of one call at one bracket, for combine_rows().
+  struct FacetRows {
+    // first[j] (or null): the first Philox block of row r's level-j stream, first[j][2 r] and
+    // first[j][2 r + 1] (vectorized rows, sample()'s index cells).
+    std::array<const double*, 2> first{nullptr, nullptr};
+    // Row r's level-j stream from its start (serving first[j]'s block first when it is set).
+    std::function<FacetStream(std::size_t r, int j)> stream;
+  };
+  // out[r] = combine(area, b, k_lo[r], k_hi[r], {facets.stream(r, 0), facets.stream(r, 1)}) for r < m,
+  // at one footprint area (the default does exactly that); a rule may override it to hoist what
+  // depends on the bracket alone, with the same bits.
+  virtual void combine_rows(double area, const LevelBracket& b, std::size_t m, const double* k_lo, const double* k_hi,
+                            const FacetRows& facets, double* out) const;
   // Whether combine_pmf can give an exact law (given exact inner laws).
   virtual bool has_pmf() const { return true; }
   // Whether K is an integer when the inner counts are.
