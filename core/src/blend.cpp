@@ -294,11 +294,12 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   // level's uniforms are then rows of the vectorized Philox keyed at that level (the same numbers as
   // one CounterRng per cell).
   constexpr bool kIndexCells = requires { CellOf::kIndexCells; };
-  auto check_finite = [&](const double* kk, std::size_t rows, const double* n, const double* pp) {
+  // n and p: one value per row (step 1) or one for all (step 0).
+  auto check_finite = [&](const double* kk, std::size_t rows, const double* n, const double* pp, std::size_t step) {
     for (std::size_t q = 0; q < rows; ++q)
       if (!std::isfinite(kk[q]))
         throw std::invalid_argument(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
-                                    format_value(n[q]) + ", p = " + format_value(pp[q]));
+                                    format_value(n[q * step]) + ", p = " + format_value(pp[q * step]));
   };
   // The level counts into K; the facet streams only for rules that thin (roulette).
   // drawn: for one footprint area (bracket_step 0), which levels have trials (an undrawn level's
@@ -381,15 +382,22 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       if (trials[j] > 0 && inner_.fixed_evaluator) evaluators[j] = inner_.fixed_evaluator(trials[j], p[0], count);
     auto chunk_body = [&](std::size_t i0, std::size_t i1) {
       const std::size_t m = i1 - i0;
-      std::vector<double> u(m * k), k_level[2], n_rows, p_rows;
+      // Uninitialized where every element is written (a zero fill per row and buffer showed in the
+      // profile); an undrawn level's counts are zeros.
+      const std::unique_ptr<double[]> u(new double[std::max<std::size_t>(m * k, 1)]);
+      std::unique_ptr<double[]> k_level[2];
+      std::vector<double> n_rows, p_rows;
       for (int j = 0; j < 2; ++j) {
-        k_level[j].assign(m, 0.0);
-        if (!(trials[j] > 0)) continue;
+        k_level[j].reset(new double[m]);
+        if (!(trials[j] > 0)) {
+          std::fill_n(k_level[j].get(), m, 0.0);
+          continue;
+        }
         const int level = b.lo + j;
         if constexpr (kIndexCells) {
           if (k > 0)
             detail::philox_uniform_rows_level(seed, level_key(level), kStreamLevelCount, i0, m, static_cast<int>(k),
-                                              u.data());
+                                              u.get());
         } else {
           for (std::size_t r = 0; r < m; ++r) {
             const auto [cx, cy] = cell_of(i0 + r, j == 0 ? b.area_lo : b.area_hi);
@@ -397,13 +405,17 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
             for (std::size_t d = 0; d < k; ++d) u[r * k + d] = rng.uniform();
           }
         }
-        n_rows.assign(m, trials[j]);
-        p_rows.assign(m, p[0]);
-        if (evaluators[j]) evaluators[j]->evaluate(u.data(), m, k_level[j].data());
-        else inner_.evaluate(n_rows.data(), p_rows.data(), u.data(), m, k_level[j].data());
-        check_finite(k_level[j].data(), m, n_rows.data(), p_rows.data());
+        if (evaluators[j]) {
+          evaluators[j]->evaluate(u.get(), m, k_level[j].get());
+          check_finite(k_level[j].get(), m, &trials[j], p.data, 0);
+        } else {
+          n_rows.assign(m, trials[j]);
+          p_rows.assign(m, p[0]);
+          inner_.evaluate(n_rows.data(), p_rows.data(), u.get(), m, k_level[j].get());
+          check_finite(k_level[j].get(), m, n_rows.data(), p_rows.data(), 1);
+        }
       }
-      combine_rows(i0, m, &b, 0, k_level[0].data(), k_level[1].data(), {trials[0] > 0, trials[1] > 0});
+      combine_rows(i0, m, &b, 0, k_level[0].get(), k_level[1].get(), {trials[0] > 0, trials[1] > 0});
     };
     if (inner_.thread_safe) {
       detail::parallel_chunks(count, kChunk, kChunk, chunk_body);
@@ -418,7 +430,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   FixedEvaluatorCache cache;
   auto chunk_body = [&](std::size_t i0, std::size_t i1) {
     const std::size_t m = i1 - i0;
-    std::vector<LevelBracket> brackets(m);
+    const std::unique_ptr<LevelBracket[]> brackets(new LevelBracket[m]);  // every row written below
     // Per level slot: the rows it is drawn for (compacted), their trials, p, uniforms and counts.
     std::vector<std::size_t> rows[2] = {std::vector<std::size_t>(m), std::vector<std::size_t>(m)};
     std::vector<double> n[2], pp[2], u[2], kk[2];
@@ -491,10 +503,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
               const std::size_t r = rows[j][q];
               kk[j][q] = counts[static_cast<std::size_t>(brackets[r].lo + j - level_min) * m + r];
             }
-            check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data());
+            check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data(), 1);
             for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
           }
-          combine_rows(i0, m, brackets.data(), 1, k_level[0].data(), k_level[1].data());
+          combine_rows(i0, m, brackets.get(), 1, k_level[0].data(), k_level[1].data());
           return;
         }
       }
@@ -589,10 +601,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       } else {
         inner_.evaluate(n[j].data(), pp[j].data(), u[j].data(), drawn, kk[j].data());
       }
-      check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data());
+      check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data(), 1);
       for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
     }
-    combine_rows(i0, m, brackets.data(), 1, k_level[0].data(), k_level[1].data());
+    combine_rows(i0, m, brackets.get(), 1, k_level[0].data(), k_level[1].data());
   };
   if (inner_.thread_safe) {
     detail::parallel_chunks(count, kChunk, kChunk, chunk_body);
