@@ -128,6 +128,11 @@ LevelBracket LevelLadder::bracket(double footprint_area) const {
                               static_cast<double>(bits & ((std::uint64_t{1} << 52) - 1)) * 0x1p-52;
     const double rough = std::floor(rough_log2 * inv_log2_ratio_);
     int lo = static_cast<int>(std::clamp(rough, static_cast<double>(-kTabulated), static_cast<double>(kTabulated - 1)));
+    // The guess is at most one level off for ratios >= 1.5 (log2 within 0.09): one step each way
+    // without a branch (random footprints made these steps mispredicted branches, the bulk of a
+    // bracket's time), then the loops settle what is left (ratios nearer 1), rarely entered.
+    lo -= static_cast<int>(lo > -kTabulated && areas_[static_cast<std::size_t>(lo + kTabulated)] > a);
+    lo += static_cast<int>(lo + 1 < kTabulated && areas_[static_cast<std::size_t>(lo + 1 + kTabulated)] <= a);
     while (areas_[static_cast<std::size_t>(lo + kTabulated)] > a) --lo;
     while (areas_[static_cast<std::size_t>(lo + 1 + kTabulated)] <= a) ++lo;
     return bracket_at(a, lo);
@@ -147,8 +152,9 @@ LevelBracket LevelLadder::bracket_at(double a, int lo) const {
   b.lo = lo;
   b.area_lo = area(lo);
   b.area_hi = area(lo + 1);
-  b.w_lod = std::clamp(std::log(a / b.area_lo) / log_ratio_, 0.0, std::nextafter(1.0, 0.0));
-  b.w_area = std::clamp((a - b.area_lo) / (b.area_hi - b.area_lo), 0.0, std::nextafter(1.0, 0.0));
+  constexpr double kBelowOne = 0x1.fffffffffffffp-1;  // std::nextafter(1.0, 0.0), without the call
+  b.w_lod = std::clamp(std::log(a / b.area_lo) / log_ratio_, 0.0, kBelowOne);
+  b.w_area = std::clamp((a - b.area_lo) / (b.area_hi - b.area_lo), 0.0, kBelowOne);
   return b;
 }
 
@@ -252,13 +258,15 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       throw_invalid(where, indexed_name("P", i, area.size > 1), a, "a finite footprint area > 0");
   }
   for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
-  // The brackets the validation computes, kept for the draws when P is an array of at most 2^20 samples
-  // (one bracket per sample instead of two: a logarithm and the level's settling).
-  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 20;  // 40 MiB of brackets at most
-  // Uninitialized (every entry is written by the validation): no 40-byte memset per sample.
-  std::unique_ptr<LevelBracket[]> kept_brackets;
+  // The level indices the validation finds, kept for the draws when P is an array of at most 2^26
+  // samples (the level search once per sample, not twice).
+  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 26;  // 128 MiB of level indices at most
+  // Only each sample's level index is kept (2 bytes, not the 40 of a bracket: writing a fresh 40 MB
+  // array cost as much in page faults as the level search it saves), uninitialized (the validation
+  // writes every entry); the draw rebuilds the bracket from it (LevelLadder::bracket_at, the same bits).
+  std::unique_ptr<std::int16_t[]> kept_levels;
   if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax)
-    kept_brackets.reset(new LevelBracket[count]);
+    kept_levels.reset(new std::int16_t[count]);
   if (inner_.law) {
     // The inner law's domain check, remembered per chunk of samples for the last (n, p) pairs it
     // accepted: a rule drawing N A_l trials asks the same few pairs (one per level) at every sample.
@@ -280,7 +288,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     };
     auto check_trials = [&](std::size_t i, AcceptedMemo& memo) {
       const LevelBracket b = ladder_.bracket(area[i]);
-      if (kept_brackets) kept_brackets[i] = b;
+      if (kept_levels) kept_levels[i] = static_cast<std::int16_t>(b.lo);  // |lo| < 32767 (bracket checks it)
       const auto trials = snap_trials(rule_->trials(density, area[i], b));
       for (double t : trials)
         if (t > 0 && !accepted(memo, t, p[i]))
@@ -465,7 +473,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     int level_min = std::numeric_limits<int>::max(), level_max = std::numeric_limits<int>::min();
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
-      brackets[r] = kept_brackets ? kept_brackets[i] : ladder_.bracket(area[i]);
+      brackets[r] = kept_levels ? ladder_.bracket_at(area[i], kept_levels[i]) : ladder_.bracket(area[i]);
       const auto trials = snap_trials(rule_->trials(density, area[i], brackets[r]));
       for (int j = 0; j < 2; ++j) {
         if (!(trials[j] > 0)) continue;

@@ -55,12 +55,13 @@ class LevelLadder {
   }
   // P finite > 0 whose level index fits 16 bits (|l| < 32768); otherwise std::invalid_argument.
   LevelBracket bracket(double footprint_area) const;
+  // bracket(P) once its level lo is known (lo = bracket(P).lo; no checks): the same bits.
+  LevelBracket bracket_at(double footprint_area, int lo) const;
 
  private:
   // area(l) for |l| <= kTabulated, computed once by the same expression (a per-sample bracket then
   // costs two logarithms instead of three and four pow calls; the same bits).
   static constexpr int kTabulated = 256;
-  LevelBracket bracket_at(double footprint_area, int lo) const;  // the bracket once lo is settled
   double ratio_, base_area_, log_ratio_, inv_log2_ratio_ = 1;
   std::vector<double> areas_;
   bool increasing_ = false;  // areas_ strictly increasing: bracket() may bisect it
