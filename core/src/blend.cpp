@@ -147,13 +147,20 @@ LevelBracket LevelLadder::bracket(double footprint_area) const {
   return bracket_at(a, lo);
 }
 
+namespace {
+constexpr double kBelowOne = 0x1.fffffffffffffp-1;  // std::nextafter(1.0, 0.0), without the call
+}
+
 LevelBracket LevelLadder::bracket_at(double a, int lo) const {
+  return bracket_at(a, lo, std::clamp(std::log(a / area(lo)) / log_ratio_, 0.0, kBelowOne));
+}
+
+LevelBracket LevelLadder::bracket_at(double a, int lo, double w_lod) const {
   LevelBracket b;
   b.lo = lo;
   b.area_lo = area(lo);
   b.area_hi = area(lo + 1);
-  constexpr double kBelowOne = 0x1.fffffffffffffp-1;  // std::nextafter(1.0, 0.0), without the call
-  b.w_lod = std::clamp(std::log(a / b.area_lo) / log_ratio_, 0.0, kBelowOne);
+  b.w_lod = w_lod;
   b.w_area = std::clamp((a - b.area_lo) / (b.area_hi - b.area_lo), 0.0, kBelowOne);
   return b;
 }
@@ -258,15 +265,19 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       throw_invalid(where, indexed_name("P", i, area.size > 1), a, "a finite footprint area > 0");
   }
   for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
-  // The level indices the validation finds, kept for the draws when P is an array of at most 2^26
+  // The level indices the validation finds, kept for the draws when P is an array of at most 2^24
   // samples (the level search once per sample, not twice).
-  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 26;  // 128 MiB of level indices at most
-  // Only each sample's level index is kept (2 bytes, not the 40 of a bracket: writing a fresh 40 MB
-  // array cost as much in page faults as the level search it saves), uninitialized (the validation
-  // writes every entry); the draw rebuilds the bracket from it (LevelLadder::bracket_at, the same bits).
+  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 24;  // 160 MiB at most
+  // Only each sample's level index and w_lod are kept (10 bytes, not the 40 of a bracket: writing a
+  // fresh 40 MB array cost about as much in page faults as the level search it saves), uninitialized
+  // (the validation writes every entry); the draw rebuilds the bracket from them
+  // (LevelLadder::bracket_at, the same bits, no logarithm).
   std::unique_ptr<std::int16_t[]> kept_levels;
-  if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax)
+  std::unique_ptr<double[]> kept_w_lod;
+  if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax) {
     kept_levels.reset(new std::int16_t[count]);
+    kept_w_lod.reset(new double[count]);
+  }
   if (inner_.law) {
     // The inner law's domain check, remembered per chunk of samples for the last (n, p) pairs it
     // accepted: a rule drawing N A_l trials asks the same few pairs (one per level) at every sample.
@@ -288,7 +299,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     };
     auto check_trials = [&](std::size_t i, AcceptedMemo& memo) {
       const LevelBracket b = ladder_.bracket(area[i]);
-      if (kept_levels) kept_levels[i] = static_cast<std::int16_t>(b.lo);  // |lo| < 32767 (bracket checks it)
+      if (kept_levels) {
+        kept_levels[i] = static_cast<std::int16_t>(b.lo);  // |lo| < 32767 (bracket() checks it)
+        kept_w_lod[i] = b.w_lod;
+      }
       const auto trials = snap_trials(rule_->trials(density, area[i], b));
       for (double t : trials)
         if (t > 0 && !accepted(memo, t, p[i]))
@@ -473,7 +487,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     int level_min = std::numeric_limits<int>::max(), level_max = std::numeric_limits<int>::min();
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
-      brackets[r] = kept_levels ? ladder_.bracket_at(area[i], kept_levels[i]) : ladder_.bracket(area[i]);
+      brackets[r] = kept_levels ? ladder_.bracket_at(area[i], kept_levels[i], kept_w_lod[i]) : ladder_.bracket(area[i]);
       const auto trials = snap_trials(rule_->trials(density, area[i], brackets[r]));
       for (int j = 0; j < 2; ++j) {
         if (!(trials[j] > 0)) continue;

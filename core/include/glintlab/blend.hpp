@@ -55,8 +55,10 @@ class LevelLadder {
   }
   // P finite > 0 whose level index fits 16 bits (|l| < 32768); otherwise std::invalid_argument.
   LevelBracket bracket(double footprint_area) const;
-  // bracket(P) once its level lo is known (lo = bracket(P).lo; no checks): the same bits.
+  // bracket(P) once its level lo is known (lo = bracket(P).lo; no checks): the same bits. With
+  // w_lod = bracket(P).w_lod given too, without the logarithm.
   LevelBracket bracket_at(double footprint_area, int lo) const;
+  LevelBracket bracket_at(double footprint_area, int lo, double w_lod) const;
 
  private:
   // area(l) for |l| <= kTabulated, computed once by the same expression (a per-sample bracket then
