@@ -520,14 +520,18 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         level_n.fill(std::numeric_limits<double>::quiet_NaN());
         level_p.fill(std::numeric_limits<double>::quiet_NaN());
         bool one_pair = true;
-        for (int j = 0; j < 2; ++j) {
-          for (std::size_t q = 0; q < rows[j].size(); ++q) {
-            const auto l = static_cast<std::size_t>(brackets[rows[j][q]].lo + j - level_min);
-            if (level_n[l] != level_n[l]) [[unlikely]] {
-              level_n[l] = n[j][q];
-              level_p[l] = pp[j][q];
+        for (int j = 0; j < 2 && one_pair; ++j) {
+          // In blocks of 64 rows, leaving at the first block with a second (n, p) (distributed).
+          for (std::size_t q0 = 0; q0 < rows[j].size() && one_pair; q0 += 64) {
+            const std::size_t q1 = std::min(rows[j].size(), q0 + 64);
+            for (std::size_t q = q0; q < q1; ++q) {
+              const auto l = static_cast<std::size_t>(brackets[rows[j][q]].lo + j - level_min);
+              if (level_n[l] != level_n[l]) [[unlikely]] {
+                level_n[l] = n[j][q];
+                level_p[l] = pp[j][q];
+              }
+              one_pair &= level_n[l] == n[j][q] && level_p[l] == pp[j][q];
             }
-            one_pair &= level_n[l] == n[j][q] && level_p[l] == pp[j][q];
           }
         }
         if (one_pair) {
