@@ -13,6 +13,7 @@ glintlab's default threads, and prints the ratio the issue's goal is stated in:
                     per sample                                                   vs the inner law's batch
                     (note: the bound, the inner law's per-pixel ns on the samples' level (n, p) pairs)
   blend ... one P   the same at P = 4 for every sample (each level at one (n, p)) vs the inner law's batch
+  ... one P = 8     the same at P = 8 (w = 1/2: both levels drawn, both thinned by the roulette)
   count_image[cfg]  AnisoCounter.count_image on a 1920 x 1080 tilted plane (gated inside): ns per pixel
                     per inner evaluation                                         vs per-pixel gated ns
   out=              the per-pixel and batch calls again with a preallocated ``out=`` buffer: the
@@ -213,6 +214,13 @@ def main(argv=None):
                 add(f"blend {rule}[{inner}] one P", f"blend/inner batch <= {goal}", v, base,
                     f"{inner} batch at (n, p) = ({inner_point[0]:g}, {p_blend:g})", r, r <= goal, t,
                     note=f"P = 4 for every sample (level {lv['level']}, w = {lv['w_lod']:g})")
+                # P = 8 (w = 1/2): both levels drawn and, for the roulette, both thinned (at P = 4 the
+                # upper level has weight 0 and is not drawn at all).
+                v = ns(lambda: b.sample(N, 8.0, p_blend, size=M, seed=args.seed), M, t)
+                r = v / base
+                add(f"blend {rule}[{inner}] one P = 8", f"blend/inner batch <= {goal}", v, base,
+                    f"{inner} batch at (n, p) = ({inner_point[0]:g}, {p_blend:g})", r, r <= goal, t,
+                    note="P = 8 for every sample (w = 0.5)")
     # count_image: ns per pixel per inner evaluation against the per-pixel gated cost
     if args.image != "0":
         from glintlab.api.grids import IMAGE_CONFIGS, configured_counter

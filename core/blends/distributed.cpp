@@ -16,7 +16,7 @@ class Distributed final : public BlendRule {
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
     return {(1.0 - b.w_area) * density * b.area_lo, b.w_area * density * b.area_hi};
   }
-  double combine(double, const LevelBracket&, double k_lo, double k_hi, std::array<CounterRng, 2>&) const override {
+  double combine(double, const LevelBracket&, double k_lo, double k_hi, std::array<FacetStream, 2>&) const override {
     return k_lo + k_hi;
   }
   bool integer_output() const override { return true; }

@@ -15,7 +15,7 @@ class Nearest final : public BlendRule {
     return {density * b.area_lo, 0.0};
   }
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
-                 std::array<CounterRng, 2>&) const override {
+                 std::array<FacetStream, 2>&) const override {
     return upper(b) ? area / b.area_hi * k_hi : area / b.area_lo * k_lo;
   }
   Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo, const Distribution& hi,

@@ -100,32 +100,77 @@ class Roulette final : public BlendRule {
   explicit Roulette(double eps) : eps_(eps) {}
   std::string name() const override { return "roulette"; }
   LawParams params() const override { return {{"epsilon", eps_}}; }
+  // The upper level at w = 0 (P on a level's area) keeps none of its facets, whatever its count
+  // (kept() of any k at weight 0 is 0): it is not drawn, as the other rules skip a level of weight 0.
+  // The same K, bit for bit.
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
-    return {density * b.area_lo, density * b.area_hi};
+    return {density * b.area_lo, b.w_lod > 0 ? density * b.area_hi : 0.0};
   }
   bool thins() const override { return true; }
   bool has_pmf() const override { return eps_ == 0; }
 
-  double kept(double k, double weight, CounterRng& facets) const {
-    if (k <= 0) return 0.0;
+  // The hard roulette's kept count from the stream's first two uniforms.
+  static double hard_kept(double k, double weight, double u, double u_part) {
     const double whole = std::floor(k), part = k - whole;
+    return blend_detail::thin(whole, weight, u) + (part > 0 && u_part < weight ? part : 0.0);
+  }
+  // Above kExplicitFacets: the normal with the kept sum's exact moments, from one uniform.
+  static double normal_kept(double k, const std::array<double, 2>& m, double u) {
+    const double sd = std::sqrt(std::max(0.0, k * (m[1] - m[0] * m[0])));
+    // sd = 0 (weight 0 or 1: every facet's R is 0 or 1): sd times the finite quantile of a uniform in
+    // (0, 1) adds a signed zero, which leaves k m[0] unchanged, so the quantile is not computed.
+    return std::clamp(sd > 0 ? k * m[0] + sd * normal::quantile(u) : k * m[0], 0.0, k);
+  }
+
+  double kept(double k, double weight, FacetStream& facets) const {
+    if (k <= 0) return 0.0;
     if (eps_ == 0) {
       const double u = facets.uniform(), u_part = facets.uniform();
-      return blend_detail::thin(whole, weight, u) + (part > 0 && u_part < weight ? part : 0.0);
+      return hard_kept(k, weight, u, u_part);
     }
     if (k <= kExplicitFacets) {
+      const double whole = std::floor(k), part = k - whole;
       double sum = 0;
       for (double i = 0; i < whole; ++i) sum += blend_detail::roulette_keep(facets.uniform(), weight, eps_);
       if (part > 0) sum += part * blend_detail::roulette_keep(facets.uniform(), weight, eps_);
       return sum;
     }
-    const auto m = recent_roulette_moments(weight, eps_);
-    const double sd = std::sqrt(std::max(0.0, k * (m[1] - m[0] * m[0])));
-    return std::clamp(k * m[0] + sd * normal::quantile(facets.uniform()), 0.0, k);
+    return normal_kept(k, recent_roulette_moments(weight, eps_), facets.uniform());
+  }
+
+  // One bracket for all rows: the weights' moments once, and the first uniforms straight from the
+  // prefetched blocks; only the explicit facets (eps > 0, k <= 64) read a whole stream. The same
+  // operations as combine(), so the same bits.
+  void combine_rows(double area, const LevelBracket& b, std::size_t m, const double* k_lo, const double* k_hi,
+                    const FacetRows& facets, double* out) const override {
+    const double weight[2] = {1.0 - b.w_lod, b.w_lod};
+    const double scale[2] = {area / b.area_lo, area / b.area_hi};
+    const double* counts[2] = {k_lo, k_hi};
+    std::array<double, 2> moments[2] = {{0, 0}, {0, 0}};
+    if (eps_ > 0)
+      for (int j = 0; j < 2; ++j) moments[j] = blend_detail::roulette_moments(weight[j], eps_);
+    for (std::size_t r = 0; r < m; ++r) {
+      double level[2];
+      for (int j = 0; j < 2; ++j) {
+        const double k = counts[j][r];
+        const double* first = facets.first[static_cast<std::size_t>(j)];
+        if (k <= 0) {
+          level[j] = 0.0;
+        } else if (first && eps_ == 0) {
+          level[j] = hard_kept(k, weight[j], first[2 * r], first[2 * r + 1]);
+        } else if (first && k > kExplicitFacets) {
+          level[j] = normal_kept(k, moments[j], first[2 * r]);
+        } else {
+          FacetStream stream = facets.stream(r, j);
+          level[j] = kept(k, weight[j], stream);
+        }
+      }
+      out[r] = scale[0] * level[0] + scale[1] * level[1];
+    }
   }
 
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
-                 std::array<CounterRng, 2>& facets) const override {
+                 std::array<FacetStream, 2>& facets) const override {
     return area / b.area_lo * kept(k_lo, 1.0 - b.w_lod, facets[0]) +
            area / b.area_hi * kept(k_hi, b.w_lod, facets[1]);
   }

@@ -16,7 +16,7 @@ class Zk16Linear final : public BlendRule {
     return {density * b.area_lo, density * b.area_hi};
   }
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
-                 std::array<CounterRng, 2>&) const override {
+                 std::array<FacetStream, 2>&) const override {
     return area * ((1.0 - b.w_lod) * k_lo / b.area_lo + b.w_lod * k_hi / b.area_hi);
   }
   Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo, const Distribution& hi,

@@ -11,6 +11,7 @@
 #include <memory>
 #include <mutex>
 #include <stdexcept>
+#include <utility>
 
 #include "glintlab/binomial.hpp"
 #include "glintlab/errors.hpp"
@@ -25,15 +26,45 @@ std::uint16_t level_key(int level) { return static_cast<std::uint16_t>(static_ca
 
 constexpr std::size_t kChunk = 2048;
 
+// An allocator whose value-less construct() leaves scalars uninitialized: the per-chunk buffers below
+// are written before they are read, and the zero fill of std::vector's resize() showed in profiles
+// (about 10 % of the instructions of a blend with P per sample).
+template <class T>
+struct UninitializedAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = UninitializedAllocator<U>;
+  };
+  UninitializedAllocator() = default;
+  template <class U>
+  UninitializedAllocator(const UninitializedAllocator<U>&) noexcept {}
+  template <class U, class... Args>
+  void construct(U* at, Args&&... args) {
+    if constexpr (sizeof...(Args) == 0) ::new (static_cast<void*>(at)) U;
+    else ::new (static_cast<void*>(at)) U(std::forward<Args>(args)...);
+  }
+};
+template <class T>
+using Scratch = std::vector<T, UninitializedAllocator<T>>;
+
 // A rule's trial counts come from products of areas and densities, which land a few ulps off the
 // integers they stand for (N A_hi = n (A_hi / P) at P one ulp below A_hi; w N A_hi at w = 1e-16).
 // Left alone, the stratified rule turns such an ulp into a Bernoulli facet, so K could reach
 // ceil(n) + 1 (found by the extremes suite). Counts within 4 ulps of the pair's total from an
 // integer are that integer; elsewhere the counts are untouched.
+// std::round (half away from zero) without the libm call the baseline ISA makes of it (two per
+// level and sample): x - trunc(x) is exact, so the comparison with 1/2 decides as round() does.
+inline double round_half_away(double x) {
+  if (!(std::abs(x) < 0x1p52)) return std::round(x);  // already an integer, or not finite
+  const double t = static_cast<double>(static_cast<std::int64_t>(x));
+  const double f = x - t;
+  return f >= 0.5 ? t + 1.0 : f <= -0.5 ? t - 1.0 : t;
+}
+
 std::array<double, 2> snap_trials(std::array<double, 2> t) {
   const double tolerance = 4 * std::numeric_limits<double>::epsilon() * (std::abs(t[0]) + std::abs(t[1]));
   for (double& x : t) {
-    const double r = std::round(x);
+    const double r = round_half_away(x);
     if (std::abs(x - r) <= tolerance) x = r;
   }
   return t;
@@ -97,6 +128,11 @@ LevelBracket LevelLadder::bracket(double footprint_area) const {
                               static_cast<double>(bits & ((std::uint64_t{1} << 52) - 1)) * 0x1p-52;
     const double rough = std::floor(rough_log2 * inv_log2_ratio_);
     int lo = static_cast<int>(std::clamp(rough, static_cast<double>(-kTabulated), static_cast<double>(kTabulated - 1)));
+    // The guess is at most one level off for ratios >= 1.5 (log2 within 0.09): one step each way
+    // without a branch (random footprints made these steps mispredicted branches, the bulk of a
+    // bracket's time), then the loops settle what is left (ratios nearer 1), rarely entered.
+    lo -= static_cast<int>(lo > -kTabulated && areas_[static_cast<std::size_t>(lo + kTabulated)] > a);
+    lo += static_cast<int>(lo + 1 < kTabulated && areas_[static_cast<std::size_t>(lo + 1 + kTabulated)] <= a);
     while (areas_[static_cast<std::size_t>(lo + kTabulated)] > a) --lo;
     while (areas_[static_cast<std::size_t>(lo + 1 + kTabulated)] <= a) ++lo;
     return bracket_at(a, lo);
@@ -111,13 +147,21 @@ LevelBracket LevelLadder::bracket(double footprint_area) const {
   return bracket_at(a, lo);
 }
 
+namespace {
+constexpr double kBelowOne = 0x1.fffffffffffffp-1;  // std::nextafter(1.0, 0.0), without the call
+}
+
 LevelBracket LevelLadder::bracket_at(double a, int lo) const {
+  return bracket_at(a, lo, std::clamp(std::log(a / area(lo)) / log_ratio_, 0.0, kBelowOne));
+}
+
+LevelBracket LevelLadder::bracket_at(double a, int lo, double w_lod) const {
   LevelBracket b;
   b.lo = lo;
   b.area_lo = area(lo);
   b.area_hi = area(lo + 1);
-  b.w_lod = std::clamp(std::log(a / b.area_lo) / log_ratio_, 0.0, std::nextafter(1.0, 0.0));
-  b.w_area = std::clamp((a - b.area_lo) / (b.area_hi - b.area_lo), 0.0, std::nextafter(1.0, 0.0));
+  b.w_lod = w_lod;
+  b.w_area = std::clamp((a - b.area_lo) / (b.area_hi - b.area_lo), 0.0, kBelowOne);
   return b;
 }
 
@@ -135,6 +179,16 @@ InnerLaw InnerLaw::from_law(std::shared_ptr<const CountingLaw> law) {
   inner.fixed_evaluator = [raw](double n, double p, std::size_t rows) { return raw->fixed_evaluator(n, p, rows); };
   inner.law = std::move(law);
   return inner;
+}
+
+void BlendRule::combine_rows(double area, const LevelBracket& b, std::size_t m, const double* k_lo, const double* k_hi,
+                             const FacetRows& facets, double* out) const {
+  std::array<FacetStream, 2> streams;
+  const bool reads_facets = thins();
+  for (std::size_t r = 0; r < m; ++r) {
+    if (reads_facets) streams = {facets.stream(r, 0), facets.stream(r, 1)};
+    out[r] = combine(area, b, k_lo[r], k_hi[r], streams);
+  }
 }
 
 Registry<BlendInfo>& blend_registry() {
@@ -208,18 +262,47 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       throw_invalid(where, indexed_name("P", i, area.size > 1), a, "a finite footprint area > 0");
   }
   for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
-  // The brackets the validation computes, kept for the draws when P is an array of at most 2^20 samples
-  // (one bracket per sample instead of two: a logarithm and the level's settling).
-  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 20;  // 40 MiB of brackets at most
-  std::vector<LevelBracket> kept_brackets;
-  if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax) kept_brackets.resize(count);
+  // The level indices the validation finds, kept for the draws when P is an array of at most 2^24
+  // samples (the level search once per sample, not twice).
+  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 24;  // 160 MiB at most
+  // Only each sample's level index and w_lod are kept (10 bytes, not the 40 of a bracket: writing a
+  // fresh 40 MB array cost about as much in page faults as the level search it saves), uninitialized
+  // (the validation writes every entry); the draw rebuilds the bracket from them
+  // (LevelLadder::bracket_at, the same bits, no logarithm).
+  std::unique_ptr<std::int16_t[]> kept_levels;
+  std::unique_ptr<double[]> kept_w_lod;
+  if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax) {
+    kept_levels.reset(new std::int16_t[count]);
+    kept_w_lod.reset(new double[count]);
+  }
   if (inner_.law) {
-    auto check_trials = [&](std::size_t i) {
+    // The inner law's domain check, remembered per chunk of samples for the last (n, p) pairs it
+    // accepted: a rule drawing N A_l trials asks the same few pairs (one per level) at every sample.
+    struct AcceptedMemo {
+      double t[4], p[4];
+      unsigned next = 0;
+      AcceptedMemo() {
+        for (int e = 0; e < 4; ++e) t[e] = p[e] = std::numeric_limits<double>::quiet_NaN();
+      }
+    };
+    auto accepted = [&](AcceptedMemo& memo, double t, double pi) {
+      for (int e = 0; e < 4; ++e)
+        if (memo.t[e] == t && memo.p[e] == pi) return true;
+      if (!inner_.law->accepts(t, pi)) return false;
+      memo.t[memo.next] = t;
+      memo.p[memo.next] = pi;
+      memo.next = (memo.next + 1) % 4;
+      return true;
+    };
+    auto check_trials = [&](std::size_t i, AcceptedMemo& memo) {
       const LevelBracket b = ladder_.bracket(area[i]);
-      if (!kept_brackets.empty()) kept_brackets[i] = b;
+      if (kept_levels) {
+        kept_levels[i] = static_cast<std::int16_t>(b.lo);  // |lo| < 32767 (bracket() checks it)
+        kept_w_lod[i] = b.w_lod;
+      }
       const auto trials = snap_trials(rule_->trials(density, area[i], b));
       for (double t : trials)
-        if (t > 0 && !inner_.law->accepts(t, p[i]))
+        if (t > 0 && !accepted(memo, t, p[i]))
           throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(t) +
                                       " at p = " + format_value(p[i]) + " (P = " + format_value(area[i]) + ")");
     };
@@ -228,9 +311,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     const std::size_t m = std::max(area.size, p.size);
     std::atomic<std::size_t> first_bad{m};
     detail::parallel_chunks(m, kChunk, kChunk, [&](std::size_t i0, std::size_t i1) {
+      AcceptedMemo memo;
       for (std::size_t i = i0; i < i1; ++i) {
         try {
-          check_trials(i);
+          check_trials(i, memo);
         } catch (const std::exception&) {
           std::size_t seen = first_bad.load();
           while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
@@ -239,7 +323,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         }
       }
     });
-    if (first_bad.load() < m) check_trials(first_bad.load());
+    if (first_bad.load() < m) {
+      AcceptedMemo memo;
+      check_trials(first_bad.load(), memo);
+    }
   }
 
   const std::size_t k = static_cast<std::size_t>(inner_.n_uniforms);
@@ -248,23 +335,77 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   // level's uniforms are then rows of the vectorized Philox keyed at that level (the same numbers as
   // one CounterRng per cell).
   constexpr bool kIndexCells = requires { CellOf::kIndexCells; };
-  auto check_finite = [&](const double* kk, std::size_t rows, const double* n, const double* pp) {
+  // n and p: one value per row (step 1) or one for all (step 0).
+  auto check_finite = [&](const double* kk, std::size_t rows, const double* n, const double* pp, std::size_t step) {
     for (std::size_t q = 0; q < rows; ++q)
       if (!std::isfinite(kk[q]))
         throw_invalid_message(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
-                                    format_value(n[q]) + ", p = " + format_value(pp[q]));
+                              format_value(n[q * step]) + ", p = " + format_value(pp[q * step]));
   };
   // The level counts into K; the facet streams only for rules that thin (roulette).
+  // drawn: for one footprint area (bracket_step 0), which levels have trials (an undrawn level's
+  // facets are never read).
   auto combine_rows = [&](std::size_t i0, std::size_t m, const LevelBracket* brackets, std::size_t bracket_step,
-                          const double* k_lo, const double* k_hi) {
-    std::array<CounterRng, 2> facets = {CounterRng(seed, 0, 0), CounterRng(seed, 0, 0)};
+                          const double* k_lo, const double* k_hi, std::array<bool, 2> drawn = {true, true}) {
+    std::array<FacetStream, 2> facets;
+    // sample()'s facet streams (index cells): the first Philox block of each row's stream at each
+    // level, computed ahead as vectorized rows (one block per level the chunk spans; a scalar Philox
+    // block per row and level was most of the roulette's cost). The same numbers.
+    int level_min = 0, span = 0;
+    std::unique_ptr<double[]> first_blocks;
+    constexpr int kMaxFacetLevels = 7;
+    if constexpr (kIndexCells) {
+      if (thins && m > 0) {
+        int lmin = std::numeric_limits<int>::max(), lmax = std::numeric_limits<int>::min();
+        for (std::size_t r = 0; r < m; ++r) {
+          const int lo = brackets[r * bracket_step].lo;
+          lmin = std::min(lmin, lo);
+          lmax = std::max(lmax, lo + 1);
+          if (bracket_step == 0) break;
+        }
+        if (lmax - lmin < kMaxFacetLevels) {
+          level_min = lmin;
+          span = lmax - lmin + 1;
+          first_blocks.reset(new double[static_cast<std::size_t>(span) * m * 2]);
+          for (int l = 0; l < span; ++l) {
+            if (bracket_step == 0 && !drawn[static_cast<std::size_t>(level_min + l - brackets[0].lo)]) continue;
+            detail::philox_uniform_rows_level(seed, level_key(level_min + l), kStreamLevelFacets, i0, m, 2,
+                                              first_blocks.get() + static_cast<std::size_t>(l) * m * 2);
+          }
+        }
+      }
+    }
+    if (bracket_step == 0) {
+      // One bracket for every row: the rule's batch form (the same bits as combine() per row).
+      const LevelBracket& b = brackets[0];
+      BlendRule::FacetRows rows;
+      if (first_blocks)
+        for (int j = 0; j < 2; ++j)
+          if (drawn[static_cast<std::size_t>(j)])
+            rows.first[static_cast<std::size_t>(j)] =
+                first_blocks.get() + static_cast<std::size_t>(b.lo + j - level_min) * m * 2;
+      rows.stream = [&](std::size_t r, int j) {
+        const auto [cx, cy] = cell_of(i0 + r, j == 0 ? b.area_lo : b.area_hi);
+        const CounterRng rng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
+        const double* first = rows.first[static_cast<std::size_t>(j)];
+        return first ? FacetStream(first + 2 * r, rng) : FacetStream(rng);
+      };
+      rule_->combine_rows(area[0], b, m, k_lo, k_hi, rows, out + i0);
+      return;
+    }
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
       const LevelBracket& b = brackets[r * bracket_step];
       if (thins) {
         for (int j = 0; j < 2; ++j) {
           const auto [cx, cy] = cell_of(i, j == 0 ? b.area_lo : b.area_hi);
-          facets[static_cast<std::size_t>(j)] = CounterRng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
+          const CounterRng rng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
+          if (first_blocks) {
+            const auto l = static_cast<std::size_t>(b.lo + j - level_min);
+            facets[static_cast<std::size_t>(j)] = FacetStream(first_blocks.get() + (l * m + r) * 2, rng);
+          } else {
+            facets[static_cast<std::size_t>(j)] = FacetStream(rng);
+          }
         }
       }
       out[i] = rule_->combine(area[i], b, k_lo[r], k_hi[r], facets);
@@ -282,15 +423,22 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       if (trials[j] > 0 && inner_.fixed_evaluator) evaluators[j] = inner_.fixed_evaluator(trials[j], p[0], count);
     auto chunk_body = [&](std::size_t i0, std::size_t i1) {
       const std::size_t m = i1 - i0;
-      std::vector<double> u(m * k), k_level[2], n_rows, p_rows;
+      // Uninitialized where every element is written (a zero fill per row and buffer showed in the
+      // profile); an undrawn level's counts are zeros.
+      const std::unique_ptr<double[]> u(new double[std::max<std::size_t>(m * k, 1)]);
+      std::unique_ptr<double[]> k_level[2];
+      std::vector<double> n_rows, p_rows;
       for (int j = 0; j < 2; ++j) {
-        k_level[j].assign(m, 0.0);
-        if (!(trials[j] > 0)) continue;
+        k_level[j].reset(new double[m]);
+        if (!(trials[j] > 0)) {
+          std::fill_n(k_level[j].get(), m, 0.0);
+          continue;
+        }
         const int level = b.lo + j;
         if constexpr (kIndexCells) {
           if (k > 0)
             detail::philox_uniform_rows_level(seed, level_key(level), kStreamLevelCount, i0, m, static_cast<int>(k),
-                                              u.data());
+                                              u.get());
         } else {
           for (std::size_t r = 0; r < m; ++r) {
             const auto [cx, cy] = cell_of(i0 + r, j == 0 ? b.area_lo : b.area_hi);
@@ -298,13 +446,17 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
             for (std::size_t d = 0; d < k; ++d) u[r * k + d] = rng.uniform();
           }
         }
-        n_rows.assign(m, trials[j]);
-        p_rows.assign(m, p[0]);
-        if (evaluators[j]) evaluators[j]->evaluate(u.data(), m, k_level[j].data());
-        else inner_.evaluate(n_rows.data(), p_rows.data(), u.data(), m, k_level[j].data());
-        check_finite(k_level[j].data(), m, n_rows.data(), p_rows.data());
+        if (evaluators[j]) {
+          evaluators[j]->evaluate(u.get(), m, k_level[j].get());
+          check_finite(k_level[j].get(), m, &trials[j], p.data, 0);
+        } else {
+          n_rows.assign(m, trials[j]);
+          p_rows.assign(m, p[0]);
+          inner_.evaluate(n_rows.data(), p_rows.data(), u.get(), m, k_level[j].get());
+          check_finite(k_level[j].get(), m, n_rows.data(), p_rows.data(), 1);
+        }
       }
-      combine_rows(i0, m, &b, 0, k_level[0].data(), k_level[1].data());
+      combine_rows(i0, m, &b, 0, k_level[0].get(), k_level[1].get(), {trials[0] > 0, trials[1] > 0});
     };
     if (inner_.thread_safe) {
       detail::parallel_chunks(count, kChunk, kChunk, chunk_body);
@@ -319,10 +471,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   FixedEvaluatorCache cache;
   auto chunk_body = [&](std::size_t i0, std::size_t i1) {
     const std::size_t m = i1 - i0;
-    std::vector<LevelBracket> brackets(m);
+    const std::unique_ptr<LevelBracket[]> brackets(new LevelBracket[m]);  // every row written below
     // Per level slot: the rows it is drawn for (compacted), their trials, p, uniforms and counts.
-    std::vector<std::size_t> rows[2] = {std::vector<std::size_t>(m), std::vector<std::size_t>(m)};
-    std::vector<double> n[2], pp[2], u[2], kk[2];
+    Scratch<std::size_t> rows[2] = {Scratch<std::size_t>(m), Scratch<std::size_t>(m)};
+    Scratch<double> n[2], pp[2], u[2], kk[2];
     std::vector<double> k_level[2] = {std::vector<double>(m, 0.0), std::vector<double>(m, 0.0)};
     std::size_t drawn_at[2] = {0, 0};
     for (int j = 0; j < 2; ++j) {
@@ -332,7 +484,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     int level_min = std::numeric_limits<int>::max(), level_max = std::numeric_limits<int>::min();
     for (std::size_t r = 0; r < m; ++r) {
       const std::size_t i = i0 + r;
-      brackets[r] = kept_brackets.empty() ? ladder_.bracket(area[i]) : kept_brackets[i];
+      brackets[r] = kept_levels ? ladder_.bracket_at(area[i], kept_levels[i], kept_w_lod[i]) : ladder_.bracket(area[i]);
       const auto trials = snap_trials(rule_->trials(density, area[i], brackets[r]));
       for (int j = 0; j < 2; ++j) {
         if (!(trials[j] > 0)) continue;
@@ -348,12 +500,66 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       rows[j].resize(drawn_at[j]);
       n[j].resize(drawn_at[j]);
       pp[j].resize(drawn_at[j]);
-      u[j].resize(drawn_at[j] * k);
     }
+    constexpr int kMaxVectorLevels = 6;
+    // Level by level, without sorting rows (sample(), a built-in law, and every row that draws a
+    // level doing so at one (n, p): the rules that draw N A_l trials, with one p or runs of equal p).
+    // Level l's uniforms for rows i0.. are one block of vectorized Philox rows, so the fixed
+    // evaluator of level l runs over the whole block in place and each row picks its two levels'
+    // counts. Rows that do not draw level l are evaluated too (about half of them with footprints
+    // spread over two levels) and dropped: cheaper than gathering uniforms and scattering counts per
+    // group. Each kept count is evaluate() on the row's own uniforms: the same bits.
+    if constexpr (kIndexCells) {
+      const bool narrow = level_min <= level_max && level_max - level_min < kMaxVectorLevels;
+      if (k > 0 && narrow && inner_.fixed_evaluator && m >= kTabulateMinBatch) {
+        const auto span = static_cast<std::size_t>(level_max - level_min + 1);
+        std::array<double, kMaxVectorLevels> level_n, level_p;
+        level_n.fill(std::numeric_limits<double>::quiet_NaN());
+        level_p.fill(std::numeric_limits<double>::quiet_NaN());
+        bool one_pair = true;
+        for (int j = 0; j < 2 && one_pair; ++j) {
+          // In blocks of 64 rows, leaving at the first block with a second (n, p) (distributed).
+          for (std::size_t q0 = 0; q0 < rows[j].size() && one_pair; q0 += 64) {
+            const std::size_t q1 = std::min(rows[j].size(), q0 + 64);
+            for (std::size_t q = q0; q < q1; ++q) {
+              const auto l = static_cast<std::size_t>(brackets[rows[j][q]].lo + j - level_min);
+              if (level_n[l] != level_n[l]) [[unlikely]] {
+                level_n[l] = n[j][q];
+                level_p[l] = pp[j][q];
+              }
+              one_pair &= level_n[l] == n[j][q] && level_p[l] == pp[j][q];
+            }
+          }
+        }
+        if (one_pair) {
+          const std::size_t stride = m * k;
+          const std::unique_ptr<double[]> block(new double[stride]);
+          const std::unique_ptr<double[]> counts(new double[span * m]);
+          for (std::size_t l = 0; l < span; ++l) {
+            if (level_n[l] != level_n[l]) continue;  // no row draws this level
+            detail::philox_uniform_rows_level(seed, level_key(level_min + static_cast<int>(l)), kStreamLevelCount, i0,
+                                              m, static_cast<int>(k), block.get());
+            cache.get(inner_, level_n[l], level_p[l], count)->evaluate(block.get(), m, counts.get() + l * m);
+          }
+          for (int j = 0; j < 2; ++j) {
+            const std::size_t drawn = rows[j].size();
+            kk[j].resize(drawn);
+            for (std::size_t q = 0; q < drawn; ++q) {
+              const std::size_t r = rows[j][q];
+              kk[j][q] = counts[static_cast<std::size_t>(brackets[r].lo + j - level_min) * m + r];
+            }
+            check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data(), 1);
+            for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
+          }
+          combine_rows(i0, m, brackets.get(), 1, k_level[0].data(), k_level[1].data());
+          return;
+        }
+      }
+    }
+    for (int j = 0; j < 2; ++j) u[j].resize(drawn_at[j] * k);
     // A chunk whose levels span a few indices (footprints within a few levels of each other): one
     // block of vectorized Philox rows per level of the span (uninitialized: every row is written),
     // each row then picking its level's block.
-    constexpr int kMaxVectorLevels = 6;
     if (kIndexCells && k > 0 && level_min <= level_max && level_max - level_min < kMaxVectorLevels) {
       const std::size_t stride = m * k;
       const auto span = static_cast<std::size_t>(level_max - level_min + 1);
@@ -381,9 +587,9 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         }
       }
     }
-    std::vector<std::uint8_t> group_of;
-    std::vector<std::size_t> order;
-    std::vector<double> group_u, group_k;
+    Scratch<std::uint8_t> group_of;
+    Scratch<std::size_t> order;
+    Scratch<double> group_u, group_k;
     for (int j = 0; j < 2; ++j) {
       const std::size_t drawn = rows[j].size();
       kk[j].resize(drawn);
@@ -440,10 +646,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       } else {
         inner_.evaluate(n[j].data(), pp[j].data(), u[j].data(), drawn, kk[j].data());
       }
-      check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data());
+      check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data(), 1);
       for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
     }
-    combine_rows(i0, m, brackets.data(), 1, k_level[0].data(), k_level[1].data());
+    combine_rows(i0, m, brackets.get(), 1, k_level[0].data(), k_level[1].data());
   };
   if (inner_.thread_safe) {
     detail::parallel_chunks(count, kChunk, kChunk, chunk_body);

@@ -135,7 +135,7 @@ TEST_CASE("negative controls: ZK16 and a mis-weighted distributed law are reject
     std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
       return {(1 - b.w_lod) * density * b.area_lo, b.w_lod * density * b.area_hi};
     }
-    double combine(double, const LevelBracket&, double lo, double hi, std::array<CounterRng, 2>&) const override {
+    double combine(double, const LevelBracket&, double lo, double hi, std::array<FacetStream, 2>&) const override {
       return lo + hi;
     }
     bool integer_output() const override { return true; }

@@ -205,3 +205,47 @@ TEST_CASE("a bad element of a long array is named, the lowest index first, on an
                       Catch::Contains("(P = 9.9999999999999997e+199)"));
   }
 }
+
+TEST_CASE("a facet stream with its first block from the vectorized rows draws as the scalar stream", "[blend][fast]") {
+  SimdLevelGuard guard;
+  for (int level : {2, 1, 0}) {
+    detail::set_simd_level(level);
+    const std::size_t start = (std::size_t{1} << 32) - 5, rows = 40;  // rows across the cell's y = 1 boundary
+    for (int lod : {-3, 0, 2}) {
+      const auto key = static_cast<std::uint16_t>(static_cast<std::int16_t>(lod));
+      std::vector<double> first(rows * 2);
+      detail::philox_uniform_rows_level(9, key, kStreamLevelFacets, start, rows, 2, first.data());
+      for (std::size_t r = 0; r < rows; ++r) {
+        const std::size_t i = start + r;
+        const CounterRng rng(9, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(i >> 32), key, kStreamLevelFacets);
+        FacetStream prefetched(first.data() + 2 * r, rng);
+        CounterRng scalar = rng;
+        for (int d = 0; d < 7; ++d) CHECK(prefetched.uniform() == scalar.uniform());
+      }
+    }
+  }
+}
+
+TEST_CASE("the roulette keeps nothing of the upper level at w = 0, so it need not be drawn", "[blend][fast]") {
+  // trials() gives the upper level no trials when P is a level's area: combine() of any upper count
+  // at w = 0 must equal combine() of none, bit for bit (hard and mollified roulette, every facet path).
+  const LevelLadder ladder(4, 1);
+  const LevelBracket b = ladder.bracket(16.0);
+  REQUIRE(b.w_lod == 0.0);
+  for (double eps : {0.0, 0.1, 0.3}) {
+    const auto rule = make_blend("roulette", {{"epsilon", eps}});
+    CHECK(rule->trials(1e3, 16.0, b)[1] == 0.0);
+    CHECK(rule->trials(1e3, 16.0, b)[0] == 1.6e4);
+    for (double k_lo : {0.0, 3.0, 40.5, 500.0, 1e5})
+      for (double k_hi : {1.0, 7.25, 64.0, 65.0, 3e4}) {
+        for (std::uint32_t cell = 0; cell < 50; ++cell) {
+          std::array<FacetStream, 2> a = {FacetStream(CounterRng(1, cell, 0, 2, kStreamLevelFacets)),
+                                          FacetStream(CounterRng(1, cell, 0, 3, kStreamLevelFacets))};
+          std::array<FacetStream, 2> c = a;
+          const double with = rule->combine(16.0, b, k_lo, k_hi, a), without = rule->combine(16.0, b, k_lo, 0.0, c);
+          INFO("eps " << eps << " k_lo " << k_lo << " k_hi " << k_hi << " cell " << cell);
+          CHECK(std::memcmp(&with, &without, sizeof with) == 0);
+        }
+      }
+  }
+}

@@ -55,12 +55,15 @@ class LevelLadder {
   }
   // P finite > 0 whose level index fits 16 bits (|l| < 32768); otherwise std::invalid_argument.
   LevelBracket bracket(double footprint_area) const;
+  // bracket(P) once its level lo is known (lo = bracket(P).lo; no checks): the same bits. With
+  // w_lod = bracket(P).w_lod given too, without the logarithm.
+  LevelBracket bracket_at(double footprint_area, int lo) const;
+  LevelBracket bracket_at(double footprint_area, int lo, double w_lod) const;
 
  private:
   // area(l) for |l| <= kTabulated, computed once by the same expression (a per-sample bracket then
   // costs two logarithms instead of three and four pow calls; the same bits).
   static constexpr int kTabulated = 256;
-  LevelBracket bracket_at(double footprint_area, int lo) const;  // the bracket once lo is settled
   double ratio_, base_area_, log_ratio_, inv_log2_ratio_ = 1;
   std::vector<double> areas_;
   bool increasing_ = false;  // areas_ strictly increasing: bracket() may bisect it
@@ -84,6 +87,28 @@ struct InnerLaw {
   static InnerLaw from_law(std::shared_ptr<const CountingLaw> law);
 };
 
+// A level cell's per-facet stream (roulette): CounterRng(seed, cell, level, kStreamLevelFacets), whose
+// first Philox block may have been computed ahead by the vectorized rows (detail::
+// philox_uniform_rows_level with k = 2, the same two numbers); the stream then continues from its
+// second block. The same draws either way.
+class FacetStream {
+ public:
+  FacetStream() : rng_(0, 0, 0) {}
+  explicit FacetStream(const CounterRng& rng) : rng_(rng) {}
+  FacetStream(const double* first_two, const CounterRng& rng) : first_{first_two[0], first_two[1]}, pos_(0), rng_(rng) {
+    rng_.skip_blocks(1);  // the prefetched one
+  }
+  double uniform() {
+    if (pos_ < 2) return first_[pos_++];
+    return rng_.uniform();
+  }
+
+ private:
+  double first_[2] = {0, 0};
+  int pos_ = 2;
+  CounterRng rng_;
+};
+
 // One blend rule (a file in core/blends/, registered by name).
 class BlendRule {
  public:
@@ -96,7 +121,20 @@ class BlendRule {
   virtual bool thins() const { return false; }
   // K from the level counts; `facets[j]` is level j's stream for per-facet decisions (thins() only).
   virtual double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
-                         std::array<CounterRng, 2>& facets) const = 0;
+                         std::array<FacetStream, 2>& facets) const = 0;
+  // The facet streams of rows r < m of one call at one bracket, for combine_rows().
+  struct FacetRows {
+    // first[j] (or null): the first Philox block of row r's level-j stream, first[j][2 r] and
+    // first[j][2 r + 1] (vectorized rows, sample()'s index cells).
+    std::array<const double*, 2> first{nullptr, nullptr};
+    // Row r's level-j stream from its start (serving first[j]'s block first when it is set).
+    std::function<FacetStream(std::size_t r, int j)> stream;
+  };
+  // out[r] = combine(area, b, k_lo[r], k_hi[r], {facets.stream(r, 0), facets.stream(r, 1)}) for r < m,
+  // at one footprint area (the default does exactly that); a rule may override it to hoist what
+  // depends on the bracket alone, with the same bits.
+  virtual void combine_rows(double area, const LevelBracket& b, std::size_t m, const double* k_lo, const double* k_hi,
+                            const FacetRows& facets, double* out) const;
   // Whether combine_pmf can give an exact law (given exact inner laws).
   virtual bool has_pmf() const { return true; }
   // Whether K is an integer when the inner counts are.
