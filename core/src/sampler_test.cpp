@@ -213,7 +213,7 @@ Bins::Bins(Domain d, const BinOptions& options, std::vector<double> s_edges, std
     if (edges->size() < 2 || edges->front() != 0.0 || edges->back() != 1.0 ||
         !std::is_sorted(edges->begin(), edges->end()) ||
         std::adjacent_find(edges->begin(), edges->end()) != edges->end())
-      throw std::invalid_argument("sampler_test: grid edges must increase strictly from 0 to 1");
+      throw_invalid_message("sampler_test: grid edges must increase strictly from 0 to 1");
   }
   for (std::size_t i = 0; i + 1 < s_edges_.size(); ++i)
     for (std::size_t j = 0; j + 1 < t_edges_.size(); ++j) {
@@ -244,7 +244,7 @@ void Bins::emit_nodes() {
 void Bins::supply(const double* values, std::size_t count) {
   if (pending_.empty()) throw std::logic_error("sampler_test: no pdf values are pending");
   if (count != pending_.size() * kGenzMalikNodes)
-    throw std::invalid_argument("sampler_test: pdf returned " + std::to_string(count) + " values for " +
+    throw_invalid_message("sampler_test: pdf returned " + std::to_string(count) + " values for " +
                                 std::to_string(pending_.size() * kGenzMalikNodes) + " points");
   const int dim = domain_dim(domain_);
   for (std::size_t i = 0; i < count; ++i)
@@ -468,7 +468,7 @@ void Bins::locate(const double* s, const double* t, std::size_t count, std::int6
 void Bins::count(Domain d, const double* points, std::size_t n, double unit_tol, std::vector<double>& counts,
                  double& lost) const {
   if (!done()) throw std::logic_error("sampler_test: bins are not complete (pdf values pending)");
-  if (d != domain_) throw std::invalid_argument("sampler_test: points of another domain");
+  if (d != domain_) throw_invalid_message("sampler_test: points of another domain");
   counts.resize(leaves_.size(), 0.0);
   const int dim = domain_dim(d);
   constexpr std::size_t kChunk = 1 << 16;
@@ -499,7 +499,7 @@ void Bins::count(Domain d, const double* points, std::size_t n, double unit_tol,
 ChiSquare chi_square(const std::vector<double>& observed, const std::vector<double>& integral,
                      const std::vector<double>& error, double lost, double total, double min_expected) {
   if (observed.size() != integral.size() || error.size() != integral.size())
-    throw std::invalid_argument("sampler_test: observed, integral and error differ in length");
+    throw_invalid_message("sampler_test: observed, integral and error differ in length");
   if (!(min_expected > 0.0) || !std::isfinite(min_expected))
     throw_invalid(kWhere, "min_expected", min_expected, "a finite number > 0");
   ChiSquare r;
