@@ -65,7 +65,8 @@ def main(argv=None):
         h = np.stack([np.sin(t), np.zeros(m), np.cos(t)], -1)
         row = {"flakes_in_footprint": flakes}
         for label, w in models.items():
-            fn = (lambda w=w: w.reference_counts(uv, J, h, seed=1)) if label == "truth" else (lambda w=w: w.counts(uv, J, h, seed=1))
+            fn = ((lambda w=w: w.reference_counts(uv, J, h, seed=1)) if label == "truth"
+                  else (lambda w=w: w.counts(uv, J, h, seed=1)))
             row[f"ns_{label}"] = timed(fn)[0] / m * 1e9
         row["ns_db23"] = timed(lambda: db23.evaluate(uv, J, h, seed=1))[0] / m * 1e9
         row["traversal_per_flake_over_db23"] = row["ns_traversal, lambda per flake"] / row["ns_db23"]

@@ -27,6 +27,8 @@ PACKAGES=(
   libsleef-dev libhwy-dev
   # property-based tests of the public API
   python3-hypothesis
+  # the Python linter make test runs (.flake8; tests/CMakeLists.txt, "lint: flake8")
+  flake8
   # glint animations (matplotlib writes GIF through Pillow, MP4 through ffmpeg)
   python3-pil ffmpeg
 )

@@ -55,13 +55,16 @@ def get_num_threads() -> int:
 
 
 __all__ = [
-    "AnisoCounter", "aniso_counter", "NDF", "ndf", "GlintyNDF", "glinty_ndf", "glinty_ndfs", "Scene", "load_scene", "Advice", "SceneProfile", "advise",
+    "__version__",
+    "AnisoCounter", "aniso_counter", "NDF", "ndf", "GlintyNDF", "glinty_ndf", "glinty_ndfs", "Scene", "load_scene", "Advice",
+    "SceneProfile", "advise",
     "profile_scene", "footprint_shapes", "grid_schemes",
     "sweep", "check", "perturbed_law", "run_experiment",
     "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
     "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
     "chi2_test", "chi2_test_two_sample", "footprint_for_area", "ground_truth", "joint_counts",
-    "custom_law", "law_label", "law_traits", "law_variants", "parse_law_label", "distance", "error_table", "extremes_summary", "extremes_table", "invalid_inputs_table",
+    "custom_law", "law_label", "law_traits", "law_variants", "parse_law_label", "distance", "error_table", "extremes_summary",
+    "extremes_table", "invalid_inputs_table",
     "write_extremes_report", "get_num_threads", "law", "law_summaries", "laws", "poisson",
     "set_num_threads", "sidak_alpha", "standard_grid", "uniforms", "load_plugin", "loaded_plugins",
     "ShaderLaw", "shader_law", "shipped_shader", "vulkan_devices",

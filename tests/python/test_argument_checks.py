@@ -89,7 +89,8 @@ def test_the_helpers_name_parameter_and_value():
         V.choice("engine", np.array(["dask", "x"]), ("threads", "dask"))
     with pytest.raises(ValueError, match=r"^timeout = nan is invalid; expected a finite number > 0$"):
         V.positive("timeout", float("nan"))
-    with pytest.raises(ValueError, match=r"^p = 'an array of shape \(3,\)' is invalid; expected a scalar or an array of shape \(4,\)$"):
+    with pytest.raises(ValueError,
+                       match=r"^p = 'an array of shape \(3,\)' is invalid; expected a scalar or an array of shape \(4,\)$"):
         V.scalar_or_shape("p", np.zeros(3), (4,))
     V.scalar_or_shape("p", np.zeros(1), (4,))
     V.scalar_or_shape("p", np.zeros(4), (4,))

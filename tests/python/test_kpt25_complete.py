@@ -1,5 +1,6 @@
 """KPT25 as printed, completed (docs/math/glinty_ndf.md): the like-for-like density mapping with DB23
-(#glinty-matched) and anisotropic roughness (#glinty-anisotropy). The map T's own tests (and the Lambert option's) are in test_kpt25_sampling.py.
+(#glinty-matched) and anisotropic roughness (#glinty-anisotropy). The map T's own tests (and the Lambert
+option's) are in test_kpt25_sampling.py.
 
 Statistical checks: fixed seeds, |z| < 4.5 on means of >= 8000 pixels (two-sided false-failure rate
 7e-6 per check under the normal approximation); each is shown to reject a deliberately wrong variant.

@@ -359,6 +359,7 @@ def test_lambert_map_uniformises_d_not_d_cos_and_its_departure_is_exact():
     with pytest.raises(ValueError, match="ggx_map"):
         gl.glinty_ndf("kpt25", target="ggx", ggx_map="stereographic")
 
+
 def test_map_is_vectorized_and_uniformises_the_target():
     for target, alpha in (("beckmann", 0.5), ("ggx", 0.3)):
         nd = gl.glinty_ndf("kpt25", target=target, alpha=alpha)

@@ -3,9 +3,10 @@
 
 Statistical checks use fixed seeds and 10^6 samples; a sampler check passes at p > 1e-4, so over the
 32 sampled checks of this file (4 shaders x 2 languages x 4 points) the false-failure rate is below
-32 x 1e-4 = 3.2e-3 (the seeds are fixed: a pass is reproducible). Each check is shown to fail on a deliberately wrong shader (K + 1, the gate
-reversed). Row-by-row agreement with the C++ twins allows 1e-4 of the rows to differ by one count: a
-GPU's pow, exp and log may be several ulps from the C++ library's (docs/guide/shaders.md).
+32 x 1e-4 = 3.2e-3 (the seeds are fixed: a pass is reproducible). Each check is shown to fail on a
+deliberately wrong shader (K + 1, the gate reversed). Row-by-row agreement with the C++ twins allows
+1e-4 of the rows to differ by one count: a GPU's pow, exp and log may be several ulps from the C++
+library's (docs/guide/shaders.md).
 """
 import concurrent.futures
 import functools
@@ -15,7 +16,6 @@ import pickle
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -233,6 +233,7 @@ CONFIGS = {
 IMAGE_CONFIGS = {**CONFIGS, "db23_trilinear_128": ("db23_trilinear", {"spatial": "square", "angular": "bilinear",
                                                                       "realization": "blend"})}
 
+
 def configured_counter(label, law, N):
     """The counter of a named configuration (a label of ``IMAGE_CONFIGS``, or a (scheme, keyword
     arguments) pair) with inner law ``law`` at facet density N (base_area 1 / N)."""

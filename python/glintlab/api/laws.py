@@ -266,7 +266,8 @@ class CustomLaw(Law):
         return n_rows, p_rows, u
 
     def raw(self, n, p, u, precision: str = "float64") -> np.ndarray:
-        """The function's output for rows (n, p, u) (u of shape (m, n_uniforms)), given its inputs exactly as ``evaluate`` gives them
+        """The function's output for rows (n, p, u) (u of shape (m, n_uniforms)), given its inputs exactly
+        as ``evaluate`` gives them
         (the float32 uniform rule included) but unchecked: a NaN or negative count is returned as is,
         for the extremes suite to report (``evaluate`` refuses it). Flattened; its length is the
         caller's to check."""

@@ -25,7 +25,7 @@ import numpy as np
 from .. import _core
 from ..resources import data_path
 from . import checks as v
-from .laws import BINNINGS, CustomLaw, _require_finite, _uniform_rows, law, uniforms_float32
+from .laws import BINNINGS, CustomLaw, _require_finite, _uniform_rows, law
 from .plugins import CUSTOM_LAWS
 
 LANGUAGES = ("hlsl", "glsl")

@@ -2,7 +2,6 @@
 the report's opening picture (numbers: ``validation.scene_images``; docs/math/glint_images.md)."""
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np

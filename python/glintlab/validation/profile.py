@@ -476,7 +476,6 @@ def _scheme_stage(schemes, law_objs, geo, N, n, p, r, phi, seed, seconds):
     return pd.DataFrame(scheme_rows), evaluations, loops
 
 
-
 def _cost_stage(prof, schemes, labels):
     """Stage 3: the SIMD cost statistics of every (scheme, law) pair."""
     cost_rows = []

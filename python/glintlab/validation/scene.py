@@ -18,11 +18,10 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..api import checks as V
 from ..api import fpmath
@@ -394,4 +393,3 @@ def table1_scenes(directory=None) -> list[Scene]:
     """The five DB23 Table 1 scenes of ``data/scenes/``."""
     d = Path(directory) if directory else SCENES_DIR
     return [load_scene(d / f"{stem}.json") for stem in TABLE1_SCENES]
-

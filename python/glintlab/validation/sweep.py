@@ -41,7 +41,8 @@ from .rows import MOMENT_METRICS, SAMPLED_ONLY, SWEEP_METRICS, compute_chunk
 from .store import STORE_FORMAT, SweepStore, row_key
 
 DEFAULT_METRICS = ("tv", "mean_rel_err", "var_rel_err")
-__all__ = ["sweep", "SweepSpec", "CheckedSweep", "run_sweep", "DEFAULT_METRICS", "SWEEP_METRICS", "MOMENT_METRICS", "SAMPLED_ONLY", "STORE_FORMAT"]
+__all__ = ["sweep", "SweepSpec", "CheckedSweep", "run_sweep", "DEFAULT_METRICS", "SWEEP_METRICS", "MOMENT_METRICS",
+           "SAMPLED_ONLY", "STORE_FORMAT"]
 
 
 def _axis(name, values, which):
