@@ -130,7 +130,7 @@ void bind_glinty_ndf(py::module_& m) {
       .def("evaluate_rgb", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed,
                               const Array& palette, bool reference) {
              const std::size_t n = pixels(uv, &jac, h);
-             if (palette.size() % 3 != 0) throw std::invalid_argument("glinty_ndf: colors must hold 3 numbers per colour");
+             if (palette.size() % 3 != 0) glintlab::throw_invalid_message("glinty_ndf: colors must hold 3 numbers per colour");
              const int nc = static_cast<int>(palette.size() / 3);
              py::array_t<double> out(static_cast<py::ssize_t>(3 * n));
              double* o = out.mutable_data();

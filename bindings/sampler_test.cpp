@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "glintlab/errors.hpp"
 #include "glintlab/sampler_test.hpp"
 
 namespace py = pybind11;
@@ -39,7 +40,7 @@ std::size_t points_of(Domain d, const Array& points) {
   const auto dim = static_cast<std::size_t>(sampling::domain_dim(d));
   const auto n = static_cast<std::size_t>(points.size()) / dim;
   if (n * dim != static_cast<std::size_t>(points.size()))
-    throw std::invalid_argument(std::string("sampler_test: points must hold ") + std::to_string(dim) +
+    glintlab::throw_invalid_message(std::string("sampler_test: points must hold ") + std::to_string(dim) +
                                 " coordinates each on the " + sampling::domain_name(d));
   return n;
 }
@@ -52,11 +53,11 @@ void bind_sampler_test(py::module_& m) {
                        int max_sub_depth, double rel_tol, std::size_t max_nodes, const Array& pilot_s,
                        const Array& pilot_t, double pilot_drawn, const Array& pilot_pdf) {
              if (pilot_s.size() != pilot_t.size())
-               throw std::invalid_argument("sampler_test: pilot_s and pilot_t differ in length");
+               glintlab::throw_invalid_message("sampler_test: pilot_s and pilot_t differ in length");
              auto o = options(total, target, min_depth, max_depth, max_sub_depth, rel_tol, max_nodes);
              o.pilot_drawn = pilot_drawn;
              if (pilot_pdf.size() != 0 && pilot_pdf.size() != pilot_s.size())
-               throw std::invalid_argument("sampler_test: pilot_pdf and pilot_s differ in length");
+               glintlab::throw_invalid_message("sampler_test: pilot_pdf and pilot_s differ in length");
              return Bins(sampling::parse_domain(domain), o, pilot_s.data(), pilot_t.data(),
                          static_cast<std::size_t>(pilot_s.size()), pilot_pdf.size() ? pilot_pdf.data() : nullptr);
            }),
@@ -100,7 +101,7 @@ void bind_sampler_test(py::module_& m) {
       .def_property_readonly("rounds", &Bins::rounds)
       .def_property_readonly("unconverged", &Bins::unconverged)
       .def("locate", [](const Bins& b, const Array& s, const Array& t) {
-        if (s.size() != t.size()) throw std::invalid_argument("sampler_test: s and t differ in length");
+        if (s.size() != t.size()) glintlab::throw_invalid_message("sampler_test: s and t differ in length");
         py::array_t<std::int64_t> out(s.size());
         b.locate(s.data(), t.data(), static_cast<std::size_t>(s.size()), out.mutable_data());
         return out;
@@ -128,7 +129,7 @@ void bind_sampler_test(py::module_& m) {
 
   m.def("sampler_from_square", [](const std::string& domain, const Array& s, const Array& t) {
     const Domain d = sampling::parse_domain(domain);
-    if (s.size() != t.size()) throw std::invalid_argument("sampler_test: s and t differ in length");
+    if (s.size() != t.size()) glintlab::throw_invalid_message("sampler_test: s and t differ in length");
     const int dim = sampling::domain_dim(d);
     py::array_t<double> out({static_cast<py::ssize_t>(s.size()), static_cast<py::ssize_t>(dim)});
     for (py::ssize_t i = 0; i < s.size(); ++i) sampling::from_square(d, s.data()[i], t.data()[i], out.mutable_data() + dim * i);

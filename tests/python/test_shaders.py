@@ -25,6 +25,7 @@ from glintlab.cli.main import main
 
 import glintlab as gl
 from glintlab.api import shaders as S
+from glintlab.api.laws import uniforms_float32
 from glintlab.studies.db23_figure9 import FIGURE9_POINTS
 
 pytestmark = pytest.mark.skipif(not S.vulkan_devices(), reason="no Vulkan device (install mesa-vulkan-drivers)")
@@ -64,7 +65,7 @@ def test_uniform_rule_is_the_cpp_rule():
     u = np.array([[0.0, 1.0], [1.0, 0.0], [0.5, 2.0**-30], [1 - 2.0**-40, 0.3]])
     u = np.vstack([u, gl.uniforms(1000, 2, seed=3)])
     got = law.evaluate_raw(1.0, 0.5, u)
-    f = S.uniforms_float32(u)
+    f = uniforms_float32(u)
     assert np.array_equal(got, (f[:, 0] + np.float32(2) * f[:, 1]).astype(np.float64))
     assert f.min() >= 2.0**-24 and f.max() <= 1 - 2.0**-24
 

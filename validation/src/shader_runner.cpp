@@ -801,11 +801,11 @@ std::string preprocess(const KernelSpec& spec, const std::string& wrapper,
   state->included = included;
   for (const auto& [name, value] : spec.defines) state->macros.define(name, value);
   if (const std::string m = state->macros.message(""); !m.empty())
-    throw std::invalid_argument("shader " + spec.source_name + ": " + m);
+    glintlab::throw_invalid_message("shader " + spec.source_name + ": " + m);
   shaderc::Compiler compiler;
   auto pre = compiler.PreprocessGlsl(wrapper, shaderc_glsl_compute_shader, wrapper_name(spec.language).c_str(),
                                      options(spec, state));
-  if (!state->macro_failure.empty()) throw std::invalid_argument("shader " + spec.source_name + ": " + state->macro_failure);
+  if (!state->macro_failure.empty()) glintlab::throw_invalid_message("shader " + spec.source_name + ": " + state->macro_failure);
   if (pre.GetCompilationStatus() != shaderc_compilation_status_success)
     compile_failure(spec, pre.GetErrorMessage(), signature);
   return std::string(pre.cbegin(), pre.cend());

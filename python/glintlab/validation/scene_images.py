@@ -285,8 +285,7 @@ def subpixel_inputs(inputs: FrameInputs, ox: float, oy: float, n: int) -> FrameI
 def supersampled(method, inputs: FrameInputs, seed: int = 0, frame: int = 0, n: int = SUPERSAMPLE) -> np.ndarray:
     """``method``'s image of one frame box-filtered over each pixel: the mean of its n x n sub-pixel
     images (:func:`subpixel_inputs`, offsets ((i + 1/2) / n - 1/2) pixels), 0 outside the pixel mask."""
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 64:
-        V.fail("n", n, "an integer number of sub-pixels per side in [1, 64]")
+    n = V.integer("n", n, 1, 64, expected="an integer number of sub-pixels per side in [1, 64]")
     acc = None
     offs = (np.arange(n) + 0.5) / n - 0.5
     for oy in offs:
@@ -613,8 +612,7 @@ def sparkle_table(scene: Scene, method: str = "wb16", bins: int = 4, seed: int =
     from scipy import ndimage
     if directional:
         scene = with_directional_light(scene)
-    if isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or not 1 <= bins <= 64:
-        V.fail("bins", bins, "an integer in [1, 64]")
+    bins = V.integer("bins", bins, 1, 64)
     inp = frame_inputs(scene)
     ev = make_method(method, Material.of(scene))
     img = np.asarray(render(ev, inp, V.seed(seed)), float)
