@@ -348,13 +348,10 @@ def shading(inputs: FrameInputs, material: Material, f0: float = F0) -> np.ndarr
     return out
 
 
-def render_path(scene: Scene, methods=DEFAULT_METHODS, frames: int = 8, pan_px: float = 0.25, zoom: float = 0.99,
-                seed: int = 1, angular_texel: float = ANGULAR_TEXEL, directional: bool = True,
-                own_truths: bool = True, supersample: int = SUPERSAMPLE) -> PathImages:
-    """Every method's images of ``scene`` along :func:`camera_path` (one directional light unless
-    ``directional`` is False). The inputs of each frame are computed once and shared. With
-    ``own_truths`` each method's own truth is rendered too (``PathImages.truths``, :func:`truth_kind`;
-    "supersampled" with ``supersample`` x ``supersample`` sub-pixels)."""
+def _path_setup(scene: Scene, methods, seed, angular_texel: float, directional: bool):
+    """What every render along a camera path starts with: the checked seed and method names, the scene
+    (under one directional light unless ``directional`` is False), its material and the methods'
+    evaluators. Returns (seed, scene, material, {name: evaluator})."""
     seed = V.seed(seed)
     if isinstance(methods, str) or not len(methods):
         V.fail("methods", methods, "a non-empty list of image method names")
@@ -363,7 +360,17 @@ def render_path(scene: Scene, methods=DEFAULT_METHODS, frames: int = 8, pan_px: 
     if directional:
         scene = with_directional_light(scene)
     mat = Material.of(scene, angular_texel)
-    evaluators = {name: make_method(name, mat) for name in methods}
+    return seed, scene, mat, {name: make_method(name, mat) for name in methods}
+
+
+def render_path(scene: Scene, methods=DEFAULT_METHODS, frames: int = 8, pan_px: float = 0.25, zoom: float = 0.99,
+                seed: int = 1, angular_texel: float = ANGULAR_TEXEL, directional: bool = True,
+                own_truths: bool = True, supersample: int = SUPERSAMPLE) -> PathImages:
+    """Every method's images of ``scene`` along :func:`camera_path` (one directional light unless
+    ``directional`` is False). The inputs of each frame are computed once and shared. With
+    ``own_truths`` each method's own truth is rendered too (``PathImages.truths``, :func:`truth_kind`;
+    "supersampled" with ``supersample`` x ``supersample`` sub-pixels)."""
+    seed, scene, mat, evaluators = _path_setup(scene, methods, seed, angular_texel, directional)
     smooth = SmoothNDF(mat.target, mat.alpha)
     path = camera_path(scene, frames, pan_px, zoom)
     shape = (frames, scene.height, scene.width)
@@ -560,15 +567,7 @@ def aliasing_table(scene: Scene, methods, frames: int = 4, n: int = SUPERSAMPLE,
     ``alias_rel_rmse_spread`` (its standard deviation over frames), ``std_ratio_vs_supersampled`` (the
     mean temporal standard deviation of the 1-sample sequence over the supersampled one's: aliasing
     shows as flicker the filtered image does not have), and ``seconds`` (both renders, all frames)."""
-    seed = V.seed(seed)
-    if isinstance(methods, str) or not len(methods):
-        V.fail("methods", methods, "a non-empty list of image method names")
-    for name in methods:
-        IMAGE_METHODS.get(name)
-    if directional:
-        scene = with_directional_light(scene)
-    mat = Material.of(scene, angular_texel)
-    evaluators = {name: make_method(name, mat) for name in methods}
+    seed, scene, mat, evaluators = _path_setup(scene, methods, seed, angular_texel, directional)
     path = camera_path(scene, frames, pan_px, zoom)
     one = {name: [] for name in methods}
     ss = {name: [] for name in methods}
