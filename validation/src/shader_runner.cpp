@@ -689,6 +689,46 @@ struct Job {
     check(vkBindBufferMemory(d.dev, b.buffer, b.memory, 0), "vkBindBufferMemory");
     check(vkMapMemory(d.dev, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory");
   }
+  // Binds the four buffers as storage buffers 0-3 of a descriptor set of `layout` and allocates the
+  // command buffer and fence of this job (both kernels' runs share this set-up). Returns the set.
+  VkDescriptorSet bind(VkDescriptorSetLayout layout) {
+    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4};
+    VkDescriptorPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    pool_info.maxSets = 1;
+    pool_info.poolSizeCount = 1;
+    pool_info.pPoolSizes = &size;
+    check(vkCreateDescriptorPool(d.dev, &pool_info, nullptr, &descriptor_pool), "vkCreateDescriptorPool");
+    VkDescriptorSetAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    alloc.descriptorPool = descriptor_pool;
+    alloc.descriptorSetCount = 1;
+    alloc.pSetLayouts = &layout;
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    check(vkAllocateDescriptorSets(d.dev, &alloc, &set), "vkAllocateDescriptorSets");
+    VkDescriptorBufferInfo infos[4];
+    VkWriteDescriptorSet writes[4]{};
+    for (int i = 0; i < 4; ++i) {
+      infos[i] = {buffers[i].buffer, 0, VK_WHOLE_SIZE};
+      writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+      writes[i].dstSet = set;
+      writes[i].dstBinding = static_cast<std::uint32_t>(i);
+      writes[i].descriptorCount = 1;
+      writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      writes[i].pBufferInfo = &infos[i];
+    }
+    vkUpdateDescriptorSets(d.dev, 4, writes, 0, nullptr);
+    VkCommandBufferAllocateInfo cmd{};
+    cmd.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cmd.commandPool = d.pool;
+    cmd.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cmd.commandBufferCount = 1;
+    check(vkAllocateCommandBuffers(d.dev, &cmd, &command), "vkAllocateCommandBuffers");
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    check(vkCreateFence(d.dev, &fence_info, nullptr, &fence), "vkCreateFence");
+    return set;
+  }
 };
 
 void reap(Device& d);
@@ -1144,41 +1184,7 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
   job->make_buffer(2, chunk * 4 * sizeof(float), false);
   job->make_buffer(3, chunk * sizeof(float), true);
 
-  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4};
-  VkDescriptorPoolCreateInfo pool{};
-  pool.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  pool.maxSets = 1;
-  pool.poolSizeCount = 1;
-  pool.pPoolSizes = &size;
-  check(vkCreateDescriptorPool(d.dev, &pool, nullptr, &job->descriptor_pool), "vkCreateDescriptorPool");
-  VkDescriptorSetAllocateInfo alloc{};
-  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-  alloc.descriptorPool = job->descriptor_pool;
-  alloc.descriptorSetCount = 1;
-  alloc.pSetLayouts = &pl.set_layout;
-  VkDescriptorSet set = VK_NULL_HANDLE;
-  check(vkAllocateDescriptorSets(d.dev, &alloc, &set), "vkAllocateDescriptorSets");
-  VkDescriptorBufferInfo infos[4];
-  VkWriteDescriptorSet writes[4]{};
-  for (int i = 0; i < 4; ++i) {
-    infos[i] = {job->buffers[i].buffer, 0, VK_WHOLE_SIZE};
-    writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    writes[i].dstSet = set;
-    writes[i].dstBinding = static_cast<std::uint32_t>(i);
-    writes[i].descriptorCount = 1;
-    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    writes[i].pBufferInfo = &infos[i];
-  }
-  vkUpdateDescriptorSets(d.dev, 4, writes, 0, nullptr);
-  VkCommandBufferAllocateInfo cmd{};
-  cmd.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-  cmd.commandPool = d.pool;
-  cmd.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  cmd.commandBufferCount = 1;
-  check(vkAllocateCommandBuffers(d.dev, &cmd, &job->command), "vkAllocateCommandBuffers");
-  VkFenceCreateInfo fence{};
-  fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-  check(vkCreateFence(d.dev, &fence, nullptr, &job->fence), "vkCreateFence");
+  const VkDescriptorSet set = job->bind(pl.set_layout);
 
   auto* nb = static_cast<float*>(job->buffers[0].mapped);
   auto* pb = static_cast<float*>(job->buffers[1].mapped);
@@ -1252,41 +1258,7 @@ void Kernel::run_rows(const float* in, std::size_t in_stride, std::size_t count,
   job->make_buffer(1, 4 * sizeof(float), false);
   job->make_buffer(2, 4 * sizeof(float), false);
   job->make_buffer(3, chunk * out_stride * sizeof(float), true);
-  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4};
-  VkDescriptorPoolCreateInfo pool{};
-  pool.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  pool.maxSets = 1;
-  pool.poolSizeCount = 1;
-  pool.pPoolSizes = &size;
-  check(vkCreateDescriptorPool(d.dev, &pool, nullptr, &job->descriptor_pool), "vkCreateDescriptorPool");
-  VkDescriptorSetAllocateInfo alloc{};
-  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-  alloc.descriptorPool = job->descriptor_pool;
-  alloc.descriptorSetCount = 1;
-  alloc.pSetLayouts = &pl.set_layout;
-  VkDescriptorSet set = VK_NULL_HANDLE;
-  check(vkAllocateDescriptorSets(d.dev, &alloc, &set), "vkAllocateDescriptorSets");
-  VkDescriptorBufferInfo infos[4];
-  VkWriteDescriptorSet writes[4]{};
-  for (int i = 0; i < 4; ++i) {
-    infos[i] = {job->buffers[i].buffer, 0, VK_WHOLE_SIZE};
-    writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    writes[i].dstSet = set;
-    writes[i].dstBinding = static_cast<std::uint32_t>(i);
-    writes[i].descriptorCount = 1;
-    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    writes[i].pBufferInfo = &infos[i];
-  }
-  vkUpdateDescriptorSets(d.dev, 4, writes, 0, nullptr);
-  VkCommandBufferAllocateInfo cmd{};
-  cmd.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-  cmd.commandPool = d.pool;
-  cmd.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  cmd.commandBufferCount = 1;
-  check(vkAllocateCommandBuffers(d.dev, &cmd, &job->command), "vkAllocateCommandBuffers");
-  VkFenceCreateInfo fence{};
-  fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-  check(vkCreateFence(d.dev, &fence, nullptr, &job->fence), "vkCreateFence");
+  const VkDescriptorSet set = job->bind(pl.set_layout);
   auto* ib = static_cast<float*>(job->buffers[0].mapped);
   const auto* ob = static_cast<const float*>(job->buffers[3].mapped);
   const auto timeout_ns = static_cast<std::uint64_t>(std::min(timeout_s, 1e9) * 1e9);
