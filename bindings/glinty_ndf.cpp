@@ -7,6 +7,8 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "bindings.hpp"
 #include "glintlab/errors.hpp"
@@ -53,7 +55,8 @@ void bind_glinty_ndf(py::module_& m) {
       .def(py::init([](double density, const std::string& target, double alpha, double alpha_star, int k,
                        double epsilon, double filter, const std::string& compensation, const std::string& blend,
                        double sample_smooth, const std::string& sample_weight, const std::string& ggx_map,
-                       double alpha_y, double glint_ax, double glint_ay, bool glint_printed_density) {
+                       double alpha_y, double glint_ax, double glint_ay, bool glint_printed_density,
+                       const std::string& triplanar_weights, double triplanar_sharpness, const std::string& plane_seeds) {
              Kpt25Params p;
              p.density = density;
              p.target = parse_target(target);
@@ -72,6 +75,14 @@ void bind_glinty_ndf(py::module_& m) {
              p.glint_ax = glint_ax;
              p.glint_ay = glint_ay;
              p.glint_printed_density = glint_printed_density;
+             static constexpr std::pair<std::string_view, TriplanarWeights> kWeights[] = {
+                 {"normalized", TriplanarWeights::normalized}, {"printed", TriplanarWeights::printed},
+                 {"missing_xy", TriplanarWeights::missing_xy}};
+             p.triplanar_weights = parse_enum(kWhere, "triplanar_weights", triplanar_weights, kWeights);
+             p.triplanar_sharpness = triplanar_sharpness;
+             if (plane_seeds == "distinct") p.triplanar_shared_seeds = false;
+             else if (plane_seeds == "shared") p.triplanar_shared_seeds = true;
+             else throw_invalid(kWhere, "plane_seeds", plane_seeds, "\"distinct\" or \"shared\"");
              if (ggx_map == "orthographic") p.ggx_lambert = false;
              else if (ggx_map == "lambert" && p.target == GlintTarget::ggx) p.ggx_lambert = true;
              else throw_invalid(kWhere, "ggx_map", ggx_map, "\"orthographic\", or \"lambert\" with target \"ggx\"");
@@ -81,7 +92,43 @@ void bind_glinty_ndf(py::module_& m) {
            py::arg("epsilon"), py::arg("filter"), py::arg("compensation"), py::arg("blend"),
            py::arg("sample_smooth") = 0.0, py::arg("sample_weight") = "lobe_mass", py::arg("ggx_map") = "orthographic",
            py::arg("alpha_y") = 0.0, py::arg("glint_ax") = 1.0, py::arg("glint_ay") = 1.0,
-           py::arg("glint_printed_density") = false)
+           py::arg("glint_printed_density") = false, py::arg("triplanar_weights") = "normalized",
+           py::arg("triplanar_sharpness") = 1.0, py::arg("plane_seeds") = "distinct")
+      .def("evaluate_triplanar", [](const Kpt25Ndf& g, const Array& P, const Array& dP, const Array& n, const Array& h,
+                                    std::uint64_t seed, bool reference) {
+             const auto rows = static_cast<std::size_t>(h.size() / 3);
+             if (static_cast<std::size_t>(h.size()) != 3 * rows || static_cast<std::size_t>(P.size()) != 3 * rows ||
+                 static_cast<std::size_t>(n.size()) != 3 * rows || static_cast<std::size_t>(dP.size()) != 6 * rows)
+               glintlab::throw_invalid_message("glinty_ndf: position, dP, n and h must hold 3, 6, 3 and 3 numbers per pixel");
+             py::array_t<double> out(static_cast<py::ssize_t>(rows)), pts(static_cast<py::ssize_t>(rows));
+             double* o = out.mutable_data();
+             double* q = pts.mutable_data();
+             {
+               glintlab::bindings::LongCall release;
+               if (reference) g.reference_triplanar(P.data(), dP.data(), n.data(), h.data(), rows, seed, o, q);
+               else g.evaluate_triplanar(P.data(), dP.data(), n.data(), h.data(), rows, seed, o);
+             }
+             return py::make_tuple(out, pts);
+           }, py::arg("position"), py::arg("dP"), py::arg("n"), py::arg("h"), py::arg("seed"), py::arg("reference"))
+      .def("expected_triplanar", [](const Kpt25Ndf& g, const Array& dP, const Array& n, const Array& h) {
+             const auto rows = static_cast<std::size_t>(h.size() / 3);
+             if (static_cast<std::size_t>(h.size()) != 3 * rows || static_cast<std::size_t>(n.size()) != 3 * rows ||
+                 static_cast<std::size_t>(dP.size()) != 6 * rows)
+               glintlab::throw_invalid_message("glinty_ndf: dP, n and h must hold 6, 3 and 3 numbers per pixel");
+             py::array_t<double> er(static_cast<py::ssize_t>(rows)), ea(static_cast<py::ssize_t>(rows));
+             double* a = er.mutable_data();
+             double* b = ea.mutable_data();
+             {
+               glintlab::bindings::LongCall release;
+               g.expected_triplanar(dP.data(), n.data(), h.data(), rows, a, b);
+             }
+             return py::make_tuple(er, ea);
+           }, py::arg("dP"), py::arg("n"), py::arg("h"))
+      .def("triplanar_weights", [](const Kpt25Ndf& g, const Array& n) {
+             if (n.size() != 3) glintlab::throw_invalid_message("glinty_ndf: triplanar_weights takes one normal");
+             return g.triplanar_weights(n.data());
+           }, py::arg("n"))
+      .def("keep_rate", &Kpt25Ndf::keep_rate, py::arg("w"))
       .def("evaluate", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
              const std::size_t n = pixels(uv, &jac, h);
              py::array_t<double> out(static_cast<py::ssize_t>(n));

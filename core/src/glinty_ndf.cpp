@@ -52,13 +52,15 @@ double normal_mass(double a, double b) {
 // Mass of N(c, sigma^2) in [lo, hi].
 double mass_1d(double c, double sigma, double lo, double hi) { return normal_mass((lo - c) / sigma, (hi - c) / sigma); }
 
-// One Philox block of a point: counter (2 a + block, i, j, stream << 24 | level << 20 | b), key = seed.
-// a, b < 2^15 and level <= 15 fit (kGlintMaxLevel).
+// One Philox block of a point: counter (2 a + block, i, j, stream << 24 | level << 20 | tag << 16 | b),
+// key = seed. a, b < 2^15 and level <= 15 fit (kGlintMaxLevel); tag < 4 selects the point process of a
+// triplanar plane (0: the uv-mapped process, and every plane when they share one).
 std::array<std::uint32_t, 4> point_block(std::uint64_t seed, int level, std::int64_t i, std::int64_t j, std::int64_t a,
-                                         std::int64_t b, std::uint32_t block) {
+                                         std::int64_t b, std::uint32_t block, std::uint32_t tag = 0) {
   const std::array<std::uint32_t, 4> counter = {
       static_cast<std::uint32_t>(2 * a) + block, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j),
-      (kStreamGlintPoints << 24) | (static_cast<std::uint32_t>(level) << 20) | static_cast<std::uint32_t>(b)};
+      (kStreamGlintPoints << 24) | (static_cast<std::uint32_t>(level) << 20) | (tag << 16) |
+          static_cast<std::uint32_t>(b)};
   return CounterRng::block(counter, {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)});
 }
 
@@ -357,6 +359,8 @@ Kpt25Ndf::Kpt25Ndf(const Kpt25Params& params) : p_(params) {
   glint_aniso_ = !(p_.glint_ax == 1.0 && p_.glint_ay == 1.0);
   if (glint_aniso_ && p_.compensation == GlintCompensation::disk)
     throw_invalid(kWhere, "compensation", std::string("disk"), "\"square\" or \"none\" with anisotropic glints");
+  if (!(p_.triplanar_sharpness > 0.0 && p_.triplanar_sharpness <= 64.0))
+    throw_invalid(kWhere, "triplanar_sharpness", p_.triplanar_sharpness, "a number in (0, 64]");
   res_ = std::sqrt(p_.density);
   if (glint_aniso_)  // cells per unit of x_s = A_* uv
     res_ = p_.glint_printed_density ? std::sqrt(p_.density) / (p_.glint_ax * p_.glint_ay)
@@ -647,7 +651,7 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
 
 double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, double u, double v, std::uint64_t seed,
                            bool all_angular, double* points, const double* palette, int n_colors,
-                           double* rgb) const {
+                           double* rgb, double plane_weight, std::uint32_t tag, double* kept) const {
   if (glint_aniso_) {  // x_s = A_* uv (Algorithm 1, line 2)
     u *= p_.glint_ax;
     v *= p_.glint_ay;
@@ -682,12 +686,16 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
   const double inv2s2 = 0.5 / (px.sigma * px.sigma);
   const double inv2sx = inv2s2, inv2sy = 0.5 / (px.sigma_y * px.sigma_y);  // anisotropic glints
   const bool roulette = p_.blend == GlintBlend::roulette && weight < 1.0;
-  double sum = 0.0, count = 0.0, rgb_raw[3] = {0.0, 0.0, 0.0};
+  // A triplanar plane's weight: a second roulette on a random number of the point's own (the third word
+  // of its roulette block), independent of the level's, so the keep rates multiply (or w_i itself with
+  // the linear blend).
+  const bool plane_roulette = plane_weight < 1.0 && p_.blend == GlintBlend::roulette;
+  double sum = 0.0, count = 0.0, kept_sum = 0.0, rgb_raw[3] = {0.0, 0.0, 0.0};
   for (std::int64_t i = i0; i <= i1; ++i) {
     for (std::int64_t j = j0; j <= j1; ++j) {
       for (std::int64_t a = a0; a <= a1; ++a) {
         for (std::int64_t b = b0; b <= b1; ++b) {
-          const auto r4 = point_block(seed, level, i, j, a, b, 0);
+          const auto r4 = point_block(seed, level, i, j, a, b, 0, tag);
           // Normal-space coordinates in the unit square; points outside the disk U are rejected (§3.3.1).
           const double mx = (static_cast<double>(a) + unit(r4[2])) * inv_na;
           const double my = (static_cast<double>(b) + unit(r4[3])) * inv_na;
@@ -698,15 +706,22 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
           if (q > kFilterRadius * kFilterRadius) continue;
           count += 1.0;
           double keep = weight;  // linear blend, or a level of weight 1
-          if (roulette) keep = kpt25_roulette(unit(point_block(seed, level, i, j, a, b, 1)[0]), weight, p_.epsilon);
+          if (roulette || plane_roulette) {
+            const auto r1 = point_block(seed, level, i, j, a, b, 1, tag);
+            if (roulette) keep = kpt25_roulette(unit(r1[0]), weight, p_.epsilon);
+            if (plane_roulette) keep *= kpt25_roulette(unit(r1[2]), plane_weight, p_.epsilon);
+          } else if (plane_weight < 1.0) {
+            keep *= plane_weight;
+          }
           if (keep == 0.0) continue;
+          kept_sum += keep;
           const double ex = mx - px.xa, ey = my - px.ya;
           const double term =
               glint_aniso_ ? keep * px.norm * std::exp(-0.5 * q - ex * ex * inv2sx - ey * ey * inv2sy)
                            : keep * px.norm * std::exp(-0.5 * q - (ex * ex + ey * ey) * inv2s2);
           sum += term;
           if (rgb) {  // GlintColor(i_s, i_a, l): the second word of the point's roulette block
-            const double cu = unit(point_block(seed, level, i, j, a, b, 1)[1]);
+            const double cu = unit(point_block(seed, level, i, j, a, b, 1, tag)[1]);
             const int idx = std::min(n_colors - 1, static_cast<int>(cu * n_colors));
             for (int c = 0; c < 3; ++c) rgb_raw[c] += term * palette[3 * idx + c];
           }
@@ -715,6 +730,7 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
     }
   }
   if (points) *points += count;
+  if (kept) *kept += kept_sum;
   // The angular Gaussian's normalisation 1 / (2 pi sigma^2) (a 2D density: eq. 4 prints the 1D one);
   // 1 / (2 pi sigma_x sigma_y) with anisotropic glints.
   const double norm_a = glint_aniso_ ? 2.0 * kPi * px.sigma * px.sigma_y : 2.0 * kPi * px.sigma * px.sigma;
@@ -784,23 +800,42 @@ void Kpt25Ndf::reference(const double* uv, const double* jac, const double* h, s
   });
 }
 
-void Kpt25Ndf::expected(const double* jac, const double* h, std::size_t m, double* e_ref, double* e_alg) const {
-  refuse_glint_anisotropy("expected");
+double Kpt25Ndf::keep_rate(double w) const {
   // E over r of R(r, w): w for the linear blend and in the interior of the roulette; by quadrature at
   // the ends, where the clamps of eq. 8 make it differ from w (rho(w) + rho(1 - w) = 1 still holds).
-  auto rho = [&](double w) {
-    if (p_.blend == GlintBlend::linear || w >= 1.0) return w;
-    if (p_.epsilon == 0.0) return w;
-    auto f = [&](double r) { return kpt25_roulette(r, w, p_.epsilon); };
-    double total = 0.0;
-    double cuts[] = {0.0, std::clamp(w - p_.epsilon, 0.0, 1.0), std::clamp(w + p_.epsilon, 0.0, 1.0),
-                     std::min(p_.epsilon, 1.0), std::max(0.0, 1.0 - p_.epsilon), 1.0};
-    std::sort(std::begin(cuts), std::end(cuts));
-    for (int c = 0; c + 1 < 6; ++c)
-      if (cuts[c + 1] > cuts[c])
-        total += boost::math::quadrature::gauss_kronrod<double, 15>::integrate(f, cuts[c], cuts[c + 1], 10, 1e-13);
-    return total;
-  };
+  if (p_.blend == GlintBlend::linear || w >= 1.0 || w <= 0.0) return std::clamp(w, 0.0, 1.0);
+  if (p_.epsilon == 0.0) return w;
+  auto f = [&](double r) { return kpt25_roulette(r, w, p_.epsilon); };
+  double total = 0.0;
+  double cuts[] = {0.0, std::clamp(w - p_.epsilon, 0.0, 1.0), std::clamp(w + p_.epsilon, 0.0, 1.0),
+                   std::min(p_.epsilon, 1.0), std::max(0.0, 1.0 - p_.epsilon), 1.0};
+  std::sort(std::begin(cuts), std::end(cuts));
+  for (int c = 0; c + 1 < 6; ++c)
+    if (cuts[c + 1] > cuts[c])
+      total += boost::math::quadrature::gauss_kronrod<double, 15>::integrate(f, cuts[c], cuts[c + 1], 10, 1e-13);
+  return total;
+}
+
+double Kpt25Ndf::expected_alg(const GlintPixel& px, double plane_rho, double plane_w) const {
+  double total = 0.0;
+  const int side = static_cast<int>(std::lround(std::sqrt(p_.k)));
+  for (int l = 0; l < px.n_levels; ++l) {
+    const std::int64_t na = std::int64_t{1} << px.levels[l];
+    const double fna = static_cast<double>(na);
+    std::int64_t a0, a1, b0, b1;
+    block_range(px.xa * fna, na, side, a0, a1);
+    block_range(px.ya * fna, na, side, b0, b1);
+    const double inv = 1.0 / static_cast<double>(na);
+    const double in_b = gaussian_in_disk_rect(px.xa, px.ya, px.sigma, static_cast<double>(a0) * inv,
+                                              static_cast<double>(a1 + 1) * inv, static_cast<double>(b0) * inv,
+                                              static_cast<double>(b1 + 1) * inv);
+    total += keep_rate(px.weights[l]) * plane_rho * in_b + px.weights[l] * plane_w * compensation(px, px.levels[l]);
+  }
+  return total;
+}
+
+void Kpt25Ndf::expected(const double* jac, const double* h, std::size_t m, double* e_ref, double* e_alg) const {
+  refuse_glint_anisotropy("expected");
   detail::parallel_chunks(m, 4, 8, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       const GlintPixel px = pixel(jac, h, i);
@@ -811,22 +846,7 @@ void Kpt25Ndf::expected(const double* jac, const double* h, std::size_t m, doubl
       }
       const double in_disk = gaussian_in_disk_rect(px.xa, px.ya, px.sigma, 0.0, 1.0, 0.0, 1.0);
       if (e_ref) e_ref[i] = px.D * in_disk;  // rho(w) + rho(1 - w) = 1: the roulette keeps the mean
-      if (!e_alg) continue;
-      double total = 0.0;
-      const int side = static_cast<int>(std::lround(std::sqrt(p_.k)));
-      for (int l = 0; l < px.n_levels; ++l) {
-        const std::int64_t na = std::int64_t{1} << px.levels[l];
-        const double fna = static_cast<double>(na);
-        std::int64_t a0, a1, b0, b1;
-        block_range(px.xa * fna, na, side, a0, a1);
-        block_range(px.ya * fna, na, side, b0, b1);
-        const double inv = 1.0 / static_cast<double>(na);
-        const double in_b = gaussian_in_disk_rect(px.xa, px.ya, px.sigma, static_cast<double>(a0) * inv,
-                                                  static_cast<double>(a1 + 1) * inv, static_cast<double>(b0) * inv,
-                                                  static_cast<double>(b1 + 1) * inv);
-        total += rho(px.weights[l]) * in_b + px.weights[l] * compensation(px, px.levels[l]);
-      }
-      e_alg[i] = px.D * total;
+      if (e_alg) e_alg[i] = px.D * expected_alg(px, 1.0, 1.0);
     }
   });
 }
@@ -1089,6 +1109,196 @@ void Kpt25Ndf::reference_rgb(const double* uv, const double* jac, const double* 
         for (int l = 0; l < px.n_levels; ++l)
           level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, true, nullptr, palette, n_colors, rgb);
       for (int c = 0; c < 3; ++c) out3[3 * i + c] = px.D * rgb[c] / kp_;
+    }
+  });
+}
+
+// ---------------------------------------------------------------------------------------------------
+// UV-free glints (KPT25 §3.3.6; docs/math/glinty_ndf.md#glinty-triplanar). Three copies of the
+// uv-mapped model, one per coordinate plane of the world position, each with its footprint from the
+// screen derivatives of its two coordinates, blended by a roulette on the weights w_i.
+
+namespace {
+
+// A dot product and the branchless orthonormal basis of Duff et al. 2017 (JCGT 6(1)) around a unit n:
+// the shading frame the half vector is expressed in. For the isotropic targets any frame around n gives
+// the same statistics; this one is continuous except where n_z changes sign (documented).
+void frame_of(const double n[3], double t[3], double b[3]) {
+  const double sign = std::copysign(1.0, n[2]);
+  const double a = -1.0 / (sign + n[2]);
+  const double c = n[0] * n[1] * a;
+  t[0] = 1.0 + sign * n[0] * n[0] * a;
+  t[1] = sign * c;
+  t[2] = -sign * n[0];
+  b[0] = c;
+  b[1] = sign + n[1] * n[1] * a;
+  b[2] = -n[1];
+}
+
+// A plane is dropped when its projected footprint has less than this fraction of the footprint's area
+// (|dP/dx x dP/dy . e_i| / |dP/dx x dP/dy|): its MIP level and filter would be those of a line, and its
+// weight is then at most about this fraction with normalised |n_i| weights (the weights are
+// renormalised over the planes kept, so dropping one leaves the mean unchanged).
+constexpr double kPlaneMinArea = 1e-6;
+
+}  // namespace
+
+void Kpt25Ndf::refuse_triplanar_options() const {
+  refuse_glint_anisotropy("triplanar glints (the paper: no uv gradients to orient A_* by)");
+  if (aniso_)
+    throw_invalid(kWhere, "alpha_y", p_.alpha_y,
+                  "alpha_y = alpha (isotropic roughness) for triplanar glints (no tangent frame to orient it by)");
+}
+
+std::array<double, 3> Kpt25Ndf::triplanar_weights(const double nin[3]) const {
+  double n[3];
+  if (!unit_vector(nin, n)) return {0.0, 0.0, 0.0};
+  std::array<double, 3> w{};
+  double sum = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    const double a = std::abs(n[c]);
+    w[c] = p_.triplanar_sharpness == 1.0 ? a : std::pow(a, p_.triplanar_sharpness);
+    sum += w[c];
+  }
+  if (p_.triplanar_weights != TriplanarWeights::printed)
+    for (double& x : w) x /= sum;
+  if (p_.triplanar_weights == TriplanarWeights::missing_xy) w[2] = 0.0;
+  return w;
+}
+
+int Kpt25Ndf::triplanar_planes(const double* P, const double* dP, const double* n, const double* h, std::size_t i,
+                               TriplanarPlane planes[3], double h_t[3]) const {
+  static constexpr double kOrigin[3] = {0.0, 0.0, 0.0};  // P = nullptr: positions not needed (expectations)
+  const double* p = P ? P + 3 * i : kOrigin;
+  const double* d = dP + 6 * i;
+  for (int c = 0; c < 3; ++c)
+    if (!std::isfinite(p[c]) || std::abs(p[c]) > 1e9)
+      throw_invalid(kWhere, element("position", i, c), p[c], "a finite position, |P| <= 1e9");
+  for (int c = 0; c < 6; ++c)
+    if (!std::isfinite(d[c]) || std::abs(d[c]) > 1e12)
+      throw_invalid(kWhere, element("dP", i, c), d[c], "a finite derivative, |dP| <= 1e12");
+  for (int c = 0; c < 3; ++c) {
+    if (!std::isfinite(n[3 * i + c])) throw_invalid(kWhere, element("n", i, c), n[3 * i + c], "a finite normal");
+    if (!std::isfinite(h[3 * i + c])) throw_invalid(kWhere, element("h", i, c), h[3 * i + c], "a finite half vector");
+  }
+  double nu[3], hu[3];
+  if (!unit_vector(n + 3 * i, nu)) throw_invalid(kWhere, row_name("n", i), row_value(n + 3 * i, 3), "a nonzero normal");
+  if (!unit_vector(h + 3 * i, hu)) throw_invalid(kWhere, row_name("h", i), row_value(h + 3 * i, 3), "a nonzero half vector");
+  double t[3], b[3];
+  frame_of(nu, t, b);
+  h_t[0] = hu[0] * t[0] + hu[1] * t[1] + hu[2] * t[2];
+  h_t[1] = hu[0] * b[0] + hu[1] * b[1] + hu[2] * b[2];
+  h_t[2] = hu[0] * nu[0] + hu[1] * nu[1] + hu[2] * nu[2];
+  // The footprint's normal area vector dP/dx x dP/dy: its component along axis c is the det J of plane c.
+  const double cr[3] = {d[1] * d[5] - d[2] * d[4], d[2] * d[3] - d[0] * d[5], d[0] * d[4] - d[1] * d[3]};
+  const double area = std::sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+  if (!(area > 0.0))
+    throw_invalid(kWhere, row_name("dP", i), row_value(d, 6),
+                  "screen derivatives with dP/dx x dP/dy != 0 (mask pixels that do not see the surface)");
+  auto w = triplanar_weights(nu);
+  static constexpr int kAxes[3][2] = {{1, 2}, {0, 2}, {0, 1}};  // the coordinates of the yz, xz, xy planes
+  double kept_sum = 0.0;
+  int count = 0;
+  for (int c = 0; c < 3; ++c) {
+    if (!(w[c] > 0.0) || !(std::abs(cr[c]) > kPlaneMinArea * area)) continue;
+    if (p_.triplanar_weights == TriplanarWeights::missing_xy && c == 2) continue;
+    TriplanarPlane& pl = planes[count++];
+    pl.axis = c;
+    pl.u = p[kAxes[c][0]];
+    pl.v = p[kAxes[c][1]];
+    pl.J[0] = d[kAxes[c][0]];      // du/dx
+    pl.J[1] = d[kAxes[c][1]];      // dv/dx
+    pl.J[2] = d[3 + kAxes[c][0]];  // du/dy
+    pl.J[3] = d[3 + kAxes[c][1]];  // dv/dy
+    pl.weight = w[c];
+    pl.tag = p_.triplanar_shared_seeds ? 0u : static_cast<std::uint32_t>(c + 1);
+    kept_sum += w[c];
+  }
+  // Renormalise over the planes kept (normalised weights only: the printed ones stay as printed, and the
+  // deliberately wrong blend keeps its missing plane's share lost).
+  const double full = w[0] + w[1] + w[2];
+  if (p_.triplanar_weights == TriplanarWeights::normalized && kept_sum > 0.0 && kept_sum < full)
+    for (int k = 0; k < count; ++k) planes[k].weight *= full / kept_sum;
+  return count;
+}
+
+GlintPixel Kpt25Ndf::plane_pixel(const TriplanarPlane& pl, const double h_t[3], std::size_t i) const {
+  try {
+    return pixel(pl.J, h_t, 0);
+  } catch (const std::invalid_argument& e) {  // name the caller's pixel and the plane
+    static constexpr const char* kPlanes[3] = {"yz", "xz", "xy"};
+    throw_invalid_message(std::string(e.what()) + " (triplanar pixel " + std::to_string(i) + ", " +
+                          kPlanes[pl.axis] + " plane: J = the derivatives of its two coordinates of P)");
+  }
+}
+
+void Kpt25Ndf::evaluate_triplanar(const double* P, const double* dP, const double* n, const double* h, std::size_t m,
+                                  std::uint64_t seed, double* out) const {
+  refuse_triplanar_options();
+  detail::parallel_chunks(m, 32, 64, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      TriplanarPlane planes[3];
+      double h_t[3];
+      const int np = triplanar_planes(P, dP, n, h, i, planes, h_t);
+      double value = 0.0;
+      for (int k = 0; k < np; ++k) {
+        const GlintPixel px = plane_pixel(planes[k], h_t, i);
+        if (px.D == 0.0) continue;
+        double explicit_sum = 0.0, comp = 0.0;
+        for (int l = 0; l < px.n_levels; ++l) {
+          explicit_sum += level_sum(px, px.levels[l], px.weights[l], planes[k].u, planes[k].v, seed, false, nullptr,
+                                    nullptr, 0, nullptr, planes[k].weight, planes[k].tag);
+          comp += px.weights[l] * compensation(px, px.levels[l]);
+        }
+        value += px.D * (explicit_sum / kp_ + planes[k].weight * comp);  // compensation blended linearly
+      }
+      out[i] = value;
+    }
+  });
+}
+
+void Kpt25Ndf::reference_triplanar(const double* P, const double* dP, const double* n, const double* h, std::size_t m,
+                                   std::uint64_t seed, double* out, double* out_points) const {
+  refuse_triplanar_options();
+  detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      TriplanarPlane planes[3];
+      double h_t[3];
+      const int np = triplanar_planes(P, dP, n, h, i, planes, h_t);
+      double value = 0.0, kept = 0.0;
+      for (int k = 0; k < np; ++k) {
+        const GlintPixel px = plane_pixel(planes[k], h_t, i);
+        if (px.D == 0.0) continue;
+        double sum = 0.0;
+        for (int l = 0; l < px.n_levels; ++l)
+          sum += level_sum(px, px.levels[l], px.weights[l], planes[k].u, planes[k].v, seed, true, nullptr, nullptr, 0,
+                           nullptr, planes[k].weight, planes[k].tag, &kept);
+        value += px.D * sum / kp_;
+      }
+      out[i] = value;
+      if (out_points) out_points[i] = kept;
+    }
+  });
+}
+
+void Kpt25Ndf::expected_triplanar(const double* dP, const double* n, const double* h, std::size_t m, double* e_ref,
+                                  double* e_alg) const {
+  refuse_triplanar_options();
+  detail::parallel_chunks(m, 4, 8, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      TriplanarPlane planes[3];
+      double h_t[3];
+      const int np = triplanar_planes(nullptr, dP, n, h, i, planes, h_t);  // positions do not enter
+      double er = 0.0, ea = 0.0;
+      for (int k = 0; k < np; ++k) {
+        const GlintPixel px = plane_pixel(planes[k], h_t, i);
+        if (px.D == 0.0) continue;
+        const double rho = keep_rate(planes[k].weight);
+        er += rho * px.D * gaussian_in_disk_rect(px.xa, px.ya, px.sigma, 0.0, 1.0, 0.0, 1.0);
+        ea += px.D * expected_alg(px, rho, planes[k].weight);
+      }
+      if (e_ref) e_ref[i] = er;
+      if (e_alg) e_alg[i] = ea;
     }
   });
 }

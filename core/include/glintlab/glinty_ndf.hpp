@@ -33,6 +33,15 @@ enum class GlintBlend {
   linear,    // each point weighted by w_l (the linear blending the paper argues against, Fig. 6)
 };
 
+// UV-free glints (KPT25 §3.3.6, docs/math/glinty_ndf.md#glinty-triplanar): how the three planes'
+// weights come from the normal n.
+enum class TriplanarWeights {
+  normalized,  // w_i = |n_i|^s / sum_j |n_j|^s (s = triplanar_sharpness; 1: the paper's |n.axis|, normalised)
+  printed,     // w_i = |n_i|^s as printed, not normalised (sum in [1, sqrt 3] at s = 1: biased in the mean)
+  missing_xy,  // normalised over three planes but the xy plane never evaluated: a deliberately wrong blend
+               // the tests use to show that their checks can fail
+};
+
 struct Kpt25Params {
   double density = 1e6;      // K_P: points per unit texture area (cells of [0, 1)^4 per unit uv area)
   GlintTarget target = GlintTarget::beckmann;
@@ -65,6 +74,22 @@ struct Kpt25Params {
   // docs/math/glinty_ndf.md#glinty-astar.
   double glint_ax = 1.0, glint_ay = 1.0;
   bool glint_printed_density = false;
+  // UV-free (triplanar) glints: the weights of the three planes, their sharpness s (> 0), and whether
+  // the planes share one point process (true: the random numbers of a cell do not depend on the plane,
+  // so planes that see the same coordinates see the same points) or have one each (false, the default).
+  TriplanarWeights triplanar_weights = TriplanarWeights::normalized;
+  double triplanar_sharpness = 1.0;
+  bool triplanar_shared_seeds = false;
+};
+
+// One plane of a triplanar pixel: its coordinates (two world axes), its footprint J (the screen
+// derivatives of those coordinates), its blend weight and the tag that selects its point process.
+struct TriplanarPlane {
+  double u = 0.0, v = 0.0;
+  double J[4] = {0.0, 0.0, 0.0, 0.0};
+  double weight = 0.0;
+  std::uint32_t tag = 0;
+  int axis = 0;  // the plane's normal: 0 = x (the yz plane), 1 = y (xz), 2 = z (xy)
 };
 
 // Maximum MIP level: the angular grid has 2^l x 2^l cells, l <= 15 (the random-number layout's limit).
@@ -133,6 +158,26 @@ class Kpt25Ndf {
   // the points in DB23's footprint ellipse whose normal lies within radius x sigma of T(h).
   void visible_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
                       double radius, double* out) const;
+  // UV-free glints (KPT25 §3.3.6, docs/math/glinty_ndf.md#glinty-triplanar). Per pixel i: P[3i..] the
+  // world position, dP[6i..] = (dP/dx, dP/dy) its screen derivatives, n[3i..] the normal (weights and
+  // shading frame), h[3i..] the half vector in world space (normalised here; h.n <= 0 gives 0). Each
+  // plane is the uv-mapped model of evaluate/reference with uv = two coordinates of P, J = their
+  // derivatives, h in the frame of n; a point of plane i is kept with the roulette R(r, w_i) of its
+  // own random number r, and the compensation is blended linearly with w_i.
+  void evaluate_triplanar(const double* P, const double* dP, const double* n, const double* h, std::size_t m,
+                          std::uint64_t seed, double* out) const;
+  // out_points[i] (if not null): the points kept (sum of their roulette weights) in the truncated filters.
+  void reference_triplanar(const double* P, const double* dP, const double* n, const double* h, std::size_t m,
+                           std::uint64_t seed, double* out, double* out_points = nullptr) const;
+  // Exact expectations over realizations and positions (as expected()); either pointer may be null.
+  void expected_triplanar(const double* dP, const double* n, const double* h, std::size_t m, double* e_ref,
+                          double* e_alg) const;
+  // The blend weights of the three planes (yz, xz, xy) for a normal n (not necessarily unit).
+  std::array<double, 3> triplanar_weights(const double n[3]) const;
+  // E over r of R(r, w): the keep rate of the roulette (w in the interior, differs near 0 and 1 when
+  // epsilon > 0; w for the linear blend).
+  double keep_rate(double w) const;
+
   // T^-1: the half vector of a point (x, y) of the disk U.
   std::array<double, 3> inverse_map(double x, double y) const;
 
@@ -144,7 +189,16 @@ class Kpt25Ndf {
  private:
   double level_sum(const GlintPixel& px, int level, double weight, double u, double v, std::uint64_t seed,
                    bool all_angular, double* points, const double* palette = nullptr, int n_colors = 0,
-                   double* rgb = nullptr) const;
+                   double* rgb = nullptr, double plane_weight = 1.0, std::uint32_t tag = 0,
+                   double* kept = nullptr) const;
+  // The planes of triplanar pixel i (those with a nonzero weight; their count) and h in the frame of n.
+  int triplanar_planes(const double* P, const double* dP, const double* n, const double* h, std::size_t i,
+                       TriplanarPlane planes[3], double h_t[3]) const;
+  GlintPixel plane_pixel(const TriplanarPlane& pl, const double h_t[3], std::size_t i) const;
+  void refuse_triplanar_options() const;
+  // E[evaluate] / D(h) of one pixel whose points are kept at the rate plane_rho and whose compensation
+  // is weighted by plane_w (1 and 1 for the uv-mapped model).
+  double expected_alg(const GlintPixel& px, double plane_rho, double plane_w) const;
   double compensation(const GlintPixel& px, int level) const;
   void footprint(GlintPixel& px, const double* jac, std::size_t index) const;
   double disk_D(double x, double y) const;  // D(T^-1(x, y)), the target at a point of U

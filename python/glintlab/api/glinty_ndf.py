@@ -72,7 +72,7 @@ def _arrays(uv, J, h):
     return pixel_arrays(uv, J, h)
 
 
-_ELEMENT = re.compile(r"\b(uv|J|h|wo)\[(\d+), (\d+|:)\]")
+_ELEMENT = re.compile(r"\b(uv|J|h|wo|position|dP|n)\[(\d+), (\d+|:)\]")
 
 
 def _core_call(shape, fn, *args):
@@ -333,6 +333,16 @@ class KPT25(GlintyNDF):
     alone; docs/math/glinty_ndf.md#glinty-sampling) and ``ggx_map`` (GGX only: "orthographic", the exact
     uniformising map, or "lambert", the paper's eq. 7; docs/math/glinty_ndf.md#glinty-lambert).
 
+    ``mapping="triplanar"`` (KPT25 §3.3.6, UV-free glints; docs/math/glinty_ndf.md#glinty-triplanar):
+    three point processes on the coordinate planes yz, xz, xy of the world position, blended by the
+    roulette with weights ``triplanar_weights`` ("normalized": abs(n_i)^s / sum_j abs(n_j)^s, s =
+    ``triplanar_sharpness``; "printed": abs(n_i)^s unnormalised, as the sentence reads; "missing_xy": a
+    deliberately wrong blend for the tests) and ``plane_seeds`` ("distinct": one process per plane;
+    "shared": the planes share one, so surfaces where two planes see the same coordinates see the same
+    points). ``evaluate``, ``reference`` and ``expected`` then take world positions (..., 3), their screen
+    derivatives dP (..., 6) = (dP/dx, dP/dy) (or (..., 2, 3)), world half vectors h and the normal ``n``
+    (..., 3): each plane's footprint is the derivatives of its two coordinates.
+
     >>> nd = KPT25(density=1e4, alpha=0.5, alpha_star=0.05)
     >>> h, pdf = nd.sample([[0.3, 0.7]] * 2, [[0.01, 0, 0, 0.01]] * 2, seed=1)
     >>> h.shape, pdf.shape, bool(np.allclose(nd.pdf([[0.3, 0.7]] * 2, [[0.01, 0, 0, 0.01]] * 2, h, seed=1), pdf))
@@ -347,7 +357,9 @@ class KPT25(GlintyNDF):
                  k: int = 4, epsilon: float = 0.1, filter: float = 0.5 / math.sqrt(math.pi),
                  compensation: str = "square", blend: str = "roulette", sample_smooth: float = 0.0,
                  sample_weight: str = "lobe_mass", ggx_map: str = "orthographic", colors=None,
-                 anisotropy=(1.0, 1.0), anisotropy_density: str = "preserved"):
+                 anisotropy=(1.0, 1.0), anisotropy_density: str = "preserved", mapping: str = "uv",
+                 triplanar_weights: str = "normalized", triplanar_sharpness: float = 1.0,
+                 plane_seeds: str = "distinct"):
         alpha_y = 0.0
         if isinstance(alpha, (tuple, list, np.ndarray)):  # (alpha_x, alpha_y): anisotropic roughness
             pair = np.asarray(alpha, dtype=object).reshape(-1)
@@ -368,10 +380,22 @@ class KPT25(GlintyNDF):
             V.fail("anisotropy", anisotropy, "a pair (a_x, a_y) of stretches in [1e-3, 1e3]")
         if anisotropy_density not in ("preserved", "printed"):
             V.fail("anisotropy_density", anisotropy_density, "'preserved' or 'printed'")
+        V.choice("mapping", mapping, ("uv", "triplanar"), "'uv' or 'triplanar'")
+        V.choice("triplanar_weights", triplanar_weights, ("normalized", "printed", "missing_xy"),
+                 "'normalized', 'printed' or 'missing_xy'")
+        V.choice("plane_seeds", plane_seeds, ("distinct", "shared"), "'distinct' or 'shared'")
+        if mapping == "triplanar":  # the paper: no uv gradients to orient anisotropy by
+            if alpha_y:
+                V.fail("alpha", alpha, "one roughness (isotropic) with mapping='triplanar'")
+            if tuple(aniso) != (1.0, 1.0):
+                V.fail("anisotropy", anisotropy, "(1, 1) with mapping='triplanar'")
+            if colors is not None:
+                V.fail("colors", "a palette", "None with mapping='triplanar' (scalar output)")
         self._core = _core.Kpt25Ndf(self.density, target, self.alpha, V.real("alpha_star", alpha_star), int(k),
                                     V.real("epsilon", epsilon), V.real("filter", filter), compensation, blend,
                                     V.real("sample_smooth", sample_smooth), sample_weight, ggx_map, alpha_y,
-                                    float(aniso[0]), float(aniso[1]), anisotropy_density == "printed")
+                                    float(aniso[0]), float(aniso[1]), anisotropy_density == "printed",
+                                    triplanar_weights, V.real("triplanar_sharpness", triplanar_sharpness), plane_seeds)
         self.params = {"density": self.density, "target": target,
                        "alpha": (self.alpha, self.alpha_y) if alpha_y else self.alpha,
                        "alpha_star": float(alpha_star), "k": int(k), "epsilon": float(epsilon),
@@ -383,6 +407,10 @@ class KPT25(GlintyNDF):
         self.ggx_map = ggx_map
         if ggx_map != "orthographic":
             self.params["ggx_map"] = ggx_map
+        self.mapping = mapping
+        if mapping == "triplanar":
+            self.params.update(mapping=mapping, triplanar_weights=triplanar_weights,
+                               triplanar_sharpness=float(triplanar_sharpness), plane_seeds=plane_seeds)
         self.anisotropy = (float(aniso[0]), float(aniso[1]))
         if self.anisotropy != (1.0, 1.0):
             self.params["anisotropy"] = self.anisotropy
@@ -399,9 +427,55 @@ class KPT25(GlintyNDF):
 
     def image(self, inputs, seed: int = 0, frame: int = 0) -> np.ndarray:
         """As :meth:`GlintyNDF.image` (scalar images: a palette's RGB output is refused by name)."""
+        self._uv_only("image")
         if self.colors is not None:
             V.fail("colors", f"a palette of {self.colors.shape[0]} colours", "None for scene images (scalar)")
         return super().image(inputs, seed, frame)
+
+    def _uv_only(self, what):
+        if self.mapping == "triplanar":
+            V.fail("mapping", "triplanar", f"'uv' for {what} (triplanar glints: evaluate, reference and expected)")
+
+    def _triplanar_arrays(self, position, dP, h, n):
+        """The checked, flattened arrays of a triplanar call: position (..., 3), dP (..., 6) or
+        (..., 2, 3), h and n (..., 3), broadcast to one shape; finite values and nonzero vectors are
+        checked in the core, by element."""
+        if n is None:
+            V.fail("n", None, "the normals (..., 3) with mapping='triplanar'")
+        arrays = {}
+        for name, a, tail in (("position", position, 3), ("dP", dP, 6), ("h", h, 3), ("n", n, 3)):
+            a = np.asarray(V.as_float_array(name, a), float)
+            if name == "dP" and a.shape[-2:] == (2, 3):
+                a = a.reshape(a.shape[:-2] + (6,))
+            if a.ndim < 1 or a.shape[-1] != tail:
+                V.fail(name, f"an array of shape {a.shape}", f"an array of shape (..., {tail})"
+                       + (" or (..., 2, 3)" if name == "dP" else ""))
+            arrays[name] = a
+        try:
+            shape = np.broadcast_shapes(*(a.shape[:-1] for a in arrays.values()))
+        except ValueError:
+            V.fail("position", "arrays of shapes " + ", ".join(f"{k} {a.shape}" for k, a in arrays.items()),
+                   "position, dP, h and n of one pixel shape (or broadcastable to one)")
+        flat = [np.ascontiguousarray(np.broadcast_to(a, shape + a.shape[-1:])).reshape(-1) for a in arrays.values()]
+        P, d, hh, nn = flat
+        return P, d, nn, hh, shape
+
+    def _triplanar(self, position, dP, h, n, seed, reference):
+        P, d, nn, hh, shape = self._triplanar_arrays(position, dP, h, n)
+        v, pts = _core_call(shape, self._core.evaluate_triplanar, P, d, nn, hh, V.seed(seed), reference)
+        return v.reshape(shape), pts.reshape(shape)
+
+    def triplanar_weights(self, n) -> np.ndarray:
+        """The blend weights of the yz, xz and xy planes for normals ``n`` (..., 3) (not necessarily unit)."""
+        n = np.asarray(V.as_float_array("n", n), float)
+        if n.ndim < 1 or n.shape[-1] != 3:
+            V.fail("n", f"an array of shape {n.shape}", "an array of shape (..., 3)")
+        flat = n.reshape(-1, 3)
+        return np.array([self._core.triplanar_weights(np.ascontiguousarray(r)) for r in flat]).reshape(n.shape)
+
+    def keep_rate(self, w: float) -> float:
+        """E over r of R(r, w) (eq. 8's roulette): w except within epsilon of 0 and 1."""
+        return float(self._core.keep_rate(V.real("w", w)))
 
     @property
     def expected_color(self):
@@ -439,30 +513,45 @@ class KPT25(GlintyNDF):
                 d = 1.0 / (math.pi * ax * ay * q * q)
         return np.where(u[..., 2] > 0, d, 0.0)
 
-    def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
+    def evaluate(self, uv, J, h, seed: int = 0, n=None) -> np.ndarray:
         """D^f per pixel by Algorithm 1 (B(k) per level, compensation, two levels with the roulette).
         Constant time per pixel; the same realization as ``reference`` for the same ``seed``. With
-        ``colors``, RGB: shape (..., 3)."""
+        ``colors``, RGB: shape (..., 3). With ``mapping="triplanar"``: ``uv`` is the world position
+        (..., 3), ``J`` its screen derivatives dP (..., 6), ``h`` the world half vector and ``n`` the
+        normal (..., 3)."""
+        if self.mapping == "triplanar":
+            return self._triplanar(uv, J, h, n, seed, False)[0]
         if self.colors is not None:
             return self._rgb(uv, J, h, seed, False)
         uv, J, h, shape = pixel_arrays(uv, J, h)
         return _core_call(shape, self._core.evaluate, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
                           V.seed(seed)).reshape(shape)
 
-    def reference(self, uv, J, h, seed: int = 0, return_points: bool = False):
+    def reference(self, uv, J, h, seed: int = 0, return_points: bool = False, n=None):
         """The full sum of eq. 11's first term over every point of the same realization whose position
         falls in the filter (both levels, same roulette; no truncation to B(k), no compensation). With
         ``return_points``, also the number of points summed per pixel. Its cost grows with the number
-        of points in the footprint. With ``colors``, RGB (..., 3) (and no point counts)."""
+        of points in the footprint. With ``colors``, RGB (..., 3) (and no point counts). With
+        ``mapping="triplanar"``, arguments as :meth:`evaluate`, and the points returned are those kept
+        by the roulettes (the sum of their keep weights) in the three planes' truncated filters."""
+        if self.mapping == "triplanar":
+            d, pts = self._triplanar(uv, J, h, n, seed, True)
+            return (d, pts) if return_points else d
         if self.colors is not None:
             return self._rgb(uv, J, h, seed, True)
         uv, J, h, shape = pixel_arrays(uv, J, h)
         d, pts = _core_call(shape, self._core.reference, uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed))
         return (d.reshape(shape), pts.reshape(shape)) if return_points else d.reshape(shape)
 
-    def expected(self, J, h) -> tuple[np.ndarray, np.ndarray]:
+    def expected(self, J, h, n=None) -> tuple[np.ndarray, np.ndarray]:
         """Exact expectations over realizations, (E[reference], E[evaluate]), per footprint and half
-        vector: D(h) times the lobe's mass in the disk, and the same with B(k) and the compensation."""
+        vector: D(h) times the lobe's mass in the disk, and the same with B(k) and the compensation.
+        With ``mapping="triplanar"``: ``J`` is dP (..., 6), ``h`` world half vectors, ``n`` the normals;
+        the planes' terms weighted by the roulette's keep rates (docs/math/glinty_ndf.md#glinty-triplanar)."""
+        if self.mapping == "triplanar":
+            _, d, nn, hh, shape = self._triplanar_arrays(np.zeros(3), J, h, n)
+            er, ea = _core_call(shape, self._core.expected_triplanar, d, nn, hh)
+            return er.reshape(shape), ea.reshape(shape)
         _, J, h, shape = pixel_arrays(None, J, h)
         er, ea = _core_call(shape, self._core.expected, J.reshape(-1), h.reshape(-1))
         return er.reshape(shape), ea.reshape(shape)
@@ -483,6 +572,7 @@ class KPT25(GlintyNDF):
         ``pdf`` returns for them); a draw whose lobe point falls outside the disk U is lost: h = NaN
         and pdf = 0. With ``wo`` (3,) or (..., 3) (normalised here), returns ``(h, pdf, wi)`` with
         wi = 2 (wo.h) h - wo the reflected directions; the density of wi is pdf / (4 |wo.h|)."""
+        self._uv_only("sample")
         uv = np.ascontiguousarray(V.as_float_array("uv", uv))
         if uv.ndim < 1 or uv.shape[-1] != 2:
             V.fail("uv", f"an array of shape {uv.shape}", "an array of shape (..., 2)")
@@ -504,6 +594,7 @@ class KPT25(GlintyNDF):
     def pdf(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """The density per steradian of h with which ``sample`` draws h at each pixel, for the
         realization ``seed`` (0 below the horizon). Shapes as ``evaluate``."""
+        self._uv_only("pdf")
         uv, J, h, shape = pixel_arrays(uv, J, h)
         return _core_call(shape, self._core.pdf, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
                           V.seed(seed)).reshape(shape)
@@ -523,6 +614,7 @@ class KPT25(GlintyNDF):
         ``seed`` inside DB23's footprint ellipse J {|x| <= 1 / sqrt(pi)} (area abs(det J)) whose normal lies
         within ``radius`` lobe stds sigma = alpha_star sqrt(D(h)) of T(h), each counted with its roulette
         weight (both levels). Its mean over realizations is :meth:`expected_visible_glints`."""
+        self._uv_only("visible_glints")
         uv, J, h, shape = pixel_arrays(uv, J, h)
         return _core_call(shape, self._core.visible_counts, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
                           V.seed(seed), V.real("radius", radius)).reshape(shape)
