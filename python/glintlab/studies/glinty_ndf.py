@@ -18,7 +18,10 @@ enough apart to share no grid cell) at the same seed:
 A second table isolates the MIP blend (§3.3.3): at fractional levels 0, 1/4, 1/2, the relative spread
 of the roulette (epsilon 0.1 and 0) and of linear blending, against the one-level spread. A third,
 exact (no sampling), isolates the compensation: E[Algorithm 1] / E[reference] - 1 with eq. 10's square,
-eq. 9's disk and none, against theta_h, alpha_star and k.
+eq. 9's disk and none, against theta_h, alpha_star and k. A fourth, ``glinty_ndf_triplanar``, measures
+the UV-free (triplanar) glints of §3.3.6 (docs/math/glinty_ndf.md#glinty-triplanar) as the normal turns
+from an axis through the diagonals: the mean against the target, the glint density and the spread,
+and the wrong blends (unnormalised weights, a missing plane) and shared plane seeds beside them.
 """
 from __future__ import annotations
 
@@ -55,16 +58,21 @@ DEFAULTS = {
     "anisotropy": 4.0,                               # one extra footprint stretched this much
     "blend_lambda": [3.0, 3.25, 3.5],                # MIP levels of the blend table (the first: one level)
     "timing_batch": 16384,                           # pixels per timed call (ns per evaluation)
+    "triplanar_pixels": 1500,                        # pixels per row of the triplanar table
 }
 QUICK = {"pixels": 200, "points": [10.0, 300.0], "base_points": 300.0, "density": [1e6], "alpha": [0.5],
          "alpha_star": [0.02], "cos_theta": [1.0, 0.766044443118978], "k": [1, 4], "db23_inner": "binomial",
-         "blend_lambda": [3.0, 3.5], "timing_batch": 2048}
+         "blend_lambda": [3.0, 3.5], "timing_batch": 2048,
+         "triplanar_pixels": 600}
 NOTEBOOK = "glinty_ndf.ipynb"
 TABLE = {"glinty_ndf": ["method", "vary", "value", "rho", "mean_vs_D", "ref_vs_D_exact", "bias_vs_ref", "bias_vs_ref_exact",
                         "rel_std", "rel_std_ref", "w1_vs_ref", "ns_eval", "ns_ref"],
          "glinty_ndf_blend": ["blend", "level_frac", "mean_vs_D", "rel_std", "rel_std_vs_one_level"],
          "glinty_ndf_compensation": ["alpha_star", "theta_deg", "k", "rho", "ref_vs_D", "alg_vs_D", "bias_square",
-                                     "bias_disk", "bias_none"]}
+                                     "bias_disk", "bias_none"],
+         "glinty_ndf_triplanar": ["variant", "normal", "w_x", "w_y", "w_z", "mean_vs_exact", "z", "alg_z",
+                                  "density_rel", "density_measured", "rel_std", "var_vs_axis", "var_vs_axis_pred",
+                                  "bias_eps01"]}
 
 FILTER = 0.5 / math.sqrt(math.pi)  # KPT25's default pixel filter std (effective area |det J|)
 
@@ -215,6 +223,80 @@ def compensation_table(base: dict, alpha_stars, ks, thetas) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+#: The triplanar table's normals: turning from the x axis towards the diagonal x = y (where the yz and
+#: xz planes' weights cross), then the diagonal of all three axes and a generic normal.
+TRIPLANAR_NORMALS = [("x axis", (1.0, 0.0, 0.0)), ("1 deg", (math.cos(math.radians(1)), math.sin(math.radians(1)), 0.0)),
+                     ("10 deg", (math.cos(math.radians(10)), math.sin(math.radians(10)), 0.0)),
+                     ("30 deg", (math.cos(math.radians(30)), math.sin(math.radians(30)), 0.0)),
+                     ("(1,1,0)", (1.0, 1.0, 0.0)), ("(1,1,1)", (1.0, 1.0, 1.0)), ("(0.3,-0.5,0.8)", (0.3, -0.5, 0.8)),
+                     ("(1,0.3,0.1)", (1.0, 0.3, 0.1))]
+
+
+def _plane_pixels(nv, m: int, side: float, seed: int, theta: float = 0.4):
+    """m pixels on the plane through 0 with normal nv, 400 units across (independent: far more than a
+    cell apart), footprint (side t, side b), and the world half vector at theta from the normal."""
+    n = np.asarray(nv, float) / np.linalg.norm(nv)
+    a = np.array([0.3, 0.5, 1.0]) if abs(n[2]) < 0.9 else np.array([1.0, 0.2, 0.1])
+    t = np.cross(n, a)
+    t /= np.linalg.norm(t)
+    b = np.cross(n, t)
+    P = np.random.default_rng(seed).uniform(-200, 200, (m, 3))
+    P -= (P @ n)[:, None] * n
+    h = math.sin(theta) * (0.8 * t + 0.6 * b) + math.cos(theta) * n
+    return n, P, np.concatenate([side * t, side * b]), h
+
+
+def triplanar_table(base: dict, pixels: int, seed: int) -> pd.DataFrame:
+    """UV-free glints (docs/math/glinty_ndf.md#glinty-triplanar) with the exact roulette (epsilon = 0,
+    so the normalised blend is unbiased): per normal, the reference's mean over its exact expectation
+    and z, Algorithm 1's z against its own, the weights, the glints per unit surface area relative to an
+    axis-aligned normal (exact sum_i w_i |n_i|, and measured from the points kept), the relative spread,
+    the variance relative to the x axis's (measured, and sum_i w_i / |n_i|, the sparse-glint prediction),
+    and the exact bias of the mollified roulette (epsilon = 0.1: sum_i rho(w_i) - 1). Then the wrong
+    blends at (1,1,1) and the shared plane seeds on the surface x = y. Density 1e4, alpha_star 0.05,
+    footprint 0.05 x 0.05 (25 points per plane at an axis), theta_h = 0.4 rad."""
+    kw = dict(density=1e4, target=base["target"], alpha=base["alpha"], alpha_star=0.05, mapping="triplanar")
+    side = 0.05
+    exact = glinty_ndf("kpt25", epsilon=0.0, **kw)
+    moll = glinty_ndf("kpt25", epsilon=0.1, **kw)
+    rows = []
+
+    def row(variant, label, nd, nv, s):
+        n, P, dP, h = _plane_pixels(nv, pixels, side, s)
+        r, kept = nd.reference(P, dP, h, seed=s, n=n, return_points=True)
+        a = nd.evaluate(P, dP, h, seed=s, n=n)
+        e_ref, e_alg = exact.expected(dP, h, n=n)  # the correct blend's expectation: the target
+        w = nd.triplanar_weights(n)
+        area = float(np.linalg.norm(np.cross(dP[:3], dP[3:])))
+        _, ea_own = nd.expected(dP, h, n=n)
+        se = r.std(ddof=1) / math.sqrt(r.size)
+        rows.append({"variant": variant, "normal": label, "w_x": float(w[0]), "w_y": float(w[1]), "w_z": float(w[2]),
+                     "mean_vs_exact": float(r.mean() / e_ref), "z": float((r.mean() - e_ref) / se),
+                     "alg_z": float((a.mean() - ea_own) / (a.std(ddof=1) / math.sqrt(a.size))),
+                     "density_rel": float(w @ np.abs(n)),
+                     "density_measured": float(kept.mean() / (1e4 * (math.pi / 4) * (9 / 4) * area)),
+                     "rel_std": float(r.std(ddof=1) / r.mean()), "var_raw": float(r.var(ddof=1) / e_ref**2),
+                     "var_vs_axis_pred": float(np.sum(np.where(w > 0, w / np.maximum(np.abs(n), 1e-300), 0.0))),
+                     "bias_eps01": float(sum(moll.keep_rate(x) for x in moll.triplanar_weights(n)) - 1),
+                     "pixels": pixels})
+
+    for i, (label, nv) in enumerate(TRIPLANAR_NORMALS):
+        row("normalized", label, exact, nv, seed + i)
+    for j, (variant, extra) in enumerate((("printed (unnormalised)", dict(triplanar_weights="printed")),
+                                          ("missing_xy", dict(triplanar_weights="missing_xy")))):
+        row(variant, "(1,1,1)", glinty_ndf("kpt25", epsilon=0.0, **extra, **kw), (1.0, 1.0, 1.0), seed + 5)
+    sharp = glinty_ndf("kpt25", epsilon=0.0, triplanar_sharpness=4.0, **kw)
+    row("sharpness 4", "1 deg", sharp, TRIPLANAR_NORMALS[1][1], seed + 1)
+    row("sharpness 4", "(1,1,1)", sharp, (1.0, 1.0, 1.0), seed + 5)
+    row("normalized", "x = y surface", exact, (1.0, -1.0, 0.0), seed + 20)
+    row("shared plane seeds", "x = y surface", glinty_ndf("kpt25", epsilon=0.0, plane_seeds="shared", **kw),
+        (1.0, -1.0, 0.0), seed + 20)
+    t = pd.DataFrame(rows)
+    axis = t[(t.variant == "normalized") & (t.normal == "x axis")].var_raw.iloc[0]
+    t["var_vs_axis"] = t.var_raw / axis
+    return t
+
+
 def compute(params: dict, ctx: Context) -> Tables:
     base = {"target": params["target"], "alpha": params["base_alpha"], "alpha_star": params["base_alpha_star"],
             "density": params["base_density"], "points": params["base_points"], "theta_deg": params["base_theta_deg"]}
@@ -245,6 +327,8 @@ def compute(params: dict, ctx: Context) -> Tables:
     ctx.progress("compensation (exact)")
     comp = compensation_table(base, sorted({base["alpha_star"], *params["alpha_star"]}), params["k"],
                               sorted({*theta, 30.0, 35.0, 45.0}))
+    ctx.progress("triplanar")
+    tri = triplanar_table(base, int(params["triplanar_pixels"]), ctx.seed)
     kpt = table[table.method.str.startswith("kpt25")]
     interior = kpt[kpt.rho <= 0.8]
     stats = {
@@ -273,7 +357,18 @@ def compute(params: dict, ctx: Context) -> Tables:
     # Not 0: the compensation is blended with w_l, the points with the roulette's keep rate rho(w_l)
     # (docs/math/glinty_ndf.md#glinty-roulette).
     stats["largest |disk-compensation bias| (exact; the roulette's rho(w) - w)"] = float(comp.bias_disk.abs().max())
-    return Tables({"glinty_ndf": table, "glinty_ndf_blend": blend, "glinty_ndf_compensation": comp}, stats, failures)
+    # Triplanar: the normalised blend's sampled mean against its exact expectation (the target) at
+    # every normal, within 5 standard errors (false-failure rate below 6e-7 per row).
+    good = tri[tri.variant == "normalized"]
+    for _, r in good[good.z.abs() > 5].iterrows():
+        failures.append(f"glinty_ndf_triplanar: normal {r.normal}: sampled mean / exact {r.mean_vs_exact:.4g} (z = {r.z:.2f})")
+    stats["triplanar: largest |z| of the normalised blend's mean (exact roulette)"] = float(good.z.abs().max())
+    stats["triplanar: glints per unit area at (1,1,1) / at an axis (exact)"] = float(
+        good[good.normal == "(1,1,1)"].density_rel.iloc[0])
+    stats["triplanar: largest |bias| of the mollified roulette (eps 0.1) over the table's normals"] = float(
+        good.bias_eps01.abs().max())
+    return Tables({"glinty_ndf": table, "glinty_ndf_blend": blend, "glinty_ndf_compensation": comp,
+                   "glinty_ndf_triplanar": tri}, stats, failures)
 
 
 def figures(tables: Tables, ctx: Context) -> list:
