@@ -349,6 +349,12 @@ class KPT25(GlintyNDF):
     ((2, 3), (2,), True)
     >>> nd.map([0.0, 0.0, 1.0]).tolist()
     [0.5, 0.5]
+    >>> tri = KPT25(density=1e4, alpha=0.5, alpha_star=0.05, mapping="triplanar")
+    >>> (7 * tri.triplanar_weights([0.0, 3.0, 4.0])).round(12).tolist()
+    [0.0, 3.0, 4.0]
+    >>> P, dP, n = [[1.0, 2.0, 0.5]], [[0.01, 0, 0, 0, 0.01, 0]], [0.0, 0.0, 1.0]
+    >>> bool(tri.evaluate(P, dP, [0.1, 0.0, 1.0], seed=3, n=n)[0] >= 0)
+    True
     """
 
     name = "kpt25"
