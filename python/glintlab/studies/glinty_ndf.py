@@ -40,7 +40,9 @@ TITLE = "Glinty NDFs as a renderer evaluates them: KPT25's Algorithm 1 against i
 MEANING = ("KPT25's Algorithm 1 equals the exact sum over its own points while the lobes lie inside the disk; at "
            "grazing half vectors the model loses up to 40 % of D(h) and eq. 10's square adds up to 16 % back "
            "for k = 1; Algorithm 1 is up to 5x smoother than its own model; the roulette keeps the one-level "
-           "spread where linear blending drops it by 30 %; DB23's D_P over the binomial is unbiased on the same footprints.")
+           "spread where linear blending drops it by 30 %; DB23's D_P over the binomial is unbiased on the same footprints; "
+           "the UV-free (triplanar) blend is unbiased at every normal with normalised weights, with 0.58 of an axis's "
+           "glint density on the diagonal and twice its variance as soon as the normal leaves an axis.")
 # Parameters are flat (the report configuration types them: numbers, strings, lists of numbers > 0).
 DEFAULTS = {
     "pixels": 4000,
