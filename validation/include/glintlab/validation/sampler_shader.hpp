@@ -35,7 +35,7 @@ std::string sampler_wrapper_source(const std::string& language, const std::strin
 
 // Compiles a shader sampler: spec.source defines spec.entry (sample_h) and `pdf_entry` (pdf_h);
 // spec.include_dirs must contain the folder of glintlab's sampler include files. Compile errors and a
-// missing or mistyped function throw std::invalid_argument (the compiler's messages, file:line).
+// missing or mistyped function are std::invalid_argument errors (the compiler's messages, file:line).
 std::shared_ptr<Kernel> sampler_kernel(KernelSpec spec, const std::string& pdf_entry = "pdf_h");
 
 // out (count x kSamplerOutputWords) = the kernel applied to each row of in (count x kSamplerInputWords).
