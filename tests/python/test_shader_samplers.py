@@ -101,6 +101,19 @@ def test_glsl_broken_sampler_is_rejected_too():
     assert not gl.sampler_test(s, samples=N, seed=SEED).passed
 
 
+def test_the_shipped_sampler_is_written_once():
+    """ggx_vndf.hlsl and .glsl are thin wrappers around one body and differ only in the language's name."""
+    import re
+    texts = {lang: gl.shipped_sampler("ggx_vndf", lang).read_text() for lang in ("hlsl", "glsl")}
+    for lang, text in texts.items():
+        code = [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("//")]
+        assert code == [f"#define GLINTLAB_{lang.upper()}", '#include "glintlab_prelude.h"', '#include "ggx_vndf_body.h"']
+    swap = {"hlsl": "glsl", "glsl": "hlsl", "HLSL": "GLSL", "GLSL": "HLSL"}
+    assert re.sub(r"hlsl|glsl|HLSL|GLSL", lambda m: swap[m.group()], texts["hlsl"]) == texts["glsl"]
+    with pytest.raises(ValueError, match="name = "):
+        gl.shipped_sampler("beckmann_vndf")
+
+
 def test_determinism_uniforms_and_pickles():
     s = gl.shader_sampler(gl.shipped_sampler("ggx_vndf", "glsl"), wo=(0.3, -0.2, 0.9), uv=(0.5, 0.25))
     h1, p1 = s.sample(3000, seed=7)
@@ -135,6 +148,10 @@ def test_bad_input_and_compile_errors_name_the_problem(tmp_path):
     with pytest.raises(ValueError, match=r"no function pdf_h .*vec3 h\) \(glsl\)"):
         gl.shader_sampler(ok.replace("float4", "vec4").replace("float2", "vec2").replace("float3", "vec3") +
                           "float pdf_h(vec3 h) { return 1.0; }\n", language="glsl")
+    with pytest.raises(ValueError, match=r"after the end of <string> \(a declaration left unfinished\?\)"):
+        gl.shader_sampler(ok + pdf + "float junk(\n")
+    with pytest.raises(ValueError, match="resource 'mine'"):  # the runner's resource check, as for shader laws
+        gl.shader_sampler("RWStructuredBuffer<float> mine;\n" + ok.replace("1.0, 1.0)", "1.0, mine[0])") + pdf)
     for kwargs, needle in [({"wo": (0.0, 0.0, -1.0)}, "wo = "), ({"J": (1.0, 0.0, 0.0)}, "J = "),
                            ({"uv": (np.nan, 0.0)}, "uv = "), ({"language": "cuda"}, "language = "),
                            ({"domain": "disk"}, "domain = "), ({"timeout": 0}, "timeout = "),

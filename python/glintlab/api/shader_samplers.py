@@ -69,9 +69,10 @@ def _compile_error(exc: ValueError, source_name: str, language: str) -> ShaderCo
     head, _, messages = text.partition("\n")
     errors = [m for m in (_ERROR_LINE.match(ln.strip()) for ln in messages.splitlines()) if m]
     user = [m for m in errors if not m.group("loc").startswith("glintlab_kernel.")]
-    if "no function" in head and not user:
-        wrapper_text = " ".join(m.group("msg") for m in errors)
-        missing = PDF_ENTRY if PDF_ENTRY in wrapper_text and SAMPLE_ENTRY not in wrapper_text else SAMPLE_ENTRY
+    wrapper_text = " ".join(m.group("msg") for m in errors)
+    named = [e for e in (SAMPLE_ENTRY, PDF_ENTRY) if f"'{e}'" in wrapper_text]
+    if "no function" in head and not user and named:
+        missing = named[0]
         sig = _core.sampler_signature(language, SAMPLE_ENTRY, PDF_ENTRY).split(" and ")
         expected = sig[0] if missing == SAMPLE_ENTRY else sig[1]
         first = f" ({errors[0].group('msg')})" if errors else ""
@@ -82,6 +83,10 @@ def _compile_error(exc: ValueError, source_name: str, language: str) -> ShaderCo
         more = f" (+{len(errors) - 1} more: see .messages)" if len(errors) > 1 else ""
         return ShaderCompileError(f"shader sampler does not compile ({language}): {m.group('loc')}: "
                                   f"{m.group('msg')}{more}", text)
+    if errors:  # every error inside glintlab's wrapper, none naming a function: code left unfinished
+        m = errors[0]
+        return ShaderCompileError(f"shader sampler does not compile ({language}): {m.group('msg')} in glintlab's "
+                                  f"wrapper, after the end of {source_name} (a declaration left unfinished?)", text)
     return ShaderCompileError(head if head.strip() else text, text)
 
 
