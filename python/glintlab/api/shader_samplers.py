@@ -150,9 +150,6 @@ class ShaderSampler(Sampler):
         key = self._kernel.spirv + self.device.encode() + self._head.tobytes()
         return f"shader_sampler:{hashlib.sha256(key).hexdigest()[:16]}:{self.name}"
 
-    def label(self) -> str:
-        return f"{self.name}[{self.language}]"
-
     def __repr__(self):
         return f"ShaderSampler({self.name!r}, {self.language}, wo={tuple(round(float(x), 6) for x in self.wo)}, " \
                f"device={self.device!r})"
@@ -219,6 +216,7 @@ def shader_sampler(source, language: str | None = None, name: str | None = None,
     ({"NAME": value}) are passed as ``-D NAME=value``. ``wo``: the unit outgoing direction (z > 0;
     normalised here); ``uv`` and ``J``: the pixel (2 and 4 numbers). ``domain``: "hemisphere" (h.z > 0)
     or "sphere". ``include_dirs`` are searched after the file's folder and glintlab's shader folder.
+    ``name``: default the file's name ("ggx_vndf.hlsl"), or "shader_sampler" for code in a string.
     ``device``, ``timeout``: as ``shader_law``. A shader that does not compile, or lacks either function
     or gives it another signature, raises ``ShaderCompileError`` (a ``ValueError``; one line naming
     file:line, the compiler's text in ``.messages``); no Vulkan device raises ``RuntimeError``.
@@ -231,7 +229,7 @@ def shader_sampler(source, language: str | None = None, name: str | None = None,
         V.fail("language", language, "'hlsl' or 'glsl'")
     code, source_name, language = _read_source(source, language)
     if name is None:
-        name = Path(source_name).stem if source_name != "<string>" else "shader_sampler"
+        name = Path(source_name).name if source_name != "<string>" else "shader_sampler"
     if not isinstance(name, str) or not name:
         V.fail("name", name, "a non-empty string")
     _utf8("name", name)
