@@ -59,10 +59,14 @@ def test_shipped_ggx_vndf_passes_and_its_pdf_is_the_reference_one(language):
         got, want = s.pdf(pts), ref.pdf(pts)
         assert np.all(np.abs(got - want) <= 3e-5 * want + 1e-6 * want.max()), np.max(np.abs(got - want) / want)
     assert np.array_equal(p, s.pdf(h))  # sample_h's pdf is pdf_h's, bit for bit
-    # A different alpha through the define, checked against the reference at that alpha.
-    s5 = gl.shader_sampler(gl.shipped_sampler("ggx_vndf", language), defines={"ALPHA": 0.5}, wo=WO)
-    want = gl.sampler("ggx_vndf", alpha=0.5, wo=WO).pdf(v)
-    assert np.all(np.abs(s5.pdf(v) - want) <= 3e-5 * want + 1e-6 * want.max())
+    # A different alpha through the define, at a view 80 degrees from the normal too, checked against
+    # the reference there (at sampled and at uniform directions).
+    for wo in (WO, (0.98, 0.1, 0.17)):
+        s5 = gl.shader_sampler(gl.shipped_sampler("ggx_vndf", language), defines={"ALPHA": 0.5}, wo=wo)
+        ref5 = gl.sampler("ggx_vndf", alpha=0.5, wo=wo)
+        for pts in (s5.sample(20000, seed=4)[0], v):
+            want = ref5.pdf(pts)
+            assert np.all(np.abs(s5.pdf(pts) - want) <= 3e-5 * want + 1e-6 * want.max()), wo
 
 
 @pytest.mark.parametrize("kind, sample_line, pdf_line", [
