@@ -34,7 +34,6 @@ import numpy as np
 from .. import _core
 from ..resources import data_path
 from . import checks as V
-from .laws import uniforms_float32
 from .samplers import SAMPLER_LOADERS, Sampler, _points, _size, _unit
 from .shaders import (_EXTENSIONS, DEFAULT_TIMEOUT_S, LANGUAGES, LAVAPIPE_LOOP_CAP, ShaderOutputError,
                       _define_value, _device_request, _read_source, _utf8)
@@ -177,7 +176,12 @@ class ShaderSampler(Sampler):
     def uniforms(self, size, seed=0) -> np.ndarray:
         """The (size, 4) float32 uniforms ``sample(size, seed)`` hands to sample_h, row by row."""
         n = _size(size)
-        return uniforms_float32(np.random.Generator(np.random.Philox(V.seed(seed))).random((n, 4)))
+        u = np.random.Generator(np.random.Philox(V.seed(seed))).random((n, 4))
+        # uniforms_float32's rule, (floor(u 2^23) + 1/2) 2^-23, in float32 arithmetic that is exact here
+        # (k < 2^23, so k + 1/2 has 24 significant bits) and 30 times faster than in float64; the tests
+        # check it equals uniforms_float32 bit for bit.
+        k = (u * 8388608.0).astype(np.uint32)  # u < 1: k <= 2^23 - 1, the clip is never needed
+        return (k.astype(np.float32) + np.float32(0.5)) * np.float32(2.0**-23)
 
     def sample(self, size, seed=0):
         """(h, pdf): ``size`` draws of sample_h, as float64 arrays (size, 3) and (size,). A draw the
