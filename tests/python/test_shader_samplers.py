@@ -74,7 +74,8 @@ def test_shipped_ggx_vndf_passes_and_its_pdf_is_the_reference_one(language):
     ("alpha+2%", "float4 r = ggx_vndf_sample(0.306, wo, u.xy); return float4(r.xyz, ggx_vndf_pdf(0.3, wo, r.xyz));",
      "return ggx_vndf_pdf(0.3, wo, h);"),
     # The pdf without its normalisation G1(wo) / wo.z (D(h) max(0, wo.h) alone): it integrates to 0.81.
-    ("no_g1", "float4 r = ggx_vndf_sample(0.3, wo, u.xy); return float4(r.xyz, max(0.0, dot(wo, r.xyz)) * ggx_vndf_d(0.3, r.xyz));",
+    ("no_g1", "float4 r = ggx_vndf_sample(0.3, wo, u.xy); "
+              "return float4(r.xyz, max(0.0, dot(wo, r.xyz)) * ggx_vndf_d(0.3, r.xyz));",
      "return h.z > 0.0 ? max(0.0, dot(wo, h)) * ggx_vndf_d(0.3, h) : 0.0;"),
     # Visible normals drawn, the pdf of plain normal sampling D(h) (h.n) declared: a sample/pdf mismatch.
     ("ndf_pdf", "float4 r = ggx_vndf_sample(0.3, wo, u.xy); return float4(r.xyz, r.z * ggx_vndf_d(0.3, r.xyz));",

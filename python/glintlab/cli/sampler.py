@@ -16,7 +16,8 @@ def add_parser(sub):
                                    "beckmann_vndf, vmf_mixture) or a sampler file against its pdf "
                                    "(docs/math/sampling.md). Exit 0 pass, 1 fail, 2 bad input. On failure the "
                                    "bins (NPZ, CSV) and a figure are written to --out.")
-    p.add_argument("sampler", metavar="NAME_OR_FILE", help="a registered sampler name or a sampler file (a shader sampler: .hlsl, .glsl; "
+    p.add_argument("sampler", metavar="NAME_OR_FILE",
+                   help="a registered sampler name or a sampler file (a shader sampler: .hlsl, .glsl; "
                         "--param NAME=VALUE sets wo, uv, J or a define, e.g. ALPHA=0.5)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="a sampler parameter (repeatable): alpha=0.3, wo=0.6,0,0.8")
