@@ -83,6 +83,10 @@ def test_shipped_ggx_vndf_passes_and_its_pdf_is_the_reference_one(language):
     # sample_h's own pdf 1 % off pdf_h's: every draw is a pdf mismatch (rtol 1e-3).
     ("pdf+1%", "float4 r = ggx_vndf_sample(0.3, wo, u.xy); return float4(r.xyz, 1.01 * r.w);",
      "return ggx_vndf_pdf(0.3, wo, h);"),
+    # Half vectors 0.1 % too long (a normalisation left out or done in half precision): every draw is
+    # off the unit sphere by more than the harness's unit_tol = 1e-4, so it is lost.
+    ("unnormalised", "float3 h = 1.001 * ggx_vndf_sample(0.3, wo, u.xy).xyz; return float4(h, ggx_vndf_pdf(0.3, wo, h));",
+     "return ggx_vndf_pdf(0.3, wo, h);"),
     # One draw in a thousand lost as NaN (u.z < 1e-3): 500 lost where the pdf leaves room for none.
     ("drop_0.1%", "float4 r = ggx_vndf_sample(0.3, wo, u.xy); float bad = u.z < 0.001 ? sqrt(-1.0 - u.z) : 0.0; "
                   "return r + float4(bad, bad, bad, 0.0);",
@@ -92,7 +96,9 @@ def test_broken_shader_samplers_are_rejected(kind, sample_line, pdf_line):
     s = broken(sample_line, pdf_line, kind)
     res = gl.sampler_test(s, samples=N, seed=SEED)
     assert not res.passed, repr(res)
-    if kind == "pdf+1%":
+    if kind == "unnormalised":
+        assert res.lost == N
+    elif kind == "pdf+1%":
         assert res.mismatches == res.checked == N
     elif kind == "drop_0.1%":
         assert res.lost == pytest.approx(500, abs=60) and res.pvalue < 1e-6
@@ -117,6 +123,26 @@ def test_the_shipped_sampler_is_written_once():
     assert re.sub(r"hlsl|glsl|HLSL|GLSL", lambda m: swap[m.group()], texts["hlsl"]) == texts["glsl"]
     with pytest.raises(ValueError, match="name = "):
         gl.shipped_sampler("beckmann_vndf")
+
+
+def test_a_sphere_sampler_written_in_glsl():
+    """A user's sampler with no glintlab helper: uniform directions on the whole sphere, pdf 1 / (4 pi)
+    (domain "sphere"); and the same with z drawn as u instead of 2u - 1 (only the upper hemisphere),
+    which the harness rejects (the pdf claims mass where no draw goes)."""
+    code = textwrap.dedent("""
+        vec4 sample_h(vec2 uv, vec4 J, vec3 wo, vec4 u) {
+            float z = Z_OF_U;
+            float r = sqrt(max(0.0, 1.0 - z * z));
+            float phi = 2.0 * GLINTLAB_PI * u.y;
+            return vec4(r * cos(phi), r * sin(phi), z, 1.0 / (4.0 * GLINTLAB_PI));
+        }
+        float pdf_h(vec2 uv, vec4 J, vec3 wo, vec3 h) { return 1.0 / (4.0 * GLINTLAB_PI); }
+        """)
+    good = gl.shader_sampler(code, language="glsl", domain="sphere", defines={"Z_OF_U": "2.0 * u.x - 1.0"})
+    bad = gl.shader_sampler(code, language="glsl", domain="sphere", defines={"Z_OF_U": "u.x"}, name="upper only")
+    assert gl.sampler_test(good, samples=10**5, seed=SEED).passed
+    res = gl.sampler_test(bad, samples=10**5, seed=SEED)
+    assert not res.passed and res.pvalue < 1e-6
 
 
 def test_determinism_uniforms_and_pickles():
