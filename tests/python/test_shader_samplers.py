@@ -4,7 +4,7 @@ sampler's pdf, broken shader samplers rejected at the same sample size, determin
 timeouts and `glintlab sampler FILE` exit codes.
 
 False-failure rates: every harness verdict here uses significance 1e-3 (the harness's default), so the
-two correct-sampler verdicts fail by chance with probability about 2e-3 together; the seeds are fixed,
+three correct-sampler verdicts fail by chance with probability about 3e-3 together; the seeds are fixed,
 so a run is reproducible. The broken ones are rejected far below 1e-3 (p recorded in each comment,
 measured at N = 5e5, seed 11, on lavapipe)."""
 from __future__ import annotations
