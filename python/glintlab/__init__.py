@@ -42,6 +42,7 @@ from .validation.sweep import error_table, sweep
 from .api.samplers import Sampler, sampler, samplers, wrong_sampler
 from .validation.sampler_test import SamplerTestResult, sampler_test
 from .validation.furnace import furnace
+from .api.shader_samplers import ShaderSampler, shader_sampler, shipped_sampler
 
 
 def set_num_threads(threads: int) -> None:
@@ -74,5 +75,6 @@ __all__ = [
     "furnace",
 ]
 __all__ += ["emit_shader", "shipped_shaders"]  # shipped shaders: declared in law traits, emitted paste-ready
+__all__ += ["ShaderSampler", "shader_sampler", "shipped_sampler"]  # samplers as shaders (docs/math/sampling.md#shader-samplers)
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)
 __all__ += ["matched_density", "db23_visible_glints"]  # KPT25 <-> DB23 (docs/math/glinty_ndf.md#glinty-matched)

@@ -292,14 +292,15 @@ FUNCTION_DEF = r"^\s*float\s+(\w+)\s*\("
 
 def test_shipped_shaders_are_declared_by_the_law_traits():
     """The list of shipped shaders is the laws' own declaration (LawTraits::shader), and every law
-    shader file glintlab ships is declared by a law (the method shaders are the other kind)."""
+    shader file glintlab ships is declared by a law (the method shaders and shader samplers are the other kinds)."""
     from glintlab import _core
     declared = {t["shader"]: name for name, t in _core.all_law_traits().items() if t["shader"]}
     assert S.shipped_shaders() == declared and len(declared) >= 4
     assert all(gl.law_traits(law)["shader"] == shader for shader, law in declared.items())
     assert gl.law_traits("binomial")["shader"] == ""
     from glintlab.api.method_shaders import WB16_SHADER
-    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl") if p.name != WB16_SHADER}
+    from glintlab.api.shader_samplers import SHIPPED_SAMPLERS  # the third kind: direction samplers
+    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl") if p.name != WB16_SHADER and p.stem not in SHIPPED_SAMPLERS}
     assert wrappers == set(declared)
     assert S.shipped_shader("gated_shader", "glsl") == S.shipped_shader("gated", "glsl")  # the law's name too
     with pytest.raises(ValueError, match="a shipped shader among"):

@@ -5,6 +5,7 @@ import sys
 
 from ..api import checks as V
 from ..api.samplers import WRONG_KINDS, load_sampler, wrong_sampler
+from ..api.shaders import ShaderOutputError
 from ..validation.sampler_test import sampler_test
 from .common import add_outputs, add_seed
 
@@ -15,7 +16,9 @@ def add_parser(sub):
                                    "beckmann_vndf, vmf_mixture) or a sampler file against its pdf "
                                    "(docs/math/sampling.md). Exit 0 pass, 1 fail, 2 bad input. On failure the "
                                    "bins (NPZ, CSV) and a figure are written to --out.")
-    p.add_argument("sampler", metavar="NAME_OR_FILE", help="a registered sampler name or a sampler file")
+    p.add_argument("sampler", metavar="NAME_OR_FILE",
+                   help="a registered sampler name or a sampler file (a shader sampler: .hlsl, .glsl; "
+                        "--param NAME=VALUE sets wo, uv, J or a define, e.g. ALPHA=0.5)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="a sampler parameter (repeatable): alpha=0.3, wo=0.6,0,0.8")
     p.add_argument("--samples", type=int, default=10**6, help="samples (default: 1e6)")
@@ -74,4 +77,8 @@ def check_sampler(sampler, args) -> int:
 def run(args) -> int:
     V.integer("--samples", args.samples, minimum=1)
     s = load_sampler(args.sampler, **sampler_params(args.param))
-    return check_sampler(wrong_sampler(s, args.wrong) if args.wrong else s, args)
+    try:
+        return check_sampler(wrong_sampler(s, args.wrong) if args.wrong else s, args)
+    except ShaderOutputError as exc:  # a shader sampler's NaN or negative pdf: a failed check, not bad input
+        print(f"glintlab sampler: FAIL {exc}", file=sys.stderr)
+        return 1

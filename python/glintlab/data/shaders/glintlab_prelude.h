@@ -7,6 +7,8 @@
 #define GLINTLAB_PRELUDE_H
 
 #if defined(GLINTLAB_GLSL)
+#define float2 vec2
+#define float3 vec3
 #define float4 vec4
 #define saturate(x) clamp((x), 0.0, 1.0)
 // Round a float to the nearest half float and back (HLSL's f32tof16 / f16tof32).

@@ -1,0 +1,276 @@
+"""Direction samplers written as shaders, run on Vulkan and tested by the sampler harness
+(docs/math/sampling.md#shader-samplers).
+
+The contract a shader sampler meets is two functions (HLSL; GLSL writes ``vec2``, ``vec3``, ``vec4``)::
+
+    float4 sample_h(float2 uv, float4 J, float3 wo, float4 u)   // (h.x, h.y, h.z, pdf)
+    float  pdf_h(float2 uv, float4 J, float3 wo, float3 h)      // pdf per steradian of h
+
+``sample_h`` draws one unit half vector h (shading frame, z along the normal) from four uniforms and
+returns it with its pdf; ``pdf_h`` evaluates that density at a given h. ``uv`` and ``J`` are the
+pixel's texture position and footprint (du/dx, dv/dx, du/dy, dv/dy), ``wo`` the unit outgoing
+direction; a smooth sampler ignores uv and J. glintlab wraps both functions in one compute kernel of
+its own, compiled and run by the shader-law runner (shaderc, Vulkan; lavapipe on the CPU), and the
+include file it puts before the code (``glintlab_sampler_hlsl.h`` / ``glintlab_sampler_glsl.h``)
+states the contract.
+
+``shader_sampler(source)`` returns a :class:`~glintlab.api.samplers.Sampler` for one pixel and one
+``wo``: ``gl.sampler_test`` tests it like the reference samplers, and ``glintlab sampler FILE.hlsl``
+(or ``.glsl``) does through the ``SAMPLER_LOADERS`` hook. The uniforms are glintlab's: numpy's Philox
+generator keyed by the seed, four per row in row order, converted to float32 by the rule of the
+shader laws (``uniforms_float32``: never 0 or 1), so the same seed gives the same directions on any
+machine and whatever the chunking. GGX visible normals (Heitz 2018) ship as the example
+(:func:`shipped_sampler`), one body for HLSL and GLSL.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .. import _core
+from ..resources import data_path
+from . import checks as V
+from .samplers import SAMPLER_LOADERS, Sampler, _points, _size, _unit
+from .shaders import (_EXTENSIONS, DEFAULT_TIMEOUT_S, LANGUAGES, LAVAPIPE_LOOP_CAP, ShaderOutputError,
+                      _define_value, _device_request, _read_source, _utf8)
+
+SAMPLE_ENTRY, PDF_ENTRY = "sample_h", "pdf_h"
+#: The shipped example: GGX visible normals, ``ggx_vndf.hlsl`` / ``ggx_vndf.glsl`` (one body).
+SHIPPED_SAMPLERS = {"ggx_vndf": "GGX visible normals (Heitz 2018), -D ALPHA=a (default 0.3)"}
+_CHUNK = 1 << 20  # rows per call to the runner (the input rows of one call stay under 64 MiB)
+_MODE_SAMPLE, _MODE_PDF = 0, 1
+DEFAULT_WO = (0.6, 0.0, 0.8)
+DEFAULT_UV = (0.0, 0.0)
+DEFAULT_J = (1e-3, 0.0, 0.0, 1e-3)
+
+
+class ShaderCompileError(ValueError):
+    """A shader sampler that does not compile (or lacks a function of the contract). ``str()`` is one
+    line naming the file and line of the first error; ``messages`` holds the compiler's full text."""
+
+    def __init__(self, line: str, messages: str):
+        super().__init__(line)
+        self.messages = messages
+
+
+_ERROR_LINE = re.compile(r"^(?P<loc>.+?:\d+):\s*error:?\s*(?P<msg>.*)$")
+
+
+def _compile_error(exc: ValueError, source_name: str, language: str) -> ShaderCompileError:
+    """The runner's compile failure as one line: the first error the compiler reports in the user's
+    files (file:line: message), or, when every error is inside glintlab's wrapper, the function of the
+    contract that is missing or has another signature."""
+    text = str(exc)
+    head, _, messages = text.partition("\n")
+    errors = [m for m in (_ERROR_LINE.match(ln.strip()) for ln in messages.splitlines()) if m]
+    user = [m for m in errors if not m.group("loc").startswith("glintlab_kernel.")]
+    wrapper_text = " ".join(m.group("msg") for m in errors)
+    named = [e for e in (SAMPLE_ENTRY, PDF_ENTRY) if f"'{e}'" in wrapper_text]
+    if "no function" in head and not user and named:
+        missing = named[0]
+        sig = _core.sampler_signature(language, SAMPLE_ENTRY, PDF_ENTRY).split(" and ")
+        expected = sig[0] if missing == SAMPLE_ENTRY else sig[1]
+        first = f" ({errors[0].group('msg')})" if errors else ""
+        return ShaderCompileError(f"shader {source_name}: no function {missing} with the expected signature "
+                                  f"{expected} ({language}){first}", text)
+    if user:
+        m = user[0]
+        more = f" (+{len(errors) - 1} more: see .messages)" if len(errors) > 1 else ""
+        return ShaderCompileError(f"shader sampler does not compile ({language}): {m.group('loc')}: "
+                                  f"{m.group('msg')}{more}", text)
+    if errors:  # every error inside glintlab's wrapper, none naming a function: code left unfinished
+        m = errors[0]
+        return ShaderCompileError(f"shader sampler does not compile ({language}): {m.group('msg')} in glintlab's "
+                                  f"wrapper, after the end of {source_name} (a declaration left unfinished?)", text)
+    return ShaderCompileError(head if head.strip() else text, text)
+
+
+class ShaderSampler(Sampler):
+    """A direction sampler computed by two shader functions (see :func:`shader_sampler`) for one pixel
+    (``uv``, ``J``) and one outgoing direction ``wo``: ``sample(size, seed) -> (h, pdf)`` and
+    ``pdf(h)``, as the reference samplers, on the hemisphere (or the sphere). A pdf that is NaN,
+    infinite or negative raises ``ShaderOutputError``. Pickles carry the code and its included files."""
+
+    summary = "a sampler written as a shader (sample_h, pdf_h)"
+
+    def __init__(self, spec: dict):
+        super().__init__()
+        self._spec = dict(spec)
+        s = self._spec
+        sealed = [(path, content) for path, content in s.get("includes", ())]
+        try:
+            self._kernel = _core.SamplerKernel(s["code"], s["source_name"], SAMPLE_ENTRY, PDF_ENTRY, s["language"],
+                                               [(k, val) for k, val in s["defines"]], list(s["include_dirs"]),
+                                               s["device"], sealed)
+        except ValueError as exc:
+            if "compile" in str(exc).split("\n", 1)[0] or "no function" in str(exc).split("\n", 1)[0]:
+                raise _compile_error(exc, s["source_name"], s["language"]) from None
+            raise
+        if "includes" not in s:
+            s["includes"] = [(path, bytes(content)) for path, content in self._kernel.included_files]
+        self.name = s["name"]
+        self.domain = s["domain"]
+        self.wo = np.asarray(s["wo"], dtype=np.float64)
+        self.uv = np.asarray(s["uv"], dtype=np.float64)
+        self.J = np.asarray(s["J"], dtype=np.float64)
+        self.params = {"wo": tuple(s["wo"]), "uv": tuple(s["uv"]), "J": tuple(s["J"]),
+                       **{k: val for k, val in s["defines"]}}
+        # The fixed part of every row: uv, J, wo in float32 (the shader's view of them).
+        head = np.zeros(_core.SAMPLER_INPUT_WORDS, np.float32)
+        head[0:2], head[2:6], head[6:9] = self.uv, self.J, self.wo
+        self._head = head.view(np.uint32)
+
+    device = property(lambda self: self._kernel.device, doc="The Vulkan device's name.")
+    device_type = property(lambda self: self._kernel.device_type, doc='"cpu", "discrete_gpu", ...')
+    language = property(lambda self: self._spec["language"])
+    source_name = property(lambda self: self._spec["source_name"])
+    spirv = property(lambda self: self._kernel.spirv, doc="The SPIR-V the pipeline runs (bytes).")
+    included_files = property(lambda self: [path for path, _ in self._spec["includes"]],
+                              doc="The files #include'd at the first compile (their content travels in pickles).")
+    unbounded_loops = property(lambda self: self._kernel.unbounded_loops,
+                               doc="Loops of the SPIR-V whose trip count is not a known constant <= 65535.")
+
+    @property
+    def loop_caveat(self) -> str | None:
+        """As ``ShaderLaw.loop_caveat``: why results on lavapipe may differ from a GPU's, or None."""
+        loops = self.unbounded_loops
+        if not loops or not self.device.startswith("llvmpipe"):
+            return None
+        return (f"{loops} loop(s) of the sampler have a trip count that is not a constant <= {LAVAPIPE_LOOP_CAP}, "
+                f"and lavapipe stops every loop after {LAVAPIPE_LOOP_CAP} iterations")
+
+    @property
+    def identity(self) -> str:
+        """``shader_sampler:<sha256 of the SPIR-V, the device and the pixel>:<name>``."""
+        key = self._kernel.spirv + self.device.encode() + self._head.tobytes()
+        return f"shader_sampler:{hashlib.sha256(key).hexdigest()[:16]}:{self.name}"
+
+    def __repr__(self):
+        return f"ShaderSampler({self.name!r}, {self.language}, wo={tuple(round(float(x), 6) for x in self.wo)}, " \
+               f"device={self.device!r})"
+
+    def __reduce__(self):  # the code travels by value, with the files it included
+        return (ShaderSampler, (self._spec,))
+
+    def _rows(self, mode: int, words: np.ndarray) -> np.ndarray:
+        rows = np.empty((len(words), _core.SAMPLER_INPUT_WORDS), np.uint32)
+        rows[:] = self._head
+        rows[:, 9] = mode
+        rows[:, 10:10 + words.shape[1]] = words
+        return rows
+
+    def run(self, rows) -> np.ndarray:
+        """The kernel on packed rows (m, 16) uint32: (m, 4) float32 (docs/math/sampling.md#shader-samplers)."""
+        rows = np.ascontiguousarray(rows, dtype=np.uint32)
+        if rows.ndim != 2 or rows.shape[1] != _core.SAMPLER_INPUT_WORDS:
+            V.fail("rows", f"an array of shape {rows.shape}", f"an array of shape (m, {_core.SAMPLER_INPUT_WORDS})")
+        out = np.empty((len(rows), _core.SAMPLER_OUTPUT_WORDS), np.float32)
+        for i0 in range(0, len(rows), _CHUNK):
+            out[i0:i0 + _CHUNK] = self._kernel.run(rows[i0:i0 + _CHUNK], self._spec["timeout"])
+        return out
+
+    def uniforms(self, size, seed=0) -> np.ndarray:
+        """The (size, 4) float32 uniforms ``sample(size, seed)`` hands to sample_h, row by row."""
+        n = _size(size)
+        u = np.random.Generator(np.random.Philox(V.seed(seed))).random((n, 4))
+        # uniforms_float32's rule, (floor(u 2^23) + 1/2) 2^-23, in float32 arithmetic that is exact here
+        # (k < 2^23, so k + 1/2 has 24 significant bits) and 30 times faster than in float64; the tests
+        # check it equals uniforms_float32 bit for bit.
+        k = (u * 8388608.0).astype(np.uint32)  # u < 1: k <= 2^23 - 1, the clip is never needed
+        return (k.astype(np.float32) + np.float32(0.5)) * np.float32(2.0**-23)
+
+    def sample(self, size, seed=0):
+        """(h, pdf): ``size`` draws of sample_h, as float64 arrays (size, 3) and (size,). A draw the
+        shader returns as NaN stays NaN (the harness counts it as a lost sample)."""
+        u = self.uniforms(size, seed)
+        out = self.run(self._rows(_MODE_SAMPLE, u.view(np.uint32)))
+        return out[:, :3].astype(np.float64), out[:, 3].astype(np.float64)
+
+    def pdf(self, points):
+        """pdf_h at each direction (size, 3), evaluated on float32(points), returned as float64."""
+        h = np.ascontiguousarray(_points(points, 3), dtype=np.float32)
+        out = self.run(self._rows(_MODE_PDF, h.view(np.uint32)))[:, 0].astype(np.float64)
+        bad = ~np.isfinite(out) | (out < 0)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ShaderOutputError(f"shader sampler {self.name!r}: pdf_h returned {out[i]} at h = "
+                                    f"{tuple(float(x) for x in h[i])} (row {i}); a pdf must be finite and >= 0")
+        return out
+
+
+def _vector(name, value, n) -> tuple:
+    a = V.as_float_array(name, value).reshape(-1)
+    if a.size != n or not np.isfinite(a).all():
+        V.fail(name, value, f"{n} finite numbers")
+    return tuple(float(x) for x in a)
+
+
+def shader_sampler(source, language: str | None = None, name: str | None = None, defines: dict | None = None,
+                   wo=DEFAULT_WO, uv=DEFAULT_UV, J=DEFAULT_J, domain: str = "hemisphere", include_dirs=(),
+                   device="auto", timeout: float = DEFAULT_TIMEOUT_S) -> ShaderSampler:
+    """A direction sampler written as a shader: ``sample_h`` and ``pdf_h`` (module docstring),
+    compiled by shaderc and run by Vulkan for one pixel and one outgoing direction.
+
+    ``source``: a file path (``.hlsl``, ``.glsl``, ...) or the code as a string; ``language``:
+    "hlsl" or "glsl" (default: from the extension; "hlsl" for code in a string). ``defines``
+    ({"NAME": value}) are passed as ``-D NAME=value``. ``wo``: the unit outgoing direction (z > 0;
+    normalised here); ``uv`` and ``J``: the pixel (2 and 4 numbers). ``domain``: "hemisphere" (h.z > 0)
+    or "sphere". ``include_dirs`` are searched after the file's folder and glintlab's shader folder.
+    ``name``: default the file's name ("ggx_vndf.hlsl"), or "shader_sampler" for code in a string.
+    ``device``, ``timeout``: as ``shader_law``. A shader that does not compile, or lacks either function
+    or gives it another signature, raises ``ShaderCompileError`` (a ``ValueError``; one line naming
+    file:line, the compiler's text in ``.messages``); no Vulkan device raises ``RuntimeError``.
+
+    >>> s = shader_sampler(shipped_sampler("ggx_vndf"), defines={"ALPHA": 0.5})  # doctest: +SKIP
+    >>> gl.sampler_test(s, samples=10**5).passed                                 # doctest: +SKIP
+    True
+    """
+    if language is not None and language not in LANGUAGES:
+        V.fail("language", language, "'hlsl' or 'glsl'")
+    code, source_name, language = _read_source(source, language)
+    if name is None:
+        name = Path(source_name).name if source_name != "<string>" else "shader_sampler"
+    if not isinstance(name, str) or not name:
+        V.fail("name", name, "a non-empty string")
+    _utf8("name", name)
+    defines = dict(defines or {})
+    for key in defines:
+        if not isinstance(key, str) or not key.isidentifier():
+            V.fail("defines", key, "macro names that are identifiers")
+    define_list = sorted((k, _define_value(k, val)) for k, val in defines.items())
+    V.choice("domain", domain, ("hemisphere", "sphere"), "'hemisphere' or 'sphere'")
+    if isinstance(include_dirs, (str, os.PathLike)):
+        include_dirs = [include_dirs]
+    include_dirs = [_utf8("include_dirs", os.fspath(d)) for d in include_dirs]
+    V.positive("timeout", timeout, "a number of seconds > 0")
+    spec = {"code": code, "source_name": source_name, "language": language, "name": name, "defines": define_list,
+            "wo": tuple(float(x) for x in _unit("wo", wo)), "uv": _vector("uv", uv, 2), "J": _vector("J", J, 4),
+            "domain": domain, "include_dirs": include_dirs + [str(data_path("shaders"))],
+            "device": _device_request(device), "timeout": float(timeout)}
+    return ShaderSampler(spec)
+
+
+def shipped_sampler(name: str = "ggx_vndf", language: str = "hlsl") -> Path:
+    """The path of a shader sampler glintlab ships (``SHIPPED_SAMPLERS``), in "hlsl" or "glsl"."""
+    V.choice("name", name, tuple(SHIPPED_SAMPLERS), "one of " + ", ".join(SHIPPED_SAMPLERS))
+    V.choice("language", language, LANGUAGES, "'hlsl' or 'glsl'")
+    return Path(data_path("shaders", f"{name}.{language}"))
+
+
+_KEYWORDS = ("language", "name", "wo", "uv", "J", "domain", "device", "timeout")
+
+
+def load_shader_sampler(path: str, **params) -> ShaderSampler:
+    """The ``SAMPLER_LOADERS`` entry for shader files (``glintlab sampler FILE.hlsl --param k=v``): the
+    keywords of :func:`shader_sampler` (wo, uv, J, domain, language, name, device, timeout) are passed
+    as such; every other parameter is a define (``--param ALPHA=0.5`` is ``-D ALPHA=0.5``)."""
+    kwargs = {k: params.pop(k) for k in list(params) if k in _KEYWORDS}
+    return shader_sampler(path, defines=params, **kwargs)
+
+
+for _suffix in _EXTENSIONS:
+    SAMPLER_LOADERS.register(_suffix, load_shader_sampler)

@@ -1,0 +1,6 @@
+// GGX visible-normal sampler (Heitz 2018) as a glintlab shader sampler, in HLSL: sample_h and pdf_h
+// (glintlab_sampler_hlsl.h). The one body is ggx_vndf_body.h, shared with ggx_vndf.glsl.
+// Test it with   glintlab sampler ggx_vndf.hlsl --param ALPHA=0.3 --param wo=0.6,0,0.8
+#define GLINTLAB_HLSL
+#include "glintlab_prelude.h"
+#include "ggx_vndf_body.h"
