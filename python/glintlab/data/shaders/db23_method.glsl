@@ -1,0 +1,225 @@
+// DB23's counting pipeline as a whole method shader (docs/math/glint_images.md#glint-db23-shader): per
+// pixel, from GlintInput's uv, J, shading frame and h, the glinty NDF value
+//     D_P = (D(n) / R) K / (N P),   P = |det J|                                     (DB23 eq. 3-4)
+// with K counted on DB23's anisotropic virtual grids (§5.2, trilinear over the (scale, ratio,
+// orientation) cell: 6 or 8 grids) by their gated Gaussian as their public shader runs it (the law body
+// gated_body.h, shared with the law shaders). The method returns D, not an intensity: glintlab shades it
+// with the microfacet BRDF as it does every NDF method.
+//
+// Its C++ twin is glintlab's DB23 glinty NDF with scheme "db23_trilinear" and inner law "gated_shader"
+// (the C++ emulation of gated_body.h). To agree with it row by row the shader reads the SAME random
+// numbers: each grid cell's two uniforms come from the core's splitmix64 keys (grid key from the seed and
+// the grid's (scale, ratio, orientation) levels, texel key from the angular texel, cell input from the
+// cell's integer coordinates), computed here in 64-bit arithmetic emulated on pairs of 32-bit words (no
+// shaderInt64 needed), and converted to float32 exactly as the C++ double uniform converts. Everything
+// else is float32 where the twin computes in double: the footprint's SVD, the level selection, the grid
+// coordinates. Those are the documented float32 effects.
+//
+// Defines (the material; glintlab passes them): DB23_DENSITY N, DB23_ALPHA, DB23_R, DB23_GGX (0:
+// Beckmann, 1: GGX), DB23_ANGULAR_RES (angular texels per unit slope). For the tests' deliberately
+// wrong variants: DB23_LOD_BIAS (scale levels added to the selected level) and DB23_KEY_SALT (xored
+// into the seed's grid keys).
+#ifndef DB23_METHOD_GLSL
+#define DB23_METHOD_GLSL
+
+#define GLINTLAB_GLSL
+#include "glintlab_prelude.h"
+#include "gated_body.h"
+#include "glintlab_method_glsl.h"
+
+#ifndef DB23_DENSITY
+#define DB23_DENSITY 4194304.0
+#endif
+#ifndef DB23_ALPHA
+#define DB23_ALPHA 1.0
+#endif
+#ifndef DB23_R
+#define DB23_R 0.5
+#endif
+#ifndef DB23_GGX
+#define DB23_GGX 0
+#endif
+#ifndef DB23_ANGULAR_RES
+#define DB23_ANGULAR_RES 20.0
+#endif
+#ifndef DB23_LOD_BIAS
+#define DB23_LOD_BIAS 0
+#endif
+#ifndef DB23_KEY_SALT
+#define DB23_KEY_SALT 0u
+#endif
+
+// ---- 64-bit words as uvec2(low, high) -------------------------------------------------------------
+uvec2 db23_add(uvec2 a, uvec2 b) {
+  uint carry;
+  uint lo = uaddCarry(a.x, b.x, carry);
+  return uvec2(lo, a.y + b.y + carry);
+}
+uvec2 db23_mul(uvec2 a, uvec2 b) {  // the low 64 bits of a b
+  uint hi, lo;
+  umulExtended(a.x, b.x, hi, lo);
+  return uvec2(lo, hi + a.x * b.y + a.y * b.x);
+}
+uvec2 db23_shr(uvec2 a, int s) {  // 0 < s < 32
+  return uvec2((a.x >> uint(s)) | (a.y << uint(32 - s)), a.y >> uint(s));
+}
+uvec2 db23_from_int(int v) { return uvec2(uint(v), v < 0 ? 0xFFFFFFFFu : 0u); }  // sign extension, as int64 -> uint64
+
+// splitmix64's finalizer (the core's mix64: golden-ratio increment, two multiply-xorshifts).
+uvec2 db23_mix64(uvec2 x) {
+  x = db23_add(x, uvec2(0x7F4A7C15u, 0x9E3779B9u));
+  x = db23_mul(x ^ db23_shr(x, 30), uvec2(0x1CE4E5B9u, 0xBF58476Du));
+  x = db23_mul(x ^ db23_shr(x, 27), uvec2(0x133111EBu, 0x94D049BBu));
+  return x ^ db23_shr(x, 31);
+}
+uvec2 db23_combine(uvec2 h, uvec2 v) { return db23_mix64(h ^ db23_mix64(v)); }
+
+// float(v 2^e), correctly rounded, for v < 2^63: the leading 32 bits with a sticky bit for the rest
+// (the round bit is then bit 7 or above, so the sticky bit cannot change a tie's side).
+float db23_float(uvec2 v, int e) {
+  if (v.y == 0u) return ldexp(float(v.x), e);
+  int s = findMSB(v.y) + 1;  // bits to drop: the word keeps 32 bits
+  uint w = s == 32 ? v.y : ((v.x >> uint(s)) | (v.y << uint(32 - s)));
+  uint dropped = s == 32 ? v.x : (v.x & ((1u << uint(s)) - 1u));
+  if (dropped != 0u) w |= 1u;
+  return ldexp(float(w), e + s);
+}
+
+// The core's cell uniform (x >> 11 + 0.5) 2^-53, as float32 after the double rounding the core does:
+// below 1/2 the double is exact ((2m + 1) 2^-54); from 1/2 on, m + 1/2 ties to the even neighbour.
+float db23_unit(uvec2 x) {
+  uvec2 m = db23_shr(x, 11);
+  if ((x.y & 0x80000000u) == 0u) return db23_float(db23_shr(x, 10) | uvec2(1u, 0u), -54);
+  return db23_float(db23_add(m, uvec2(m.x & 1u, 0u)), -53);
+}
+
+// ---- DB23's pipeline -----------------------------------------------------------------------------
+const float DB23_PI = 3.14159265358979;
+const float DB23_STEP1 = 0.392699081698724;  // 22.5 degrees: the orientation step at ratio level 1
+const int DB23_MAX_LEVEL = 20;                // ratios up to 2^20 (the scheme's max_ratio)
+
+// Per term: the grid's levels and trial count, the pixel's grid coordinates, and the count.
+float db23_term(int scale, int ratio, int orientation, float area, float weight, vec2 uv, ivec2 texel, float p,
+                uvec2 seed_key) {
+  int norient = ratio == 0 ? 1 : (8 << (ratio - 1));
+  orientation = ((orientation % norient) + norient) % norient;
+  float angle = ratio == 0 ? 0.0 : float(orientation) * ldexp(DB23_STEP1, 1 - ratio);
+  float cell_minor = sqrt(area);
+  float cell_major = ldexp(cell_minor, ratio);
+  float cell_area = ldexp(area, ratio);
+  float trials = weight * DB23_DENSITY * cell_area;
+  float c = cos(angle), s = sin(angle);
+  float X = (-uv.x * s + uv.y * c) / cell_minor;
+  float Y = (uv.x * c + uv.y * s) / cell_major;
+  ivec2 cell = ivec2(clamp(floor(vec2(X, Y)), -2147483520.0, 2147483520.0));
+  // grid key (seed, scale, ratio, orientation), then the angular texel's key, then the cell's input
+  uvec2 key = db23_combine(db23_combine(db23_combine(seed_key, db23_from_int(scale)), db23_from_int(ratio)),
+                           db23_from_int(orientation));
+  key = db23_mix64(db23_add(db23_add(key, db23_mul(db23_from_int(texel.x), uvec2(0xA0B428DBu, 0xE7037ED1u))),
+                            db23_mul(db23_from_int(texel.y), uvec2(0x9C88C6E3u, 0x8EBC6AF0u))));
+  uvec2 input_ = db23_add(db23_add(key, db23_mul(db23_from_int(cell.x), uvec2(0xD192ED03u, 0xD1B54A32u))),
+                          db23_mul(db23_from_int(cell.y), uvec2(0xFB8FAC03u, 0xABC98388u)));
+  uvec2 h = db23_mix64(input_);
+  float u0 = db23_unit(h);
+  float u1 = db23_unit(db23_mix64(db23_add(h, uvec2(0x2F3D8DD7u, 0x8CB92BA7u))));
+  return count(trials, p, vec4(u0, u1, 0.0, 0.0));
+}
+
+float glint(GlintInput g) {
+  // Half vector in the tangent frame; D(h) / D(n) for DB23's p = min(R D(h) / D(n), 1).
+  vec3 ht = vec3(dot(g.h, g.t), dot(g.h, g.b), dot(g.h, g.n));
+  float c = ht.z / length(ht);
+  if (!(c > 0.0)) return 0.0;
+  float a2 = DB23_ALPHA * DB23_ALPHA;
+  float c2 = c * c;
+#if DB23_GGX
+  float q = (a2 - 1.0) * c2 + 1.0;
+  float ratio_dn = a2 * a2 / (q * q);
+#else
+  float ratio_dn = exp(-((1.0 - c2) / c2) / a2) / (c2 * c2);
+#endif
+  float p = min(DB23_R * ratio_dn, 1.0);
+  ivec2 texel = ivec2(clamp(floor(ht.xy / ht.z * DB23_ANGULAR_RES), -1073741824.0, 1073741824.0));
+
+  // The footprint ellipse J {|x| <= 1 / sqrt(pi)}: singular values of J (the minor one from |det J|).
+  float dudx = g.J.x, dvdx = g.J.y, dudy = g.J.z, dvdy = g.J.w;
+  float pp = dudx * dudx + dudy * dudy, qq = dudx * dvdx + dudy * dvdy, rr = dvdx * dvdx + dvdy * dvdy;
+  float mean = 0.5 * (pp + rr), diff = length(vec2(0.5 * (pp - rr), qq));
+  float s1 = sqrt(mean + diff);
+  float det = abs(dudx * dvdy - dudy * dvdx);
+  if (!(s1 > 0.0) || !(det > 0.0)) return 0.0;
+  float s2 = det / s1;
+  // Beyond the grids' largest ratio the twin widens the footprint and marks it clamped (it then gives 0).
+  if (!(s2 > 0.0) || s1 / s2 > 1048576.0) return 0.0;
+  float k_pi = 1.0 / sqrt(DB23_PI);
+  float major = k_pi * s1, minor = k_pi * s2;
+  float angle = 0.5 * atan(2.0 * qq, pp - rr);
+  angle = mod(angle, DB23_PI);
+  if (angle >= DB23_PI || angle < 0.0) angle = 0.0;
+
+  // Scale level: A_l = base 4^l <= pi minor^2 < A_(l+1), the upper level's weight z by area (DB23 eq. 10).
+  float r = min(major / minor, 1048576.0);
+  float a = DB23_PI * minor * minor;
+  float base = 1.0 / DB23_DENSITY;
+  int lo = int(floor(0.5 * log2(a / base)));
+  for (int it = 0; it < 4 && ldexp(base, 2 * lo) > a; ++it) --lo;
+  for (int it = 0; it < 4 && ldexp(base, 2 * lo + 2) <= a; ++it) ++lo;
+  float area_lo = ldexp(base, 2 * lo), area_hi = ldexp(base, 2 * lo + 2);
+  float z = clamp((a - area_lo) / (area_hi - area_lo), 0.0, 0.99999994);
+  lo += DB23_LOD_BIAS;
+  area_lo = ldexp(base, 2 * lo);
+  area_hi = ldexp(base, 2 * lo + 2);
+
+  // Ratio cell [2^k, 2^(k+1)) with the linear weight y; orientation bin j and its weight x.
+  int k = clamp(int(floor(log2(r))), 0, DB23_MAX_LEVEL);
+  for (int it = 0; it < 4 && k > 0 && ldexp(1.0, k) > r; ++it) --k;
+  for (int it = 0; it < 4 && k < DB23_MAX_LEVEL && ldexp(1.0, k + 1) <= r; ++it) ++k;
+  float y;
+  if (k >= DB23_MAX_LEVEL) {
+    k = DB23_MAX_LEVEL - 1;
+    y = 1.0;
+  } else {
+    y = r / ldexp(1.0, k) - 1.0;
+  }
+  y = clamp(y, 0.0, 1.0);
+  int face = max(k, 1);
+  float af = angle / ldexp(DB23_STEP1, 1 - face);
+  int j = int(floor(af));
+  float x = clamp(af - float(j), 0.0, 1.0);
+  j = min(j, (8 << (face - 1)) - 1);
+
+  // The cell's plane vertices (ratio level, orientation) and trilinear weights, lower face first.
+  int vr[4], vo[4];
+  float vw[4];
+  int m;
+  if (k == 0) {  // the isotropic grid below, two orientations of ratio 2 above
+    vr[0] = 0; vo[0] = 0; vw[0] = 1.0 - y;
+    vr[1] = 1; vo[1] = j; vw[1] = y * (1.0 - x);
+    vr[2] = 1; vo[2] = j + 1; vw[2] = y * x;
+    m = 3;
+  } else {  // two orientations below, two of the three above (the upper level's step is half)
+    vr[0] = k; vo[0] = j; vw[0] = (1.0 - y) * (1.0 - x);
+    vr[1] = k; vo[1] = j + 1; vw[1] = (1.0 - y) * x;
+    float x2 = 2.0 * x;
+    if (x2 < 1.0) {
+      vr[2] = k + 1; vo[2] = 2 * j; vw[2] = y * (1.0 - x2);
+      vr[3] = k + 1; vo[3] = 2 * j + 1; vw[3] = y * x2;
+    } else {
+      vr[2] = k + 1; vo[2] = 2 * j + 1; vw[2] = y * (2.0 - x2);
+      vr[3] = k + 1; vo[3] = 2 * j + 2; vw[3] = y * (x2 - 1.0);
+    }
+    m = 4;
+  }
+  uvec2 seed_key = uvec2(g.seed ^ DB23_KEY_SALT, 0u);
+  float K = 0.0;
+  for (int s = 0; s < 2; ++s) {
+    for (int q = 0; q < m; ++q) {
+      float w = vw[q] * (s == 0 ? 1.0 - z : z);
+      K += db23_term(lo + s, vr[q], vo[q], s == 0 ? area_lo : area_hi, w, g.uv, texel, p, seed_key);
+    }
+  }
+  float d_normal = 1.0 / (DB23_PI * a2);
+  return d_normal / DB23_R * K / (DB23_DENSITY * det);
+}
+
+#endif
