@@ -145,7 +145,7 @@ def db23_twin(rows, material: Material) -> np.ndarray:
 
 def twin_mismatch(shader, twin, rows, material: Material) -> dict:
     """Shader against twin per pixel: ``share`` of pixels whose difference exceeds COUNT_ALLOWANCE of the
-    pixel's one-facet value D(n) / (R N P), ``rel_err`` the mean of |shader - twin| / max(twin, one
+    pixel's one-facet value D(n) / (R N P), ``share_1pct`` of those off by more than 1 %, ``rel_err`` the mean of |shader - twin| / max(twin, one
     facet) and its maximum ``max_rel_err``; ``pixels`` compared."""
     shader = np.asarray(shader, np.float64)
     twin = np.asarray(twin, np.float64)
@@ -158,6 +158,7 @@ def twin_mismatch(shader, twin, rows, material: Material) -> dict:
     err = np.where(np.isfinite(err), err, np.where(shader == twin, 0.0, np.inf))
     bad = err > COUNT_ALLOWANCE
     return {"pixels": int(err.size), "share": float(bad.mean()) if err.size else 0.0,
+            "share_1pct": float((err > 0.01).mean()) if err.size else 0.0,
             "rel_err": float(np.mean(np.minimum(err, 1e3))) if err.size else 0.0,
             "max_rel_err": float(err.max()) if err.size else 0.0}
 
