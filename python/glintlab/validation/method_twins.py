@@ -65,19 +65,19 @@ def explain(rows, material: Material, which, limit: int = 64) -> dict:
     uv, J, h, _ = CS.tangent_inputs(rows)
     counter = aniso_counter("db23_trilinear", inner="gated_shader", base_area=1.0 / material.density)
     out = {"cell boundary": 0, "count floor": 0}
-    for i in list(which)[:limit]:
-        shp = footprint_shapes(J[i:i + 1]).iloc[0]
-        near = False
-        slope = h[i, :2] / h[i, 2] / material.angular_texel
-        coords = list(slope)
+    which = np.asarray(list(which)[:limit], dtype=np.int64)
+    shapes = footprint_shapes(J[which]) if which.size else None
+    for row, i in enumerate(which):
+        shp = shapes.iloc[row]
+        coords = list(h[i, :2] / h[i, 2] / material.angular_texel)
         if shp.status in ("ok", "clamped"):
-            for t in counter.terms(material.density, shp.P, shp.r, shp.phi).itertuples():
-                c, s = math.cos(t.angle), math.sin(t.angle)
-                coords += [(-uv[i, 0] * s + uv[i, 1] * c) / t.cell_minor, (uv[i, 0] * c + uv[i, 1] * s) / t.cell_major]
-        for x in coords:
-            tol = BOUNDARY_ULPS * float(np.spacing(np.float32(abs(x)) + np.float32(1.0)))
-            near |= abs(x - round(x)) <= tol
-        out["cell boundary" if near else "count floor"] += 1
+            terms, _ = counter._core.terms(float(material.density), float(shp.P), float(shp.r), float(shp.phi))
+            for t in terms:
+                c, s = math.cos(t["angle"]), math.sin(t["angle"])
+                coords += [(-uv[i, 0] * s + uv[i, 1] * c) / t["cell_minor"], (uv[i, 0] * c + uv[i, 1] * s) / t["cell_major"]]
+        x = np.asarray(coords)
+        tol = BOUNDARY_ULPS * np.spacing(np.abs(x).astype(np.float32) + np.float32(1.0)).astype(np.float64)
+        out["cell boundary" if bool(np.any(np.abs(x - np.round(x)) <= tol)) else "count floor"] += 1
     return out
 
 
