@@ -26,6 +26,7 @@
 #include "glintlab_prelude.h"
 #include "gated_body.h"
 #include "glintlab_method_glsl.h"
+#include "glintlab_rng_glsl.h"
 
 #ifndef DB23_DENSITY
 #define DB23_DENSITY 4194304.0
@@ -49,50 +50,6 @@
 #define DB23_KEY_SALT 0u
 #endif
 
-// ---- 64-bit words as uvec2(low, high) -------------------------------------------------------------
-uvec2 db23_add(uvec2 a, uvec2 b) {
-  uint carry;
-  uint lo = uaddCarry(a.x, b.x, carry);
-  return uvec2(lo, a.y + b.y + carry);
-}
-uvec2 db23_mul(uvec2 a, uvec2 b) {  // the low 64 bits of a b
-  uint hi, lo;
-  umulExtended(a.x, b.x, hi, lo);
-  return uvec2(lo, hi + a.x * b.y + a.y * b.x);
-}
-uvec2 db23_shr(uvec2 a, int s) {  // 0 < s < 32
-  return uvec2((a.x >> uint(s)) | (a.y << uint(32 - s)), a.y >> uint(s));
-}
-uvec2 db23_from_int(int v) { return uvec2(uint(v), v < 0 ? 0xFFFFFFFFu : 0u); }  // sign extension, as int64 -> uint64
-
-// splitmix64's finalizer (the core's mix64: golden-ratio increment, two multiply-xorshifts).
-uvec2 db23_mix64(uvec2 x) {
-  x = db23_add(x, uvec2(0x7F4A7C15u, 0x9E3779B9u));
-  x = db23_mul(x ^ db23_shr(x, 30), uvec2(0x1CE4E5B9u, 0xBF58476Du));
-  x = db23_mul(x ^ db23_shr(x, 27), uvec2(0x133111EBu, 0x94D049BBu));
-  return x ^ db23_shr(x, 31);
-}
-uvec2 db23_combine(uvec2 h, uvec2 v) { return db23_mix64(h ^ db23_mix64(v)); }
-
-// float(v 2^e), correctly rounded, for v < 2^63: the leading 32 bits with a sticky bit for the rest
-// (the round bit is then bit 7 or above, so the sticky bit cannot change a tie's side).
-float db23_float(uvec2 v, int e) {
-  if (v.y == 0u) return ldexp(float(v.x), e);
-  int s = findMSB(v.y) + 1;  // bits to drop: the word keeps 32 bits
-  uint w = s == 32 ? v.y : ((v.x >> uint(s)) | (v.y << uint(32 - s)));
-  uint dropped = s == 32 ? v.x : (v.x & ((1u << uint(s)) - 1u));
-  if (dropped != 0u) w |= 1u;
-  return ldexp(float(w), e + s);
-}
-
-// The core's cell uniform (x >> 11 + 0.5) 2^-53, as float32 after the double rounding the core does:
-// below 1/2 the double is exact ((2m + 1) 2^-54); from 1/2 on, m + 1/2 ties to the even neighbour.
-float db23_unit(uvec2 x) {
-  uvec2 m = db23_shr(x, 11);
-  if ((x.y & 0x80000000u) == 0u) return db23_float(db23_shr(x, 10) | uvec2(1u, 0u), -54);
-  return db23_float(db23_add(m, uvec2(m.x & 1u, 0u)), -53);
-}
-
 // ---- DB23's pipeline -----------------------------------------------------------------------------
 const float DB23_PI = 3.14159265358979;
 const float DB23_STEP1 = 0.392699081698724;  // 22.5 degrees: the orientation step at ratio level 1
@@ -113,15 +70,18 @@ float db23_term(int scale, int ratio, int orientation, float area, float weight,
   float Y = (uv.x * c + uv.y * s) / cell_major;
   ivec2 cell = ivec2(clamp(floor(vec2(X, Y)), -2147483520.0, 2147483520.0));
   // grid key (seed, scale, ratio, orientation), then the angular texel's key, then the cell's input
-  uvec2 key = db23_combine(db23_combine(db23_combine(seed_key, db23_from_int(scale)), db23_from_int(ratio)),
-                           db23_from_int(orientation));
-  key = db23_mix64(db23_add(db23_add(key, db23_mul(db23_from_int(texel.x), uvec2(0xA0B428DBu, 0xE7037ED1u))),
-                            db23_mul(db23_from_int(texel.y), uvec2(0x9C88C6E3u, 0x8EBC6AF0u))));
-  uvec2 input_ = db23_add(db23_add(key, db23_mul(db23_from_int(cell.x), uvec2(0xD192ED03u, 0xD1B54A32u))),
-                          db23_mul(db23_from_int(cell.y), uvec2(0xFB8FAC03u, 0xABC98388u)));
-  uvec2 h = db23_mix64(input_);
-  float u0 = db23_unit(h);
-  float u1 = db23_unit(db23_mix64(db23_add(h, uvec2(0x2F3D8DD7u, 0x8CB92BA7u))));
+  uvec2 key = glintlab_hash_combine(seed_key, glintlab_u64_from_int(scale));
+  key = glintlab_hash_combine(key, glintlab_u64_from_int(ratio));
+  key = glintlab_hash_combine(key, glintlab_u64_from_int(orientation));
+  uvec2 ta = glintlab_u64_mul(glintlab_u64_from_int(texel.x), uvec2(0xA0B428DBu, 0xE7037ED1u));
+  uvec2 tb = glintlab_u64_mul(glintlab_u64_from_int(texel.y), uvec2(0x9C88C6E3u, 0x8EBC6AF0u));
+  key = glintlab_mix64(glintlab_u64_add(glintlab_u64_add(key, ta), tb));
+  uvec2 ca = glintlab_u64_mul(glintlab_u64_from_int(cell.x), uvec2(0xD192ED03u, 0xD1B54A32u));
+  uvec2 cb = glintlab_u64_mul(glintlab_u64_from_int(cell.y), uvec2(0xFB8FAC03u, 0xABC98388u));
+  uvec2 input_ = glintlab_u64_add(glintlab_u64_add(key, ca), cb);
+  uvec2 h = glintlab_mix64(input_);
+  float u0 = glintlab_unit53(h);
+  float u1 = glintlab_unit53(glintlab_mix64(glintlab_u64_add(h, uvec2(0x2F3D8DD7u, 0x8CB92BA7u))));
   return count(trials, p, vec4(u0, u1, 0.0, 0.0));
 }
 
