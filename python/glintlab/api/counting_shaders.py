@@ -26,10 +26,14 @@ import numpy as np
 
 from ..resources import data_path
 from . import checks as V
-from .glinty_ndf import DB23, GlintyNDF, Material, register_image_method
+from .glinty_ndf import (DB23, DENSITY_MAPPINGS, KPT25, GlintyNDF, Material, matched_density,
+                         register_image_method)
 from .method_shaders import ShaderMethod, frame_rows, pack_inputs, shader_method, unpack_inputs
 
 DB23_SHADER = "db23_method.glsl"
+KPT25_SHADER = "kpt25_method.glsl"
+#: KPT25's parameters as the image method "kpt25" runs them (its micro-roughness and roulette width).
+KPT25_ALPHA_STAR, KPT25_EPSILON = 0.02, 0.1
 #: A pixel "mismatches" when shader and twin differ by more than this share of the pixel's one-facet
 #: value D(n) / (R N P) (a count difference of 1e-3 facets: far above float32's relative 1e-6 on a soft
 #: gate's ramp, far below any count flip, whose size is the gate's value times 1).
@@ -66,15 +70,23 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
 
     returns = "ndf"
 
-    def __init__(self, spec: dict, target: str, alpha: float, density: float):
+    def __init__(self, spec: dict, target: str, alpha: float, density: float, reference=None):
         ShaderMethod.__init__(self, spec)
         params = self.params
         GlintyNDF.__init__(self, target, alpha, density)
         self.params = params
-        self._ndf_args = (target, alpha, density)
+        self._ndf_args = (target, alpha, density, reference)
+        self._reference = reference
 
     def __reduce__(self):
         return (NdfShaderMethod, (self._spec, *self._ndf_args))
+
+    def reference(self, uv, J, h, seed: int = 0):
+        """The exact model on the same realization, where the method has one (KPT25: its twin's sum over
+        every point); NotImplementedError otherwise."""
+        if self._reference is None:
+            raise NotImplementedError(f"method shader {self.name!r} has no point-process reference")
+        return self._reference.reference(uv, J, h, seed=seed)
 
     def smooth(self, h):
         return GlintyNDF.smooth(self, h)
@@ -163,6 +175,99 @@ def twin_mismatch(shader, twin, rows, material: Material) -> dict:
             "max_rel_err": float(err.max()) if err.size else 0.0}
 
 
+# --------------------------------------------------------------------------------------------------
+# KPT25's Algorithm 1
+
+def kpt25_shader() -> Path:
+    """The path of the shipped KPT25 method shader (GLSL)."""
+    return Path(data_path("shaders", KPT25_SHADER))
+
+
+def kpt25_twin_ndf(material: Material) -> KPT25:
+    """The C++ twin: glintlab's KPT25 at K_P = ``material.density`` (points per unit uv area; the image
+    method maps the facet density to it), the image method's alpha_star, k = 4, eps and filter."""
+    return KPT25(density=material.density, target=material.target, alpha=material.alpha,
+                 alpha_star=KPT25_ALPHA_STAR, k=4, epsilon=KPT25_EPSILON)
+
+
+def kpt25_defines(material: Material, lod_bias: float = 0.0, key_salt: int = 0) -> dict:
+    """The shader's -D values for K_P = ``material.density``; ``lod_bias`` (MIP levels) and
+    ``key_salt`` make the tests' deliberately wrong variants."""
+    defines = {"KPT25_DENSITY": float(material.density), "KPT25_RES": math.sqrt(float(material.density)),
+               "KPT25_ALPHA": float(material.alpha), "KPT25_GGX": int(material.target == "ggx"),
+               "KPT25_ALPHA_STAR": KPT25_ALPHA_STAR, "KPT25_EPSILON": KPT25_EPSILON,
+               "KPT25_FILTER": 0.5 / math.sqrt(math.pi)}
+    if lod_bias:
+        defines["KPT25_LOD_BIAS"] = V.real("lod_bias", lod_bias)
+    if key_salt:
+        defines["KPT25_KEY_SALT"] = f"{int(V.integer('key_salt', key_salt, 0, 0xFFFFFFFF))}u"
+    return defines
+
+
+@functools.lru_cache(maxsize=16)
+def _kpt25(key: tuple) -> NdfShaderMethod:
+    material, lod_bias, key_salt = key
+    defines = {k: (_glsl_float(v) if isinstance(v, float) else v)
+               for k, v in kpt25_defines(material, lod_bias, key_salt).items()}
+    base = shader_method(kpt25_shader(), language="glsl", name="kpt25_method", defines=defines, register=False)
+    return NdfShaderMethod(dict(base._spec, name="kpt25_shader"), material.target, material.alpha, material.density,
+                           reference=kpt25_twin_ndf(material))
+
+
+def kpt25_method(material: Material, lod_bias: float = 0.0, key_salt: int = 0) -> NdfShaderMethod:
+    """KPT25's Algorithm 1 as a method shader at K_P = ``material.density``, compiled once per parameter set."""
+    if not isinstance(material, Material):
+        V.fail("material", material, "a glintlab Material (density, target, alpha, R, angular texel)")
+    return _kpt25((material, float(lod_bias), int(key_salt)))
+
+
+def kpt25_level(J) -> np.ndarray:
+    """KPT25's fractional MIP level before its clamp at 0, per footprint (the twin refuses a pixel above
+    level 15; both give it 0), for the image method's filter and a unit resolution (add log2 sqrt(K_P))."""
+    f2 = 0.25 / math.pi
+    suu = f2 * (J[:, 0] ** 2 + J[:, 2] ** 2)
+    svv = f2 * (J[:, 1] ** 2 + J[:, 3] ** 2)
+    suv = f2 * (J[:, 0] * J[:, 1] + J[:, 2] * J[:, 3])
+    disc = np.sqrt(np.maximum(0.0, 0.25 * (suu - svv) ** 2 + suv**2))
+    with np.errstate(divide="ignore"):
+        return np.log2(6.0 * np.sqrt(0.5 * (suu + svv) + disc))
+
+
+def kpt25_twin(rows, material: Material) -> np.ndarray:
+    """The C++ twin's D per packed row (the same float32 values the shader reads); 0 below the horizon
+    and where the footprint is degenerate or beyond the twin's finest-to-coarsest 15 MIP levels."""
+    uv, J, h, seed = tangent_inputs(rows)
+    out = np.zeros(uv.shape[0])
+    det = J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2]
+    level = kpt25_level(J) + 0.5 * math.log2(material.density)
+    ok = (h[:, 2] > 0) & (det != 0) & (level <= 14.999)
+    if ok.any():
+        out[ok] = kpt25_twin_ndf(material).evaluate(uv[ok], J[ok], h[ok], seed=seed)
+    return out
+
+
+def kpt25_mismatch(shader, twin, rows, material: Material, allowance: float = 1e-3) -> dict:
+    """Shader against twin per pixel, relative to max(twin, 1e-2 D(h)) (KPT25's value is D(h) times a
+    mass: its compensation alone is a fraction of D(h)): ``share`` beyond ``allowance``, ``share_1pct``
+    beyond 1 %, ``rel_err`` the mean and ``max_rel_err`` the largest relative error."""
+    shader = np.asarray(shader, np.float64)
+    twin = np.asarray(twin, np.float64)
+    _, _, h, _ = tangent_inputs(rows)
+    d = kpt25_twin_ndf(material).smooth(h)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        err = np.abs(shader - twin) / np.maximum(np.abs(twin), 1e-2 * d)
+    err = np.where(np.isfinite(err), err, np.where(shader == twin, 0.0, np.inf))
+    n = max(err.size, 1)
+    return {"pixels": int(err.size), "share": float((err > allowance).sum() / n),
+            "share_1pct": float((err > 0.01).sum() / n), "rel_err": float(np.mean(np.minimum(err, 1e3))) if err.size else 0.0,
+            "max_rel_err": float(err.max()) if err.size else 0.0}
+
+
 # DB23's counting pipeline as a method shader: an NDF image method (compiled on first use, needs Vulkan;
 # not in the default panel). Its own truth is the facet truth, as for the C++ DB23 methods.
 register_image_method("db23_shader", lambda m: db23_method(m), label="DB23 shader (GLSL)", returns="ndf")
+# KPT25's Algorithm 1 as a method shader, at the density matched to the facets' glint count (as "kpt25"),
+# its own truth the twin's reference (the sum over every point of the same realization).
+register_image_method("kpt25_shader", lambda m: kpt25_method(m), label="KPT25 shader (GLSL)", truth="reference",
+                      returns="ndf")
+DENSITY_MAPPINGS["kpt25_shader"] = lambda m: matched_density(m.density, KPT25_ALPHA_STAR, m.target, m.alpha, m.R)
