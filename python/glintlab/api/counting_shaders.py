@@ -240,7 +240,7 @@ def kpt25_twin(rows, material: Material) -> np.ndarray:
     out = np.zeros(uv.shape[0])
     det = J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2]
     level = kpt25_level(J) + 0.5 * math.log2(material.density)
-    ok = (h[:, 2] > 0) & (det != 0) & (level <= 14.999)
+    ok = (h[:, 2] > 0) & (det != 0) & (level <= 15.0 - 1e-12)  # the twin refuses a level above 15
     if ok.any():
         out[ok] = kpt25_twin_ndf(material).evaluate(uv[ok], J[ok], h[ok], seed=seed)
     return out
