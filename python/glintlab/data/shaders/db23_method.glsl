@@ -66,6 +66,13 @@ float db23_term(int scale, int ratio, int orientation, float area, float weight,
   float cell_area = ldexp(area, ratio);
   float trials = weight * DB23_DENSITY * cell_area;
   float c = cos(angle), s = sin(angle);
+  // The quarter turn: the twin's double angle is pi/2 rounded, whose cosine is 6.1e-17, not 0; the shader
+  // takes that value too, so that a column at u = 0 (a scene's axis) reads the twin's cells, not their
+  // neighbours across X = 0 (float32's cos of the rounded quarter turn is -4.4e-8).
+  if (ratio > 0 && 2 * orientation == norient) {
+    c = 6.123234e-17;
+    s = 1.0;
+  }
   float X = (-uv.x * s + uv.y * c) / cell_minor;
   float Y = (uv.x * c + uv.y * s) / cell_major;
   ivec2 cell = ivec2(clamp(floor(vec2(X, Y)), -2147483520.0, 2147483520.0));
