@@ -95,7 +95,8 @@ def compare(rows, material: Material, method=None, explain_limit: int = 64) -> d
         one = 1.0 / (math.pi * material.alpha**2) / (material.R * material.density * P)
         with np.errstate(divide="ignore", invalid="ignore"):
             err = np.abs(shader.astype(np.float64) - twin) / np.maximum(np.abs(twin), one)
-        bad = np.nonzero(~(err <= CS.COUNT_ALLOWANCE))[0]
+        err = np.where(np.isfinite(err), err, np.where(shader == twin, 0.0, np.inf))  # as twin_mismatch
+        bad = np.nonzero(err > CS.COUNT_ALLOWANCE)[0]
         r.update(explain(rows, material, bad, explain_limit))
         r["explained"] = min(len(bad), explain_limit)
     return r
@@ -223,7 +224,8 @@ def kpt25_compare(rows, material: Material, method=None, explain_limit: int = 64
         d = CS.kpt25_twin_ndf(material).smooth(h)
         with np.errstate(divide="ignore", invalid="ignore"):
             err = np.abs(shader.astype(np.float64) - twin) / np.maximum(np.abs(twin), 1e-2 * d)
-        bad = np.nonzero(~(err <= 1e-3))[0]
+        err = np.where(np.isfinite(err), err, np.where(shader == twin, 0.0, np.inf))  # as kpt25_mismatch
+        bad = np.nonzero(err > 1e-3)[0]
         r.update(kpt25_explain(rows, material, bad, explain_limit))
         r["explained"] = min(len(bad), explain_limit)
     return r
