@@ -18,6 +18,7 @@ grid coordinate moves a value across a floor (:func:`twin_mismatch`, :func:`floa
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from pathlib import Path
@@ -93,7 +94,6 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
 
     def image(self, inputs, seed: int = 0, frame: int = 0) -> np.ndarray:
         """D on the pixels of ``inputs.mask`` (those that see the lit surface), 0 elsewhere."""
-        import dataclasses
         rows, mask = frame_rows(dataclasses.replace(inputs, hit=inputs.mask), seed, frame)
         img = np.zeros(mask.shape)
         img[mask] = self.shade(rows)

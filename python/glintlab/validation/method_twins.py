@@ -18,7 +18,7 @@ import pandas as pd
 
 from ..api import checks as V
 from ..api import counting_shaders as CS
-from ..api.glinty_ndf import Material
+from ..api.glinty_ndf import Material, method_density
 from ..api.grids import aniso_counter, footprint_shapes
 from ..api.method_shaders import frame_rows
 from . import scene_images as si
@@ -112,7 +112,6 @@ def float32_study(scene="plane_25", scale: float = 0.1, seed: int = 0, cases=CAS
     their reasons (DB23: "cell boundary", "count floor"; KPT25: "point at an edge", "box or block edge",
     "lobe at the square's edge", "ulps"). KPT25 runs at the density matched to the facets' glint count
     (as its image method); the offsets are in the facets' texels for both."""
-    from ..api.glinty_ndf import method_density
     rows, material = scene_rows(scene, scale, seed=seed)
     kpt = dataclasses.replace(material, density=method_density("kpt25_shader", material))
     out = []
