@@ -25,11 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _core
 from ..resources import data_path
 from . import checks as V
 from .glinty_ndf import (DB23, DENSITY_MAPPINGS, KPT25, GlintyNDF, Material, matched_density,
                          register_image_method)
-from .method_shaders import ShaderMethod, frame_rows, pack_inputs, shader_method, unpack_inputs
+from .method_shaders import ShaderMethod, frame_rows, pack_inputs, unpack_inputs
+from .shaders import DEFAULT_TIMEOUT_S, _read_source
 
 DB23_SHADER = "db23_method.glsl"
 KPT25_SHADER = "kpt25_method.glsl"
@@ -59,6 +61,14 @@ def db23_defines(material: Material, lod_bias: int = 0, key_salt: int = 0) -> di
     return defines
 
 
+def _spec(path: Path, name: str, defines: dict) -> dict:
+    """A method shader's spec (as ``shader_method`` builds it) for a shipped GLSL file, not compiled."""
+    code, source_name, language = _read_source(path, "glsl")
+    return {"code": code, "source_name": source_name, "entry": "glint", "language": language, "name": name,
+            "defines": sorted((k, _glsl_float(v) if isinstance(v, float) else str(v)) for k, v in defines.items()),
+            "include_dirs": [str(data_path("shaders"))], "device": "auto", "timeout": float(DEFAULT_TIMEOUT_S)}
+
+
 def _glsl_float(x: float) -> str:
     r = repr(float(x))
     return r if ("." in r or "e" in r) else r + ".0"
@@ -72,12 +82,25 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
     returns = "ndf"
 
     def __init__(self, spec: dict, target: str, alpha: float, density: float, reference=None):
-        ShaderMethod.__init__(self, spec)
-        params = self.params
         GlintyNDF.__init__(self, target, alpha, density)
-        self.params = params
+        self._spec = dict(spec)
+        s = self._spec
+        self.name = s["name"]
+        self.params = {"source": s["source_name"], "entry": s["entry"], "language": s["language"],
+                       **dict(s["defines"])}
         self._ndf_args = (target, alpha, density, reference)
         self._reference = reference
+        self._compiled = None
+
+    @property
+    def _kernel(self):
+        # Compiled on first use: registering or making the method (a scene's material) needs no Vulkan.
+        if self._compiled is None:
+            s = self._spec
+            self._compiled = _core.MethodKernel(s["code"], s["source_name"], s["entry"], s["language"],
+                                                [(k, str(val)) for k, val in s["defines"]],
+                                                list(s["include_dirs"]), s["device"])
+        return self._compiled
 
     def __reduce__(self):
         return (NdfShaderMethod, (self._spec, *self._ndf_args))
@@ -114,11 +137,8 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
 @functools.lru_cache(maxsize=16)
 def _db23(key: tuple) -> NdfShaderMethod:
     material, lod_bias, key_salt = key
-    defines = {k: (_glsl_float(v) if isinstance(v, float) else v)
-               for k, v in db23_defines(material, lod_bias, key_salt).items()}
-    # Compiled under a name of its own (shader_method keeps registered NDF methods' names for them).
-    base = shader_method(db23_shader(), language="glsl", name="db23_method", defines=defines, register=False)
-    return NdfShaderMethod(dict(base._spec, name="db23_shader"), material.target, material.alpha, material.density)
+    spec = _spec(db23_shader(), "db23_shader", db23_defines(material, lod_bias, key_salt))
+    return NdfShaderMethod(spec, material.target, material.alpha, material.density)
 
 
 def db23_method(material: Material, lod_bias: int = 0, key_salt: int = 0) -> NdfShaderMethod:
@@ -207,11 +227,8 @@ def kpt25_defines(material: Material, lod_bias: float = 0.0, key_salt: int = 0) 
 @functools.lru_cache(maxsize=16)
 def _kpt25(key: tuple) -> NdfShaderMethod:
     material, lod_bias, key_salt = key
-    defines = {k: (_glsl_float(v) if isinstance(v, float) else v)
-               for k, v in kpt25_defines(material, lod_bias, key_salt).items()}
-    base = shader_method(kpt25_shader(), language="glsl", name="kpt25_method", defines=defines, register=False)
-    return NdfShaderMethod(dict(base._spec, name="kpt25_shader"), material.target, material.alpha, material.density,
-                           reference=kpt25_twin_ndf(material))
+    spec = _spec(kpt25_shader(), "kpt25_shader", kpt25_defines(material, lod_bias, key_salt))
+    return NdfShaderMethod(spec, material.target, material.alpha, material.density, reference=kpt25_twin_ndf(material))
 
 
 def kpt25_method(material: Material, lod_bias: float = 0.0, key_salt: int = 0) -> NdfShaderMethod:
