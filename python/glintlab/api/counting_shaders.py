@@ -35,6 +35,8 @@ from .shaders import DEFAULT_TIMEOUT_S, _read_source
 
 DB23_SHADER = "db23_method.glsl"
 KPT25_SHADER = "kpt25_method.glsl"
+#: The whole-method shader files this module ships (not law shaders: no law declares them).
+METHOD_SHADER_FILES = (DB23_SHADER, KPT25_SHADER)
 #: KPT25's parameters as the image method "kpt25" runs them (its micro-roughness and roulette width).
 KPT25_ALPHA_STAR, KPT25_EPSILON = 0.02, 0.1
 #: A pixel "mismatches" when shader and twin differ by more than this share of the pixel's one-facet
