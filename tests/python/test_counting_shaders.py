@@ -60,6 +60,10 @@ def test_db23_shader_is_deterministic_and_an_ndf_image_method(plane_rows):
     uv, J, h, seed = CS.tangent_inputs(rows[:500])
     np.testing.assert_allclose(m.evaluate(uv, J, h, seed=seed), a[:500], rtol=1e-4, atol=0)
     np.testing.assert_array_equal(m.smooth(np.array([[0.0, 0.0, 1.0]])), [1.0 / np.pi / material.alpha**2])
+    with pytest.raises(ValueError, match=r"J\[1, 2\]"):
+        m.evaluate(uv[:3], np.where(np.arange(12).reshape(3, 4) == 6, np.nan, J[:3]), h[:3])
+    with pytest.raises(ValueError, match="seed"):
+        m.evaluate(uv[:3], J[:3], h[:3], seed=2**40)
 
 
 @needs_vulkan

@@ -28,7 +28,7 @@ import numpy as np
 from .. import _core
 from ..resources import data_path
 from . import checks as V
-from .glinty_ndf import (DB23, DENSITY_MAPPINGS, KPT25, GlintyNDF, Material, matched_density,
+from .glinty_ndf import (DB23, DENSITY_MAPPINGS, KPT25, GlintyNDF, Material, matched_density, pixel_arrays,
                          register_image_method)
 from .method_shaders import ShaderMethod, frame_rows, pack_inputs, unpack_inputs
 from .shaders import DEFAULT_TIMEOUT_S, _read_source
@@ -125,14 +125,16 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
         return img
 
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
-        """D per pixel from tangent-frame inputs (uv (..., 2), J (..., 4), h (..., 3))."""
-        uv = np.asarray(V.as_float_array("uv", uv), float)
-        shape = uv.shape[:-1]
+        """D per pixel from tangent-frame inputs (uv (..., 2), J (..., 4), h (..., 3)), checked as every
+        glinty NDF's (NaN, infinities, zero h and singular J refused by element); ``seed`` < 2^32 (GlintInput's
+        seed is one 32-bit word)."""
+        uv, J, h, shape = pixel_arrays(uv, J, h, unit_h=True)
+        seed = V.seed(seed)
+        if seed > 0xFFFFFFFF:
+            V.fail("seed", seed, "an integer in [0, 2^32) (GlintInput's seed is 32 bits)")
         m = int(np.prod(shape)) if shape else 1
-        h = np.asarray(V.as_float_array("h", h), float).reshape(m, 3)
-        hn = h / np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
-        rows = pack_inputs(m, uv=uv.reshape(m, 2), J=np.reshape(J, (m, 4)), h=hn, n=[0.0, 0.0, 1.0],
-                           t=[1.0, 0.0, 0.0], b=[0.0, 1.0, 0.0], seed=np.uint32(V.seed(seed) & 0xFFFFFFFF))
+        rows = pack_inputs(m, uv=uv.reshape(m, 2), J=J.reshape(m, 4), h=h.reshape(m, 3), n=[0.0, 0.0, 1.0],
+                           t=[1.0, 0.0, 0.0], b=[0.0, 1.0, 0.0], seed=np.uint32(seed))
         return self.shade(rows).astype(np.float64).reshape(shape)
 
 
