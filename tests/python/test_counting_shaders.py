@@ -98,9 +98,27 @@ def test_kpt25_shader_agrees_with_its_twin_and_wrong_variants_do_not():
     assert "kpt25_shader" in gl.image_methods(returns="ndf") and si.truth_kind("kpt25_shader") == "reference"
 
 
+@needs_vulkan
+def test_hlsl_and_glsl_are_one_body(plane_rows):
+    """Each method shader is one body in the subset both languages share: the HLSL and GLSL wrappers
+    compute the same bits (the HLSL one multiplies 32-bit words by halves and builds ldexp's powers of two)."""
+    rows, material = plane_rows
+    kpt = dataclasses.replace(material, density=method_density("kpt25_shader", material))
+    for make, mat in ((CS.db23_method, material), (CS.kpt25_method, kpt)):
+        np.testing.assert_array_equal(make(mat, language="hlsl").shade(rows), make(mat, language="glsl").shade(rows))
+    for name in ("db23", "kpt25"):
+        for lang in CS.METHOD_LANGUAGES:
+            code = [ln for ln in (CS.db23_shader if name == "db23" else CS.kpt25_shader)(lang).read_text().splitlines()
+                    if ln.strip() and not ln.lstrip().startswith("//")]
+            assert code == [f"#define GLINTLAB_{lang.upper()}", '#include "glintlab_method_prelude.h"',
+                            f'#include "{name}_method_body.h"'], code
+
+
 def test_db23_defines_refuse_bad_variants():
     m = gl.api.glinty_ndf.Material(4194304.0, "beckmann", 1.0, 0.5)
     with pytest.raises(ValueError, match="lod_bias"):
         CS.db23_defines(m, lod_bias=99)
     with pytest.raises(ValueError, match="material"):
         CS.db23_method("plane_25")
+    with pytest.raises(ValueError, match="language"):
+        CS.kpt25_method(m, language="wgsl")

@@ -33,10 +33,10 @@ from .glinty_ndf import (DB23, DENSITY_MAPPINGS, KPT25, GlintyNDF, Material, mat
 from .method_shaders import ShaderMethod, frame_rows, pack_inputs, unpack_inputs
 from .shaders import DEFAULT_TIMEOUT_S, _read_source
 
-DB23_SHADER = "db23_method.glsl"
-KPT25_SHADER = "kpt25_method.glsl"
+#: Each method shader is one body (<name>_method_body.h) with a thin .glsl and .hlsl wrapper.
+METHOD_LANGUAGES = ("glsl", "hlsl")
 #: The whole-method shader files this module ships (not law shaders: no law declares them).
-METHOD_SHADER_FILES = (DB23_SHADER, KPT25_SHADER)
+METHOD_SHADER_FILES = tuple(f"{n}_method.{lang}" for n in ("db23", "kpt25") for lang in METHOD_LANGUAGES)
 #: KPT25's parameters as the image method "kpt25" runs them (its micro-roughness and roulette width).
 KPT25_ALPHA_STAR, KPT25_EPSILON = 0.02, 0.1
 #: A pixel "mismatches" when shader and twin differ by more than this share of the pixel's one-facet
@@ -45,9 +45,14 @@ KPT25_ALPHA_STAR, KPT25_EPSILON = 0.02, 0.1
 COUNT_ALLOWANCE = 1e-3
 
 
-def db23_shader() -> Path:
-    """The path of the shipped DB23 method shader (GLSL)."""
-    return Path(data_path("shaders", DB23_SHADER))
+def _language(language):
+    V.choice("language", language, METHOD_LANGUAGES, "'glsl' or 'hlsl'")
+    return language
+
+
+def db23_shader(language: str = "glsl") -> Path:
+    """The path of the shipped DB23 method shader (GLSL or HLSL wrapper of ``db23_method_body.h``)."""
+    return Path(data_path("shaders", f"db23_method.{_language(language)}"))
 
 
 def db23_defines(material: Material, lod_bias: int = 0, key_salt: int = 0) -> dict:
@@ -64,8 +69,8 @@ def db23_defines(material: Material, lod_bias: int = 0, key_salt: int = 0) -> di
 
 
 def _spec(path: Path, name: str, defines: dict) -> dict:
-    """A method shader's spec (as ``shader_method`` builds it) for a shipped GLSL file, not compiled."""
-    code, source_name, language = _read_source(path, "glsl")
+    """A method shader's spec (as ``shader_method`` builds it) for a shipped file, not compiled."""
+    code, source_name, language = _read_source(path, None)
     return {"code": code, "source_name": source_name, "entry": "glint", "language": language, "name": name,
             "defines": sorted((k, _glsl_float(v) if isinstance(v, float) else str(v)) for k, v in defines.items()),
             "include_dirs": [str(data_path("shaders"))], "device": "auto", "timeout": float(DEFAULT_TIMEOUT_S)}
@@ -140,16 +145,17 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
 
 @functools.lru_cache(maxsize=16)
 def _db23(key: tuple) -> NdfShaderMethod:
-    material, lod_bias, key_salt = key
-    spec = _spec(db23_shader(), "db23_shader", db23_defines(material, lod_bias, key_salt))
+    material, lod_bias, key_salt, language = key
+    spec = _spec(db23_shader(language), "db23_shader", db23_defines(material, lod_bias, key_salt))
     return NdfShaderMethod(spec, material.target, material.alpha, material.density)
 
 
-def db23_method(material: Material, lod_bias: int = 0, key_salt: int = 0) -> NdfShaderMethod:
-    """DB23's counting pipeline as a method shader for ``material``, compiled once per parameter set."""
+def db23_method(material: Material, lod_bias: int = 0, key_salt: int = 0, language: str = "glsl") -> NdfShaderMethod:
+    """DB23's counting pipeline as a method shader for ``material`` (GLSL or HLSL: one body), compiled on
+    first use, once per parameter set."""
     if not isinstance(material, Material):
         V.fail("material", material, "a glintlab Material (density, target, alpha, R, angular texel)")
-    return _db23((material, int(lod_bias), int(key_salt)))
+    return _db23((material, int(lod_bias), int(key_salt), _language(language)))
 
 
 def db23_twin_ndf(material: Material) -> DB23:
@@ -202,9 +208,9 @@ def twin_mismatch(shader, twin, rows, material: Material) -> dict:
 # --------------------------------------------------------------------------------------------------
 # KPT25's Algorithm 1
 
-def kpt25_shader() -> Path:
-    """The path of the shipped KPT25 method shader (GLSL)."""
-    return Path(data_path("shaders", KPT25_SHADER))
+def kpt25_shader(language: str = "glsl") -> Path:
+    """The path of the shipped KPT25 method shader (GLSL or HLSL wrapper of ``kpt25_method_body.h``)."""
+    return Path(data_path("shaders", f"kpt25_method.{_language(language)}"))
 
 
 def kpt25_twin_ndf(material: Material) -> KPT25:
@@ -230,16 +236,17 @@ def kpt25_defines(material: Material, lod_bias: float = 0.0, key_salt: int = 0) 
 
 @functools.lru_cache(maxsize=16)
 def _kpt25(key: tuple) -> NdfShaderMethod:
-    material, lod_bias, key_salt = key
-    spec = _spec(kpt25_shader(), "kpt25_shader", kpt25_defines(material, lod_bias, key_salt))
+    material, lod_bias, key_salt, language = key
+    spec = _spec(kpt25_shader(language), "kpt25_shader", kpt25_defines(material, lod_bias, key_salt))
     return NdfShaderMethod(spec, material.target, material.alpha, material.density, reference=kpt25_twin_ndf(material))
 
 
-def kpt25_method(material: Material, lod_bias: float = 0.0, key_salt: int = 0) -> NdfShaderMethod:
-    """KPT25's Algorithm 1 as a method shader at K_P = ``material.density``, compiled once per parameter set."""
+def kpt25_method(material: Material, lod_bias: float = 0.0, key_salt: int = 0, language: str = "glsl") -> NdfShaderMethod:
+    """KPT25's Algorithm 1 as a method shader at K_P = ``material.density`` (GLSL or HLSL: one body),
+    compiled on first use, once per parameter set."""
     if not isinstance(material, Material):
         V.fail("material", material, "a glintlab Material (density, target, alpha, R, angular texel)")
-    return _kpt25((material, float(lod_bias), int(key_salt)))
+    return _kpt25((material, float(lod_bias), int(key_salt), _language(language)))
 
 
 def kpt25_level(J) -> np.ndarray:
