@@ -1,7 +1,7 @@
 """DB23's counting pipeline as a whole method shader, with glintlab's C++ DB23 as its twin
 (docs/math/glint_images.md#glint-db23-shader).
 
-``db23_method.glsl`` computes, per pixel from GlintInput's uv, J, shading frame and h, DB23's glinty
+``db23_method_body.h`` (HLSL and GLSL wrappers) computes, per pixel from GlintInput's uv, J, shading frame and h, DB23's glinty
 NDF value D_P = (D(n) / R) K / (N P) with K counted on the trilinear anisotropic grids by the gated
 Gaussian as DB23's public shader runs it (``gated_body.h``, the law shaders' body). It returns D, so it
 is an NDF image method (``returns="ndf"``): the scene images shade it with the microfacet BRDF.
