@@ -1,16 +1,20 @@
-"""DB23's counting pipeline as a whole method shader, with glintlab's C++ DB23 as its twin
-(docs/math/glint_images.md#glint-db23-shader).
+"""DB23's counting pipeline and KPT25's Algorithm 1 as whole method shaders, with glintlab's C++ DB23
+and KPT25 as their twins (docs/math/glint_images.md#glint-db23-shader,
+docs/math/glint_images.md#glint-kpt25-shader).
 
-``db23_method_body.h`` (HLSL and GLSL wrappers) computes, per pixel from GlintInput's uv, J, shading frame and h, DB23's glinty
-NDF value D_P = (D(n) / R) K / (N P) with K counted on the trilinear anisotropic grids by the gated
-Gaussian as DB23's public shader runs it (``gated_body.h``, the law shaders' body). It returns D, so it
-is an NDF image method (``returns="ndf"``): the scene images shade it with the microfacet BRDF.
+``db23_method_body.h`` (HLSL and GLSL wrappers) computes, per pixel from GlintInput's uv, J, shading
+frame and h, DB23's glinty NDF value D_P = (D(n) / R) K / (N P) with K counted on the trilinear
+anisotropic grids by the gated Gaussian as DB23's public shader runs it (``gated_body.h``, the law
+shaders' body); ``kpt25_method_body.h`` computes KPT25's D^f over its point process. Both return D, so
+they are NDF image methods (``returns="ndf"``: ``db23_shader``, ``kpt25_shader``, not in the default
+panel) that the scene images shade with the microfacet BRDF.
 
-Its twin is ``glinty_ndf("db23", scheme="db23_trilinear", inner="gated_shader")`` (C++), fed the same
-float32 GlintInput rows (:func:`db23_twin`). The shader reads the core's own per-cell random numbers
-(splitmix64 keys of grid, angular texel and cell; 64-bit arithmetic emulated on 32-bit words), so the
-two agree pixel by pixel except where a float32 rounding of the footprint, the level selection or a
-grid coordinate moves a value across a floor (:func:`twin_mismatch`, :func:`float32_study`).
+The twins read the same float32 GlintInput rows (:func:`db23_twin`, :func:`kpt25_twin`): DB23 on the
+trilinear grids with the inner law ``gated_shader`` (the C++ emulation of ``gated_body.h``), KPT25 with
+the image method's parameters. The shaders read the core's own random numbers (``glintlab_rng.h``:
+splitmix64 keys per grid cell, Philox4x32-10 blocks per point, 64-bit words on 32-bit integers), so
+shader and twin agree pixel by pixel except where float32 moves a value across a floor or an edge
+(:func:`twin_mismatch`, :func:`kpt25_mismatch`; ``glintlab.validation.method_twins`` says why).
 
 >>> from glintlab.api.glinty_ndf import Material
 >>> sorted(db23_defines(Material(4194304.0, "beckmann", 1.0, 0.5)).items())[:3]
