@@ -99,6 +99,19 @@ def test_kpt25_shader_agrees_with_its_twin_and_wrong_variants_do_not():
 
 
 @needs_vulkan
+def test_ggx_targets_agree_too():
+    """The GGX branches (DB23's p, KPT25's map T and D) against the twins on a GGX material."""
+    rows, facets = MT.scene_rows("sphere", 0.1, seed=2)
+    ggx = dataclasses.replace(facets, target="ggx", alpha=0.5)
+    assert MT.compare(rows, ggx, explain_limit=0)["share"] <= MAX_SHARE
+    kpt = dataclasses.replace(ggx, density=method_density("kpt25_shader", ggx))
+    assert MT.kpt25_compare(rows, kpt, explain_limit=0)["share"] <= MAX_SHARE
+    # ... and the Beckmann shaders on the GGX material are not (the comparison sees the target).
+    wrong = CS.kpt25_method(dataclasses.replace(kpt, target="beckmann")).shade(rows)
+    assert CS.kpt25_mismatch(wrong, CS.kpt25_twin(rows, kpt), rows, kpt)["share"] > 10 * MAX_SHARE
+
+
+@needs_vulkan
 def test_hlsl_and_glsl_are_one_body(plane_rows):
     """Each method shader is one body in the subset both languages share: the HLSL and GLSL wrappers
     compute the same bits (the HLSL one multiplies 32-bit words by halves and builds ldexp's powers of two)."""
