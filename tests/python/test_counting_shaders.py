@@ -5,6 +5,7 @@ comparison, determinism, and the float32 study's cases."""
 from __future__ import annotations
 
 import dataclasses
+import pickle
 import re
 
 import numpy as np
@@ -55,6 +56,7 @@ def test_db23_shader_is_deterministic_and_an_ndf_image_method(plane_rows):
     m = CS.db23_method(material)
     a, b = m.shade(rows), m.shade(rows[::-1].copy())[::-1]  # another order, other work groups
     np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(pickle.loads(pickle.dumps(m)).shade(rows[:200]), a[:200])  # travels by value
     assert "db23_shader" in gl.image_methods(returns="ndf") and "db23_shader" not in si.DEFAULT_METHODS
     # evaluate() on tangent-frame inputs is the same pixel as the row with the world frame.
     uv, J, h, seed = CS.tangent_inputs(rows[:500])

@@ -93,6 +93,7 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
     returns = "ndf"
 
     def __init__(self, spec: dict, target: str, alpha: float, density: float, reference=None):
+        # reference: None or a picklable callable () -> an evaluator with ``reference(uv, J, h, seed)``.
         GlintyNDF.__init__(self, target, alpha, density)
         self._spec = dict(spec)
         s = self._spec
@@ -101,6 +102,7 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
                        **dict(s["defines"])}
         self._ndf_args = (target, alpha, density, reference)
         self._reference = reference
+        self._reference_ndf = None
         self._compiled = None
 
     @property
@@ -121,7 +123,9 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
         every point); NotImplementedError otherwise."""
         if self._reference is None:
             raise NotImplementedError(f"method shader {self.name!r} has no point-process reference")
-        return self._reference.reference(uv, J, h, seed=seed)
+        if self._reference_ndf is None:
+            self._reference_ndf = self._reference()
+        return self._reference_ndf.reference(uv, J, h, seed=seed)
 
     def smooth(self, h):
         return GlintyNDF.smooth(self, h)
@@ -242,7 +246,8 @@ def kpt25_defines(material: Material, lod_bias: float = 0.0, key_salt: int = 0) 
 def _kpt25(key: tuple) -> NdfShaderMethod:
     material, lod_bias, key_salt, language = key
     spec = _spec(kpt25_shader(language), "kpt25_shader", kpt25_defines(material, lod_bias, key_salt))
-    return NdfShaderMethod(spec, material.target, material.alpha, material.density, reference=kpt25_twin_ndf(material))
+    return NdfShaderMethod(spec, material.target, material.alpha, material.density,
+                           reference=functools.partial(kpt25_twin_ndf, material))
 
 
 def kpt25_method(material: Material, lod_bias: float = 0.0, key_salt: int = 0, language: str = "glsl") -> NdfShaderMethod:
