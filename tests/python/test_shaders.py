@@ -298,9 +298,11 @@ def test_shipped_shaders_are_declared_by_the_law_traits():
     assert S.shipped_shaders() == declared and len(declared) >= 4
     assert all(gl.law_traits(law)["shader"] == shader for shader, law in declared.items())
     assert gl.law_traits("binomial")["shader"] == ""
+    from glintlab.api.counting_shaders import METHOD_SHADER_FILES
     from glintlab.api.method_shaders import WB16_SHADER
     from glintlab.api.shader_samplers import SHIPPED_SAMPLERS  # the third kind: direction samplers
-    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl") if p.name != WB16_SHADER and p.stem not in SHIPPED_SAMPLERS}
+    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl")
+                if p.name not in (WB16_SHADER, *METHOD_SHADER_FILES) and p.stem not in SHIPPED_SAMPLERS}
     assert wrappers == set(declared)
     assert S.shipped_shader("gated_shader", "glsl") == S.shipped_shader("gated", "glsl")  # the law's name too
     with pytest.raises(ValueError, match="a shipped shader among"):
@@ -320,7 +322,7 @@ def test_each_shader_is_written_once(name):
     swap = {"hlsl": "glsl", "glsl": "hlsl", "HLSL": "GLSL", "GLSL": "HLSL"}
     assert re.sub(r"hlsl|glsl|HLSL|GLSL", lambda m: swap[m.group()], texts["hlsl"]) == texts["glsl"]
     defined = [f for path in sorted(SHADER_DIR.glob("*.h")) if not path.name.startswith("glintlab_method")
-               for f in re.findall(FUNCTION_DEF, path.read_text(), re.M) if f != "count"]
+               for f in re.findall(FUNCTION_DEF, path.read_text(), re.M) if f not in ("count", "glint")]  # the contracts' entries
     assert len(defined) == len(set(defined)), sorted(defined)
 
 
