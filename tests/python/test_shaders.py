@@ -298,8 +298,8 @@ def test_shipped_shaders_are_declared_by_the_law_traits():
     assert S.shipped_shaders() == declared and len(declared) >= 4
     assert all(gl.law_traits(law)["shader"] == shader for shader, law in declared.items())
     assert gl.law_traits("binomial")["shader"] == ""
-    from glintlab.api.method_shaders import WB16_SHADER
-    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl") if p.name != WB16_SHADER}
+    from glintlab.api.method_shaders import WB16_SHADERS
+    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl") if p.name not in WB16_SHADERS.values()}
     assert wrappers == set(declared)
     assert S.shipped_shader("gated_shader", "glsl") == S.shipped_shader("gated", "glsl")  # the law's name too
     with pytest.raises(ValueError, match="a shipped shader among"):

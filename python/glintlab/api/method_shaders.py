@@ -38,6 +38,8 @@ GLINT_INPUT_FIELDS = (("world_pos", 0, 3), ("uv", 3, 2), ("J", 5, 4), ("n", 9, 3
                       ("seed", 30, 1))
 _INTEGER_FIELDS = ("pixel", "frame", "seed")
 WB16_SHADER = "wb16.glsl"
+#: The shipped WB16 method shader per language: thin wrappers around one body (wb16_body.h).
+WB16_SHADERS = {"glsl": "wb16.glsl", "hlsl": "wb16.hlsl"}
 #: WB16's parameters (the shader's -D defaults; the paper gives no values).
 WB16_DEFAULTS = {"WB16_SPARKLE_SIZE": 0.9, "WB16_SPARKLE_DENSITY": 30.0, "WB16_VIEW_DEP": 1.0,
                  "WB16_NOISE_AMOUNT": 1.0, "WB16_NOISE_DENSITY": 1.0, "WB16_UNIT": 10.0, "WB16_SHAPE": 0,
@@ -197,23 +199,30 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
 # --------------------------------------------------------------------------------------------------
 # WB16's sparkle shader (Code 2) and its numpy twin
 
-def wb16_shader() -> Path:
-    """The path of the shipped WB16 method shader (GLSL)."""
-    return Path(data_path("shaders", WB16_SHADER))
+def wb16_shader(language: str = "glsl") -> Path:
+    """The path of the shipped WB16 method shader in ``language`` ("glsl" or "hlsl"; one body,
+    wb16_body.h, behind both)."""
+    if language not in WB16_SHADERS:
+        V.fail("language", language, "'hlsl' or 'glsl'")
+    return Path(data_path("shaders", WB16_SHADERS[language]))
 
 
 @functools.lru_cache(maxsize=16)
-def _wb16(defines: tuple) -> ShaderMethod:
-    return shader_method(wb16_shader(), language="glsl", name="wb16", defines=dict(defines), register=False)
+def _wb16(defines: tuple, language: str) -> ShaderMethod:
+    return shader_method(wb16_shader(language), language=language, name="wb16", defines=dict(defines),
+                         register=False)
 
 
 _WB16_SWITCHES = ("WB16_SHAPE", "WB16_NOISE", "WB16_ANISOTROPIC")
 
 
-def wb16_method(**params) -> ShaderMethod:
-    """WB16's sparkle shader, compiled once per parameter set: ``params`` are its defines without the
-    ``WB16_`` prefix, lower case (``sparkle_size=0.9``, ``shape=1`` for Shopf's star, ``noise=1`` for
-    Shopf's lookup jitter, ...; ``WB16_DEFAULTS``)."""
+def wb16_method(language: str = "glsl", **params) -> ShaderMethod:
+    """WB16's sparkle shader, compiled once per language and parameter set: ``params`` are its defines
+    without the ``WB16_`` prefix, lower case (``sparkle_size=0.9``, ``shape=1`` for Shopf's star,
+    ``noise=1`` for Shopf's lookup jitter, ...; ``WB16_DEFAULTS``); ``language`` "glsl" or "hlsl"
+    (the same body, the same image)."""
+    if language not in WB16_SHADERS:
+        V.fail("language", language, "'hlsl' or 'glsl'")
     defines = {}
     for key, value in params.items():
         macro = "WB16_" + str(key).upper()
@@ -224,7 +233,7 @@ def wb16_method(**params) -> ShaderMethod:
             defines[macro] = int(value)
         else:
             defines[macro] = V.real(key, value)
-    return _wb16(tuple(sorted(defines.items())))
+    return _wb16(tuple(sorted(defines.items())), language)
 
 
 def _f32(x):
