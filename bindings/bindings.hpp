@@ -58,5 +58,6 @@ void bind_shaders(pybind11::module_& m);  // shaders.cpp: shader laws, the Vulka
 void bind_wwh18(pybind11::module_& m);  // wwh18.cpp: WWH18's filterable model and its flake truth
 void bind_method_shaders(pybind11::module_& m);  // method_shaders.cpp: per-pixel method shaders
 void bind_sampler_test(pybind11::module_& m);  // sampler_test.cpp: the direction-sampler harness
+void bind_wb16(pybind11::module_& m);  // wb16.cpp: WB16's sparkle shader's C++ twin
 
 }  // namespace glintlab::bindings
