@@ -3,8 +3,9 @@
 A scene file (``data/schema/scene.schema.json``, examples in ``data/scenes/``) holds a pinhole camera,
 one primitive (a plane, a sphere, or a plane displaced by a procedural heightfield), a point or
 directional light and a glinty material (NDF, roughness alpha, DB23's ratio R, facet density N).
-``Scene.trace`` intersects the camera rays analytically (the heightfield by a conservative march and a
-safeguarded Newton step) and differentiates the hit point, the texture coordinates and so the
+``Scene.trace`` (in C++, core/src/scene_trace.cpp; ``Scene.trace_numpy`` is the same in numpy) intersects
+the camera rays analytically (the heightfield by a conservative march and a safeguarded Newton step) and
+differentiates the hit point, the texture coordinates and so the
 Jacobian d(uv)/d(pixel) analytically; ``Scene.geometry`` does it for every pixel and derives the
 footprint (P, r, phi) with ``gl.footprint_shapes``, D(h), p = R D(h) / D(n) (DB23 eq. 4, clamped to
 1 and reported) and n = N P (docs/math/index.md#notation). No rasterizer: one primitive, first hit.
