@@ -55,6 +55,7 @@ bench: build
 	@$(VENV)/bin/python bench/bench_shader.py
 	@$(VENV)/bin/python bench/bench_method_shader.py
 	@$(VENV)/bin/python bench/bench_counting_shaders.py
+	@$(VENV)/bin/python bench/bench_scene_trace.py --no-numpy
 	@$(VENV)/bin/glintlab bench --out out/bench
 	@$(VENV)/bin/python bench/bench_dask.py
 	@$(VENV)/bin/glintlab aniso --out out/bench/aniso

@@ -59,5 +59,7 @@ void bind_wwh18(pybind11::module_& m);  // wwh18.cpp: WWH18's filterable model a
 void bind_method_shaders(pybind11::module_& m);  // method_shaders.cpp: per-pixel method shaders
 void bind_sampler_test(pybind11::module_& m);  // sampler_test.cpp: the direction-sampler harness
 void bind_sampler_shaders(pybind11::module_& m);  // sampler_shaders.cpp: direction samplers written as shaders
+void bind_wb16(pybind11::module_& m);  // wb16.cpp: WB16's sparkle shader's C++ twin
+void bind_scene_trace(pybind11::module_& m);  // scene_trace.cpp: Scene.trace's camera rays
 
 }  // namespace glintlab::bindings

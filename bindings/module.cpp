@@ -182,6 +182,8 @@ PYBIND11_MODULE(_core, m) {
   glintlab::bindings::bind_method_shaders(m);
   glintlab::bindings::bind_sampler_test(m);
   glintlab::bindings::bind_sampler_shaders(m);
+  glintlab::bindings::bind_wb16(m);
+  glintlab::bindings::bind_scene_trace(m);
   m.def("parse_document", [](const std::string& kind, std::string_view text, const std::string& source) {
     return validation::parse_document(kind, text, source).dump();
   }, py::arg("kind"), py::arg("text"), py::arg("source"));

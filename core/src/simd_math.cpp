@@ -22,7 +22,9 @@ void dispatch(int op, const double* x, double* y, std::size_t count) {
     case 0: for (std::size_t i = 0; i < count; ++i) y[i] = std::log(x[i]); break;
     case 1: for (std::size_t i = 0; i < count; ++i) y[i] = std::log1p(x[i]); break;
     case 2: for (std::size_t i = 0; i < count; ++i) y[i] = std::exp(x[i]); break;
-    default: for (std::size_t i = 0; i < count; ++i) y[i] = std::expm1(x[i]); break;
+    case 3: for (std::size_t i = 0; i < count; ++i) y[i] = std::expm1(x[i]); break;
+    case 4: for (std::size_t i = 0; i < count; ++i) y[i] = std::sin(x[i]); break;
+    default: for (std::size_t i = 0; i < count; ++i) y[i] = std::cos(x[i]); break;
   }
 }
 }  // namespace
@@ -31,5 +33,7 @@ void vec_log(const double* x, double* y, std::size_t count) { dispatch(0, x, y, 
 void vec_log1p(const double* x, double* y, std::size_t count) { dispatch(1, x, y, count); }
 void vec_exp(const double* x, double* y, std::size_t count) { dispatch(2, x, y, count); }
 void vec_expm1(const double* x, double* y, std::size_t count) { dispatch(3, x, y, count); }
+void vec_sin(const double* x, double* y, std::size_t count) { dispatch(4, x, y, count); }
+void vec_cos(const double* x, double* y, std::size_t count) { dispatch(5, x, y, count); }
 
 }  // namespace glintlab::detail

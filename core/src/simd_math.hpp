@@ -16,9 +16,12 @@ void vec_log(const double* x, double* y, std::size_t count);
 void vec_log1p(const double* x, double* y, std::size_t count);
 void vec_exp(const double* x, double* y, std::size_t count);
 void vec_expm1(const double* x, double* y, std::size_t count);
+// sin and cos (SLEEF's 1.0-ulp functions; Scene.trace's heightfield march, core/src/scene_trace.cpp).
+void vec_sin(const double* x, double* y, std::size_t count);
+void vec_cos(const double* x, double* y, std::size_t count);
 
 // The per-ISA kernels (simd_math_avx512.cpp, simd_math_avx2.cpp: compiled with those ISAs, called
-// only when the CPU has them). op: 0 log, 1 log1p, 2 exp, 3 expm1.
+// only when the CPU has them). op: 0 log, 1 log1p, 2 exp, 3 expm1, 4 sin, 5 cos.
 void vec_math_avx512(int op, const double* x, double* y, std::size_t count);
 void vec_math_avx2(int op, const double* x, double* y, std::size_t count);
 

@@ -28,7 +28,9 @@ void vec_math_avx2(int op, const double* x, double* y, std::size_t count) {
     case 0: apply<Sleef_logd4_u10avx2>(x, y, count); break;
     case 1: apply<Sleef_log1pd4_u10avx2>(x, y, count); break;
     case 2: apply<Sleef_expd4_u10avx2>(x, y, count); break;
-    default: apply<Sleef_expm1d4_u10avx2>(x, y, count); break;
+    case 3: apply<Sleef_expm1d4_u10avx2>(x, y, count); break;
+    case 4: apply<Sleef_sind4_u10avx2>(x, y, count); break;
+    default: apply<Sleef_cosd4_u10avx2>(x, y, count); break;
   }
 }
 

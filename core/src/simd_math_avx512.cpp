@@ -28,7 +28,9 @@ void vec_math_avx512(int op, const double* x, double* y, std::size_t count) {
     case 0: apply<Sleef_logd8_u10avx512f>(x, y, count); break;
     case 1: apply<Sleef_log1pd8_u10avx512f>(x, y, count); break;
     case 2: apply<Sleef_expd8_u10avx512f>(x, y, count); break;
-    default: apply<Sleef_expm1d8_u10avx512f>(x, y, count); break;
+    case 3: apply<Sleef_expm1d8_u10avx512f>(x, y, count); break;
+    case 4: apply<Sleef_sind8_u10avx512f>(x, y, count); break;
+    default: apply<Sleef_cosd8_u10avx512f>(x, y, count); break;
   }
 }
 

@@ -155,16 +155,21 @@ def _wb16_frames():
     return np.concatenate(out)
 
 
-def _disagreement(shader_out, rows, **params):
-    """Share of pixels where the shader and the twin as printed (``params``) differ beyond the float32
-    allowance of the lookup position."""
-    twin, pos = MS.wb16_twin(rows, return_lookup=True, **params)
+def _beyond(a, b, pos, **params):
+    """Per pixel: a and b (two computations of WB16 with ``params``) differ beyond the float32
+    allowance of the lookup position ``pos``."""
     prm = {**MS.WB16_DEFAULTS, **{"WB16_" + k.upper(): v for k, v in params.items()}}
     slope = 3 * prm["WB16_SHOPF_K"] if prm["WB16_SHAPE"] == 1 else 2 / np.sqrt(1 - prm["WB16_SPARKLE_SIZE"])
     tol = ULPS * np.spacing(np.abs(pos).max(axis=1)) * slope
-    both_nan = np.isnan(shader_out) & np.isnan(twin)
-    bad = ~both_nan & ~(np.abs(shader_out.astype(np.float64) - twin) <= tol)
-    return bad.mean()
+    both_nan = np.isnan(a) & np.isnan(b)
+    return ~both_nan & ~(np.abs(a.astype(np.float64) - b) <= tol)
+
+
+def _disagreement(shader_out, rows, twin=MS.wb16_twin, **params):
+    """Share of pixels where the shader and the twin as printed (``params``; the C++ twin unless
+    ``twin`` says otherwise) differ beyond the float32 allowance of the lookup position."""
+    value, pos = twin(rows, return_lookup=True, **params)
+    return _beyond(shader_out, value, pos, **params).mean()
 
 
 @needs_vulkan
@@ -181,6 +186,55 @@ def test_wb16_shader_agrees_with_its_twin_and_a_broken_kernel_does_not():
     assert _disagreement(MS.wb16_method(kernel_scale=1.2).shade(rows), rows) > 10 * MAX_SHARE
     assert _disagreement(MS.wb16_method(shape=1).shade(rows), rows) > 10 * MAX_SHARE
     assert _disagreement(MS.wb16_method(noise=1).shade(rows), rows) > 10 * MAX_SHARE
+    # The first, numpy, twin still agrees too (it differs from the C++ one in numpy's float32 pow, an ulp).
+    assert _disagreement(MS.wb16_method().shade(rows), rows, twin=MS.wb16_twin_numpy) <= MAX_SHARE
+
+
+@needs_vulkan
+def test_wb16_hlsl_gives_the_glsl_image():
+    """wb16.hlsl and wb16.glsl wrap one body (wb16_body.h, glintlab_method_body.h): on every pixel the
+    two languages agree within the float32 allowance (on lavapipe: bit for bit)."""
+    rows = _wb16_frames()
+    for params in ({}, {"shape": 1}, {"noise": 1}, {"anisotropic": 0}):
+        hlsl, glsl = MS.wb16_method("hlsl", **params), MS.wb16_method("glsl", **params)
+        assert hlsl.language == "hlsl" and glsl.language == "glsl"
+        _, pos = MS.wb16_twin(rows, return_lookup=True, **params)
+        a, b = hlsl.shade(rows), glsl.shade(rows)
+        assert not _beyond(a, b, pos, **params).any(), params
+    # Not blind: the HLSL star against the GLSL round kernel differs on many pixels.
+    assert _beyond(MS.wb16_method("hlsl", shape=1).shade(rows), glsl.shade(rows), pos).mean() > 10 * MAX_SHARE
+    with pytest.raises(ValueError, match="language"):
+        MS.wb16_method("cuda")
+
+
+def test_wb16_cpp_twin_is_the_numpy_twin_and_checks_its_arguments():
+    """The C++ twin computes the numpy twin's float32 arithmetic: lookup positions within ULPS float32
+    spacings (numpy's float32 pow and log2 are not the C library's: measured at most 2, and 9 on 0.6 % of
+    the pixels with lookup jitter, whose noise magnifies the level's last bit), values within the
+    allowance on all but MAX_SHARE of the pixels; the thread count changes nothing."""
+    rows = _wb16_frames()
+    for params in ({}, {"shape": 1}, {"noise": 1}, {"anisotropic": 0}, {"kernel_scale": 1.2}):
+        c, pc = MS.wb16_twin(rows, return_lookup=True, **params)
+        n, pn = MS.wb16_twin_numpy(rows, return_lookup=True, **params)
+        assert c.dtype == np.float32 and pc.shape == (rows.shape[0], 3)
+        ulps = np.abs(pc.astype(np.float64) - pn) / np.spacing(np.abs(pn).max(axis=1))[:, None]
+        assert np.mean(ulps.max(axis=1) > ULPS) <= MAX_SHARE, params
+        assert _beyond(c, n, pc, **params).mean() <= MAX_SHARE, params
+    # A broken twin is caught by the same comparison (the kernel's threshold off by 1.2).
+    assert _beyond(MS.wb16_twin(rows, kernel_scale=1.2), MS.wb16_twin_numpy(rows), pc).mean() > 10 * MAX_SHARE
+    many = np.tile(rows, (3, 1))  # above the serial threshold: the rows are split between threads
+    split, old = MS.wb16_twin(many), gl.get_num_threads()
+    gl.set_num_threads(1)
+    try:
+        assert np.array_equal(MS.wb16_twin(many).view(np.uint32), split.view(np.uint32))
+    finally:
+        gl.set_num_threads(old)
+    with pytest.raises(ValueError, match="shape"):
+        MS.wb16_twin(rows, shape=2)
+    with pytest.raises(ValueError, match="sparkle_sise"):
+        MS.wb16_twin(rows, sparkle_sise=0.9)
+    with pytest.raises(ValueError, match="rows"):
+        MS.wb16_twin(rows[:, :8])
 
 
 def test_wb16_noise_is_a_wrapped_trilinear_texture():

@@ -299,10 +299,10 @@ def test_shipped_shaders_are_declared_by_the_law_traits():
     assert all(gl.law_traits(law)["shader"] == shader for shader, law in declared.items())
     assert gl.law_traits("binomial")["shader"] == ""
     from glintlab.api.counting_shaders import METHOD_SHADER_FILES
-    from glintlab.api.method_shaders import WB16_SHADER
+    from glintlab.api.method_shaders import WB16_SHADERS
     from glintlab.api.shader_samplers import SHIPPED_SAMPLERS  # the third kind: direction samplers
     wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl")
-                if p.name not in (WB16_SHADER, *METHOD_SHADER_FILES) and p.stem not in SHIPPED_SAMPLERS}
+                if p.name not in (*WB16_SHADERS.values(), *METHOD_SHADER_FILES) and p.stem not in SHIPPED_SAMPLERS}
     assert wrappers == set(declared)
     assert S.shipped_shader("gated_shader", "glsl") == S.shipped_shader("gated", "glsl")  # the law's name too
     with pytest.raises(ValueError, match="a shipped shader among"):

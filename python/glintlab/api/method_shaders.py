@@ -15,7 +15,8 @@ a hashed value noise (``glintlab_noise3``) standing in for a 3D noise texture.
 ``shader_method(source)`` compiles the function inside glintlab's compute kernel with the shader-law
 runner (shaderc, Vulkan; lavapipe on the CPU) and registers it as an image method:
 ``gl.render(method, scene)`` returns its image. WB16's sparkle shader (Code 2) ships as the image method
-``"wb16"`` with a numpy twin (:func:`wb16_twin`) that computes the same float32 arithmetic.
+``"wb16"`` (GLSL and HLSL, one body) with a C++ twin (:func:`wb16_twin`) that computes the same float32
+arithmetic (and its first, numpy, form :func:`wb16_twin_numpy`).
 """
 from __future__ import annotations
 
@@ -38,6 +39,8 @@ GLINT_INPUT_FIELDS = (("world_pos", 0, 3), ("uv", 3, 2), ("J", 5, 4), ("n", 9, 3
                       ("seed", 30, 1))
 _INTEGER_FIELDS = ("pixel", "frame", "seed")
 WB16_SHADER = "wb16.glsl"
+#: The shipped WB16 method shader per language: thin wrappers around one body (wb16_body.h).
+WB16_SHADERS = {"glsl": "wb16.glsl", "hlsl": "wb16.hlsl"}
 #: WB16's parameters (the shader's -D defaults; the paper gives no values).
 WB16_DEFAULTS = {"WB16_SPARKLE_SIZE": 0.9, "WB16_SPARKLE_DENSITY": 30.0, "WB16_VIEW_DEP": 1.0,
                  "WB16_NOISE_AMOUNT": 1.0, "WB16_NOISE_DENSITY": 1.0, "WB16_UNIT": 10.0, "WB16_SHAPE": 0,
@@ -197,23 +200,30 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
 # --------------------------------------------------------------------------------------------------
 # WB16's sparkle shader (Code 2) and its numpy twin
 
-def wb16_shader() -> Path:
-    """The path of the shipped WB16 method shader (GLSL)."""
-    return Path(data_path("shaders", WB16_SHADER))
+def wb16_shader(language: str = "glsl") -> Path:
+    """The path of the shipped WB16 method shader in ``language`` ("glsl" or "hlsl"; one body,
+    wb16_body.h, behind both)."""
+    if language not in WB16_SHADERS:
+        V.fail("language", language, "'hlsl' or 'glsl'")
+    return Path(data_path("shaders", WB16_SHADERS[language]))
 
 
 @functools.lru_cache(maxsize=16)
-def _wb16(defines: tuple) -> ShaderMethod:
-    return shader_method(wb16_shader(), language="glsl", name="wb16", defines=dict(defines), register=False)
+def _wb16(defines: tuple, language: str) -> ShaderMethod:
+    return shader_method(wb16_shader(language), language=language, name="wb16", defines=dict(defines),
+                         register=False)
 
 
 _WB16_SWITCHES = ("WB16_SHAPE", "WB16_NOISE", "WB16_ANISOTROPIC")
 
 
-def wb16_method(**params) -> ShaderMethod:
-    """WB16's sparkle shader, compiled once per parameter set: ``params`` are its defines without the
-    ``WB16_`` prefix, lower case (``sparkle_size=0.9``, ``shape=1`` for Shopf's star, ``noise=1`` for
-    Shopf's lookup jitter, ...; ``WB16_DEFAULTS``)."""
+def wb16_method(language: str = "glsl", **params) -> ShaderMethod:
+    """WB16's sparkle shader, compiled once per language and parameter set: ``params`` are its defines
+    without the ``WB16_`` prefix, lower case (``sparkle_size=0.9``, ``shape=1`` for Shopf's star,
+    ``noise=1`` for Shopf's lookup jitter, ...; ``WB16_DEFAULTS``); ``language`` "glsl" or "hlsl"
+    (the same body, the same image)."""
+    if language not in WB16_SHADERS:
+        V.fail("language", language, "'hlsl' or 'glsl'")
     defines = {}
     for key, value in params.items():
         macro = "WB16_" + str(key).upper()
@@ -224,26 +234,52 @@ def wb16_method(**params) -> ShaderMethod:
             defines[macro] = int(value)
         else:
             defines[macro] = V.real(key, value)
-    return _wb16(tuple(sorted(defines.items())))
+    return _wb16(tuple(sorted(defines.items())), language)
 
 
 def _f32(x):
     return np.float32(x)
 
 
-def wb16_twin(rows, return_lookup: bool = False, **params):
-    """WB16's Code 2 in numpy float32, line for line as ``wb16.glsl`` computes it, on packed rows
-    (:func:`pack_inputs`; the shader reads the same float32 values). Returns (m,) float32, and with
-    ``return_lookup`` also the lookup positions ``pos`` (m, 3), whose float32 spacing bounds how far
-    the two may differ. They agree pixel by pixel except where a last-place difference of a
-    transcendental (log2, pow, sqrt) or of a fused multiply-add moves a value across a floor
-    (docs/math/glint_images.md#glint-wb16)."""
+def _wb16_params(params: dict) -> dict:
+    """WB16_DEFAULTS with ``params`` (names without the prefix, lower case) in place; unknown names refused."""
     prm = dict(WB16_DEFAULTS)
     for key, value in params.items():
         macro = "WB16_" + str(key).upper()
         if macro not in WB16_DEFAULTS:
             V.fail(key, value, f"a WB16 parameter among {', '.join(k[5:].lower() for k in WB16_DEFAULTS)}")
         prm[macro] = value
+    return prm
+
+
+def wb16_twin(rows, return_lookup: bool = False, **params):
+    """WB16's Code 2 in C++ float32 (core/src/wb16.cpp), operation for operation as ``wb16_body.h``
+    computes it, on packed rows (:func:`pack_inputs`; the shader reads the same float32 values), on
+    every core. Returns (m,) float32, and with ``return_lookup`` also the lookup positions ``pos``
+    (m, 3), whose float32 spacing bounds how far the two may differ. They agree pixel by pixel except
+    where a last-place difference of a transcendental (log2, pow, sqrt) or of a fused multiply-add
+    moves a value across a floor (docs/math/glint_images.md#glint-wb16). :func:`wb16_twin_numpy` is
+    the same arithmetic in numpy.
+
+    >>> rows = pack_inputs(2, world_pos=[[0.1, 0.2, 0.0], [0.3, -0.1, 0.0]], n=[0, 0, 1], view=[0.5, -2.0, 1.0])
+    >>> bool(np.all(wb16_twin(rows) == wb16_twin_numpy(rows)))
+    True
+    """
+    prm = _wb16_params(params)
+    for key in _WB16_SWITCHES:
+        V.integer(key[5:].lower(), prm[key], 0, 1, expected="0 or 1")
+    args = {k[5:].lower(): (int(v) if k in _WB16_SWITCHES else V.real(k[5:].lower(), v)) for k, v in prm.items()}
+    rows = np.ascontiguousarray(rows, dtype=np.uint32)
+    if rows.ndim != 2 or rows.shape[1] != _core.METHOD_INPUT_WORDS:
+        V.fail("rows", f"an array of shape {rows.shape}", f"an array of shape (m, {_core.METHOD_INPUT_WORDS})")
+    out, pos = _core.wb16_twin(rows, **args)
+    return (out, pos) if return_lookup else out
+
+
+def wb16_twin_numpy(rows, return_lookup: bool = False, **params):
+    """WB16's Code 2 in numpy float32, line for line as ``wb16_body.h`` computes it (the first twin;
+    :func:`wb16_twin` is the C++ one, the same arithmetic, tens of times faster)."""
+    prm = _wb16_params(params)
     g = unpack_inputs(np.ascontiguousarray(rows, dtype=np.uint32))
     f = _f32
     unit = f(prm["WB16_UNIT"])

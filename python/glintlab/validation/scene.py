@@ -3,8 +3,9 @@
 A scene file (``data/schema/scene.schema.json``, examples in ``data/scenes/``) holds a pinhole camera,
 one primitive (a plane, a sphere, or a plane displaced by a procedural heightfield), a point or
 directional light and a glinty material (NDF, roughness alpha, DB23's ratio R, facet density N).
-``Scene.trace`` intersects the camera rays analytically (the heightfield by a conservative march and a
-safeguarded Newton step) and differentiates the hit point, the texture coordinates and so the
+``Scene.trace`` (in C++, core/src/scene_trace.cpp; ``Scene.trace_numpy`` is the same in numpy) intersects
+the camera rays analytically (the heightfield by a conservative march and a safeguarded Newton step) and
+differentiates the hit point, the texture coordinates and so the
 Jacobian d(uv)/d(pixel) analytically; ``Scene.geometry`` does it for every pixel and derives the
 footprint (P, r, phi) with ``gl.footprint_shapes``, D(h), p = R D(h) / D(n) (DB23 eq. 4, clamped to
 1 and reported) and n = N P (docs/math/index.md#notation). No rasterizer: one primitive, first hit.
@@ -23,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _core
 from ..api import checks as V
 from ..api import fpmath
 from ..api.grids import footprint_shapes
@@ -288,7 +290,27 @@ class Scene:
     def trace(self, px, py) -> dict:
         """Rays through pixel coordinates (px, py) (floats, pixel centres at i + 0.5; y down): hit mask,
         hit point x, ray parameter t, uv, the analytic Jacobian (du/dx, dv/dx, du/dy, dv/dy), the shading
-        normal and the geometric gradient. Arrays of any (equal) shape."""
+        normal, the ray direction and the hit point's derivatives along the pixel axes. Arrays of any
+        (equal) shape. Computed in C++ on every core (core/src/scene_trace.cpp): the operations of
+        :meth:`trace_numpy`, which it matches to float64 rounding."""
+        px, py = np.broadcast_arrays(np.asarray(px, float), np.asarray(py, float))
+        shape = px.shape
+        sphere = self.kind == "sphere"
+        zero = (0.0, 0.0, 0.0)
+        plane = (zero,) * 4 if sphere else (tuple(self.origin), tuple(self.normal), tuple(self.e1), tuple(self.e2))
+        out = _core.scene_trace(
+            np.ascontiguousarray(px.reshape(-1)), np.ascontiguousarray(py.reshape(-1)), sphere, float(self.width),
+            float(self.height), float(self.focal), tuple(self.position), tuple(self.forward), tuple(self.right),
+            tuple(self.up), tuple(self.center) if sphere else zero, float(self.radius) if sphere else 0.0, *plane,
+            [] if sphere else [tuple(float(v) for v in w) for w in self.waves], float(self.uv_scale))
+        res = {}
+        for key, value in out.items():
+            value = value.astype(bool) if key == "hit" else value
+            res[key] = value.reshape(shape + value.shape[1:])
+        return res
+
+    def trace_numpy(self, px, py) -> dict:
+        """:meth:`trace` in numpy (the first form, kept as the reference the C++ one is compared with)."""
         px, py = np.broadcast_arrays(np.asarray(px, float), np.asarray(py, float))
         shape = px.shape
         xs, ys = (px.reshape(-1) - 0.5 * self.width) / self.focal, (py.reshape(-1) - 0.5 * self.height) / self.focal

@@ -1,66 +1,10 @@
-// glintlab's method-shader contract, GLSL (docs/math/glint_images.md#glint-contract).
-// A method shader defines   float glint(GlintInput g)   or   vec3 glint(GlintInput g)
-// (any name given as `entry`); glintlab's wrapper kernel includes this file before the method's code,
-// fills one GlintInput per pixel from the frame's inputs and stores the result. Including it again
-// from the method's own file is harmless.
-#ifndef GLINTLAB_METHOD_GLSL_H
-#define GLINTLAB_METHOD_GLSL_H
-
-// Every vector is in world space, float32.
-struct GlintInput {
-  vec3 world_pos;  // the shaded surface point
-  vec2 uv;         // texture coordinates
-  vec4 J;          // (du/dx, dv/dx, du/dy, dv/dy): the uv Jacobian per pixel (y down the image)
-  vec3 n;          // shading normal (unit)
-  vec3 t;          // tangent along the u axis (unit, orthogonal to n)
-  vec3 b;          // bitangent n x t
-  vec3 view;       // camera position - world_pos: NOT normalised (its length is the distance)
-  vec3 light;      // unit vector from the surface point towards the light
-  vec3 h;          // unit half vector normalize(normalize(view) + light)
-  uvec2 pixel;     // (column, row) from the top-left pixel
-  uint frame;      // index of the frame along the camera path
-  uint seed;       // the realization's seed
-};
-
-// A 3D hash of 32-bit words (three rounds of multiply-add mixing and a xor-shift, after Jarzynski and
-// Olano's pcg3d): every output bit depends on every input bit.
-uvec3 glintlab_hash3(uvec3 v) {
-  v = v * 1664525u + 1013904223u;
-  v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
-  v ^= v >> 16u;
-  v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
-  return v;
-}
-
-// Three uniform values in [0, 1) for a lattice cell and a seed (24 bits each: exact in float32).
-vec3 glintlab_cell_values(ivec3 cell, uint seed) {
-  uvec3 k = uvec3(cell) ^ (uvec3(0x9E3779B9u, 0x85EBCA6Bu, 0xC2B2AE35u) * seed);
-  return vec3(glintlab_hash3(k) >> 8u) * (1.0 / 16777216.0);
-}
-
-// Hashed value noise standing in for a 128^3 RGB noise texture read with wrap addressing and
-// trilinear filtering at normalised coordinates p: texel centres at (i + 0.5) / 128, values of
-// glintlab_cell_values, interpolated linearly in x, then y, then z, in this order (the twins follow it).
-vec3 glintlab_noise3(vec3 p, uint seed) {
-  vec3 x = p * 128.0 - 0.5;
-  vec3 i = floor(x);
-  vec3 f = x - i;
-  ivec3 c = ivec3(i);
-  vec3 v000 = glintlab_cell_values((c + ivec3(0, 0, 0)) & 127, seed);
-  vec3 v100 = glintlab_cell_values((c + ivec3(1, 0, 0)) & 127, seed);
-  vec3 v010 = glintlab_cell_values((c + ivec3(0, 1, 0)) & 127, seed);
-  vec3 v110 = glintlab_cell_values((c + ivec3(1, 1, 0)) & 127, seed);
-  vec3 v001 = glintlab_cell_values((c + ivec3(0, 0, 1)) & 127, seed);
-  vec3 v101 = glintlab_cell_values((c + ivec3(1, 0, 1)) & 127, seed);
-  vec3 v011 = glintlab_cell_values((c + ivec3(0, 1, 1)) & 127, seed);
-  vec3 v111 = glintlab_cell_values((c + ivec3(1, 1, 1)) & 127, seed);
-  vec3 x00 = v000 + (v100 - v000) * f.x;
-  vec3 x10 = v010 + (v110 - v010) * f.x;
-  vec3 x01 = v001 + (v101 - v001) * f.x;
-  vec3 x11 = v011 + (v111 - v011) * f.x;
-  vec3 y0 = x00 + (x10 - x00) * f.y;
-  vec3 y1 = x01 + (x11 - x01) * f.y;
-  return y0 + (y1 - y0) * f.z;
-}
-
+// glintlab's method-shader contract in GLSL (docs/math/glint_images.md#glint-contract): GlintInput, the
+// hash and the hashed value noise. Their one body is glintlab_method_body.h, which
+// glintlab_method_hlsl.h includes too, so both languages declare the same fields and compute
+// the same noise. glintlab's wrapper kernel includes this file before the method's code; a method's
+// own file may include it again.
+#ifndef GLINTLAB_GLSL
+#define GLINTLAB_GLSL
 #endif
+#include "glintlab_prelude.h"
+#include "glintlab_method_body.h"

@@ -10,10 +10,8 @@
 
 #if defined(GLINTLAB_GLSL)
 #include "glintlab_method_glsl.h"
-#define float2 vec2
-#define float3 vec3
+// float2, float3, uint2 and the like come from glintlab_prelude.h; these two only the methods use.
 #define int2 ivec2
-#define uint2 uvec2
 #define uint4 uvec4
 #define GLINTLAB_ATAN2(y, x) atan((y), (x))
 #define GLINTLAB_MSB(x) findMSB(x)
