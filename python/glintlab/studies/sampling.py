@@ -34,7 +34,9 @@ TITLE = "Direction samplers tested: chi-square on adaptive bins, lost samples, p
 MEANING = ("The reference Beckmann and GGX samplers (normals and visible normals) pass the harness and every wrong "
            "variant (alpha 2 % off, a missing Jacobian, 0.1 % of samples dropped) is rejected at the same size; "
            "adaptive bins reject lobes displaced by their own width that a fixed 30 x 60 grid passes; the smooth "
-           "NDFs keep unit projected area and weak furnace.")
+           "NDFs keep unit projected area and weak furnace; KPT25's Algorithm 2, with the compensation's part added, "
+           "estimates a lighting integral without bias and with a lower RMSE than sampling the smooth NDF "
+           "(parallel log-log lines: a constant variance ratio).")
 DEFAULTS = {
     "samples": 200000,
     "alpha": 0.3,
