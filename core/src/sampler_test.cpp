@@ -488,7 +488,11 @@ void Bins::plan_refinement() {
   // They come after the statistic's: only once the shift is within its limit, so that a budget spent on
   // the mass never leaves the chi-square's rule unmet.
   if (global && shift_bound_ <= shift_limit_ && mass_error_ > mass_limit_) cover(std::vector<double>(leaves_.size(), 1.0), mass_error_ - 0.5 * mass_limit_);
-  if (splits.size() > required && evaluations_ + 4 * splits.size() * kGenzMalikNodes > opt_.max_nodes) {
+  // Their own allowance: as many evaluations again as the bins and the statistic's rule took (at a jump
+  // of the pdf the mass converges only to first order, and would otherwise take the whole budget).
+  if (global && shift_bound_ <= shift_limit_ && shift_met_at_ == 0) shift_met_at_ = std::max<std::size_t>(evaluations_, 1);
+  const std::size_t mass_budget = std::min(opt_.max_nodes, 2 * shift_met_at_);
+  if (splits.size() > required && evaluations_ + 4 * splits.size() * kGenzMalikNodes > mass_budget) {
     for (std::size_t i = required; i < splits.size(); ++i) drop[splits[i].first][splits[i].second] = false;
     splits.resize(required);
   }

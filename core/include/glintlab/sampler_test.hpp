@@ -153,6 +153,7 @@ class Bins {
   std::vector<std::vector<SubCell>> sub_;  // integration cells of each bin
   std::size_t evaluations_ = 0, unconverged_ = 0;
   double shift_bound_ = 0.0, shift_limit_ = 0.0, mass_error_ = 0.0, mass_limit_ = 0.0;
+  std::size_t shift_met_at_ = 0;  // evaluations when the global rule's bound first met its limit
   int rounds_ = 0;
 };
 
