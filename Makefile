@@ -52,6 +52,7 @@ bench: build
 	@$(VENV)/bin/python bench/bench_glinty_ndf.py --out out/bench
 	@$(VENV)/bin/python bench/bench_wwh18.py --out out/bench
 	@$(VENV)/bin/python bench/bench_sampler_test.py --out out/bench
+	@$(VENV)/bin/python bench/bench_sampler_pixel.py --out out/bench
 	@$(VENV)/bin/python bench/bench_shader.py
 	@$(VENV)/bin/python bench/bench_method_shader.py
 	@$(VENV)/bin/python bench/bench_counting_shaders.py

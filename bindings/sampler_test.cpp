@@ -24,7 +24,7 @@ using sampling::BinOptions;
 using sampling::Domain;
 
 BinOptions options(double total, double target, int min_depth, int max_depth, int max_sub_depth, double rel_tol,
-                   std::size_t max_nodes) {
+                   std::size_t max_nodes, double shift_tol, double min_expected) {
   BinOptions o;
   o.total = total;
   o.target = target;
@@ -33,6 +33,8 @@ BinOptions options(double total, double target, int min_depth, int max_depth, in
   o.max_sub_depth = max_sub_depth;
   o.rel_tol = rel_tol;
   o.max_nodes = max_nodes;
+  o.shift_tol = shift_tol;
+  o.min_expected = min_expected;
   return o;
 }
 
@@ -51,10 +53,12 @@ void bind_sampler_test(py::module_& m) {
   py::class_<Bins>(m, "SamplerBins")
       .def(py::init([](const std::string& domain, double total, double target, int min_depth, int max_depth,
                        int max_sub_depth, double rel_tol, std::size_t max_nodes, const Array& pilot_s,
-                       const Array& pilot_t, double pilot_drawn, const Array& pilot_pdf) {
+                       const Array& pilot_t, double pilot_drawn, const Array& pilot_pdf, double shift_tol,
+                       double min_expected) {
              if (pilot_s.size() != pilot_t.size())
                glintlab::throw_invalid_message("sampler_test: pilot_s and pilot_t differ in length");
-             auto o = options(total, target, min_depth, max_depth, max_sub_depth, rel_tol, max_nodes);
+             auto o = options(total, target, min_depth, max_depth, max_sub_depth, rel_tol, max_nodes, shift_tol,
+                              min_expected);
              o.pilot_drawn = pilot_drawn;
              if (pilot_pdf.size() != 0 && pilot_pdf.size() != pilot_s.size())
                glintlab::throw_invalid_message("sampler_test: pilot_pdf and pilot_s differ in length");
@@ -63,14 +67,16 @@ void bind_sampler_test(py::module_& m) {
            }),
            py::arg("domain"), py::arg("total"), py::arg("target"), py::arg("min_depth"), py::arg("max_depth"),
            py::arg("max_sub_depth"), py::arg("rel_tol"), py::arg("max_nodes"), py::arg("pilot_s"), py::arg("pilot_t"),
-           py::arg("pilot_drawn"), py::arg("pilot_pdf"))
+           py::arg("pilot_drawn"), py::arg("pilot_pdf"), py::arg("shift_tol") = 0.0, py::arg("min_expected") = 5.0)
       .def_static("grid", [](const std::string& domain, double total, int max_sub_depth, double rel_tol,
-                             std::size_t max_nodes, std::vector<double> s_edges, std::vector<double> t_edges) {
-             return Bins(sampling::parse_domain(domain), options(total, 1.0, 0, 0, max_sub_depth, rel_tol, max_nodes),
+                             std::size_t max_nodes, std::vector<double> s_edges, std::vector<double> t_edges,
+                             double shift_tol, double min_expected) {
+             return Bins(sampling::parse_domain(domain),
+                         options(total, 1.0, 0, 0, max_sub_depth, rel_tol, max_nodes, shift_tol, min_expected),
                          std::move(s_edges), std::move(t_edges));
            },
            py::arg("domain"), py::arg("total"), py::arg("max_sub_depth"), py::arg("rel_tol"), py::arg("max_nodes"),
-           py::arg("s_edges"), py::arg("t_edges"))
+           py::arg("s_edges"), py::arg("t_edges"), py::arg("shift_tol") = 0.0, py::arg("min_expected") = 5.0)
       .def_property_readonly("done", &Bins::done)
       .def("nodes", [](const Bins& b) {
         const auto& nodes = b.nodes();
@@ -100,6 +106,10 @@ void bind_sampler_test(py::module_& m) {
       .def_property_readonly("evaluations", &Bins::evaluations)
       .def_property_readonly("rounds", &Bins::rounds)
       .def_property_readonly("unconverged", &Bins::unconverged)
+      .def_property_readonly("shift_bound", &Bins::shift_bound)
+      .def_property_readonly("shift_limit", &Bins::shift_limit)
+      .def_property_readonly("mass_error", &Bins::mass_error)
+      .def_property_readonly("mass_limit", &Bins::mass_limit)
       .def("locate", [](const Bins& b, const Array& s, const Array& t) {
         if (s.size() != t.size()) glintlab::throw_invalid_message("sampler_test: s and t differ in length");
         py::array_t<std::int64_t> out(s.size());

@@ -27,6 +27,14 @@ constexpr double kPeakRatio = 4.0;
 constexpr double kPeakCount = 0.005;
 constexpr double kLostWeight = 0.05;  // share of the significance given to the lost-sample test
 
+void check_tolerances(const BinOptions& o) {
+  if (!(o.rel_tol >= 0.0) || !std::isfinite(o.rel_tol)) throw_invalid(kWhere, "rel_tol", o.rel_tol, "a finite number >= 0");
+  if (!(o.shift_tol >= 0.0) || !std::isfinite(o.shift_tol))
+    throw_invalid(kWhere, "cubature_tol", o.shift_tol, "a finite number >= 0");
+  if (!(o.min_expected > 0.0) || !std::isfinite(o.min_expected))
+    throw_invalid(kWhere, "min_expected", o.min_expected, "a finite number > 0");
+}
+
 // Azimuth as a fraction of a turn in [0, 1).
 double turn(double x, double y) {
   double t = std::atan2(y, x) / kTwoPi;
@@ -179,6 +187,7 @@ Bins::Bins(Domain d, const BinOptions& options, const double* pilot_s, const dou
     : domain_(d), opt_(options) {
   if (!(opt_.total >= 1.0) || !std::isfinite(opt_.total)) throw_invalid(kWhere, "samples", opt_.total, "a number >= 1");
   if (!(opt_.target > 0.0) || !std::isfinite(opt_.target)) throw_invalid(kWhere, "target", opt_.target, "a finite number > 0");
+  check_tolerances(opt_);
   if (opt_.max_depth < 0 || opt_.max_depth > 30) throw_invalid(kWhere, "max_depth", opt_.max_depth, "an integer in [0, 30]");
   ps_.assign(pilot_s, pilot_s + pilot_count);
   pt_.assign(pilot_t, pilot_t + pilot_count);
@@ -209,6 +218,7 @@ Bins::Bins(Domain d, const BinOptions& options, std::vector<double> s_edges, std
     : domain_(d), opt_(options), tree_phase_(false), grid_(true), s_edges_(std::move(s_edges)),
       t_edges_(std::move(t_edges)) {
   if (!(opt_.total >= 1.0) || !std::isfinite(opt_.total)) throw_invalid(kWhere, "samples", opt_.total, "a number >= 1");
+  check_tolerances(opt_);
   for (const auto* edges : {&s_edges_, &t_edges_}) {
     if (edges->size() < 2 || edges->front() != 0.0 || edges->back() != 1.0 ||
         !std::is_sorted(edges->begin(), edges->end()) ||
@@ -371,17 +381,66 @@ void Bins::start_refinement() {
   plan_refinement();
 }
 
+void Bins::global_shift(std::vector<double>& weight) {
+  // The statistic X^2 = sum_g (o_g - e_g)^2 / e_g is computed with e_g = N m_g, while the counts have
+  // mean e_g + d_g, |d_g| <= D_g (the cubature error in samples, summed over the group's bins). Its
+  // mean then moves by sum_g [d_g + d_g^2] / e_g to first and second order (the variance term
+  // (e_g + d_g) / e_g and the squared offset d_g^2 / e_g): at most B = sum_g (D_g + D_g^2) / e_g.
+  // The groups are the statistic's own (merge_starts on the current expected counts), since merging
+  // adds errors as well as expectations.
+  const std::size_t m = leaves_.size();
+  std::vector<double> expected(m);
+  for (std::size_t b = 0; b < m; ++b) expected[b] = opt_.total * integral_[b];
+  const auto starts = merge_starts(expected.data(), m, opt_.min_expected);
+  weight.assign(m, 0.0);
+  double bound = 0.0;
+  for (std::size_t g = 0; g < starts.size(); ++g) {
+    const std::size_t end = g + 1 < starts.size() ? starts[g + 1] : m;
+    double e = 0.0, d = 0.0;
+    for (std::size_t b = starts[g]; b < end; ++b) {
+      e += expected[b];
+      d += opt_.total * error_[b];
+    }
+    // A group expecting almost nothing (the pdf's mass not yet found there) is weighed as if it expected
+    // min_expected: its error then still counts, without dividing by zero.
+    e = std::max(e, opt_.min_expected);
+    bound += (d + d * d) / e;
+    for (std::size_t b = starts[g]; b < end; ++b) weight[b] = (1.0 + 2.0 * d) / e;  // dB / dD_g
+  }
+  shift_bound_ = bound;
+  mass_error_ = 0.0;
+  for (std::size_t b = 0; b < m; ++b) mass_error_ += opt_.total * error_[b];
+  mass_limit_ = opt_.shift_tol * std::sqrt(opt_.total);
+  const double dof = std::max<double>(1.0, static_cast<double>(starts.size()) - 1.0);
+  shift_limit_ = opt_.shift_tol * std::sqrt(2.0 * dof);
+}
+
 void Bins::plan_refinement() {
   pending_.clear();
   unconverged_ = 0;
-  // Which integration cells to split: in a bin whose error exceeds its tolerance, every cell holding
-  // more than an equal share of that tolerance (the largest always does, so each round progresses).
-  // Also every cell whose largest node value times its area is far above its integral (a peak the
-  // nodes only grazed, whose |I7 - I5| cannot be trusted), while that peak could matter for a count.
+  const bool per_bin = opt_.rel_tol > 0.0, global = opt_.shift_tol > 0.0;
+  std::vector<double> weight;
+  global_shift(weight);  // reported even while the global rule is off
+  // Which integration cells to split:
+  // - per-bin rule: in a bin whose error exceeds its tolerance, every cell holding more than an equal
+  //   share of that tolerance (the largest always does, so each round progresses);
+  // - global rule: while the bound on the statistic's shift exceeds its limit, the cells with the
+  //   largest share of the bound (their error times the derivative of the bound in their group's
+  //   error), most first, until those shares cover the excess plus half the limit (as if splitting
+  //   removed their error: a cell on a jump of the pdf only halves it, so a few rounds follow);
+  // - either way, every cell whose largest node value times its area is far above its integral (a peak
+  //   the nodes only grazed, whose |I7 - I5| cannot be trusted), while that peak could matter for a count.
   std::vector<std::pair<std::size_t, std::size_t>> splits;  // (bin, cell)
+  std::vector<std::vector<bool>> drop(leaves_.size());
+  auto mark = [&](std::size_t b, std::size_t k) {
+    if (drop[b].empty()) drop[b].assign(sub_[b].size(), false);
+    if (drop[b][k]) return;
+    drop[b][k] = true;
+    splits.emplace_back(b, k);
+  };
   for (std::size_t b = 0; b < leaves_.size(); ++b) {
     const double tol = opt_.rel_tol * std::sqrt(std::max(opt_.total * integral_[b], 1.0));
-    const bool over = opt_.total * error_[b] > tol;
+    const bool over = per_bin && opt_.total * error_[b] > tol;
     const auto& cells = sub_[b];
     const double share = tol / static_cast<double>(cells.size());
     bool any = false;
@@ -390,25 +449,65 @@ void Bins::plan_refinement() {
       const double reach = c.top * c.r.ws * c.r.wt;
       const bool grazed = reach > kPeakRatio * (c.value + c.err) && opt_.total * reach > kPeakCount;
       if (((over && opt_.total * c.err > share) || grazed) && c.depth < opt_.max_sub_depth) {
-        splits.emplace_back(b, k);
+        mark(b, k);
         any = any || over;
       }
     }
     if (over && !any) ++unconverged_;
   }
+  // Greedy cover: the cells with the largest share of an excess quantity (share = its error times
+  // `scale` of its bin), most first, until their shares add up to `goal`.
+  auto cover = [&](const std::vector<double>& scale, double goal) {
+    struct Share {
+      double v;
+      std::size_t b, k;
+    };
+    std::vector<Share> shares;
+    for (std::size_t b = 0; b < leaves_.size(); ++b)
+      for (std::size_t k = 0; k < sub_[b].size(); ++k)
+        if (sub_[b][k].depth < opt_.max_sub_depth && sub_[b][k].err > 0.0)
+          shares.push_back({scale[b] * opt_.total * sub_[b][k].err, b, k});
+    // Largest share first; ties in (bin, cell) order, so the plan does not depend on the sort.
+    std::sort(shares.begin(), shares.end(), [](const Share& x, const Share& y) {
+      return x.v != y.v ? x.v > y.v : (x.b != y.b ? x.b < y.b : x.k < y.k);
+    });
+    double covered = 0.0;
+    for (const auto& sh : shares) {
+      if (covered >= goal) break;
+      mark(sh.b, sh.k);
+      covered += sh.v;
+    }
+  };
+  if (global && shift_bound_ > shift_limit_) cover(weight, shift_bound_ - 0.5 * shift_limit_);
+  // The total mass's error, in samples, is the width of the range the lost-sample test accepts
+  // (docs/math/sampling.md#lost-sample-bin): the global rule also keeps it within shift_tol sqrt(N), so
+  // that a loss of a small fraction of the samples stays visible.
+  // The mass's splits are wanted, not required (the lost-sample test stays valid whatever its range;
+  // only its power depends on it): a round that would exceed the budget drops them first.
+  const std::size_t required = splits.size();
+  // They come after the statistic's: only once the shift is within its limit, so that a budget spent on
+  // the mass never leaves the chi-square's rule unmet.
+  if (global && shift_bound_ <= shift_limit_ && mass_error_ > mass_limit_) cover(std::vector<double>(leaves_.size(), 1.0), mass_error_ - 0.5 * mass_limit_);
+  // Their own allowance: as many evaluations again as the bins and the statistic's rule took (at a jump
+  // of the pdf the mass converges only to first order, and would otherwise take the whole budget).
+  if (global && shift_bound_ <= shift_limit_ && shift_met_at_ == 0) shift_met_at_ = std::max<std::size_t>(evaluations_, 1);
+  const std::size_t mass_budget = std::min(opt_.max_nodes, 2 * shift_met_at_);
+  if (splits.size() > required && evaluations_ + 4 * splits.size() * kGenzMalikNodes > mass_budget) {
+    for (std::size_t i = required; i < splits.size(); ++i) drop[splits[i].first][splits[i].second] = false;
+    splits.resize(required);
+  }
   if (splits.empty()) return;
   if (evaluations_ + 4 * splits.size() * kGenzMalikNodes > opt_.max_nodes) {
-    // Out of budget: keep the integrals as they are; every bin still above its tolerance is counted.
+    // Out of budget: keep the integrals as they are; every bin still above its tolerance is counted
+    // (and the global bound stays above its limit, which the caller sees).
     unconverged_ = 0;
-    for (std::size_t b = 0; b < leaves_.size(); ++b)
-      if (opt_.total * error_[b] > opt_.rel_tol * std::sqrt(std::max(opt_.total * integral_[b], 1.0))) ++unconverged_;
+    if (per_bin)
+      for (std::size_t b = 0; b < leaves_.size(); ++b)
+        if (opt_.total * error_[b] > opt_.rel_tol * std::sqrt(std::max(opt_.total * integral_[b], 1.0))) ++unconverged_;
     return;
   }
-  std::vector<std::vector<bool>> drop(leaves_.size());
   for (const auto& [b, k] : splits) {
     const SubCell c = sub_[b][k];
-    if (drop[b].empty()) drop[b].assign(sub_[b].size(), false);
-    drop[b][k] = true;
     const double hs = 0.5 * c.r.ws, ht = 0.5 * c.r.wt;
     for (int q = 0; q < 4; ++q)
       pending_.push_back({{c.r.s0 + (q & 1 ? hs : 0.0), c.r.t0 + (q & 2 ? ht : 0.0), hs, ht}, c.depth + 1,

@@ -43,8 +43,9 @@ def test_reference_samplers_pass(name, params):
     assert res.passed, res
     assert res.mismatches == 0 and res.lost == 0
     assert abs(res.integral - 1) <= res.integral_error + 1e-9 and res.integral_error * N < 0.1 * N**0.5, res
-    # The cubature error is far below the statistical resolution in every bin.
-    assert np.all(res.expected_error <= 0.02 * np.sqrt(np.maximum(res.expected, 1)) + 1e-12)
+    # The global cubature rule holds: the errors of all bins together move the chi-square statistic by at
+    # most 0.1 of its standard deviation (docs/math/sampling.md#cubature-error).
+    assert 0 <= res.cubature_shift <= res.cubature_limit == pytest.approx(0.1 * np.sqrt(2 * res.dof)), res
 
 
 @pytest.mark.parametrize("name,params", [REFERENCE[1], REFERENCE[3], REFERENCE[5]], ids=["ggx", "ggx_vndf",

@@ -42,7 +42,13 @@ struct BinOptions {
   int min_depth = 2;         // quadtree depth every bin reaches (16 cells at 2)
   int max_depth = 20;        // ... and never exceeds (cell side 2^-20)
   int max_sub_depth = 12;    // extra levels of integration cells inside a bin
-  double rel_tol = 0.02;     // cubature error of a bin's count must be <= rel_tol sqrt(max(expected, 1))
+  double rel_tol = 0.02;     // cubature error of a bin's count must be <= rel_tol sqrt(max(expected, 1)) (0: off)
+  // Global rule (0: off): the bound on the chi-square statistic's shift that the cubature errors of all
+  // bins together can cause (shift_bound(), docs/math/sampling.md#cubature-error) must be
+  // <= shift_tol sqrt(2 dof), dof from the bins merged as the statistic merges them (min_expected),
+  // and the total mass's error in samples <= shift_tol sqrt(total) (the lost-sample test's resolution).
+  double shift_tol = 0.0;
+  double min_expected = 5.0;
   std::size_t max_nodes = 60'000'000;  // pdf evaluations before the cubature gives up (with a note)
   double pilot_drawn = 0.0;  // points the pilot sample drew, lost ones included (0: those passed)
 };
@@ -83,6 +89,14 @@ class Bins {
   int rounds() const { return rounds_; }
   // Bins whose cubature error stayed above the tolerance (depth or node budget exhausted).
   std::size_t unconverged() const { return unconverged_; }
+  // Global rule: sum over merged bins g of (D_g + D_g^2) / E_g, E_g the expected count and D_g the
+  // cubature error in samples: a bound on how far the errors move the chi-square statistic's mean;
+  // shift_limit() = shift_tol sqrt(2 dof) (0 and 0 while the rule is off or the bins are not done).
+  double shift_bound() const { return shift_bound_; }
+  double shift_limit() const { return shift_limit_; }
+  // The total mass's cubature error in samples, N sum_b error_b, and its limit shift_tol sqrt(N).
+  double mass_error() const { return mass_error_; }
+  double mass_limit() const { return mass_limit_; }
 
   // Bin index of each point given by its square coordinates (s < 0: lost, index -1).
   void locate(const double* s, const double* t, std::size_t count, std::int64_t* bin) const;
@@ -112,6 +126,8 @@ class Bins {
                          const std::vector<double>& top);
   void start_refinement();
   void plan_refinement();
+  // shift_bound_, shift_limit_ and, per bin, the derivative of the bound in the bin's error (in samples).
+  void global_shift(std::vector<double>& weight);
   void finish_refine_round(const std::vector<double>& value, const std::vector<double>& err,
                            const std::vector<double>& top);
   std::int64_t descend(double s, double t) const;
@@ -136,6 +152,8 @@ class Bins {
   std::vector<double> integral_, error_;
   std::vector<std::vector<SubCell>> sub_;  // integration cells of each bin
   std::size_t evaluations_ = 0, unconverged_ = 0;
+  double shift_bound_ = 0.0, shift_limit_ = 0.0, mass_error_ = 0.0, mass_limit_ = 0.0;
+  std::size_t shift_met_at_ = 0;  // evaluations when the global rule's bound first met its limit
   int rounds_ = 0;
 };
 

@@ -67,6 +67,8 @@ class SamplerTestResult:
     unconverged: int
     times: dict = field(default_factory=dict)
     files: list = field(default_factory=list)
+    cubature_shift: float = 0.0
+    cubature_limit: float = float("nan")
 
     @property
     def bins(self) -> int:
@@ -83,7 +85,8 @@ class SamplerTestResult:
                 f"(chi2 = {self.statistic:.6g}, dof = {self.dof}; {self.bins} bins, {self.samples} samples), "
                 f"integral = {self.integral:.6f} +- {self.integral_error:.2g}, lost = {self.lost} "
                 f"(expected {self.lost_expected:.3g}), pdf mismatches = {self.mismatches}/{self.checked} "
-                f"(worst {self.worst_rel_diff:.2g}); {t}"
+                f"(worst {self.worst_rel_diff:.2g}), cubature shift <= {self.cubature_shift:.3g} "
+                f"(limit {self.cubature_limit:.3g}); {t}"
                 + (f"; notes: {self.note}" if self.notes else "") + ")")
 
     def summary(self) -> dict:
@@ -93,6 +96,7 @@ class SamplerTestResult:
                 "integral": self.integral, "integral_error": self.integral_error, "lost": self.lost,
                 "lost_expected": self.lost_expected, "mismatches": self.mismatches,
                 "worst_rel_diff": self.worst_rel_diff, "evaluations": self.evaluations,
+                "cubature_shift": self.cubature_shift, "cubature_limit": self.cubature_limit,
                 **{f"time_{k}": v for k, v in self.times.items()}}
 
     def write(self, out, stem: str = "sampler_test") -> list:
@@ -224,7 +228,7 @@ def _grid_edges(domain, grid):
 def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10**6, seed=0, bins="adaptive", *,
                  significance: float = 1e-3, min_expected: float = 5.0, target: float | None = None,
                  rtol: float = 1e-3, unit_tol: float = 1e-4, check_pdf: bool = True, pilot: int | None = None,
-                 chunk: int = 2**20, rel_tol: float = 0.02, max_depth: int = 16, max_evaluations: int | None = None,
+                 chunk: int = 2**20, cubature_tol: float = 0.1, rel_tol: float | None = None, max_depth: int = 16, max_evaluations: int | None = None,
                  out=None, write: str = "failure", name: str | None = None) -> SamplerTestResult:
     """Tests a direction sampler against its pdf (docs/math/sampling.md).
 
@@ -240,6 +244,10 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
     within ``unit_tol`` are lost; their expected number is what the pdf does not integrate to.
     ``rtol``: the relative difference beyond which the sampler's pdf and ``pdf`` disagree.
     ``significance``: the p-value below which the test fails (its false-failure rate).
+    ``cubature_tol``: the global cubature rule (docs/math/sampling.md#cubature-error): the integrals are
+    refined until the bound on the shift of the chi-square statistic's mean that all bins' cubature errors
+    can cause is at most ``cubature_tol`` sqrt(2 dof) (0: off); ``rel_tol`` (default off): also require
+    each bin's error to be at most ``rel_tol`` sqrt(max(expected, 1)) samples.
     Same ``seed``, same result whatever the thread count.
     """
     if pdf is None and hasattr(sample, "sample") and hasattr(sample, "pdf"):
@@ -271,6 +279,14 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
     if not unit_tol > 0:
         V.fail("unit_tol", unit_tol, "a number > 0")
     V.integer("chunk", chunk, minimum=1)
+    cubature_tol = V.real("cubature_tol", cubature_tol)
+    if not (cubature_tol >= 0 and math.isfinite(cubature_tol)):
+        V.fail("cubature_tol", cubature_tol, "a finite number >= 0")
+    rel_tol = 0.0 if rel_tol is None else V.real("rel_tol", rel_tol)
+    if not (rel_tol >= 0 and math.isfinite(rel_tol)):
+        V.fail("rel_tol", rel_tol, "a finite number >= 0 (or None)")
+    if cubature_tol == 0 and rel_tol == 0:
+        V.fail("cubature_tol", cubature_tol, "a number > 0 when rel_tol is off (the cubature needs a stopping rule)")
     if write not in ("failure", "always", "never"):
         V.fail("write", write, "'failure', 'always' or 'never'")
     if target is None:
@@ -312,12 +328,14 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
         # The pdf at the pilot points shows peaks the cubature's nodes may have stepped over.
         pq = _call_pdf(pdf, _core.sampler_from_square(domain, ps, pt), dim) if len(ps) else np.zeros(0)
         b = _core.SamplerBins(domain, float(samples), target, 2, int(max_depth), 12, float(rel_tol),
-                              int(max_evaluations), ps, pt, float(n_pilot), pq)
+                              int(max_evaluations), ps, pt, float(n_pilot), pq, shift_tol=float(cubature_tol),
+                              min_expected=float(min_expected))
         bins_kind = "adaptive"
     else:
         s_edges, t_edges = _grid_edges(domain, bins)
         t0 = time.perf_counter()
-        b = _core.SamplerBins.grid(domain, float(samples), 12, float(rel_tol), int(max_evaluations), s_edges, t_edges)
+        b = _core.SamplerBins.grid(domain, float(samples), 12, float(rel_tol), int(max_evaluations), s_edges, t_edges,
+                                   shift_tol=float(cubature_tol), min_expected=float(min_expected))
         bins_kind = f"grid {len(s_edges) - 1}x{len(t_edges) - 1}"
     # 2. Cubature: one pdf call per round of nodes.
     while not b.done:
@@ -326,6 +344,18 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
     if b.unconverged:
         notes.append(f"cubature error above {rel_tol:g} sqrt(expected) in {b.unconverged} bin(s) "
                      "(depth or evaluation budget exhausted)")
+    shift, shift_limit = float(b.shift_bound), float(b.shift_limit) if cubature_tol > 0 else math.nan
+    shift_ok = not cubature_tol > 0 or shift <= shift_limit
+    # The mass's limit is a refinement target, not a condition of validity: the lost-sample test accepts
+    # the whole range the mass's error allows, so a larger error costs power against lost samples only.
+    mass_ok = not cubature_tol > 0 or float(b.mass_error) <= float(b.mass_limit)
+    if not shift_ok:
+        notes.append(f"the cubature errors may shift the chi-square statistic by up to {shift:.3g}, above "
+                     f"{cubature_tol:g} sqrt(2 dof) = {shift_limit:.3g} (depth or evaluation budget exhausted)")
+    if not mass_ok:
+        notes.append(f"the total mass's cubature error is {b.mass_error:.3g} samples, above {cubature_tol:g} "
+                     f"sqrt(N) = {b.mass_limit:.3g} (evaluation budget exhausted): the lost-sample test cannot "
+                     "see a loss of fewer samples")
     # 3. The samples, in chunks with derived seeds; binned, and their pdfs checked.
     counts = np.zeros(b.size)
     lost_total, mismatches, checked, worst = 0.0, 0, 0, 0.0
@@ -362,7 +392,7 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
         notes.append(f"{mismatches} of {checked} sampler pdfs differ from pdf(point) by more than rtol = {rtol:g} "
                      f"(worst relative difference {worst:.3g})")
     pvalue = float(chi["pvalue"])
-    passed = bool(pvalue >= significance) and mismatches == 0 and b.unconverged == 0
+    passed = bool(pvalue >= significance) and mismatches == 0 and b.unconverged == 0 and shift_ok
     times["total"] = time.perf_counter() - t_start
     res = SamplerTestResult(
         name=name or getattr(sample, "__name__", ""), domain=domain, samples=samples, seed=key, bins_kind=bins_kind,
@@ -372,7 +402,8 @@ def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10*
         merged_starts=np.asarray(chi["starts"], dtype=np.int64), merged_observed=np.asarray(chi["observed"]),
         merged_expected=np.asarray(chi["expected"]), lost=int(lost_total), lost_expected=float(chi["lost_expected"]),
         integral=mass, integral_error=mass_err, mismatches=mismatches, checked=checked, worst_rel_diff=worst,
-        rtol=rtol, evaluations=int(b.evaluations), unconverged=int(b.unconverged), times=times)
+        rtol=rtol, evaluations=int(b.evaluations), unconverged=int(b.unconverged), times=times,
+        cubature_shift=shift, cubature_limit=shift_limit)
     if out is not None and (write == "always" or (write == "failure" and not passed)):
         res.write(out, stem=_stem(res.name))
     return res
