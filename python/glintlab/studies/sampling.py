@@ -24,6 +24,8 @@ import pandas as pd
 from ..api.glinty_ndf import glinty_ndf
 from ..api.ndf import NDF
 from ..api.samplers import WRONG_KINDS, sampler, wrong_sampler
+from ..api.shader_samplers import shader_sampler, shipped_sampler
+from ..api.shaders import vulkan_devices
 from ..validation.furnace import furnace
 from ..validation.sampler_test import plot_bins, sampler_test
 from . import sampling_lighting
@@ -31,7 +33,7 @@ from .base import Context, Tables
 
 NAME = "sampling"
 TITLE = "Direction samplers tested: chi-square on adaptive bins, lost samples, pdf consistency, furnace tests"
-MEANING = ("The reference Beckmann and GGX samplers (normals and visible normals) pass the harness and every wrong "
+MEANING = ("The reference Beckmann and GGX samplers (normals and visible normals) and the shipped GGX visible-normal shader sampler (on Vulkan, where a device exists) pass the harness and every wrong "
            "variant (alpha 2 % off, a missing Jacobian, 0.1 % of samples dropped) is rejected at the same size; "
            "adaptive bins reject lobes displaced by their own width that a fixed 30 x 60 grid passes; the smooth "
            "NDFs keep unit projected area and weak furnace; KPT25's Algorithm 2, with the compensation's part added, "
@@ -66,8 +68,13 @@ def compute(params: dict, ctx: Context) -> Tables:
     rows, failures = [], []
     bases = [sampler("beckmann", alpha=alpha), sampler("ggx", alpha=alpha),
              sampler("ggx_vndf", alpha=alpha, wo=wo), sampler("beckmann_vndf", alpha=alpha, wo=wo)]
+    if vulkan_devices():  # the shipped shader sampler, run on Vulkan (lavapipe where there is no GPU)
+        bases.append(shader_sampler(shipped_sampler("ggx_vndf"), wo=wo, defines={"ALPHA": alpha},
+                                    name="ggx_vndf.hlsl (shader)"))
     for i, base in enumerate(bases):
-        for variant in ("correct",) + WRONG_KINDS:
+        # A shader's alpha is a define fixed at compile time, so its alpha+2% variant is not built here.
+        kinds = WRONG_KINDS if "alpha" in base.params else tuple(k for k in WRONG_KINDS if k != "alpha+2%")
+        for variant in ("correct",) + kinds:
             ctx.progress(f"{base.name} {variant}")
             s = base if variant == "correct" else wrong_sampler(base, variant)
             # A pdf without its Jacobian may not be integrable (GGX's visible normals over cos theta): a
