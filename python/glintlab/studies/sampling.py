@@ -33,7 +33,8 @@ from .base import Context, Tables
 
 NAME = "sampling"
 TITLE = "Direction samplers tested: chi-square on adaptive bins, lost samples, pdf consistency, furnace tests"
-MEANING = ("The reference Beckmann and GGX samplers (normals and visible normals) and the shipped GGX visible-normal shader sampler (on Vulkan, where a device exists) pass the harness and every wrong "
+MEANING = ("The reference Beckmann and GGX samplers (normals and visible normals) and the shipped GGX visible-normal "
+           "shader sampler (on Vulkan, where a device exists) pass the harness and every wrong "
            "variant (alpha 2 % off, a missing Jacobian, 0.1 % of samples dropped) is rejected at the same size; "
            "adaptive bins reject lobes displaced by their own width that a fixed 30 x 60 grid passes; the smooth "
            "NDFs keep unit projected area and weak furnace; KPT25's Algorithm 2, with the compensation's part added, "
