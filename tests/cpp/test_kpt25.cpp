@@ -111,7 +111,7 @@ TEST_CASE("anisotropic roughness: the mean is the anisotropic D(h), and swapped 
   }
 }
 
-TEST_CASE("anisotropic glints (A_*): the mean stays D(h); the printed density is rejected", "[kpt25]") {
+TEST_CASE("anisotropic glints (A-star): the mean stays D(h), and the printed density is rejected", "[kpt25]") {
   Kpt25Params p;
   p.density = 1e4;
   p.alpha_star = 0.05;
@@ -131,7 +131,7 @@ TEST_CASE("anisotropic glints (A_*): the mean stays D(h); the printed density is
   CHECK(std::abs(z_of(pr, D)) > kZ);
 }
 
-TEST_CASE("per-facet colour: the mean colour is D(h) E[colour]; an uncoloured compensation is rejected", "[kpt25]") {
+TEST_CASE("per-facet colour: the mean colour is D(h) times the expected colour, and an uncoloured compensation is rejected", "[kpt25]") {
   // k = 1: the compensation carries much of the mean, so colouring it wrongly shows.
   Kpt25Params p;
   p.density = 1e4;
@@ -320,7 +320,7 @@ struct Surface {
 };
 }  // namespace
 
-TEST_CASE("triplanar glints: the mean is D(h) at any normal; a missing plane is rejected", "[kpt25]") {
+TEST_CASE("triplanar glints: the mean is D(h) at any normal, and a missing plane is rejected", "[kpt25]") {
   Kpt25Params p;
   p.density = 1e4;
   p.alpha_star = 0.05;

@@ -15,7 +15,7 @@
 
 using namespace glintlab;
 
-TEST_CASE("wb16 noise: texel centres, wrap, values in [0, 1)", "[wb16]") {
+TEST_CASE("wb16 noise: texel centres, wrap, values from 0 up to 1", "[wb16]") {
   const int cells[4][3] = {{3, 5, 7}, {0, 0, 0}, {127, 1, 64}, {-1, 2, 3}};
   for (const auto& c : cells) {
     float want[3], got[3], wrapped[3];

@@ -20,6 +20,7 @@ import math
 import numpy as np
 import pandas as pd
 
+from ..api import checks as V
 from ..api.glinty_ndf import glinty_ndf
 from ..api.samplers import sampler
 
@@ -153,7 +154,7 @@ def draws(nd, nd_none, uv, J, seed, wo, estimator, size, draw_seed, pdf_scale=1.
     elif estimator == "smooth_vndf":
         h, p = sampler(f"{nd.target}_vndf", alpha=nd.alpha, wo=tuple(wo)).sample(size, draw_seed)
     else:
-        raise ValueError(f"estimator: {estimator!r}; expected one of {', '.join(ESTIMATORS)}")
+        V.fail("estimator", estimator, "one of " + ", ".join(ESTIMATORS))
     ok = np.all(np.isfinite(h), axis=1) & (p > 0)
     hh = np.where(ok[:, None], h, [0.0, 0.0, 1.0])
     f = nd_none.evaluate(uvs, Js, hh, seed=seed) * weight(nd.smooth_ndf, hh, wo)
