@@ -46,7 +46,7 @@ def load_config(source=None) -> tuple[dict, str]:
 
 
 def check_type(where: str, value, default) -> None:
-    """A parameter has its default's type: bool, int, number (finite), string or list of numbers > 0."""
+    """A parameter has its default's type: bool, int, number (finite), string, or a list of the default's kind."""
     if isinstance(default, bool):
         ok, what = isinstance(value, bool), "true or false"
     elif isinstance(default, int):  # counts (positive defaults) must be >= 1; other integers (a level) any sign
@@ -57,10 +57,14 @@ def check_type(where: str, value, default) -> None:
         what = "a finite number"
     elif isinstance(default, str):
         ok, what = isinstance(value, str) and value != "", "a non-empty string"
-    else:
+    else:  # a list takes its default's kind: indices (integers >= 0), values that may be 0, or numbers > 0
+        indices = all(isinstance(x, int) and not isinstance(x, bool) for x in default)
+        zero_ok = indices or any(x == 0 for x in default)
         ok = (isinstance(value, list) and len(value) > 0 and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x > 0 for x in value))
-        what = "a non-empty list of finite numbers > 0"
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+            and (x >= 0 if zero_ok else x > 0) and (isinstance(x, int) or not indices) for x in value))
+        what = ("a non-empty list of integers >= 0" if indices else
+                "a non-empty list of finite numbers >= 0" if zero_ok else "a non-empty list of finite numbers > 0")
     if not ok:
         raise ValueError(f"{where}: expected {what}, got {render(value)}")
 
