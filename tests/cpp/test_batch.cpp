@@ -195,6 +195,8 @@ TEST_CASE("the vector per-pixel kernels hand their unsure pixels to evaluate()",
         for (int k = 0; k < 7; ++k, g = std::nextafter(g, 1.0)) gates.push_back(g);
         gates.push_back(p1 * (1 - 1e-12));
         gates.push_back(p1 * 0.5);
+        // Just outside the kernels' gate band (1e-8 absolute): decided from their own cheap P1.
+        for (double d : {-1.5e-8, 1.5e-8, -1e-7, 1e-7}) gates.push_back(p1 + d);
       }
       for (double g : gates)
         for (double t : tails) {
@@ -213,6 +215,17 @@ TEST_CASE("the vector per-pixel kernels hand their unsure pixels to evaluate()",
       p.push_back(0.01);
       u.push_back(0.5 * 1e-3);  // gated
       u.push_back(normal::cdf((j - mu) / sigma) + d);
+    }
+  // ... and in both tails at (1e6, 0.3) (sigma = 458): steps a relative 1e-9 to 1e-6 of u beside
+  // the exact thresholds, inside and outside the kernels' count band.
+  const double mu6 = (1e6 - 1) * 0.3, sigma6 = std::sqrt(mu6 * 0.7);
+  for (double zj : {-4.5, -3.0, -1.5, 1.5, 3.0, 4.5})
+    for (double d : {-1e-6, -1e-8, -1e-9, 1e-9, 1e-8, 1e-6}) {
+      const double j = std::floor(mu6 + sigma6 * zj);
+      n.push_back(1e6);
+      p.push_back(0.3);
+      u.push_back(0.5);  // gated (P1 = 1)
+      u.push_back(normal::cdf((j - mu6) / sigma6) * (1 + d));
     }
   const std::size_t m = n.size();
   std::vector<double> fast(m);
