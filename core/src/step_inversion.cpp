@@ -46,6 +46,15 @@ StepInversion::StepInversion(std::vector<double> thresholds, std::vector<double>
     for (std::size_t g = a; g <= b && g < size; ++g)
       if (cell_[g] >= 0) cell_[g] = -1 - cell_[g];
   }
+  cells_ = size;
+  // Large tables in 16 bits (counts and -1 - counts fit below 2^15 - 1 thresholds): at (1e6, 0.3)
+  // the gathers then hit L2, 2.25 -> 2.1 ns a gated sample; small ones stay in 32 bits, which
+  // spare the vector path the sign extension (0.08 ns a sample).
+  if (size >= (std::size_t{1} << 17) && t_.size() < 32767) {
+    cell16_.assign(size + 1, 0);
+    for (std::size_t g = 0; g < size; ++g) cell16_[g] = static_cast<std::int16_t>(cell_[g]);
+    std::vector<std::int32_t>().swap(cell_);
+  }
   // A void cell keeps its count as -1 - count: where search() starts.
   // A threshold on a cell's left edge belongs to that cell (t <= left counts it; the band covers
   // the cell to the left through floor(lo)), so every kept cell has one value throughout.
@@ -72,7 +81,8 @@ GLINTLAB_AVX512 inline __m512d load_column(const double* u, std::size_t k, std::
 // term and gate with the scalar code's operations (int32 -> double is exact; s * v is exact for
 // s = +-1; a masked add of 1.0 where the scalar code adds 1.0, the value kept where it adds 0.0).
 // mask[r / 8] gets the lanes whose cell is void. Returns the rows done.
-GLINTLAB_AVX512 std::size_t affine_avx512(const std::int32_t* cells, std::size_t size, double scale,
+GLINTLAB_AVX512 std::size_t affine_avx512(const std::int32_t* cells, const std::int16_t* cells16,
+                                          std::size_t size, double scale,
                                           double base, const double* u, std::size_t k, std::size_t col,
                                           std::size_t rows, const StepInversion::Affine& f, double* out,
                                           std::uint8_t* mask) {
@@ -85,7 +95,13 @@ GLINTLAB_AVX512 std::size_t affine_avx512(const std::int32_t* cells, std::size_t
     const double* row = u + r * k;
     __m256i cell = _mm512_cvttpd_epi32(_mm512_mul_pd(load_column(row, k, col), vscale));
     cell = _mm256_min_epi32(cell, last);  // u = 1 (probability 2^-53) lands in the last cell
-    const __m256i v = _mm256_i32gather_epi32(cells, cell, 4);
+    __m256i v;
+    if (cells16 != nullptr) {  // 32 bits at each 16-bit cell's address, the cell in the low half
+      v = _mm256_i32gather_epi32(reinterpret_cast<const int*>(cells16), cell, 2);
+      v = _mm256_srai_epi32(_mm256_slli_epi32(v, 16), 16);
+    } else {
+      v = _mm256_i32gather_epi32(cells, cell, 4);
+    }
     const __m512d step = _mm512_add_pd(_mm512_cvtepi32_pd(v), vbase);
     __m512d x = _mm512_add_pd(va, _mm512_mul_pd(vs, step));
     if (f.extra_col >= 0) {
@@ -119,7 +135,8 @@ void StepInversion::affine_rows(const double* u, std::size_t k, std::size_t col,
   };
   std::size_t done = 0;
   if (detail::simd_level() >= 2)
-    done = affine_avx512(cell_.data(), cell_.size(), cells_scale_, base_, u, k, col, rows, f, out, mask);
+    done = affine_avx512(cell16_.empty() ? cell_.data() : nullptr, cell16_.empty() ? nullptr : cell16_.data(),
+                         cells_, cells_scale_, base_, u, k, col, rows, f, out, mask);
   // Vector lanes on a void cell: the search of operator().
   for (std::size_t g = 0; g < done / 8; ++g)
     for (std::size_t l = 0; l < 8 && mask[g]; ++l)
@@ -135,8 +152,8 @@ double StepInversion::search(double u) const {
   // thresholds inside the cell (64 cells per mean gap between thresholds; at least 4 in any table).
   const std::size_t count = t_.size();
   std::size_t g = static_cast<std::size_t>(u * cells_scale_);
-  if (g >= cell_.size()) g = cell_.size() - 1;
-  std::size_t i = static_cast<std::size_t>(-1 - static_cast<std::int64_t>(cell_[g]));
+  if (g >= cells_) g = cells_ - 1;
+  std::size_t i = static_cast<std::size_t>(-1 - static_cast<std::int64_t>(cell(g)));
   while (i < count && t_[i] <= u) ++i;
   if (i > 0 ? (u - t_[i - 1] < guard_[i - 1]) : !exact_below_) return -1.0;
   if (i < count ? (t_[i] - u <= guard_[i]) : !exact_above_) return -1.0;

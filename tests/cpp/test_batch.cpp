@@ -63,6 +63,27 @@ TEST_CASE("step tables answer exactly or not at all", "[batch]") {
   // Far from thresholds the table answers; right beside them it declines.
   CHECK(answered >= checked * 2 / 7);
   CHECK(answered < checked);
+  // The vector path (sample_rows: AVX-512 gathers, here from the 16-bit cells of this 2^18-cell
+  // table) on the same uniforms and on Philox rows over all of (0, 1), at every SIMD level.
+  std::vector<double> u;
+  for (double j = mu - 300; j <= mu + 300; j += 1) {
+    const double t = normal::cdf((j - mu) / sd);
+    for (double x : {std::nextafter(t, 0.0), t, std::nextafter(t, 1.0), t * (1 - 1e-7), t * (1 + 1e-7)}) u.push_back(x);
+  }
+  std::vector<double> more(50'000);
+  fill_uniforms(5, kStreamSample, 0, more.size(), 1, more.data());
+  u.insert(u.end(), more.begin(), more.end());
+  std::vector<double> out(u.size());
+  struct Restore { ~Restore() { detail::set_simd_level(2); } } restore;
+  for (int level : {2, 0}) {
+    detail::set_simd_level(level);
+    table->sample_rows(u.data(), 1, 0, u.size(), StepInversion::Affine{}, out.data(),
+                       [&](const double* row) { return direct(*row); });
+    std::size_t mismatches = 0;
+    for (std::size_t i = 0; i < u.size(); ++i) mismatches += out[i] != direct(u[i]);
+    INFO("SIMD level " << detail::simd_level());
+    CHECK(mismatches == 0);
+  }
 }
 
 TEST_CASE("a step table without guard bands would be wrong (the check can fail)", "[batch]") {
@@ -195,6 +216,8 @@ TEST_CASE("the vector per-pixel kernels hand their unsure pixels to evaluate()",
         for (int k = 0; k < 7; ++k, g = std::nextafter(g, 1.0)) gates.push_back(g);
         gates.push_back(p1 * (1 - 1e-12));
         gates.push_back(p1 * 0.5);
+        // Just outside the kernels' gate band (1e-8 absolute): decided from their own cheap P1.
+        for (double d : {-1.5e-8, 1.5e-8, -1e-7, 1e-7}) gates.push_back(p1 + d);
       }
       for (double g : gates)
         for (double t : tails) {
@@ -213,6 +236,17 @@ TEST_CASE("the vector per-pixel kernels hand their unsure pixels to evaluate()",
       p.push_back(0.01);
       u.push_back(0.5 * 1e-3);  // gated
       u.push_back(normal::cdf((j - mu) / sigma) + d);
+    }
+  // ... and in both tails at (1e6, 0.3) (sigma = 458): steps a relative 1e-9 to 1e-6 of u beside
+  // the exact thresholds, inside and outside the kernels' count band.
+  const double mu6 = (1e6 - 1) * 0.3, sigma6 = std::sqrt(mu6 * 0.7);
+  for (double zj : {-4.5, -3.0, -1.5, 1.5, 3.0, 4.5})
+    for (double d : {-1e-6, -1e-8, -1e-9, 1e-9, 1e-8, 1e-6}) {
+      const double j = std::floor(mu6 + sigma6 * zj);
+      n.push_back(1e6);
+      p.push_back(0.3);
+      u.push_back(0.5);  // gated (P1 = 1)
+      u.push_back(normal::cdf((j - mu6) / sigma6) * (1 + d));
     }
   const std::size_t m = n.size();
   std::vector<double> fast(m);

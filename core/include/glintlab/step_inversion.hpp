@@ -34,8 +34,8 @@ class StepInversion {
   // The step's value, or a negative number when the caller must evaluate directly.
   double operator()(double u) const {
     std::size_t g = static_cast<std::size_t>(u * cells_scale_);
-    if (g >= cell_.size()) g = cell_.size() - 1;
-    const std::int32_t v = cell_[g];
+    if (g >= cells_) g = cells_ - 1;
+    const std::int32_t v = cell(g);
     return v >= 0 ? base_ + static_cast<double>(v) : search(u);
   }
 
@@ -79,7 +79,14 @@ class StepInversion {
   void affine_rows(const double* u, std::size_t k, std::size_t col, std::size_t rows, const Affine& f,
                    double* out, std::uint8_t* mask) const;
   std::vector<double> t_, guard_;
-  std::vector<std::int32_t> cell_;  // #{t <= u} for every u of the cell, or -1 - #{t <= left edge}: search
+  // Cell g: #{t <= u} for every u of the cell, or -1 - #{t <= left edge} (search). In 16 bits for a
+  // table of 2^17 cells or more with fewer than 2^15 - 1 thresholds (cell16_, one spare element: the
+  // vector path gathers 32 bits at each cell's address), so that 2^18 cells take 512 KiB and stay in
+  // a core's L2 cache; else in cell_.
+  std::int32_t cell(std::size_t g) const { return cell16_.empty() ? cell_[g] : cell16_[g]; }
+  std::vector<std::int32_t> cell_;
+  std::vector<std::int16_t> cell16_;
+  std::size_t cells_ = 0;
   double cells_scale_;
   double base_;
   bool exact_below_, exact_above_;
