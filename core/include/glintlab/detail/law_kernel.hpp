@@ -184,10 +184,11 @@ class KernelLaw : public TemplatedLaw<Derived>, public LawKernel {
     if constexpr (requires(const Derived& d) { d.table(n, p, rows); }) {
       if (rows >= kTabulateMinBatch) {
         if (auto t = self().table(n, p, rows)) {
-          return make_fixed_evaluator([this, n, p, k, t = std::move(*t)](const double* u, std::size_t count, double* out) {
-            t.steps.sample_rows(u, k, t.col, count, t.f, out,
-                                [&](const double* row) { return self().template eval<double>(n, p, row); });
-          });
+          return make_fixed_evaluator(
+              [this, n, p, k, rt = std::move(*t)](const double* u, std::size_t count, double* out) {
+                rt.steps.sample_rows(u, k, rt.col, count, rt.f, out,
+                                     [&](const double* row) { return self().template eval<double>(n, p, row); });
+              });
         }
       }
     }
