@@ -1,7 +1,9 @@
 // A counting law: a rule producing the count K of reflecting facets from (n, p) and a few uniform
-// random numbers. Each law is one small unit in core/laws/<name>.cpp (evaluate, sample, exact
-// distribution when one exists, a doc string) that registers itself by name; nothing else in the
-// code base switches on law names.
+// random numbers. Each law is one small unit in core/laws/<name>.cpp (evaluate, exact distribution
+// when one exists, traits, a doc string) that registers itself by name; nothing else in the code
+// base switches on law names. CountingLaw holds only what defines a law; its optional fast paths
+// (batches, pixels, step tables, an exact law's own sampler) sit behind one kernel interface,
+// detail::LawKernel (detail/law_kernel.hpp), each bit for bit what the definition gives.
 #pragma once
 
 #include <cstddef>
