@@ -17,6 +17,7 @@
 #include "glintlab/binomial.hpp"
 #include "glintlab/blend.hpp"
 #include "glintlab/chi2.hpp"
+#include "glintlab/detail/uniform_rows.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/law.hpp"
 #include "glintlab/metrics.hpp"

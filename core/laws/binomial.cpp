@@ -4,6 +4,7 @@
 // which is 10-100x cheaper than CDF inversion for large n.
 #include "glintlab/binomial.hpp"
 
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/law.hpp"
 
 #include <algorithm>
@@ -13,8 +14,11 @@
 namespace glintlab {
 namespace {
 
-class BinomialLaw final : public CountingLaw {
+// Its own kernel: the fixed evaluator's table, and its own sampler (BTRD / inversion, not evaluate()).
+class BinomialLaw final : public CountingLaw, public detail::LawKernel {
  public:
+  BinomialLaw() : detail::LawKernel(static_cast<const CountingLaw&>(*this)) {}
+  const detail::LawKernel* kernel() const override { return this; }
   std::string name() const override { return "binomial"; }
   int n_uniforms() const override { return 1; }
   double evaluate(double n, double p, const double* u) const override {
@@ -22,10 +26,10 @@ class BinomialLaw final : public CountingLaw {
   }
   // Many rows at one (n, p) on given uniforms (a blend's level at one footprint area): quantile on a
   // table of the distribution functions it compares against (binomial::QuantileTable), bit for bit.
-  std::unique_ptr<FixedEvaluator> fixed_evaluator(double n, double p, std::size_t rows) const override {
+  std::unique_ptr<detail::FixedEvaluator> fixed_evaluator(double n, double p, std::size_t rows) const override {
     auto table = std::make_shared<const binomial::QuantileTable>(n, p, rows);
-    if (!table->tabulated()) return CountingLaw::fixed_evaluator(n, p, rows);
-    return make_fixed_evaluator([table](const double* u, std::size_t count, double* out) {
+    if (!table->tabulated()) return detail::LawKernel::fixed_evaluator(n, p, rows);
+    return detail::make_fixed_evaluator([table](const double* u, std::size_t count, double* out) {
       for (std::size_t r = 0; r < count; ++r) out[r] = (*table)(u[r]);
     });
   }
@@ -39,7 +43,7 @@ class BinomialLaw final : public CountingLaw {
   }
   // Long batches: one sampler for the whole call (shared by the threads), with BTRD's final test
   // values tabulated when the batch is at least 16 times longer than the table.
-  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
+  std::unique_ptr<detail::BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
     binomial::Sampler sampler(n, p, /*tabulate=*/true);
     sampler.tabulate_log_ratios(count / 16);
     return std::make_unique<Batch>(std::move(sampler));
@@ -69,7 +73,7 @@ class BinomialLaw final : public CountingLaw {
     }
   }
 
-  class Batch final : public BatchSampler {
+  class Batch final : public detail::BatchSampler {
    public:
     explicit Batch(binomial::Sampler sampler) : sampler_(std::move(sampler)) {}
     void sample_range(std::uint64_t seed, std::size_t i0, std::size_t i1, double* out) const override {

@@ -33,7 +33,7 @@
 
 #include "glintlab/errors.hpp"
 #include "glintlab/normal.hpp"
-#include "glintlab/templated_law.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 
 namespace glintlab {
 namespace {
@@ -60,12 +60,13 @@ struct Gates {
   }
 };
 
-class DualGatedLaw final : public TemplatedLaw<DualGatedLaw> {
+class DualGatedLaw final : public detail::KernelLaw<DualGatedLaw> {
  public:
   std::string name() const override { return "dual_gated"; }
   int n_uniforms() const override { return 2; }
 
-  // The per-(n, p) constants (gates, central Gaussian), computed once per batch.
+  // The per-(n, p) constants (gates, central Gaussian), computed once per batch (detail::KernelLaw:
+  // eval is Constants(n, p)(u)).
   template <class T>
   struct Constants {
     Gates<T> g;
@@ -88,15 +89,10 @@ class DualGatedLaw final : public TemplatedLaw<DualGatedLaw> {
   };
 
   template <class T>
-  T eval(T n, T p, const T* u) const {
-    return Constants<T>(n, p)(u);
+  Constants<T> constants(T n, T p) const {
+    return Constants<T>(n, p);
   }
 
-  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t) const override {
-    return make_row_batch_sampler(2, Constants<double>(n, p));
-  }
-
-  std::string binning() const override { return "round"; }
   bool has_pmf() const override { return true; }
   Distribution pmf(double n, double p, std::size_t max_support) const override {
     const Gates<double> g(n, p);

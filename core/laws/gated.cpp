@@ -16,7 +16,7 @@
 
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
-#include "glintlab/templated_law.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "../src/pixel_blocks.hpp"
 #include "../src/simd_math.hpp"
 
@@ -41,9 +41,11 @@ struct GatedConstants {
     const T j = std::floor(g);
     return j < T(0) ? T(0) : (j > top ? top : j);
   }
+  // K from (theta0, theta1): eval's expression on constants computed once.
+  T operator()(const T* u) const { return u[0] < p1 ? T(1) + gaussian_count(u[1]) : T(0); }
 };
 
-class GatedLaw final : public TemplatedLaw<GatedLaw> {
+class GatedLaw final : public detail::KernelLaw<GatedLaw> {
  public:
   std::string name() const override { return "gated"; }
   int n_uniforms() const override { return 2; }
@@ -55,10 +57,10 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
     return T(1) + c.gaussian_count(u[1]);
   }
 
-  void evaluate_rows(double n, double p, const double* u, std::size_t rows, double* out) const override {
-    const GatedConstants<double> c(n, p);
-    for (std::size_t r = 0; r < rows; ++r)
-      out[r] = u[2 * r] < c.p1 ? 1 + c.gaussian_count(u[2 * r + 1]) : 0.0;
+  // Rows at one (n, p): the constants once (detail::KernelLaw), or the table below.
+  template <class T>
+  GatedConstants<T> constants(T n, T p) const {
+    return GatedConstants<T>(n, p);
   }
 
   // Pixels with their own (n, p): log1p, expm1 and the quantile's log by SLEEF over the block, the
@@ -123,39 +125,18 @@ class GatedLaw final : public TemplatedLaw<GatedLaw> {
     }
   }
 
-  // Many rows at one (n, p) on given uniforms (a blend's level at one footprint area): the batch's
-  // StepInversion on those rows, the same values as eval (the table's construction guarantees it).
-  std::unique_ptr<FixedEvaluator> fixed_evaluator(double n, double p, std::size_t rows) const override {
+  // Many rows at one (n, p) (a batch, a blend's level at one footprint area): the Gaussian count by
+  // table inversion, the table lookups as vector gathers and the gate as a select; the same values
+  // as eval (the table's construction guarantees it).
+  std::optional<detail::RowTable> table(double n, double p, std::size_t rows) const {
     const GatedConstants<double> c(n, p);
-    auto steps = rows >= kTabulateMinBatch
-                     ? floor_gaussian_steps(c.mu, c.sigma, 0.0, c.top, std::max<std::size_t>(rows / 4, 64))
-                     : std::nullopt;
-    if (!steps) return CountingLaw::fixed_evaluator(n, p, rows);
+    auto steps = floor_gaussian_steps(c.mu, c.sigma, 0.0, c.top, std::max<std::size_t>(rows / 4, 64));
+    if (!steps) return std::nullopt;
     StepInversion::Affine f;
     f.a = 1;
     f.gate_col = 0;
     f.gate_below = c.p1;
-    return make_fixed_evaluator([this, n, p, f, table = std::move(*steps)](const double* u, std::size_t count,
-                                                                             double* out) {
-      table.sample_rows(u, 2, 1, count, f, out, [&](const double* row) { return eval<double>(n, p, row); });
-    });
-  }
-
-  // A batch at one (n, p): constants once, and the Gaussian count by table inversion.
-  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
-    const GatedConstants<double> c(n, p);
-    auto steps = floor_gaussian_steps(c.mu, c.sigma, 0.0, c.top, std::max<std::size_t>(count / 4, 64));
-    if (!steps) return make_row_batch_sampler(2, [c](const double* u) {
-      return u[0] < c.p1 ? 1 + c.gaussian_count(u[1]) : 0.0;
-    });
-    // Per block of rows: the table lookups as vector gathers, the gate as a select.
-    StepInversion::Affine f;
-    f.a = 1;
-    f.gate_col = 0;
-    f.gate_below = c.p1;
-    return make_block_batch_sampler(2, [this, n, p, f, table = std::move(*steps)](const double* u, std::size_t rows, double* out) {
-      table.sample_rows(u, 2, 1, rows, f, out, [&](const double* row) { return eval<double>(n, p, row); });
-    });
+    return detail::RowTable{std::move(*steps), f, 1};
   }
 
   bool has_pmf() const override { return true; }

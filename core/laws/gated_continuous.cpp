@@ -15,12 +15,12 @@
 #include <cmath>
 
 #include "glintlab/normal.hpp"
-#include "glintlab/templated_law.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 
 namespace glintlab {
 namespace {
 
-class GatedContinuousLaw final : public TemplatedLaw<GatedContinuousLaw> {
+class GatedContinuousLaw final : public detail::KernelLaw<GatedContinuousLaw> {
  public:
   std::string name() const override { return "gated_continuous"; }
   int n_uniforms() const override { return 2; }
@@ -30,7 +30,8 @@ class GatedContinuousLaw final : public TemplatedLaw<GatedContinuousLaw> {
     return n < T(1) ? n * p : -std::expm1(n * std::log1p(-p));
   }
 
-  // The per-(n, p) constants, so that a batch computes them once (same expressions as eval).
+  // The per-(n, p) constants, so that a batch computes them once (detail::KernelLaw: eval is
+  // Constants(n, p)(u)).
   template <class T>
   struct Constants {
     T p1, m, a, s;
@@ -47,15 +48,10 @@ class GatedContinuousLaw final : public TemplatedLaw<GatedContinuousLaw> {
   };
 
   template <class T>
-  T eval(T n, T p, const T* u) const {
-    return Constants<T>(n, p)(u);
+  Constants<T> constants(T n, T p) const {
+    return Constants<T>(n, p);
   }
 
-  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t) const override {
-    return make_row_batch_sampler(2, Constants<double>(n, p));
-  }
-
-  std::string binning() const override { return "round"; }
   bool has_pmf() const override { return true; }
   Distribution pmf(double n, double p, std::size_t max_support) const override {
     const double p1 = gate_probability(n, p);

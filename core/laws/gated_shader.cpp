@@ -153,7 +153,6 @@ class GatedShaderLaw final : public TemplatedLaw<GatedShaderLaw> {
     return static_cast<T>(par.gate(theta0) * (1.0f + par.gauss(z)));
   }
 
-  std::string binning() const override { return "round"; }
   bool has_pmf() const override { return true; }
   Distribution pmf(double n, double p, std::size_t max_support) const override {
     const Parameters par(static_cast<float>(n), static_cast<float>(p));

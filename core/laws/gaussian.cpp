@@ -11,37 +11,44 @@
 
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
-#include "glintlab/templated_law.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 
 namespace glintlab {
 namespace {
 
-class GaussianLaw final : public TemplatedLaw<GaussianLaw> {
+class GaussianLaw final : public detail::KernelLaw<GaussianLaw> {
  public:
   explicit GaussianLaw(bool round) : round_(round) {}
   std::string name() const override { return "gaussian"; }
   LawParams params() const override { return {{"rounding", std::string(round_ ? "round" : "floor")}}; }
   int n_uniforms() const override { return 1; }
 
+  // The per-(n, p) constants, then the row (detail::KernelLaw: eval is Constants(n, p)(u)).
   template <class T>
-  T eval(T n, T p, const T* u) const {
-    const T mean = n * p, sd = std::sqrt(mean * (T(1) - p));
-    const T top = std::ceil(n);
-    // sd = 0 would make 0 * (+-inf) = NaN at u in {0, 1}: the law is then the point n p.
-    const T g = sd > T(0) ? mean + sd * normal::quantile(u[0]) : mean;
-    const T k = round_ ? std::floor(g + T(0.5)) : std::floor(g);
-    return k < T(0) ? T(0) : (k > top ? top : k);  // clamp; +-inf map to the ends
+  struct Constants {
+    T mean, sd, top;
+    bool round;
+    Constants(T n, T p, bool round_half_up) : mean(n * p), sd(std::sqrt(mean * (T(1) - p))), top(std::ceil(n)),
+                                               round(round_half_up) {}
+    T operator()(const T* u) const {
+      // sd = 0 would make 0 * (+-inf) = NaN at u in {0, 1}: the law is then the point n p.
+      const T g = sd > T(0) ? mean + sd * normal::quantile(u[0]) : mean;
+      const T k = round ? std::floor(g + T(0.5)) : std::floor(g);
+      return k < T(0) ? T(0) : (k > top ? top : k);  // clamp; +-inf map to the ends
+    }
+  };
+  template <class T>
+  Constants<T> constants(T n, T p) const {
+    return Constants<T>(n, p, round_);
   }
 
-  // A batch at one (n, p): the count by table inversion (bit-identical to eval; see step_inversion).
-  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
+  // Many rows at one (n, p): the count by table inversion (bit-identical to eval; see step_inversion).
+  std::optional<detail::RowTable> table(double n, double p, std::size_t rows) const {
     const double mean = n * p, sd = std::sqrt(mean * (1.0 - p));
     auto steps = floor_gaussian_steps(mean, sd, round_ ? 0.5 : 0.0, std::ceil(n),
-                                      std::max<std::size_t>(count / 4, 64));
-    if (!steps) return nullptr;
-    return make_block_batch_sampler(1, [this, n, p, table = std::move(*steps)](const double* u, std::size_t rows, double* out) {
-      table.sample_rows(u, 1, 0, rows, StepInversion::Affine{}, out, [&](const double* row) { return eval<double>(n, p, row); });
-    });
+                                      std::max<std::size_t>(rows / 4, 64));
+    if (!steps) return std::nullopt;
+    return detail::RowTable{std::move(*steps), {}, 0};
   }
 
   bool has_pmf() const override { return true; }

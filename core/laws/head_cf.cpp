@@ -22,7 +22,7 @@
 #include "glintlab/errors.hpp"
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
-#include "glintlab/templated_law.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "../src/pixel_blocks.hpp"
 #include "../src/simd_math.hpp"
 
@@ -80,36 +80,45 @@ struct HeadCfCdf {
   }
 };
 
-class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
+class HeadCfLaw final : public detail::KernelLaw<HeadCfLaw> {
  public:
   std::string name() const override { return "head_cf"; }
   int n_uniforms() const override { return 2; }
 
+  // The per-(n, p) constants (the head), then the row (detail::KernelLaw: eval is Constants(n, p)(u)).
   template <class T>
-  T eval(T n, T p, const T* u) const {
-    const Head<T> h(n, p);
-    T y;
-    if (u[0] <= h.f0) y = T(0);
-    else if (u[0] <= h.f1) y = T(1);
-    else if (u[0] <= h.f2) y = T(2);
-    else {
-      const T mu = h.m * h.pt, sd = std::sqrt(mu * (T(1) - h.pt));
-      if (sd > T(0)) {
-        const T g = (T(1) - T(2) * h.pt) / sd;
-        T z = normal::quantile(u[0]);
-        if (g > T(0) && z < T(-3) / g) z = T(-3) / g;  // stay on the increasing branch
-        // g = 0 (p = 1/2): no correction (and no 0 * inf at u = 1).
-        const T cf = g > T(0) ? z + g * (z * z - T(1)) / T(6) : z;
-        y = std::ceil(mu + sd * cf - T(0.5));
-      } else {
-        y = mu;
+  struct Constants {
+    Head<T> h;
+    T n, p;
+    Constants(T n_, T p_) : h(n_, p_), n(n_), p(p_) {}
+    T operator()(const T* u) const {
+      T y;
+      if (u[0] <= h.f0) y = T(0);
+      else if (u[0] <= h.f1) y = T(1);
+      else if (u[0] <= h.f2) y = T(2);
+      else {
+        const T mu = h.m * h.pt, sd = std::sqrt(mu * (T(1) - h.pt));
+        if (sd > T(0)) {
+          const T g = (T(1) - T(2) * h.pt) / sd;
+          T z = normal::quantile(u[0]);
+          if (g > T(0) && z < T(-3) / g) z = T(-3) / g;  // stay on the increasing branch
+          // g = 0 (p = 1/2): no correction (and no 0 * inf at u = 1).
+          const T cf = g > T(0) ? z + g * (z * z - T(1)) / T(6) : z;
+          y = std::ceil(mu + sd * cf - T(0.5));
+        } else {
+          y = mu;
+        }
+        y = y < T(3) ? T(3) : y;
       }
-      y = y < T(3) ? T(3) : y;
+      y = y > h.m ? h.m : y;
+      const T whole = p <= T(0.5) ? y : h.m - y;
+      const T frac_p = (n - h.m) * p;  // the stratified rule's fractional facet
+      return whole + (u[1] < frac_p ? T(1) : T(0));
     }
-    y = y > h.m ? h.m : y;
-    const T whole = p <= T(0.5) ? y : h.m - y;
-    const T frac_p = (n - h.m) * p;  // the stratified rule's fractional facet
-    return whole + (u[1] < frac_p ? T(1) : T(0));
+  };
+  template <class T>
+  Constants<T> constants(T n, T p) const {
+    return Constants<T>(n, p);
   }
 
   // Pixels with their own (n, p): log1p and exp of the head and the quantile's log by SLEEF over the
@@ -190,14 +199,14 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
     }
   }
 
-  // A batch at one (n, p): Y by table inversion of its exact CDF (the thresholds pmf() uses), with
+  // Many rows at one (n, p): Y by table inversion of its exact CDF (the thresholds pmf() uses), with
   // guard bands so that every answer equals eval's; the fractional facet as in eval.
-  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const override {
+  std::optional<detail::RowTable> table(double n, double p, std::size_t rows) const {
     const HeadCfCdf cdf(n, p);
     const auto [lo, hi] = cdf.reach();
-    if (hi - lo > static_cast<double>(std::max<std::size_t>(count / 4, 64)) || hi - lo > (1 << 16) ||
+    if (hi - lo > static_cast<double>(std::max<std::size_t>(rows / 4, 64)) || hi - lo > (1 << 16) ||
         hi >= 0x1p53)  // k += 1 below would stop advancing
-      return nullptr;
+      return std::nullopt;
     std::vector<double> t, guard;
     const double g = cdf.sd > 0 ? (1 - 2 * cdf.h.pt) / cdf.sd : 0.0;
     double covered = 0;
@@ -214,19 +223,17 @@ class HeadCfLaw final : public TemplatedLaw<HeadCfLaw> {
       guard.push_back(band);
       covered += 2 * band;
     }
-    if (covered > 1e-3) return nullptr;
+    if (covered > 1e-3) return std::nullopt;
     const bool flip = p > 0.5;
     const double m = cdf.m, frac_p = (n - m) * p;
-    StepInversion table(std::move(t), std::move(guard), lo, lo == 0, hi == m);
+    StepInversion steps(std::move(t), std::move(guard), lo, lo == 0, hi == m);
     // eval's (flip ? m - y : y) + [u1 < frac_p] as the table's affine map (s = -1: m + (-y) = m - y).
     StepInversion::Affine f;
     f.a = flip ? m : 0.0;
     f.s = flip ? -1.0 : 1.0;
     f.extra_col = 1;
     f.extra_below = frac_p;
-    return make_block_batch_sampler(2, [this, n, p, f, table = std::move(table)](const double* u, std::size_t rows, double* out) {
-      table.sample_rows(u, 2, 0, rows, f, out, [&](const double* row) { return eval<double>(n, p, row); });
-    });
+    return detail::RowTable{std::move(steps), f, 0};
   }
 
   bool has_pmf() const override { return true; }

@@ -1,13 +1,17 @@
 // Law "poisson": the count of a Poisson facet layout of intensity N in a footprint holding n = N P
 // facets on average, K ~ Poisson(n p) (docs/math/ground_truth.md#gt-poisson). Any real n >= 0 is natural here.
 #include "glintlab/binomial.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/law.hpp"
 
 namespace glintlab {
 namespace {
 
-class PoissonLaw final : public CountingLaw {
+// Its own kernel: its own sampler (poisson::Sampler on the sample's stream, not evaluate()).
+class PoissonLaw final : public CountingLaw, public detail::LawKernel {
  public:
+  PoissonLaw() : detail::LawKernel(static_cast<const CountingLaw&>(*this)) {}
+  const detail::LawKernel* kernel() const override { return this; }
   std::string name() const override { return "poisson"; }
   int n_uniforms() const override { return 1; }
   double evaluate(double n, double p, const double* u) const override {

@@ -89,7 +89,9 @@ const bool registered = register_law(
       .bounds = {{.regime = {{"np_range", {0, kDefaultThreshold}}},
                   .metrics = {"tv"},
                   .reason = "n p <= T: the exact binomial"},
-                 {.metrics = {"mean_rel_err"}, .reason = "the mean n p is exact everywhere"}}}});
+                 {.metrics = {"mean_rel_err"}, .reason = "the mean n p is exact everywhere"}},
+      // The mean n p is a point mass of the exact law, compared as it is (not rounded to a count).
+      .bin_real = false}});
 
 }  // namespace
 }  // namespace glintlab

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "binomial_simd.hpp"
+#include "glintlab/detail/uniform_rows.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/law.hpp"
 #include "glintlab/special.hpp"

@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "glintlab/binomial.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
 #include "parallel.hpp"
 
@@ -75,13 +76,13 @@ std::array<double, 2> snap_trials(std::array<double, 2> t) {
 // call; a few entries, the oldest replaced.
 class FixedEvaluatorCache {
  public:
-  std::shared_ptr<const FixedEvaluator> get(const InnerLaw& inner, double n, double p, std::size_t rows) {
+  std::shared_ptr<const detail::FixedEvaluator> get(const InnerLaw& inner, double n, double p, std::size_t rows) {
     {
       const std::lock_guard<std::mutex> lock(mutex_);
       for (const auto& e : entries_)
         if (e.n == n && e.p == p) return e.evaluator;
     }
-    std::shared_ptr<const FixedEvaluator> made = inner.fixed_evaluator(n, p, rows);
+    std::shared_ptr<const detail::FixedEvaluator> made = inner.fixed_evaluator(n, p, rows);
     const std::lock_guard<std::mutex> lock(mutex_);
     if (entries_.size() < kEntries) entries_.push_back({n, p, made});
     else entries_[next_++ % kEntries] = {n, p, made};
@@ -92,7 +93,7 @@ class FixedEvaluatorCache {
   static constexpr std::size_t kEntries = 8;
   struct Entry {
     double n, p;
-    std::shared_ptr<const FixedEvaluator> evaluator;
+    std::shared_ptr<const detail::FixedEvaluator> evaluator;
   };
   std::mutex mutex_;
   std::vector<Entry> entries_;
@@ -174,9 +175,11 @@ InnerLaw InnerLaw::from_law(std::shared_ptr<const CountingLaw> law) {
   const CountingLaw* raw = law.get();
   // The law's per-pixel path (vector code where the law has one; bit-identical to evaluate()).
   inner.evaluate = [raw](const double* n, const double* p, const double* u, std::size_t m, double* out) {
-    raw->evaluate_pixels(n, p, u, m, out);
+    detail::KernelOf(*raw)->evaluate_pixels(n, p, u, m, out);
   };
-  inner.fixed_evaluator = [raw](double n, double p, std::size_t rows) { return raw->fixed_evaluator(n, p, rows); };
+  inner.fixed_evaluator = [raw](double n, double p, std::size_t rows) {
+    return detail::KernelOf(*raw)->fixed_evaluator(n, p, rows);
+  };
   inner.law = std::move(law);
   return inner;
 }
@@ -418,7 +421,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   if (area.size == 1 && p.size == 1) {
     const LevelBracket b = ladder_.bracket(area[0]);
     const auto trials = snap_trials(rule_->trials(density, area[0], b));
-    std::unique_ptr<FixedEvaluator> evaluators[2];
+    std::unique_ptr<detail::FixedEvaluator> evaluators[2];
     for (int j = 0; j < 2; ++j)
       if (trials[j] > 0 && inner_.fixed_evaluator) evaluators[j] = inner_.fixed_evaluator(trials[j], p[0], count);
     auto chunk_body = [&](std::size_t i0, std::size_t i1) {

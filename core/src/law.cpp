@@ -10,6 +10,7 @@
 #include <exception>
 #include <stdexcept>
 
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
 #include "parallel.hpp"
 
@@ -96,23 +97,38 @@ std::size_t count_equal_neighbours(ParamArray n, ParamArray p, std::size_t a, st
 
 }  // namespace
 
-void CountingLaw::sample_range(double n, double p, std::uint64_t seed, std::size_t i0,
-                               std::size_t i1, double* out) const {
+namespace detail {
+
+std::unique_ptr<FixedEvaluator> LawKernel::fixed_evaluator(double n, double p, std::size_t) const {
+  return make_fixed_evaluator([&law = law(), n, p](const double* u, std::size_t rows, double* out) {
+    const auto k = static_cast<std::size_t>(law.n_uniforms());
+    for (std::size_t r = 0; r < rows; ++r) out[r] = law.evaluate(n, p, u + r * k);
+  });
+}
+
+void LawKernel::evaluate_pixels(const double* n, const double* p, const double* u, std::size_t count,
+                                double* out) const {
+  const auto k = static_cast<std::size_t>(law().n_uniforms());
+  for (std::size_t i = 0; i < count; ++i) out[i] = law().evaluate(n[i], p[i], u + i * k);
+}
+
+void LawKernel::sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
+                             double* out) const {
   // The uniforms of fill_uniforms (the vectorized Philox), a block of rows at a time.
-  const int k = n_uniforms();
+  const int k = law().n_uniforms();
   const std::size_t kk = static_cast<std::size_t>(k);
   constexpr std::size_t kRows = 256;
   std::vector<double> u(kRows * std::max<std::size_t>(kk, 1));
   for (std::size_t b0 = i0; b0 < i1; b0 += kRows) {
     const std::size_t rows = std::min(kRows, i1 - b0);
-    if (k > 0) detail::philox_uniform_rows(seed, kStreamSample, b0, rows, k, u.data());
-    for (std::size_t r = 0; r < rows; ++r) out[b0 - i0 + r] = evaluate(n, p, u.data() + r * kk);
+    if (k > 0) philox_uniform_rows(seed, kStreamSample, b0, rows, k, u.data());
+    for (std::size_t r = 0; r < rows; ++r) out[b0 - i0 + r] = law().evaluate(n, p, u.data() + r * kk);
   }
 }
 
-void CountingLaw::sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start,
-                                std::size_t count, double* out) const {
-  const std::size_t k = static_cast<std::size_t>(n_uniforms());
+void LawKernel::sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start,
+                              std::size_t count, double* out) const {
+  const std::size_t k = static_cast<std::size_t>(law().n_uniforms());
   if (!samples_by_evaluate() || k == 0) {
     for (std::size_t r = 0; r < count; ++r) sample_range(n[r], p[r], seed, start + r, start + r + 1, out + r);
     return;
@@ -121,14 +137,21 @@ void CountingLaw::sample_pixels(const double* n, const double* p, std::uint64_t 
   std::vector<double> u(kRows * k);
   for (std::size_t b = 0; b < count; b += kRows) {
     const std::size_t rows = std::min(kRows, count - b);
-    detail::philox_uniform_rows(seed, kStreamSample, start + b, rows, static_cast<int>(k), u.data());
+    philox_uniform_rows(seed, kStreamSample, start + b, rows, static_cast<int>(k), u.data());
     evaluate_pixels(n + b, p + b, u.data(), rows, out + b);
   }
 }
 
-std::unique_ptr<BatchSampler> CountingLaw::batch_sampler(double, double, std::size_t) const {
-  return nullptr;
+std::unique_ptr<BatchSampler> LawKernel::batch_sampler(double n, double p, std::size_t count) const {
+  const int k = law().n_uniforms();
+  if (!samples_by_evaluate() || k < 1 || k > 4) return nullptr;
+  // The fixed evaluator on blocks of the batch's rows: the same values as sample_range's evaluate().
+  return make_block_batch_sampler(
+      k, [fixed = std::shared_ptr<const FixedEvaluator>(fixed_evaluator(n, p, count))](
+             const double* u, std::size_t rows, double* out) { fixed->evaluate(u, rows, out); });
 }
+
+}  // namespace detail
 
 double CountingLaw::evaluate_f32(double, double, const double*) const {
   throw_invalid(name(), "precision", "'float32'", "'float64' (this law is defined in float64 only)");
@@ -182,6 +205,12 @@ void CountingLaw::validate(double n, double p, std::size_t index, bool is_array)
                               ") is outside the law's domain");
 }
 
+void CountingLaw::apply_traits(const LawTraits& traits) {
+  max_n_ = traits.domain.max_n;
+  domain_note_ = traits.domain.note;
+  binning_ = traits.binning();
+}
+
 Registry<LawInfo>& law_registry() {
   static Registry<LawInfo> laws("law");
   return laws;
@@ -191,7 +220,7 @@ bool register_law(LawInfo info) { return law_registry().add(std::move(info)); }
 
 std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params) {
   std::unique_ptr<CountingLaw> law = law_registry().make(name, params);
-  law->set_domain(law_registry().find(name).traits.domain);  // enforced by accepts() at every entry point
+  law->apply_traits(law_registry().find(name).traits);  // the domain is enforced by accepts() at every entry point
   return law;
 }
 
@@ -268,13 +297,14 @@ void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t
                  std::uint64_t seed, double* out, Precision precision) {
   require_precision(law, precision);
   validate_all(law, n, p, count);
+  const detail::KernelOf kernel(law);
   const auto range = [&](double nn, double pp, std::size_t i0, std::size_t i1, double* o) {
     if (precision == Precision::kFloat32) sample_range_f32(law, nn, pp, seed, i0, i1, o);
-    else law.sample_range(nn, pp, seed, i0, i1, o);
+    else kernel->sample_range(nn, pp, seed, i0, i1, o);
   };
   if (n.size == 1 && p.size == 1) {
     if (precision == Precision::kFloat64 && count >= kTabulateMinBatch) {
-      if (const auto batch = law.batch_sampler(n[0], p[0], count)) {
+      if (const auto batch = kernel->batch_sampler(n[0], p[0], count)) {
         parallel_chunks(count, [&](std::size_t i0, std::size_t i1) { batch->sample_range(seed, i0, i1, out + i0); });
         return;
       }
@@ -302,7 +332,7 @@ void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t
           }
           if (!n_array) std::fill(nb.begin(), nb.begin() + rows, n.data[0]);
           if (!p_array) std::fill(pb.begin(), pb.begin() + rows, p.data[0]);
-          law.sample_pixels(n_array ? n.data + s : nb.data(), p_array ? p.data + s : pb.data(), seed, s, rows, out + s);
+          kernel->sample_pixels(n_array ? n.data + s : nb.data(), p_array ? p.data + s : pb.data(), seed, s, rows, out + s);
         }
       };
       for (std::size_t i = i0; i < i1;) {

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <cstddef>
 
-#include "glintlab/law.hpp"  // detail::simd_level
+#include "glintlab/detail/uniform_rows.hpp"  // detail::simd_level
 #include "simd_math.hpp"
 
 namespace glintlab::detail {

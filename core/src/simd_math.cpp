@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "glintlab/law.hpp"
+#include "glintlab/detail/uniform_rows.hpp"
 
 namespace glintlab::detail {
 

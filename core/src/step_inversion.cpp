@@ -7,7 +7,7 @@
 
 #include <immintrin.h>
 
-#include "glintlab/law.hpp"
+#include "glintlab/detail/uniform_rows.hpp"
 #include "glintlab/normal.hpp"
 
 // GCC 12's AVX-512 intrinsics start from an undefined vector and trip -Wmaybe-uninitialized.

@@ -18,6 +18,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "glintlab/detail/uniform_rows.hpp"
 #include "glintlab/errors.hpp"
 
 namespace glintlab::detail {

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "glintlab/binomial.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/law.hpp"
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
@@ -28,11 +29,12 @@ TEST_CASE("batch samplers equal per-sample evaluation, bit for bit", "[law][batc
     for (const auto& [n, p] : points) {
       if (!law->accepts(n, p)) continue;
       sample_many(*law, {&n, 1}, {&p, 1}, count, 42, batch.data());
-      law->CountingLaw::sample_range(n, p, 42, 0, count, direct.data());
+      detail::LawKernel(*law).sample_range(n, p, 42, 0, count, direct.data());
       // Laws with their own sampler (the exact binomial's batch tabulates BTRD's final test) are
       // compared with their own sample_range.
-      if (law->batch_sampler(n, p, count) == nullptr || !law->samples_by_evaluate())
-        law->sample_range(n, p, 42, 0, count, direct.data());
+      const detail::KernelOf kernel(*law);
+      if (kernel->batch_sampler(n, p, count) == nullptr || !kernel->samples_by_evaluate())
+        kernel->sample_range(n, p, 42, 0, count, direct.data());
       std::size_t mismatches = 0;
       for (std::size_t i = 0; i < count; ++i) mismatches += batch[i] != direct[i];
       INFO(info.name << " n = " << n << " p = " << p << ", SIMD level " << detail::simd_level());
@@ -122,7 +124,7 @@ TEST_CASE("per-pixel evaluation equals evaluate(), bit for bit, at every SIMD le
   for (int level : {2, 1, 0}) for (const auto& info : registered_laws()) {
     detail::set_simd_level(level);
     const auto law = make_law(info.name);
-    if (!law->samples_by_evaluate()) continue;
+    if (!detail::KernelOf(*law)->samples_by_evaluate()) continue;
     // Laws whose cost grows with n (explicit trial loops) get n capped at 1e4.
     const double cap = info.traits.constant_time ? 1e300 : 1e4;
     std::vector<double> nn, pp;
@@ -131,7 +133,7 @@ TEST_CASE("per-pixel evaluation equals evaluate(), bit for bit, at every SIMD le
     const std::size_t m = nn.size(), k = static_cast<std::size_t>(law->n_uniforms());
     u.assign(m * std::max<std::size_t>(k, 1), 0.0);
     fill_uniforms(42, kStreamSample, 0, m, static_cast<int>(k), u.data());
-    law->evaluate_pixels(nn.data(), pp.data(), u.data(), m, fast.data());
+    detail::KernelOf(*law)->evaluate_pixels(nn.data(), pp.data(), u.data(), m, fast.data());
     for (std::size_t i = 0; i < m; ++i) direct[i] = law->evaluate(nn[i], pp[i], u.data() + i * k);
     std::size_t mismatches = 0;
     for (std::size_t i = 0; i < m; ++i) mismatches += !(fast[i] == direct[i] || (std::isnan(fast[i]) && std::isnan(direct[i])));
@@ -164,7 +166,7 @@ TEST_CASE("the exact binomial's prefetched Philox rows give the scalar generator
       for (bool table : {false, true}) {
         const binomial::Sampler sampler(n, p, table);
         const std::size_t m = table ? count : 40;  // sample_range tabulates from kTabulateMinBatch rows
-        law->sample_range(n, p, 9, 100, 100 + m, got.data());
+        detail::KernelOf(*law)->sample_range(n, p, 9, 100, 100 + m, got.data());
         std::size_t mismatches = 0;
         for (std::size_t i = 0; i < m; ++i) {
           auto rng = CounterRng::for_index(9, 100 + i, kStreamSample);
@@ -255,7 +257,7 @@ TEST_CASE("the vector per-pixel kernels hand their unsure pixels to evaluate()",
     for (const char* name : {"gated", "head_cf"}) {
       detail::set_simd_level(level);
       const auto law = make_law(name);
-      law->evaluate_pixels(n.data(), p.data(), u.data(), m, fast.data());
+      detail::KernelOf(*law)->evaluate_pixels(n.data(), p.data(), u.data(), m, fast.data());
       std::size_t mismatches = 0;
       for (std::size_t i = 0; i < m; ++i) {
         const double direct = law->evaluate(n[i], p[i], u.data() + 2 * i);

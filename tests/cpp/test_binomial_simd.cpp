@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "glintlab/binomial.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/law.hpp"
 
 using namespace glintlab;
@@ -48,7 +49,7 @@ TEST_CASE("vector BTRD step 1 across a batch equals the scalar sampler, bit for 
     detail::set_simd_level(level);
     for (const auto& [n, p] : points) {
       for (std::uint64_t seed : {1ull, 0xDEADBEEFCAFEull}) {
-        law->sample_range(n, p, seed, first, first + count, got.data());
+        detail::KernelOf(*law)->sample_range(n, p, seed, first, first + count, got.data());
         for (std::size_t i = 0; i < count; ++i) want[i] = scalar_draw(n, p, seed, first + i);
         INFO("n = " << n << ", p = " << p << ", seed " << seed << ", SIMD level " << detail::simd_level());
         CHECK(count_mismatches(got, want) == 0);
@@ -86,7 +87,7 @@ TEST_CASE("vector per-pixel setup and first steps equal the scalar sampler, bit 
     }
     const std::size_t start = 4294967001ull, m = 1000;
     std::vector<double> g(m), w(m);
-    law->sample_pixels(n.data(), p.data(), 11, start, m, g.data());
+    detail::KernelOf(*law)->sample_pixels(n.data(), p.data(), 11, start, m, g.data());
     for (std::size_t i = 0; i < m; ++i) w[i] = scalar_draw(n[i], p[i], 11, start + i);
     INFO("sample_pixels at start " << start << ", SIMD level " << detail::simd_level());
     CHECK(count_mismatches(g, w) == 0);
@@ -97,8 +98,8 @@ TEST_CASE("the per-pixel path reports bad parameters as the scalar sampler does"
   const auto law = make_law("binomial");
   const double n[] = {10, 10, 10}, p_bad[] = {0.5, 1.5, 0.5}, n_bad[] = {10, NAN, 10}, p[] = {0.5, 0.5, 0.5};
   double out[3];
-  CHECK_THROWS_WITH(law->sample_pixels(n, p_bad, 1, 0, 3, out), Catch::Contains("p = 1.5"));
-  CHECK_THROWS_AS(law->sample_pixels(n_bad, p, 1, 0, 3, out), std::invalid_argument);
+  CHECK_THROWS_WITH(detail::KernelOf(*law)->sample_pixels(n, p_bad, 1, 0, 3, out), Catch::Contains("p = 1.5"));
+  CHECK_THROWS_AS(detail::KernelOf(*law)->sample_pixels(n_bad, p, 1, 0, 3, out), std::invalid_argument);
 }
 
 TEST_CASE("tabulated BTRD final-test values give the same draws", "[binomial][determinism]") {

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "glintlab/binomial.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/blend.hpp"
 
 using namespace glintlab;
@@ -82,7 +83,7 @@ TEST_CASE("fixed evaluators give evaluate()'s bits at every (n, p) and SIMD leve
         const std::size_t k = static_cast<std::size_t>(law->n_uniforms()), m = u.size() / k;
         std::vector<double> expected(m);
         for (std::size_t r = 0; r < m; ++r) expected[r] = law->evaluate(n, p, u.data() + r * k);
-        const auto fixed = law->fixed_evaluator(n, p, rows);
+        const auto fixed = detail::KernelOf(*law)->fixed_evaluator(n, p, rows);
         for (int level : {2, 1, 0}) {
           detail::set_simd_level(level);
           std::vector<double> got(m, -1.0);

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "glintlab/detail/uniform_rows.hpp"
 #include "glintlab/law.hpp"
 #include "glintlab/rng.hpp"
 

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/law.hpp"
 #include "glintlab/plugin.h"
@@ -33,20 +34,23 @@ struct PluginEntry {
   long long (*pmf)(double, double, double*, long long, long long*, int*) = nullptr;
 };
 
-class PluginLaw final : public CountingLaw {
+class PluginLaw final : public CountingLaw, public detail::LawKernel {
  public:
-  explicit PluginLaw(std::shared_ptr<const PluginEntry> entry) : e_(std::move(entry)) {}
+  explicit PluginLaw(std::shared_ptr<const PluginEntry> entry)
+      : detail::LawKernel(static_cast<const CountingLaw&>(*this)), e_(std::move(entry)) {}
+  const detail::LawKernel* kernel() const override { return this; }
 
   std::string name() const override { return e_->name; }
   int n_uniforms() const override { return e_->n_uniforms; }
   double evaluate(double n, double p, const double* u) const override { return e_->evaluate(n, p, u); }
-  std::string binning() const override { return e_->binning; }
 
-  // The plugin's function called directly on blocks of the batch uniforms (the same rows as the
-  // default sample_range, so the same samples), without a virtual call per sample.
-  std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t) const override {
-    if (e_->n_uniforms < 1) return nullptr;
-    return make_row_batch_sampler(e_->n_uniforms, [f = e_->evaluate, n, p](const double* u) { return f(n, p, u); });
+  // The plugin's function called directly on rows of given uniforms (a batch's blocks of the
+  // fill_uniforms rows, so the same samples; a blend's level), without a virtual call per row.
+  std::unique_ptr<detail::FixedEvaluator> fixed_evaluator(double n, double p, std::size_t) const override {
+    const auto k = static_cast<std::size_t>(e_->n_uniforms);
+    return detail::make_fixed_evaluator([f = e_->evaluate, n, p, k](const double* u, std::size_t rows, double* out) {
+      for (std::size_t r = 0; r < rows; ++r) out[r] = f(n, p, u + r * k);
+    });
   }
 
   bool has_pmf() const override { return e_->pmf != nullptr; }
@@ -240,7 +244,9 @@ std::vector<std::string> load_plugin(const std::string& path, const std::vector<
     register_law({e->name, e->summary, [e](const LawParams& params) -> std::unique_ptr<CountingLaw> {
                     ParamReader(e->name, params).finish();  // plugin laws take no parameters
                     return std::make_unique<PluginLaw>(e);
-                  }});
+                  },
+                  // Nothing promised (undeclared traits) but how its outputs are binned.
+                  {.bin_real = e->binning == "round"}});
   }
   loaded().push_back({canonical, guard.handle, names});
   guard.handle = nullptr;  // kept open for the life of the process

@@ -35,6 +35,10 @@
 
 namespace glintlab {
 
+namespace detail {
+class FixedEvaluator;  // detail/law_kernel.hpp
+}
+
 // Where a footprint of area P sits on the level ladder.
 struct LevelBracket {
   int lo;              // A_lo = base_area · ratio^lo <= P < A_hi
@@ -80,9 +84,9 @@ struct InnerLaw {
   std::function<void(const double* n, const double* p, const double* u, std::size_t m, double* out)> evaluate;
   std::shared_ptr<const CountingLaw> law;  // set for built-in laws: domain checks and exact pmfs
   // Optional (set for built-in laws): an evaluator of about `rows` rows at one (n, p), the same
-  // results as evaluate (CountingLaw::fixed_evaluator: a table where the law has one). Used when every
+  // results as evaluate (detail::LawKernel::fixed_evaluator: a table where the law has one). Used when every
   // row of a level shares (n, p): one footprint area, runs of equal P.
-  std::function<std::unique_ptr<FixedEvaluator>(double n, double p, std::size_t rows)> fixed_evaluator;
+  std::function<std::unique_ptr<detail::FixedEvaluator>(double n, double p, std::size_t rows)> fixed_evaluator;
 
   static InnerLaw from_law(std::shared_ptr<const CountingLaw> law);
 };

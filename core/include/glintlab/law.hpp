@@ -1,7 +1,9 @@
 // A counting law: a rule producing the count K of reflecting facets from (n, p) and a few uniform
-// random numbers. Each law is one small unit in core/laws/<name>.cpp (evaluate, sample, exact
-// distribution when one exists, a doc string) that registers itself by name; nothing else in the
-// code base switches on law names.
+// random numbers. Each law is one small unit in core/laws/<name>.cpp (evaluate, exact distribution
+// when one exists, traits, a doc string) that registers itself by name; nothing else in the code
+// base switches on law names. CountingLaw holds only what defines a law; its optional fast paths
+// (batches, pixels, step tables, an exact law's own sampler) sit behind one kernel interface,
+// detail::LawKernel (detail/law_kernel.hpp), each bit for bit what the definition gives.
 #pragma once
 
 #include <cstddef>
@@ -32,15 +34,6 @@ Precision precision_from_name(const std::string& name);  // "float64" / "float32
 std::string precision_name(Precision precision);
 using LawParams = std::map<std::string, ParamValue>;
 
-// Per-(n, p) state for a long batch at one (n, p): hoisted constants and inversion tables, built
-// once per sample_many() call and shared by its threads. sample_range must give exactly what the
-// law's sample_range gives (the tables are an optimization, never a different law).
-class BatchSampler {
- public:
-  virtual ~BatchSampler() = default;
-  virtual void sample_range(std::uint64_t seed, std::size_t i0, std::size_t i1, double* out) const = 0;
-};
-
 // The largest n a law is evaluated at. Counts are doubles: above 2^53 consecutive integers are no
 // longer representable, so no integer-valued sampler can be exact there and loops that step a count
 // by 1 stop advancing (the binomial's BTRD, the table inversions). Every built-in law declares this
@@ -50,15 +43,13 @@ struct NumericDomain {
   std::string note = "counts above 2^53 (9.007e15) are not consecutive doubles";
 };
 
-// Evaluations at one fixed (n, p) on rows of given uniforms, prepared once for many rows (see
-// CountingLaw::fixed_evaluator). evaluate() is const and may run on several threads at once.
-class FixedEvaluator {
- public:
-  virtual ~FixedEvaluator() = default;
-  // out[r] = CountingLaw::evaluate(n, p, u + r * n_uniforms) for r < rows, bit for bit, for
-  // uniforms in (0, 1) (those of fill_uniforms and CounterRng).
-  virtual void evaluate(const double* u, std::size_t rows, double* out) const = 0;
-};
+namespace detail {
+class LawKernel;  // a law's optional fast paths: detail/law_kernel.hpp
+}
+
+struct LawTraits;
+class CountingLaw;
+std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params = {});
 
 class CountingLaw {
  public:
@@ -75,55 +66,16 @@ class CountingLaw {
   virtual double evaluate(double n, double p, const double* u) const = 0;
   // The same in float32 (see Precision); laws that support it say so in supports().
   virtual double evaluate_f32(double n, double p, const double* u) const;
-  // `rows` evaluations at one (n, p) on rows of uniforms u[r * n_uniforms ...]: what a shader does
-  // when it interpolates realizations of one grid (spatial and angular texels share n and p). The
-  // default loops over evaluate(); laws with costly per-(n, p) constants hoist them. Same results.
-  virtual void evaluate_rows(double n, double p, const double* u, std::size_t rows, double* out) const {
-    const auto k = static_cast<std::size_t>(n_uniforms());
-    for (std::size_t r = 0; r < rows; ++r) out[r] = evaluate(n, p, u + r * k);
-  }
-  // An evaluator of about `rows` evaluations at one (n, p) on given uniforms, built once: what a
-  // blend needs when every sample of a level has the same trial count (one footprint area). The
-  // default calls evaluate_rows; laws whose per-(n, p) table pays for `rows` evaluations (gated:
-  // the batch's StepInversion; binomial: its CDF tabulated) override it. Same results as evaluate.
-  // (n, p) are already accepted.
-  virtual std::unique_ptr<FixedEvaluator> fixed_evaluator(double n, double p, std::size_t rows) const;
   virtual bool supports(Precision precision) const { return precision == Precision::kFloat64; }
-  // `count` evaluations with their own (n, p) each, as a renderer's pixels have:
-  // out[i] = evaluate(n[i], p[i], u + i * n_uniforms()), bit for bit, for uniforms in (0, 1) (those of
-  // fill_uniforms). The default loops over evaluate(); laws with costly per-(n, p) constants compute
-  // them with vector code over the block and fall back to evaluate() wherever the vector result
-  // could decide differently (the per-pixel path of sample_many).
-  virtual void evaluate_pixels(const double* n, const double* p, const double* u, std::size_t count,
-                               double* out) const {
-    const auto k = static_cast<std::size_t>(n_uniforms());
-    for (std::size_t i = 0; i < count; ++i) out[i] = evaluate(n[i], p[i], u + i * k);
-  }
+  // The law's fast paths (batches, pixels, tables), all bit for bit evaluate() or its own sampler:
+  // nullptr when it has none (the drivers then use evaluate() on the fill_uniforms rows). See
+  // detail/law_kernel.hpp; a law written as constants-then-a-row gets one from detail::KernelLaw.
+  virtual const detail::LawKernel* kernel() const { return nullptr; }
 
-  // Samples i0 .. i1-1 of a batch with fixed (n, p): sample i uses CounterRng::for_index(seed, i,
-  // kStreamSample), so results do not depend on how the batch is split between threads. The default
-  // evaluates on n_uniforms() draws; exact laws override it with their own (rejection) samplers and
-  // set up per-(n, p) constants once per range.
-  virtual void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
-                            double* out) const;
-  // Samples start .. start + count - 1 of a batch whose (n, p) change at every sample (a renderer's
-  // pixels): out[r] is what sample_range(n[r], p[r], seed, start + r, start + r + 1) gives. The
-  // default: the uniforms' rows and evaluate_pixels for laws that sample by evaluate(), else
-  // sample_range per pixel; the exact binomial prefetches its first Philox block as vector rows.
-  virtual void sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start,
-                             std::size_t count, double* out) const;
-  // Whether sample_range is evaluate() on the fill_uniforms rows (the default). Laws that override
-  // sample_range with their own sampler return false. The drivers use it to evaluate a batch whose
-  // (n, p) change at every sample (a renderer's pixels) directly on one block of uniforms.
-  virtual bool samples_by_evaluate() const { return true; }
-
-  // A batch sampler for `count` samples at one (n, p), or nullptr (then sample_range is used).
-  // (n, p) are already validated.
-  virtual std::unique_ptr<BatchSampler> batch_sampler(double n, double p, std::size_t count) const;
-
-  // How real-valued outputs are binned for pmf() and comparisons: "none" (integer counts) or
-  // "round" (round half up: unit bins [k - 1/2, k + 1/2)).
-  virtual std::string binning() const { return "none"; }
+  // How outputs are binned for pmf() and comparisons: "none" (compared as they are) or "round"
+  // (round half up: unit bins [k - 1/2, k + 1/2)). Declared by the law's traits (LawTraits::binning,
+  // from its output), set by make_law; "none" for a law built otherwise.
+  const std::string& binning() const { return binning_; }
 
   virtual bool has_pmf() const { return false; }
   // Exact law of K; throws not_implemented when the law has none.
@@ -137,10 +89,6 @@ class CountingLaw {
   }
   // The numeric domain of the law's traits (LawTraits::domain), set by make_law; a law built
   // otherwise accepts every finite n.
-  void set_domain(const NumericDomain& domain) {
-    max_n_ = domain.max_n;
-    domain_note_ = domain.note;
-  }
   double max_n() const { return max_n_; }
   // Throws std::invalid_argument naming the bad parameter ("n[12] = -1 ...") if !accepts(n, p).
   virtual void validate(double n, double p, std::size_t index, bool is_array) const;
@@ -152,8 +100,14 @@ class CountingLaw {
   // elsewhere (the scene advisor) cannot drift from the law. (n, p) must be accepted by accepts().
   virtual double work_units(double /*n*/, double /*p*/) const { return 0.0; }
  private:
+  // make_law applies the registered traits (domain, binning): they are the law's declaration, not
+  // something to change on a built law.
+  friend std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params);
+  void apply_traits(const LawTraits& traits);
+
   double max_n_ = 1.7976931348623157e308;
   std::string domain_note_{};
+  std::string binning_ = "none";
 };
 
 
@@ -163,7 +117,8 @@ class CountingLaw {
 // real output, no support bound, not constant time, in no study.
 enum class LawOutput {
   kInteger,  // evaluate() returns integer counts in every precision (binning() is "none")
-  kReal,     // real values (a gate ramp, a mean, a clamped Gaussian): compared after binning()
+  kReal,     // real values (a gate ramp, a mean, a clamped Gaussian): binning() is "round" unless
+             // LawTraits::bin_real says the values are compared as they are
 };
 std::string law_output_name(LawOutput output);  // "integer", "real"
 
@@ -210,81 +165,17 @@ struct LawTraits {
   std::string shader{};
   // Where the law is evaluated at all: n beyond max_n is refused with std::invalid_argument.
   NumericDomain domain{};
+  // Real outputs (kReal) are compared in unit bins (round half up) unless they are exact as they
+  // are: threshold's mean n p is a point mass of its exact law, not a count to round.
+  bool bin_real = true;
 
+  // CountingLaw::binning(): "round" for real outputs that are binned, else "none".
+  std::string binning() const { return output == LawOutput::kReal && bin_real ? "round" : "none"; }
   bool declared() const { return !regime.empty(); }
   // Largest count the law can return at n (+inf when unbounded). A law evaluated in float32 sees
   // float(n): callers pass the n the law computes with.
   double max_count(double n) const;
 };
-
-namespace detail {
-// The highest instruction set the vector kernels may use: 2 AVX-512, 1 AVX2, 0 portable
-// (default 2; the CPU caps it too). Every level gives the same bits: tests lower it to check so.
-void set_simd_level(int level);
-int simd_level();  // the level in effect: min(the setting, what the CPU has)
-
-// Rows [start, start + count) of fill_uniforms (bit-identical at every SIMD level).
-void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start,
-                         std::size_t count, int k, double* out);
-// The same rows at LOD level `level` (16-bit key): row r holds the first k draws of
-// CounterRng(seed, low 32 bits of r, high 32 bits of r, level, stream).
-void philox_uniform_rows_level(std::uint64_t seed, std::uint16_t level, std::uint16_t stream, std::size_t start,
-                               std::size_t count, int k, double* out);
-
-// A BatchSampler that hands blocks of rows to f(const double* u, std::size_t rows, double* out):
-// u holds `rows` rows of k uniforms (those of fill_uniforms), out gets one sample per row. Blocks
-// let a law run vector code over many rows (a table lookup for all, then a select).
-template <class F>
-class BlockBatchSampler final : public BatchSampler {
- public:
-  static constexpr std::size_t kRows = 256;
-  BlockBatchSampler(int k, F f) : k_(k), f_(std::move(f)) {}
-  void sample_range(std::uint64_t seed, std::size_t i0, std::size_t i1, double* out) const override {
-    alignas(64) double u[kRows * 4];
-    for (std::size_t b0 = i0; b0 < i1; b0 += kRows) {
-      const std::size_t rows = std::min(kRows, i1 - b0);
-      philox_uniform_rows(seed, kStreamSample, b0, rows, k_, u);
-      f_(static_cast<const double*>(u), rows, out + (b0 - i0));
-    }
-  }
-
- private:
-  int k_;
-  F f_;
-};
-}  // namespace detail
-
-// Batch sampler from a block function f(u, rows, out) (see BlockBatchSampler), 1 to 4 uniforms.
-template <class F>
-std::unique_ptr<BatchSampler> make_block_batch_sampler(int k, F f) {
-  if (k < 1 || k > 4) throw std::logic_error("make_block_batch_sampler: 1 to 4 uniforms");
-  return std::make_unique<detail::BlockBatchSampler<F>>(k, std::move(f));
-}
-
-// Batch sampler from a row function f(const double* u) -> sample, for laws with 1 to 4 uniforms.
-template <class F>
-std::unique_ptr<BatchSampler> make_row_batch_sampler(int k, F f) {
-  const std::size_t kk = static_cast<std::size_t>(k);
-  return make_block_batch_sampler(k, [kk, f = std::move(f)](const double* u, std::size_t rows, double* out) {
-    for (std::size_t r = 0; r < rows; ++r) out[r] = f(u + r * kk);
-  });
-}
-
-// A FixedEvaluator from f(const double* u, std::size_t rows, double* out).
-template <class F>
-std::unique_ptr<FixedEvaluator> make_fixed_evaluator(F f) {
-  struct Evaluator final : FixedEvaluator {
-    explicit Evaluator(F g) : f(std::move(g)) {}
-    void evaluate(const double* u, std::size_t rows, double* out) const override { f(u, rows, out); }
-    F f;
-  };
-  return std::make_unique<Evaluator>(std::move(f));
-}
-
-inline std::unique_ptr<FixedEvaluator> CountingLaw::fixed_evaluator(double n, double p, std::size_t) const {
-  return make_fixed_evaluator(
-      [this, n, p](const double* u, std::size_t rows, double* out) { evaluate_rows(n, p, u, rows, out); });
-}
 
 // Batches at least this long amortize a per-(n, p) table (e.g. inversion tables); results must not
 // depend on the choice.
@@ -307,7 +198,7 @@ Registry<LawInfo>& law_registry();
 //   static const bool registered = glintlab::register_law({"binomial", "...", factory, traits});
 // These wrappers keep the interface that laws, plugins and the bindings already use.
 bool register_law(LawInfo info);
-std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params = {});
+std::unique_ptr<CountingLaw> make_law(const std::string& name, const LawParams& params);
 std::vector<LawInfo> registered_laws();
 // The traits of a registered law (std::invalid_argument for an unknown name).
 LawTraits law_traits(const std::string& name);
@@ -359,7 +250,7 @@ void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const dou
                    std::size_t count, double* out, Precision precision = Precision::kFloat64);
 // Row-major count x k uniforms in (0, 1): row r holds the first k draws of
 // CounterRng::for_index(seed, start + r, stream). With stream = kStreamSample these are exactly the
-// numbers the default sample_range() hands to evaluate(), so a law re-implemented in Python as a
+// numbers the drivers hand to evaluate() (detail::LawKernel's default sample_range), so a law re-implemented in Python as a
 // custom law reproduces the built-in's samples seed for seed.
 void fill_uniforms(std::uint64_t seed, std::uint16_t stream, std::size_t start, std::size_t count,
                    int k, double* out);
