@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """`make bench`: DB23's counting pipeline and KPT25's Algorithm 1 as method shaders (db23_method.glsl,
-kpt25_method.glsl, one body each with their .hlsl wrappers; docs/math/glint_images.md#glint-db23-shader, docs/math/glint_images.md#glint-kpt25-shader)
+kpt25_method.glsl, one body each with their .hlsl wrappers; docs/math/glint_images.md#glint-db23-shader,
+docs/math/glint_images.md#glint-kpt25-shader)
 over a 1920 x 1080 frame on the Vulkan device (lavapipe without a GPU), each against its C++ twin
 (glintlab's DB23 on the trilinear grids with the gated_shader law; glintlab's KPT25) on the same packed
 float32 rows, all threads.

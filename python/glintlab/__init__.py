@@ -19,7 +19,8 @@ from .api.wwh18 import WWH18  # registers the "wwh18" glinty NDF (docs/math/wwh1
 from .api.glinty_ndf import image_methods
 from .api.glinty_ndf import matched_density, db23_visible_glints
 from .api.method_shaders import ShaderMethod, shader_method
-from .api.counting_shaders import db23_method  # registers the "db23_shader" image method (docs/math/glint_images.md#glint-db23-shader)
+# Registers the "db23_shader" and "kpt25_shader" image methods (docs/math/glint_images.md#glint-db23-shader).
+from .api import counting_shaders  # noqa: F401
 from .api.grids import AnisoCounter, aniso_counter, footprint_shapes, grid_schemes
 from .api.laws import (CustomLaw, Law, custom_law, law, law_label, law_summaries, law_traits, law_variants, laws,
                        parse_law_label, uniforms)

@@ -22,7 +22,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 DOC = ROOT / "docs" / "architecture.md"
 KINDS = ("law", "blend", "grid scheme", "glinty NDF / image method", "report section", "sampler",
-         "shipped shader law", "shipped method shader")
+         "shipped shader law", "shipped method shader", "shipped shader sampler")
 
 
 def _table() -> dict[str, dict[str, str]]:
@@ -120,19 +120,26 @@ def test_shipped_shaders_are_declared_by_traits(listed):
             assert (shaders / f"{stem}{suffix}").exists(), f"{stem}{suffix}"
 
 
-def test_shipped_method_shaders_are_registered_in_one_file():
+def test_shipped_method_shaders_and_samplers_are_declared_where_the_table_says(listed):
+    from glintlab.api.counting_shaders import METHOD_SHADER_FILES
+    from glintlab.api.method_shaders import WB16_SHADERS
+    from glintlab.api.shader_samplers import SHIPPED_SAMPLERS
     row = _table()["shipped method shader"]
     assert "`register_image_method`" in row["registered by"]
-    source = (ROOT / "python" / "glintlab" / "api" / "method_shaders.py").read_text()
+    for module in ("method_shaders", "counting_shaders"):
+        assert f"`python/glintlab/api/{module}.py`" in row["files to touch"], module
     shaders = ROOT / "python" / "glintlab" / "data" / "shaders"
-    # Each shipped method shader (a shader file that is no law's wrapper: laws have a <stem>_body.h) is
-    # named in that one file, which registers its image method.
-    laws = {p.name[:-len("_body.h")] for p in shaders.glob("*_body.h")}
-    methods = {p.stem for p in [*shaders.glob("*.glsl"), *shaders.glob("*.hlsl")] if p.stem not in laws}
-    assert methods
-    for stem in methods:
-        assert re.search(rf'"{stem}\.(glsl|hlsl)"', source), f"{stem} is not named in api/method_shaders.py"
-    assert source.count("register_image_method(") >= len(methods)
+    # Every shipped .glsl/.hlsl file is a law's wrapper (declared by the traits), a shipped sampler
+    # (SHIPPED_SAMPLERS) or a method shader one of the two modules declares; each has its one body.
+    files = {p.name for p in [*shaders.glob("*.glsl"), *shaders.glob("*.hlsl")]}
+    laws = {f for f in files if f.rsplit(".", 1)[0] in listed["shipped"]}
+    samplers = {f for f in files if f.rsplit(".", 1)[0] in SHIPPED_SAMPLERS}
+    assert files - laws - samplers == set(WB16_SHADERS.values()) | set(METHOD_SHADER_FILES)
+    for name in files:
+        assert (shaders / (name.rsplit(".", 1)[0] + "_body.h")).exists(), name
+    for module in ("method_shaders", "counting_shaders"):
+        assert "register_image_method(" in (ROOT / "python" / "glintlab" / "api" / f"{module}.py").read_text()
+    assert "`SHIPPED_SAMPLERS`" in _table()["shipped shader sampler"]["registered by"]
 
 
 # The Python kinds, added from one new file each, in a fresh interpreter; nothing in the tree is edited.

@@ -195,8 +195,8 @@ def db23_twin(rows, material: Material) -> np.ndarray:
 
 def twin_mismatch(shader, twin, rows, material: Material) -> dict:
     """Shader against twin per pixel: ``share`` of pixels whose difference exceeds COUNT_ALLOWANCE of the
-    pixel's one-facet value D(n) / (R N P), ``share_1pct`` of those off by more than 1 %, ``rel_err`` the mean of |shader - twin| / max(twin, one
-    facet) and its maximum ``max_rel_err``; ``pixels`` compared."""
+    pixel's one-facet value D(n) / (R N P), ``share_1pct`` of those off by more than 1 %, ``rel_err`` the
+    mean of |shader - twin| / max(twin, one facet) and its maximum ``max_rel_err``; ``pixels`` compared."""
     shader = np.asarray(shader, np.float64)
     twin = np.asarray(twin, np.float64)
     _, J, _, _ = tangent_inputs(rows)

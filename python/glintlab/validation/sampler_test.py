@@ -228,7 +228,8 @@ def _grid_edges(domain, grid):
 def sampler_test(sample, pdf=None, domain: str | None = None, samples: int = 10**6, seed=0, bins="adaptive", *,
                  significance: float = 1e-3, min_expected: float = 5.0, target: float | None = None,
                  rtol: float = 1e-3, unit_tol: float = 1e-4, check_pdf: bool = True, pilot: int | None = None,
-                 chunk: int = 2**20, cubature_tol: float = 0.1, rel_tol: float | None = None, max_depth: int = 16, max_evaluations: int | None = None,
+                 chunk: int = 2**20, cubature_tol: float = 0.1, rel_tol: float | None = None,
+                 max_depth: int = 16, max_evaluations: int | None = None,
                  out=None, write: str = "failure", name: str | None = None) -> SamplerTestResult:
     """Tests a direction sampler against its pdf (docs/math/sampling.md).
 
