@@ -64,8 +64,10 @@ struct Options {
 };
 
 [[noreturn]] void usage(const char* msg) {
-  std::fprintf(stderr, "glintlab_bench_binomial: %s\nusage: glintlab_bench_binomial [--size N] "
-                       "[--repeats R] [--seed S]\n", msg);
+  std::fprintf(stderr,
+               "glintlab_bench_binomial: %s\nusage: glintlab_bench_binomial [--size N] "
+               "[--repeats R] [--seed S]\n",
+               msg);
   std::exit(2);
 }
 
@@ -94,22 +96,26 @@ Options parse(int argc, char** argv) {
     const std::string a = argv[i];
     if (i + 1 >= argc) usage(("missing value after " + a).c_str());
     const char* value = argv[++i];
-    if (a == "--size") o.size = parse_count(value, "--size");
-    else if (a == "--repeats") o.repeats = static_cast<int>(parse_count(value, "--repeats"));
-    else if (a == "--seed") o.seed = parse_seed(value);
-    else usage(("unknown argument " + a).c_str());
+    if (a == "--size")
+      o.size = parse_count(value, "--size");
+    else if (a == "--repeats")
+      o.repeats = static_cast<int>(parse_count(value, "--repeats"));
+    else if (a == "--seed")
+      o.seed = parse_seed(value);
+    else
+      usage(("unknown argument " + a).c_str());
   }
   return o;
 }
 
 // One method's result at one point.
 struct Timing {
-  double best_ns = 0;    // per sample, minimum over repeats
-  double median_ns = 0;  // per sample, for judging the spread
-  double cores = 0;      // process CPU time / wall time of the best run: below the thread count
-                         // when other processes took cores away from a multi-threaded run
-  double mean = 0;       // sample mean of the last run
-  double var = 0;        // sample variance of the last run
+  double best_ns = 0;                           // per sample, minimum over repeats
+  double median_ns = 0;                         // per sample, for judging the spread
+  double cores = 0;                             // process CPU time / wall time of the best run: below the thread count
+                                                // when other processes took cores away from a multi-threaded run
+  double mean = 0;                              // sample mean of the last run
+  double var = 0;                               // sample variance of the last run
   std::vector<std::pair<double, double>> runs;  // (ns per sample, cores) of every timed run
 };
 
@@ -158,9 +164,10 @@ std::string shortest(double x) {
 }
 
 void print_timing(const char* name, const Timing& t, bool last) {
-  std::printf("      \"%s\": {\"ns_per_sample\": %.6g, \"median_ns_per_sample\": %.6g, "
-              "\"cores\": %.3g, \"mean\": %s, \"var\": %.17g, \"runs\": [",
-              name, t.best_ns, t.median_ns, t.cores, shortest(t.mean).c_str(), t.var);
+  std::printf(
+      "      \"%s\": {\"ns_per_sample\": %.6g, \"median_ns_per_sample\": %.6g, "
+      "\"cores\": %.3g, \"mean\": %s, \"var\": %.17g, \"runs\": [",
+      name, t.best_ns, t.median_ns, t.cores, shortest(t.mean).c_str(), t.var);
   for (std::size_t i = 0; i < t.runs.size(); ++i)
     std::printf("%s[%.6g, %.3g]", i ? ", " : "", t.runs[i].first, t.runs[i].second);
   std::printf("]}%s\n", last ? "" : ",");
@@ -173,10 +180,10 @@ int main(int argc, char** argv) {
   std::vector<double> out(opt.size);
   const auto law = glintlab::make_law("binomial");
 
-  std::printf("{\n  \"size\": %zu,\n  \"repeats\": %d,\n  \"seed\": %llu,\n  \"threads\": %d,\n"
-              "  \"statistic\": \"min over repeats\",\n  \"points\": [\n",
-              opt.size, opt.repeats, static_cast<unsigned long long>(opt.seed),
-              glintlab::num_threads());
+  std::printf(
+      "{\n  \"size\": %zu,\n  \"repeats\": %d,\n  \"seed\": %llu,\n  \"threads\": %d,\n"
+      "  \"statistic\": \"min over repeats\",\n  \"points\": [\n",
+      opt.size, opt.repeats, static_cast<unsigned long long>(opt.seed), glintlab::num_threads());
 
   for (std::size_t k = 0; k < std::size(kPoints); ++k) {
     const double n = kPoints[k].n, p = kPoints[k].p;
@@ -199,14 +206,12 @@ int main(int argc, char** argv) {
     });
 
     // (c) The multi-threaded driver that the Python binding calls.
-    const Timing glmt_t = time_method(out, opt.repeats, glintlab::num_threads(),
-                                      [&](std::vector<double>& o) {
-      glintlab::sample_many(*law, glintlab::ParamArray{&n, 1}, glintlab::ParamArray{&p, 1},
-                            o.size(), opt.seed, o.data());
+    const Timing glmt_t = time_method(out, opt.repeats, glintlab::num_threads(), [&](std::vector<double>& o) {
+      glintlab::sample_many(*law, glintlab::ParamArray{&n, 1}, glintlab::ParamArray{&p, 1}, o.size(), opt.seed,
+                            o.data());
     });
 
-    std::printf("    {\n      \"n\": %s,\n      \"p\": %s,\n", shortest(n).c_str(),
-                shortest(p).c_str());
+    std::printf("    {\n      \"n\": %s,\n      \"p\": %s,\n", shortest(n).c_str(), shortest(p).c_str());
     print_timing("std", std_t, false);
     print_timing("gl_1t", gl1_t, false);
     print_timing("gl_mt", glmt_t, true);

@@ -5,13 +5,13 @@
 //   valgrind --tool=callgrind build/bench/glintlab_bench_blend_profile zk16_linear 0 100000
 //   callgrind_annotate --inclusive=yes callgrind.out.* | grep -E "blend_call|inner_batch"
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <string>
 #include <vector>
-#include <cmath>
-#include <chrono>
 #include "glintlab/blend.hpp"
 #include "glintlab/law.hpp"
 using namespace glintlab;
@@ -19,10 +19,13 @@ __attribute__((noinline)) static void inner_batch(const CountingLaw& law, std::s
   const double n = 4e4, p = 0.01;
   sample_many(law, {&n, 1}, {&p, 1}, m, 1, out);
 }
-__attribute__((noinline)) static void blend_call(const BlendedLaw& b, double P, const std::vector<double>& Ps, std::size_t m, double* out) {
+__attribute__((noinline)) static void blend_call(const BlendedLaw& b, double P, const std::vector<double>& Ps,
+                                                 std::size_t m, double* out) {
   const double p = 0.01;
-  if (Ps.empty()) b.sample(1e4, {&P, 1}, {&p, 1}, m, 1, out);
-  else b.sample(1e4, {Ps.data(), m}, {&p, 1}, m, 1, out);
+  if (Ps.empty())
+    b.sample(1e4, {&P, 1}, {&p, 1}, m, 1, out);
+  else
+    b.sample(1e4, {Ps.data(), m}, {&p, 1}, m, 1, out);
 }
 int main(int argc, char** argv) {
   if (argc != 4) {
@@ -47,10 +50,16 @@ int main(int argc, char** argv) {
   auto now = [] { return std::chrono::steady_clock::now(); };
   double ti = 1e9, tb = 1e9;
   for (int rep = 0; rep < 5; ++rep) {
-    auto t0 = now(); inner_batch(*law, m, out.data()); auto t1 = now(); blend_call(b, P, Ps, m, out.data()); auto t2 = now();
-    ti = std::min(ti, std::chrono::duration<double>(t1 - t0).count()); tb = std::min(tb, std::chrono::duration<double>(t2 - t1).count());
+    auto t0 = now();
+    inner_batch(*law, m, out.data());
+    auto t1 = now();
+    blend_call(b, P, Ps, m, out.data());
+    auto t2 = now();
+    ti = std::min(ti, std::chrono::duration<double>(t1 - t0).count());
+    tb = std::min(tb, std::chrono::duration<double>(t2 - t1).count());
   }
   std::printf("inner %.2f ns, blend %.2f ns, ratio %.1f\n", ti / samples * 1e9, tb / samples * 1e9, tb / ti);
-  double s = 0; for (double v : out) s += v;
+  double s = 0;
+  for (double v : out) s += v;
   std::printf("%s P=%g mean %g\n", rule.c_str(), P, s / samples);
 }

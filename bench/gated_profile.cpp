@@ -125,7 +125,8 @@ int main(int argc, char** argv) {
   std::vector<double> n, p, out(m), rows(512);
   grid_pixels(grid, m, n, p);
   std::unique_ptr<detail::BatchSampler> samplers[4];
-  for (int i = 0; i < 4; ++i) samplers[i] = detail::KernelOf(*law)->batch_sampler(kPoints[i][0], kPoints[i][1], 10'000'000);
+  for (int i = 0; i < 4; ++i)
+    samplers[i] = detail::KernelOf(*law)->batch_sampler(kPoints[i][0], kPoints[i][1], 10'000'000);
   double pix = 1e30, row = 1e30, batch[4] = {1e30, 1e30, 1e30, 1e30};
   for (int r = 0; r < reps; ++r) {
     pix = std::min(pix, best_ns([&] { pixels_call(*law, n, p, m, out.data()); }, m, 1));

@@ -51,15 +51,14 @@ class LongCall {
   pybind11::gil_scoped_release release_;  // last: released after the handler is in place, taken back last
 };
 
-
-void bind_scene_images(pybind11::module_& m);  // scene_images.cpp: the glint images' ground truth
-void bind_glinty_ndf(pybind11::module_& m);  // glinty_ndf.cpp: KPT25's glinty NDF
-void bind_shaders(pybind11::module_& m);  // shaders.cpp: shader laws, the Vulkan runner
-void bind_wwh18(pybind11::module_& m);  // wwh18.cpp: WWH18's filterable model and its flake truth
-void bind_method_shaders(pybind11::module_& m);  // method_shaders.cpp: per-pixel method shaders
-void bind_sampler_test(pybind11::module_& m);  // sampler_test.cpp: the direction-sampler harness
+void bind_scene_images(pybind11::module_& m);     // scene_images.cpp: the glint images' ground truth
+void bind_glinty_ndf(pybind11::module_& m);       // glinty_ndf.cpp: KPT25's glinty NDF
+void bind_shaders(pybind11::module_& m);          // shaders.cpp: shader laws, the Vulkan runner
+void bind_wwh18(pybind11::module_& m);            // wwh18.cpp: WWH18's filterable model and its flake truth
+void bind_method_shaders(pybind11::module_& m);   // method_shaders.cpp: per-pixel method shaders
+void bind_sampler_test(pybind11::module_& m);     // sampler_test.cpp: the direction-sampler harness
 void bind_sampler_shaders(pybind11::module_& m);  // sampler_shaders.cpp: direction samplers written as shaders
-void bind_wb16(pybind11::module_& m);  // wb16.cpp: WB16's sparkle shader's C++ twin
-void bind_scene_trace(pybind11::module_& m);  // scene_trace.cpp: Scene.trace's camera rays
+void bind_wb16(pybind11::module_& m);             // wb16.cpp: WB16's sparkle shader's C++ twin
+void bind_scene_trace(pybind11::module_& m);      // scene_trace.cpp: Scene.trace's camera rays
 
 }  // namespace glintlab::bindings

@@ -38,24 +38,30 @@ void bind_method_shaders(py::module_& m) {
            py::arg("include_dirs"), py::arg("device"))
       .def_property_readonly("device", [](const MethodKernel& k) { return k.kernel->device_name(); })
       .def_property_readonly("device_type", [](const MethodKernel& k) { return k.kernel->device_type(); })
-      .def_property_readonly("spirv", [](const MethodKernel& k) {
-             const auto& w = k.kernel->spirv();
-             return py::bytes(reinterpret_cast<const char*>(w.data()), w.size() * sizeof(std::uint32_t));
-           })
-      .def("run", [](const MethodKernel& k, const Rows& rows, double timeout) {
-             if (rows.ndim() != 2 || static_cast<std::size_t>(rows.shape(1)) != shader::kMethodInputWords)
-               glintlab::throw_invalid_message("rows must have shape (count, " + std::to_string(shader::kMethodInputWords) + ")");
-             const auto count = static_cast<std::size_t>(rows.shape(0));
-             py::array_t<float> out({static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(shader::kMethodOutputWords)});
-             const auto* in = reinterpret_cast<const float*>(rows.data());
-             float* od = out.mutable_data();
-             {
-               glintlab::bindings::LongCall release;
-               shader::run_method(*k.kernel, in, count, od, timeout);
-             }
-             return out;
-           },
-           py::arg("rows"), py::arg("timeout"));
+      .def_property_readonly("spirv",
+                             [](const MethodKernel& k) {
+                               const auto& w = k.kernel->spirv();
+                               return py::bytes(reinterpret_cast<const char*>(w.data()),
+                                                w.size() * sizeof(std::uint32_t));
+                             })
+      .def(
+          "run",
+          [](const MethodKernel& k, const Rows& rows, double timeout) {
+            if (rows.ndim() != 2 || static_cast<std::size_t>(rows.shape(1)) != shader::kMethodInputWords)
+              glintlab::throw_invalid_message("rows must have shape (count, " +
+                                              std::to_string(shader::kMethodInputWords) + ")");
+            const auto count = static_cast<std::size_t>(rows.shape(0));
+            py::array_t<float> out(
+                {static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(shader::kMethodOutputWords)});
+            const auto* in = reinterpret_cast<const float*>(rows.data());
+            float* od = out.mutable_data();
+            {
+              glintlab::bindings::LongCall release;
+              shader::run_method(*k.kernel, in, count, od, timeout);
+            }
+            return out;
+          },
+          py::arg("rows"), py::arg("timeout"));
 }
 
 }  // namespace glintlab::bindings

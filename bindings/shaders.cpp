@@ -42,8 +42,8 @@ void bind_shaders(py::module_& m) {
                        const std::vector<std::pair<std::string, std::string>>& defines,
                        const std::vector<std::string>& include_dirs, const std::string& device,
                        const std::vector<std::pair<std::string, std::string>>& include_files) {
-             shader::KernelSpec spec{source, source_name, entry, language, n_uniforms, defines, include_dirs,
-                                     device, include_files};
+             shader::KernelSpec spec{source,  source_name,  entry,  language,     n_uniforms,
+                                     defines, include_dirs, device, include_files};
              glintlab::bindings::LongCall release;
              return std::make_shared<Kernel>(spec);
            }),
@@ -53,33 +53,39 @@ void bind_shaders(py::module_& m) {
       .def_property_readonly("device", &Kernel::device_name)
       .def_property_readonly("device_type", &Kernel::device_type)
       .def_property_readonly("n_uniforms", &Kernel::n_uniforms)
-      .def_property_readonly("included_files", [](const Kernel& k) {
-             py::list out;  // content as bytes: a header need not be valid UTF-8
-             for (const auto& [path, content] : k.included_files()) out.append(py::make_tuple(path, py::bytes(content)));
-             return out;
-           })
+      .def_property_readonly("included_files",
+                             [](const Kernel& k) {
+                               py::list out;  // content as bytes: a header need not be valid UTF-8
+                               for (const auto& [path, content] : k.included_files())
+                                 out.append(py::make_tuple(path, py::bytes(content)));
+                               return out;
+                             })
       .def_property_readonly("unbounded_loops", &Kernel::unbounded_loops)
-      .def_property_readonly("spirv", [](const Kernel& k) {
-             return py::bytes(reinterpret_cast<const char*>(k.spirv().data()), k.spirv().size() * sizeof(std::uint32_t));
-           })
-      .def("run", [](const Kernel& k, const Array& n, const Array& p, const Array& u, double timeout) {
-             const auto count = static_cast<std::size_t>(u.ndim() == 2 ? u.shape(0) : 0);
-             const auto kk = static_cast<std::size_t>(k.n_uniforms());
-             if (u.ndim() != 2 || static_cast<std::size_t>(u.shape(1)) != kk)
-               glintlab::throw_invalid_message("u must have shape (rows, " + std::to_string(kk) + ")");
-             py::array_t<float> out(static_cast<py::ssize_t>(count));
-             const double* nd = n.data();
-             const double* pd = p.data();
-             const double* ud = u.data();
-             float* od = out.mutable_data();
-             const auto ns = static_cast<std::size_t>(n.size()), ps = static_cast<std::size_t>(p.size());
-             {
-               glintlab::bindings::LongCall release;
-               k.run(nd, ns, pd, ps, ud, count, od, timeout);
-             }
-             return out;
-           },
-           py::arg("n"), py::arg("p"), py::arg("u"), py::arg("timeout"));
+      .def_property_readonly("spirv",
+                             [](const Kernel& k) {
+                               return py::bytes(reinterpret_cast<const char*>(k.spirv().data()),
+                                                k.spirv().size() * sizeof(std::uint32_t));
+                             })
+      .def(
+          "run",
+          [](const Kernel& k, const Array& n, const Array& p, const Array& u, double timeout) {
+            const auto count = static_cast<std::size_t>(u.ndim() == 2 ? u.shape(0) : 0);
+            const auto kk = static_cast<std::size_t>(k.n_uniforms());
+            if (u.ndim() != 2 || static_cast<std::size_t>(u.shape(1)) != kk)
+              glintlab::throw_invalid_message("u must have shape (rows, " + std::to_string(kk) + ")");
+            py::array_t<float> out(static_cast<py::ssize_t>(count));
+            const double* nd = n.data();
+            const double* pd = p.data();
+            const double* ud = u.data();
+            float* od = out.mutable_data();
+            const auto ns = static_cast<std::size_t>(n.size()), ps = static_cast<std::size_t>(p.size());
+            {
+              glintlab::bindings::LongCall release;
+              k.run(nd, ns, pd, ps, ud, count, od, timeout);
+            }
+            return out;
+          },
+          py::arg("n"), py::arg("p"), py::arg("u"), py::arg("timeout"));
 }
 
 }  // namespace glintlab::bindings

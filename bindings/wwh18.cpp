@@ -44,18 +44,21 @@ void bind_wwh18(py::module_& m) {
   py::class_<Wwh18Ndf>(m, "Wwh18Ndf")
       .def(py::init([](double density, const std::string& target, double alpha, double gamma, double flakes_per_cell,
                        const std::string& lambda_seeding, const std::string& threshold_test, const std::string& rng,
-                       int tea_rounds, double error_eps, double T, const std::string& dpf, double table_res,
-                       double lod, bool float32) {
+                       int tea_rounds, double error_eps, double T, const std::string& dpf, double table_res, double lod,
+                       bool float32) {
              Wwh18Params p;
              p.density = density;
-             p.target = pick<GlintTarget>("target", target, {{"beckmann", GlintTarget::beckmann}, {"ggx", GlintTarget::ggx}});
+             p.target =
+                 pick<GlintTarget>("target", target, {{"beckmann", GlintTarget::beckmann}, {"ggx", GlintTarget::ggx}});
              p.alpha = alpha;
              p.gamma_deg = gamma;
              p.flakes_per_cell = flakes_per_cell;
-             p.lambda_seeding = pick<WwhLambdaSeeding>("lambda_seeding", lambda_seeding,
-                                                       {{"node", WwhLambdaSeeding::node}, {"flake", WwhLambdaSeeding::flake}});
+             p.lambda_seeding =
+                 pick<WwhLambdaSeeding>("lambda_seeding", lambda_seeding,
+                                        {{"node", WwhLambdaSeeding::node}, {"flake", WwhLambdaSeeding::flake}});
              p.threshold_test = pick<WwhThresholdTest>(
-                 "threshold_test", threshold_test, {{"printed", WwhThresholdTest::printed}, {"flipped", WwhThresholdTest::flipped}});
+                 "threshold_test", threshold_test,
+                 {{"printed", WwhThresholdTest::printed}, {"flipped", WwhThresholdTest::flipped}});
              p.rng = pick<WwhRng>("rng", rng, {{"tea", WwhRng::tea}, {"philox", WwhRng::philox}});
              p.tea_rounds = tea_rounds;
              p.error_eps = error_eps;
@@ -71,82 +74,104 @@ void bind_wwh18(py::module_& m) {
            py::arg("lambda_seeding"), py::arg("threshold_test"), py::arg("rng"), py::arg("tea_rounds"),
            py::arg("error_eps"), py::arg("T"), py::arg("dpf"), py::arg("table_res"), py::arg("lod"), py::arg("float32"))
       .def_property_readonly("cell_side", &Wwh18Ndf::cell_side)
-      .def_property_readonly("table_shape", [](const Wwh18Ndf& g) {
-        return py::make_tuple(g.table_size(0), g.table_size(1), g.table_size(2));
-      })
+      .def_property_readonly(
+          "table_shape",
+          [](const Wwh18Ndf& g) { return py::make_tuple(g.table_size(0), g.table_size(1), g.table_size(2)); })
       .def_property_readonly("table_bytes", &Wwh18Ndf::table_bytes)
-      .def("reference_counts", [](const Wwh18Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
-             const std::size_t n = pixels(uv, jac, h);
-             py::array_t<double> out(static_cast<py::ssize_t>(n));
-             double* o = out.mutable_data();
-             {
-               LongCall release;
-               g.reference_counts(uv.data(), jac.data(), h.data(), n, seed, o);
-             }
-             return out;
-           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
-      .def("counts", [](const Wwh18Ndf& g, const Array& uv, const Array& jac, const Array& h, const py::object& wi_obj,
-                        std::uint64_t seed) {
-             const std::size_t n = pixels(uv, jac, h);
-             Array wi;
-             const bool has_wi = !wi_obj.is_none();
-             if (has_wi) {
-               wi = wi_obj.cast<Array>();
-               if (static_cast<std::size_t>(wi.size()) != 3 * n)
-                 glintlab::throw_invalid_message("glinty_ndf wwh18: wi must hold 3 numbers per pixel");
-             }
-             py::array_t<double> out(static_cast<py::ssize_t>(n)), pv(static_cast<py::ssize_t>(n));
-             py::array_t<int> mode(static_cast<py::ssize_t>(n));
-             double* o = out.mutable_data();
-             double* q = pv.mutable_data();
-             int* md = mode.mutable_data();
-             const double* w = has_wi ? wi.data() : nullptr;
-             {
-               LongCall release;
-               g.counts(uv.data(), jac.data(), h.data(), w, n, seed, o, md, q);
-             }
-             return py::make_tuple(out, mode, pv);
-           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("wi"), py::arg("seed"))
-      .def("cone_mass", [](const Wwh18Ndf& g, const Array& h) {
-             const auto n = static_cast<std::size_t>(h.size() / 3);
-             py::array_t<double> out(static_cast<py::ssize_t>(n));
-             double* o = out.mutable_data();
-             const double* hd = h.data();
-             {
-               py::gil_scoped_release release;
-               for (std::size_t i = 0; i < n; ++i) o[i] = g.cone_mass(hd + 3 * i);
-             }
-             return out;
-           }, py::arg("h"))
-      .def("accumulated", [](const Wwh18Ndf& g, const Array& h) {
-             const auto n = static_cast<std::size_t>(h.size() / 3);
-             py::array_t<double> out(static_cast<py::ssize_t>(n));
-             double* o = out.mutable_data();
-             for (std::size_t i = 0; i < n; ++i) o[i] = g.accumulated(h.data() + 3 * i);
-             return out;
-           }, py::arg("h"))
-      .def("dpf", [](const Wwh18Ndf& g, const Array& wi, const Array& wo) {
-             const auto n = static_cast<std::size_t>(wi.size() / 3);
-             if (static_cast<std::size_t>(wo.size()) != 3 * n) glintlab::throw_invalid_message("glinty_ndf wwh18: wi and wo differ in size");
-             py::array_t<double> out(static_cast<py::ssize_t>(n));
-             double* o = out.mutable_data();
-             for (std::size_t i = 0; i < n; ++i) o[i] = g.dpf(wi.data() + 3 * i, wo.data() + 3 * i);
-             return out;
-           }, py::arg("wi"), py::arg("wo"))
-      .def("model_p", [](const Wwh18Ndf& g, const Array& h) {
-             const auto n = static_cast<std::size_t>(h.size() / 3);
-             py::array_t<double> out(static_cast<py::ssize_t>(n));
-             double* o = out.mutable_data();
-             for (std::size_t i = 0; i < n; ++i) o[i] = g.model_p(h.data() + 3 * i, nullptr);
-             return out;
-           }, py::arg("h"))
-      .def("lambdas", [](const Wwh18Ndf& g, std::uint64_t seed, int level, const IArray& i, const IArray& j, std::uint32_t k) {
-             if (i.size() != j.size()) glintlab::throw_invalid_message("glinty_ndf wwh18: i and j differ in size");
-             py::array_t<double> out(i.size());
-             double* o = out.mutable_data();
-             for (py::ssize_t q = 0; q < i.size(); ++q) o[q] = g.lambda(seed, level, i.data()[q], j.data()[q], k);
-             return out;
-           }, py::arg("seed"), py::arg("level"), py::arg("i"), py::arg("j"), py::arg("k"));
+      .def(
+          "reference_counts",
+          [](const Wwh18Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
+            const std::size_t n = pixels(uv, jac, h);
+            py::array_t<double> out(static_cast<py::ssize_t>(n));
+            double* o = out.mutable_data();
+            {
+              LongCall release;
+              g.reference_counts(uv.data(), jac.data(), h.data(), n, seed, o);
+            }
+            return out;
+          },
+          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
+      .def(
+          "counts",
+          [](const Wwh18Ndf& g, const Array& uv, const Array& jac, const Array& h, const py::object& wi_obj,
+             std::uint64_t seed) {
+            const std::size_t n = pixels(uv, jac, h);
+            Array wi;
+            const bool has_wi = !wi_obj.is_none();
+            if (has_wi) {
+              wi = wi_obj.cast<Array>();
+              if (static_cast<std::size_t>(wi.size()) != 3 * n)
+                glintlab::throw_invalid_message("glinty_ndf wwh18: wi must hold 3 numbers per pixel");
+            }
+            py::array_t<double> out(static_cast<py::ssize_t>(n)), pv(static_cast<py::ssize_t>(n));
+            py::array_t<int> mode(static_cast<py::ssize_t>(n));
+            double* o = out.mutable_data();
+            double* q = pv.mutable_data();
+            int* md = mode.mutable_data();
+            const double* w = has_wi ? wi.data() : nullptr;
+            {
+              LongCall release;
+              g.counts(uv.data(), jac.data(), h.data(), w, n, seed, o, md, q);
+            }
+            return py::make_tuple(out, mode, pv);
+          },
+          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("wi"), py::arg("seed"))
+      .def(
+          "cone_mass",
+          [](const Wwh18Ndf& g, const Array& h) {
+            const auto n = static_cast<std::size_t>(h.size() / 3);
+            py::array_t<double> out(static_cast<py::ssize_t>(n));
+            double* o = out.mutable_data();
+            const double* hd = h.data();
+            {
+              py::gil_scoped_release release;
+              for (std::size_t i = 0; i < n; ++i) o[i] = g.cone_mass(hd + 3 * i);
+            }
+            return out;
+          },
+          py::arg("h"))
+      .def(
+          "accumulated",
+          [](const Wwh18Ndf& g, const Array& h) {
+            const auto n = static_cast<std::size_t>(h.size() / 3);
+            py::array_t<double> out(static_cast<py::ssize_t>(n));
+            double* o = out.mutable_data();
+            for (std::size_t i = 0; i < n; ++i) o[i] = g.accumulated(h.data() + 3 * i);
+            return out;
+          },
+          py::arg("h"))
+      .def(
+          "dpf",
+          [](const Wwh18Ndf& g, const Array& wi, const Array& wo) {
+            const auto n = static_cast<std::size_t>(wi.size() / 3);
+            if (static_cast<std::size_t>(wo.size()) != 3 * n)
+              glintlab::throw_invalid_message("glinty_ndf wwh18: wi and wo differ in size");
+            py::array_t<double> out(static_cast<py::ssize_t>(n));
+            double* o = out.mutable_data();
+            for (std::size_t i = 0; i < n; ++i) o[i] = g.dpf(wi.data() + 3 * i, wo.data() + 3 * i);
+            return out;
+          },
+          py::arg("wi"), py::arg("wo"))
+      .def(
+          "model_p",
+          [](const Wwh18Ndf& g, const Array& h) {
+            const auto n = static_cast<std::size_t>(h.size() / 3);
+            py::array_t<double> out(static_cast<py::ssize_t>(n));
+            double* o = out.mutable_data();
+            for (std::size_t i = 0; i < n; ++i) o[i] = g.model_p(h.data() + 3 * i, nullptr);
+            return out;
+          },
+          py::arg("h"))
+      .def(
+          "lambdas",
+          [](const Wwh18Ndf& g, std::uint64_t seed, int level, const IArray& i, const IArray& j, std::uint32_t k) {
+            if (i.size() != j.size()) glintlab::throw_invalid_message("glinty_ndf wwh18: i and j differ in size");
+            py::array_t<double> out(i.size());
+            double* o = out.mutable_data();
+            for (py::ssize_t q = 0; q < i.size(); ++q) o[q] = g.lambda(seed, level, i.data()[q], j.data()[q], k);
+            return out;
+          },
+          py::arg("seed"), py::arg("level"), py::arg("i"), py::arg("j"), py::arg("k"));
 }
 
 }  // namespace glintlab::bindings

@@ -54,20 +54,24 @@ std::array<double, 2> roulette_moments(double weight, double eps) {
     const double a = std::clamp(cuts[i], 0.0, 1.0), b = std::clamp(cuts[i + 1], 0.0, 1.0);
     if (!(b > a)) continue;
     std::size_t recorded = 0, replayed = 0;
-    m[0] += Gk::integrate([&](double r) {
-      const double v = roulette_keep(r, weight, eps);
-      if (recorded < kNodes) {
-        nodes[recorded] = r;
-        keeps[recorded] = v;
-      }
-      ++recorded;
-      return v;
-    }, a, b, 0);
-    m[1] += Gk::integrate([&](double r) {
-      const std::size_t at = replayed++;
-      const double v = at < kNodes && at < recorded && nodes[at] == r ? keeps[at] : roulette_keep(r, weight, eps);
-      return v * v;
-    }, a, b, 0);
+    m[0] += Gk::integrate(
+        [&](double r) {
+          const double v = roulette_keep(r, weight, eps);
+          if (recorded < kNodes) {
+            nodes[recorded] = r;
+            keeps[recorded] = v;
+          }
+          ++recorded;
+          return v;
+        },
+        a, b, 0);
+    m[1] += Gk::integrate(
+        [&](double r) {
+          const std::size_t at = replayed++;
+          const double v = at < kNodes && at < recorded && nodes[at] == r ? keeps[at] : roulette_keep(r, weight, eps);
+          return v * v;
+        },
+        a, b, 0);
   }
   return m;
 }
@@ -171,15 +175,15 @@ class Roulette final : public BlendRule {
 
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                  std::array<FacetStream, 2>& facets) const override {
-    return area / b.area_lo * kept(k_lo, 1.0 - b.w_lod, facets[0]) +
-           area / b.area_hi * kept(k_hi, b.w_lod, facets[1]);
+    return area / b.area_lo * kept(k_lo, 1.0 - b.w_lod, facets[0]) + area / b.area_hi * kept(k_hi, b.w_lod, facets[1]);
   }
 
   Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo, const Distribution& hi,
                            std::size_t max_support) const override {
     if (eps_ > 0)
-      throw not_implemented("blended_law('roulette', epsilon > 0): the mollified roulette's K has a continuous "
-                            "part and no exact pmf; estimate one from samples instead");
+      throw not_implemented(
+          "blended_law('roulette', epsilon > 0): the mollified roulette's K has a continuous "
+          "part and no exact pmf; estimate one from samples instead");
     return scaled_sum(blend_detail::thinned(lo, 1.0 - b.w_lod, max_support), area / b.area_lo,
                       blend_detail::thinned(hi, b.w_lod, max_support), area / b.area_hi, true, max_support,
                       "blended_law('roulette').pmf");

@@ -24,8 +24,7 @@ struct PlaneVertex {
 
 class Db23Grids final : public GridScheme {
  public:
-  Db23Grids(bool tetrahedral, const LawParams& given)
-      : tetrahedral_(tetrahedral), ladder_(4.0, 1.0) {
+  Db23Grids(bool tetrahedral, const LawParams& given) : tetrahedral_(tetrahedral), ladder_(4.0, 1.0) {
     const std::string name = tetrahedral ? "db23_tetrahedral" : "db23_trilinear";
     ParamReader reader(name, given);
     const double level_ratio = reader.number("level_ratio", 4.0);
@@ -50,9 +49,10 @@ class Db23Grids final : public GridScheme {
     // expressions terms() used per term (ldexp is exact, so the table holds the same bits).
     for (int level = 0; level <= max_level_ + 1; ++level) {
       pow2_[static_cast<std::size_t>(level)] = std::ldexp(1.0, level);
-      step_[static_cast<std::size_t>(level)] = level >= 1 ? std::ldexp(step_deg_ * std::numbers::pi / 180.0, 1 - level) : 0.0;
+      step_[static_cast<std::size_t>(level)] =
+          level >= 1 ? std::ldexp(step_deg_ * std::numbers::pi / 180.0, 1 - level) : 0.0;
     }
-    params_ = {{"level_ratio", level_ratio}, {"base_area", base_area}, {"scale_weights", scale_weights_},
+    params_ = {{"level_ratio", level_ratio},      {"base_area", base_area},        {"scale_weights", scale_weights_},
                {"ratio_weights", ratio_weights_}, {"orientation_step", step_deg_}, {"max_ratio", max_ratio_}};
     name_ = name;
   }
@@ -131,8 +131,7 @@ class Db23Grids final : public GridScheme {
       }
       const LevelSides sides(br);
       for (int s = 0; s < 2; ++s)
-        for (int q = 0; q < m; ++q)
-          push(out, br, sides, s, pv[used[q]], w[q] * (s == 0 ? 1 - z : z), density);
+        for (int q = 0; q < m; ++q) push(out, br, sides, s, pv[used[q]], w[q] * (s == 0 ? 1 - z : z), density);
       return clamped;
     }
     // Tetrahedral: the triangle of the plane holding (px, y), its prism over z in [0, 1] cut into 3
@@ -150,9 +149,8 @@ class Db23Grids final : public GridScheme {
     std::sort(tri, tri + 3, [&](int l, int r2) { return pv[l].key < pv[r2].key; });
     // Prism vertices (triangle vertex, level 0 bottom / 1 top); a < b < c by key:
     // {a, b, c, c'}, {a, b, b', c'}, {a, a', b', c'}.
-    static constexpr int kTets[3][4][2] = {{{0, 0}, {1, 0}, {2, 0}, {2, 1}},
-                                           {{0, 0}, {1, 0}, {1, 1}, {2, 1}},
-                                           {{0, 0}, {0, 1}, {1, 1}, {2, 1}}};
+    static constexpr int kTets[3][4][2] = {
+        {{0, 0}, {1, 0}, {2, 0}, {2, 1}}, {{0, 0}, {1, 0}, {1, 1}, {2, 1}}, {{0, 0}, {0, 1}, {1, 1}, {2, 1}}};
     const std::array<double, 3> q = {px, y, z};
     int best = 0;
     std::array<double, 4> best_w{};
@@ -172,7 +170,8 @@ class Db23Grids final : public GridScheme {
     for (double& w : best_w) sum += (w = std::max(0.0, w));
     const LevelSides sides(br);
     for (int v = 0; v < 4; ++v)
-      push(out, br, sides, kTets[best][v][1], pv[tri[kTets[best][v][0]]], best_w[static_cast<std::size_t>(v)] / sum, density);
+      push(out, br, sides, kTets[best][v][1], pv[tri[kTets[best][v][0]]], best_w[static_cast<std::size_t>(v)] / sum,
+           density);
     return clamped;
   }
 
@@ -192,8 +191,10 @@ class Db23Grids final : public GridScheme {
     const std::int64_t count = v.ratio == 0 ? 1 : orientations(v.ratio);
     // The orientation modulo count; the cells' vertices lie in [0, 2 count], so the division is rare.
     std::int64_t orientation = v.orientation;
-    if (orientation >= count && orientation < 2 * count) orientation -= count;
-    else if (orientation < 0 || orientation >= count) orientation = ((orientation % count) + count) % count;
+    if (orientation >= count && orientation < 2 * count)
+      orientation -= count;
+    else if (orientation < 0 || orientation >= count)
+      orientation = ((orientation % count) + count) % count;
     t.grid = {scale, v.ratio, v.ratio == 0 ? 0 : orientation};
     t.angle = v.ratio == 0 ? 0.0 : static_cast<double>(t.grid.orientation) * step_[static_cast<std::size_t>(v.ratio)];
     const double area = upper ? br.area_hi : br.area_lo;
@@ -218,11 +219,13 @@ class Db23Grids final : public GridScheme {
 };
 
 const bool registered_trilinear = register_grid_scheme(
-    {"db23_trilinear", "DB23 §5.2: count distributed over the 8 grids of the (scale, ratio, orientation) cell, trilinear weights",
+    {"db23_trilinear",
+     "DB23 §5.2: count distributed over the 8 grids of the (scale, ratio, orientation) cell, trilinear weights",
      [](const LawParams& params) { return std::make_unique<Db23Grids>(false, params); },
      {.native_law = "gated"}});  // DB23 count with their gated Gaussian (eq. 16-18)
 const bool registered_tetrahedral = register_grid_scheme(
-    {"db23_tetrahedral", "DB23 §6.1: the (scale, ratio, orientation) cell cut into 9 tetrahedra; 4 grids, barycentric weights",
+    {"db23_tetrahedral",
+     "DB23 §6.1: the (scale, ratio, orientation) cell cut into 9 tetrahedra; 4 grids, barycentric weights",
      [](const LawParams& params) { return std::make_unique<Db23Grids>(true, params); },
      {.native_law = "gated"}});  // DB23 count with their gated Gaussian (eq. 16-18)
 

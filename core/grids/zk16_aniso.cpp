@@ -82,11 +82,12 @@ class Zk16Aniso final : public GridScheme {
   LawParams params_;
 };
 
-const bool registered = register_grid_scheme(
-    {"zk16_aniso", "ZK16 baseline: min(ceil r, 16) isotropic mip probes along the major axis, widened beyond",
-     [](const LawParams& params) { return std::make_unique<Zk16Aniso>(params); },
-     // ZK16 evaluate their own hybrid law (DB23 eq. 15) on these probes; DB23 §7 compares them so.
-     {.native_law = "zk16"}});
+const bool registered =
+    register_grid_scheme({"zk16_aniso",
+                          "ZK16 baseline: min(ceil r, 16) isotropic mip probes along the major axis, widened beyond",
+                          [](const LawParams& params) { return std::make_unique<Zk16Aniso>(params); },
+                          // ZK16 evaluate their own hybrid law (DB23 eq. 15) on these probes; DB23 §7 compares them so.
+                          {.native_law = "zk16"}});
 
 }  // namespace
 }  // namespace glintlab::aniso

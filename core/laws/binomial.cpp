@@ -21,9 +21,7 @@ class BinomialLaw final : public CountingLaw, public detail::LawKernel {
   const detail::LawKernel* kernel() const override { return this; }
   std::string name() const override { return "binomial"; }
   int n_uniforms() const override { return 1; }
-  double evaluate(double n, double p, const double* u) const override {
-    return binomial::quantile(u[0], n, p);
-  }
+  double evaluate(double n, double p, const double* u) const override { return binomial::quantile(u[0], n, p); }
   // Many rows at one (n, p) on given uniforms (a blend's level at one footprint area): quantile on a
   // table of the distribution functions it compares against (binomial::QuantileTable), bit for bit.
   std::unique_ptr<detail::FixedEvaluator> fixed_evaluator(double n, double p, std::size_t rows) const override {

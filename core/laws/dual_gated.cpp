@@ -31,9 +31,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/normal.hpp"
-#include "glintlab/detail/law_kernel.hpp"
 
 namespace glintlab {
 namespace {
@@ -97,16 +97,14 @@ class DualGatedLaw final : public detail::KernelLaw<DualGatedLaw> {
   Distribution pmf(double n, double p, std::size_t max_support) const override {
     const Gates<double> g(n, p);
     const double central = n <= 1 ? 0.0 : std::max(0.0, g.none - g.one);
-    std::vector<std::pair<double, double>> atoms{{0.0, n <= 1 ? 1 - g.one : 1 - g.none},
-                                                 {1.0, g.one - g.all},
-                                                 {std::floor(g.top + 0.5), g.all}};
+    std::vector<std::pair<double, double>> atoms{
+        {0.0, n <= 1 ? 1 - g.one : 1 - g.none}, {1.0, g.one - g.all}, {std::floor(g.top + 0.5), g.all}};
     // Mass trimmed from the central Gaussian's tails (< 1e-16 a side) lies between atoms: no flag.
     if (central > 0) {
       const double var = n > 2 ? (n - 2) * p * (1 - p) : 0.0;
       const double hi = std::floor(std::max(1.0, n - 1) + 0.5);  // round(n - 1)
       if (var > 0) {
-        const auto law = normal::discretized((n - 2) * p, std::sqrt(var), hi - 1, 0.5, max_support,
-                                             "dual_gated.pmf");
+        const auto law = normal::discretized((n - 2) * p, std::sqrt(var), hi - 1, 0.5, max_support, "dual_gated.pmf");
         for (std::size_t i = 0; i < law.support.size(); ++i)
           atoms.emplace_back(1 + law.support[i], central * law.probs[i]);
       } else {

@@ -14,11 +14,11 @@
 #include <algorithm>
 #include <cmath>
 
-#include "glintlab/normal.hpp"
-#include "glintlab/step_inversion.hpp"
-#include "glintlab/detail/law_kernel.hpp"
 #include "../src/pixel_blocks.hpp"
 #include "../src/simd_math.hpp"
+#include "glintlab/detail/law_kernel.hpp"
+#include "glintlab/normal.hpp"
+#include "glintlab/step_inversion.hpp"
 
 namespace glintlab {
 namespace {
@@ -74,7 +74,8 @@ class GatedLaw final : public detail::KernelLaw<GatedLaw> {
     constexpr std::size_t kB = 256;
     // The whole block at the CPU's ISA (gated_pixels_body.inc), then eval where flagged.
     if (detail::run_pixel_blocks(detail::gated_pixels_block_avx512, detail::gated_pixels_block_avx2, n, p, u, count,
-                                 out, [this](double nv, double pv, const double* row) { return eval<double>(nv, pv, row); }))
+                                 out,
+                                 [this](double nv, double pv, const double* row) { return eval<double>(nv, pv, row); }))
       return;
     alignas(64) double a[kB], e[kB], lt[kB];
     for (std::size_t s = 0; s < count; s += kB) {
@@ -93,8 +94,10 @@ class GatedLaw final : public detail::KernelLaw<GatedLaw> {
       if (const int level = detail::simd_level(); level >= 1) {
         // The rest as one vectorized branch-free pass (gated_pixels_body.inc), then eval where flagged.
         alignas(64) double redo[kB];
-        if (level >= 2) detail::gated_pixels_avx512(nn, pp, uu, e, lt, m, oo, redo);
-        else detail::gated_pixels_avx2(nn, pp, uu, e, lt, m, oo, redo);
+        if (level >= 2)
+          detail::gated_pixels_avx512(nn, pp, uu, e, lt, m, oo, redo);
+        else
+          detail::gated_pixels_avx2(nn, pp, uu, e, lt, m, oo, redo);
         for (std::size_t i = 0; i < m; ++i)
           if (redo[i] != 0.0) oo[i] = eval<double>(nn[i], pp[i], uu + 2 * i);
         continue;
@@ -102,11 +105,23 @@ class GatedLaw final : public detail::KernelLaw<GatedLaw> {
       for (std::size_t i = 0; i < m; ++i) {
         const double nv = nn[i], pv = pp[i], u0 = uu[2 * i], u1 = uu[2 * i + 1];
         const double* row = uu + 2 * i;
-        if (!(u0 > 0.0 && u0 < 1.0 && u1 > 0.0 && u1 < 1.0)) { oo[i] = eval<double>(nv, pv, row); continue; }
-        if (!(nv > 0.0)) { oo[i] = 0.0; continue; }  // P1 = 0: never gated (eval's guard)
+        if (!(u0 > 0.0 && u0 < 1.0 && u1 > 0.0 && u1 < 1.0)) {
+          oo[i] = eval<double>(nv, pv, row);
+          continue;
+        }
+        if (!(nv > 0.0)) {
+          oo[i] = 0.0;
+          continue;
+        }  // P1 = 0: never gated (eval's guard)
         const double p1 = -e[i];
-        if (!(std::abs(u0 - p1) > 1e-11 * std::abs(p1))) { oo[i] = eval<double>(nv, pv, row); continue; }
-        if (!(u0 < p1)) { oo[i] = 0.0; continue; }
+        if (!(std::abs(u0 - p1) > 1e-11 * std::abs(p1))) {
+          oo[i] = eval<double>(nv, pv, row);
+          continue;
+        }
+        if (!(u0 < p1)) {
+          oo[i] = 0.0;
+          continue;
+        }
         const double mm = nv > 1.0 ? nv - 1.0 : 0.0, mu = mm * pv, sigma = std::sqrt(mu * (1.0 - pv));
         const double top = std::ceil(nv) - 1.0;
         double g = mu;
@@ -116,7 +131,10 @@ class GatedLaw final : public detail::KernelLaw<GatedLaw> {
           g = mu + sigma * z;
           if (!central) {
             const double f = g - std::floor(g), tol = 1e-11 * (std::abs(mu) + sigma * (std::abs(z) + 1.0));
-            if (!(f > tol && 1.0 - f > tol)) { oo[i] = eval<double>(nv, pv, row); continue; }
+            if (!(f > tol && 1.0 - f > tol)) {
+              oo[i] = eval<double>(nv, pv, row);
+              continue;
+            }
           }
         }
         const double j = std::floor(g);

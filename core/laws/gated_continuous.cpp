@@ -1,11 +1,11 @@
-// Law "gated_continuous": Kneiphof & Klein's continuous gated Gaussian (KK24; docs/math/laws.md#law-gated-continuous), the form
-// DB23's gate takes in their area-light renderer:
+// Law "gated_continuous": Kneiphof & Klein's continuous gated Gaussian (KK24; docs/math/laws.md#law-gated-continuous),
+// the form DB23's gate takes in their area-light renderer:
 //   m = max(n, 1);  P1 = 1 - (1 - p)^n for n >= 1 (as -expm1(n log1p(-p))), P1 = n p for n < 1
 //   (a gate that stays continuous at n = 1 and keeps E[K] = n p for a sub-facet footprint);
 //   G = 1 + (m - 1) p + sqrt((m - 1) p (1 - p)) Phi^-1(theta1)   (no floor: the output is real)
 //   K = [theta0 < P1] clamp(G, 1, m).
-// The gate is hard (theta0 < P1), a policy stated in docs/math/laws.md#law-gated-continuous; the soft ramp of the public shaders is
-// measured on "gated_shader".
+// The gate is hard (theta0 < P1), a policy stated in docs/math/laws.md#law-gated-continuous; the soft ramp of the
+// public shaders is measured on "gated_shader".
 //
 // Binning: pmf() and law.bin() use round-half-up, unit bins [k - 1/2, k + 1/2). Since rounding is
 // monotone, round(clamp(G, 1, m)) = clamp(round(G), 1, round(m)), so the binned law is exact
@@ -14,8 +14,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "glintlab/normal.hpp"
 #include "glintlab/detail/law_kernel.hpp"
+#include "glintlab/normal.hpp"
 
 namespace glintlab {
 namespace {
@@ -66,8 +66,8 @@ class GatedContinuousLaw final : public detail::KernelLaw<GatedContinuousLaw> {
     if (p1 > 0) {
       if (var > 0) {
         // K - 1 = clamp(floor((G - 1) + 1/2), 0, top - 1).
-        const auto law = normal::discretized((m - 1) * p, std::sqrt(var), top - 1, 0.5, max_support,
-                                             "gated_continuous.pmf");
+        const auto law =
+            normal::discretized((m - 1) * p, std::sqrt(var), top - 1, 0.5, max_support, "gated_continuous.pmf");
         for (std::size_t i = 0; i < law.support.size(); ++i) {
           ks.push_back(1 + law.support[i]);
           ps.push_back(p1 * law.probs[i]);

@@ -1,5 +1,5 @@
-// Law "gated_shader": DB23's gated Gaussian as the public HLSL implementation runs it (docs/math/laws.md#law-gated-shader),
-// always in float32, including its departures from the paper:
+// Law "gated_shader": DB23's gated Gaussian as the public HLSL implementation runs it
+// (docs/math/laws.md#law-gated-shader), always in float32, including its departures from the paper:
 //   - P1 = 1 - pow(|1 - p|, n) directly (not through expm1/log1p);
 //   - n is continuous, with n >= 1 in the Gaussian's parameters: m = max(n, 1) - 1,
 //     mu = m p, sd = sqrt(m p (1 - p));
@@ -127,7 +127,10 @@ const Cells& gaussian_cells() {
       for (int it = 0; it < 80 && hi - lo > 0; ++it) {
         const double mid = 0.5 * (lo + hi);
         if (mid == lo || mid == hi) break;
-        if (stored_gaussian(mid) == current) lo = mid; else hi = mid;
+        if (stored_gaussian(mid) == current)
+          lo = mid;
+        else
+          hi = mid;
       }
       c.value.push_back(current);
       c.prob.push_back(hi - u);

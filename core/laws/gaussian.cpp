@@ -9,9 +9,9 @@
 // Degenerate sd (p in {0, 1} or n = 0) gives K = clamp(rounding(n p)).
 #include <cmath>
 
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
-#include "glintlab/detail/law_kernel.hpp"
 
 namespace glintlab {
 namespace {
@@ -28,8 +28,8 @@ class GaussianLaw final : public detail::KernelLaw<GaussianLaw> {
   struct Constants {
     T mean, sd, top;
     bool round;
-    Constants(T n, T p, bool round_half_up) : mean(n * p), sd(std::sqrt(mean * (T(1) - p))), top(std::ceil(n)),
-                                               round(round_half_up) {}
+    Constants(T n, T p, bool round_half_up)
+        : mean(n * p), sd(std::sqrt(mean * (T(1) - p))), top(std::ceil(n)), round(round_half_up) {}
     T operator()(const T* u) const {
       // sd = 0 would make 0 * (+-inf) = NaN at u in {0, 1}: the law is then the point n p.
       const T g = sd > T(0) ? mean + sd * normal::quantile(u[0]) : mean;
@@ -45,8 +45,7 @@ class GaussianLaw final : public detail::KernelLaw<GaussianLaw> {
   // Many rows at one (n, p): the count by table inversion (bit-identical to eval; see step_inversion).
   std::optional<detail::RowTable> table(double n, double p, std::size_t rows) const {
     const double mean = n * p, sd = std::sqrt(mean * (1.0 - p));
-    auto steps = floor_gaussian_steps(mean, sd, round_ ? 0.5 : 0.0, std::ceil(n),
-                                      std::max<std::size_t>(rows / 4, 64));
+    auto steps = floor_gaussian_steps(mean, sd, round_ ? 0.5 : 0.0, std::ceil(n), std::max<std::size_t>(rows / 4, 64));
     if (!steps) return std::nullopt;
     return detail::RowTable{std::move(*steps), {}, 0};
   }
@@ -59,8 +58,8 @@ class GaussianLaw final : public detail::KernelLaw<GaussianLaw> {
       return Distribution({eval<double>(n, p, &u)}, {1.0});
     }
     auto law = normal::discretized(mean, sd, std::ceil(n), round_ ? 0.5 : 0.0, max_support, "gaussian.pmf");
-    return Distribution::with_trimmed_tails(std::move(law.support), std::move(law.probs),
-                                            law.trimmed_below, law.trimmed_above);
+    return Distribution::with_trimmed_tails(std::move(law.support), std::move(law.probs), law.trimmed_below,
+                                            law.trimmed_above);
   }
 
  private:
@@ -68,7 +67,8 @@ class GaussianLaw final : public detail::KernelLaw<GaussianLaw> {
 };
 
 const bool registered = register_law(
-    {"gaussian", "moment-matched normal, floor or round (rounding=), clamped to [0, ceil(n)]",
+    {"gaussian",
+     "moment-matched normal, floor or round (rounding=), clamped to [0, ceil(n)]",
      [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
        ParamReader reader("gaussian", params);
        const bool round = reader.text("rounding", "floor", {"floor", "round"}) == "round";

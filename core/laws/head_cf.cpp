@@ -19,12 +19,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include "../src/pixel_blocks.hpp"
+#include "../src/simd_math.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
-#include "glintlab/detail/law_kernel.hpp"
-#include "../src/pixel_blocks.hpp"
-#include "../src/simd_math.hpp"
 
 namespace glintlab {
 namespace {
@@ -93,9 +93,12 @@ class HeadCfLaw final : public detail::KernelLaw<HeadCfLaw> {
     Constants(T n_, T p_) : h(n_, p_), n(n_), p(p_) {}
     T operator()(const T* u) const {
       T y;
-      if (u[0] <= h.f0) y = T(0);
-      else if (u[0] <= h.f1) y = T(1);
-      else if (u[0] <= h.f2) y = T(2);
+      if (u[0] <= h.f0)
+        y = T(0);
+      else if (u[0] <= h.f1)
+        y = T(1);
+      else if (u[0] <= h.f2)
+        y = T(2);
       else {
         const T mu = h.m * h.pt, sd = std::sqrt(mu * (T(1) - h.pt));
         if (sd > T(0)) {
@@ -132,7 +135,8 @@ class HeadCfLaw final : public detail::KernelLaw<HeadCfLaw> {
     constexpr std::size_t kB = 256;
     // The whole block at the CPU's ISA (head_cf_pixels_body.inc), then eval where flagged.
     if (detail::run_pixel_blocks(detail::head_cf_pixels_block_avx512, detail::head_cf_pixels_block_avx2, n, p, u, count,
-                                 out, [this](double nv, double pv, const double* row) { return eval<double>(nv, pv, row); }))
+                                 out,
+                                 [this](double nv, double pv, const double* row) { return eval<double>(nv, pv, row); }))
       return;
     alignas(64) double a[kB], e[kB], lt[kB];
     for (std::size_t s = 0; s < count; s += kB) {
@@ -151,8 +155,10 @@ class HeadCfLaw final : public detail::KernelLaw<HeadCfLaw> {
       if (const int level = detail::simd_level(); level >= 1) {
         // The rest as one vectorized branch-free pass (head_cf_pixels_body.inc), then eval where flagged.
         alignas(64) double redo[kB];
-        if (level >= 2) detail::head_cf_pixels_avx512(nn, pp, uu, e, lt, mcount, oo, redo);
-        else detail::head_cf_pixels_avx2(nn, pp, uu, e, lt, mcount, oo, redo);
+        if (level >= 2)
+          detail::head_cf_pixels_avx512(nn, pp, uu, e, lt, mcount, oo, redo);
+        else
+          detail::head_cf_pixels_avx2(nn, pp, uu, e, lt, mcount, oo, redo);
         for (std::size_t i = 0; i < mcount; ++i)
           if (redo[i] != 0.0) oo[i] = eval<double>(nn[i], pp[i], uu + 2 * i);
         continue;
@@ -160,18 +166,27 @@ class HeadCfLaw final : public detail::KernelLaw<HeadCfLaw> {
       for (std::size_t i = 0; i < mcount; ++i) {
         const double nv = nn[i], pv = pp[i], u0 = uu[2 * i], u1 = uu[2 * i + 1];
         const double* row = uu + 2 * i;
-        if (!(u0 > 0.0 && u0 < 1.0 && u1 > 0.0 && u1 < 1.0)) { oo[i] = eval<double>(nv, pv, row); continue; }
+        if (!(u0 > 0.0 && u0 < 1.0 && u1 > 0.0 && u1 < 1.0)) {
+          oo[i] = eval<double>(nv, pv, row);
+          continue;
+        }
         const double m = std::floor(nv), pt = pv < 0.5 ? pv : 1.0 - pv, qt = 1.0 - pt;
         const double p0 = e[i];
         const double p1 = m >= 1.0 ? p0 * m * pt / qt : 0.0;
         const double p2 = m >= 2.0 ? p1 * (m - 1.0) * pt / (2.0 * qt) : 0.0;
         const double f0 = p0, f1 = p0 + p1, f2 = p0 + p1 + p2;
         const auto near = [u0](double f) { return !(std::abs(u0 - f) > 1e-11 * std::abs(f)); };
-        if (near(f0) || near(f1) || near(f2)) { oo[i] = eval<double>(nv, pv, row); continue; }
+        if (near(f0) || near(f1) || near(f2)) {
+          oo[i] = eval<double>(nv, pv, row);
+          continue;
+        }
         double y;
-        if (u0 <= f0) y = 0.0;
-        else if (u0 <= f1) y = 1.0;
-        else if (u0 <= f2) y = 2.0;
+        if (u0 <= f0)
+          y = 0.0;
+        else if (u0 <= f1)
+          y = 1.0;
+        else if (u0 <= f2)
+          y = 2.0;
         else {
           const double mu = m * pt, sd = std::sqrt(mu * (1.0 - pt));
           if (sd > 0.0) {
@@ -183,7 +198,10 @@ class HeadCfLaw final : public detail::KernelLaw<HeadCfLaw> {
             const double arg = mu + sd * cf - 0.5;
             if (!central) {
               const double f = std::ceil(arg) - arg, tol = 1e-11 * (std::abs(mu) + sd * (std::abs(cf) + 1.0) + 1.0);
-              if (!(f > tol && 1.0 - f > tol)) { oo[i] = eval<double>(nv, pv, row); continue; }
+              if (!(f > tol && 1.0 - f > tol)) {
+                oo[i] = eval<double>(nv, pv, row);
+                continue;
+              }
             }
             y = std::ceil(arg);
           } else {
@@ -244,12 +262,11 @@ class HeadCfLaw final : public detail::KernelLaw<HeadCfLaw> {
     // Above 2^53 consecutive integers are not representable: k += 1 below would stop advancing.
     if (hi_k >= 0x1p53)
       throw_invalid_message("head_cf.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
-                                  " puts the support at counts above 2^53 (9.007e15), where doubles no longer "
-                                  "hold consecutive integers; expected n p below 9e15");
+                            " puts the support at counts above 2^53 (9.007e15), where doubles no longer "
+                            "hold consecutive integers; expected n p below 9e15");
     if (hi_k - lo_k + 2 > static_cast<double>(max_support))
       throw_invalid_message("head_cf.pmf: n = " + format_value(n) + ", p = " + format_value(p) +
-                                  " needs more than max_support = " + std::to_string(max_support) +
-                                  " support points");
+                            " needs more than max_support = " + std::to_string(max_support) + " support points");
     std::vector<double> ys, py;
     double prev = cdf(lo_k - 1);
     const bool cut_below = prev > 0;
@@ -266,7 +283,10 @@ class HeadCfLaw final : public detail::KernelLaw<HeadCfLaw> {
     const double gp = (n - m) * p;
     std::vector<double> base(ys.size());
     for (std::size_t i = 0; i < ys.size(); ++i) base[i] = flip ? m - ys[i] : ys[i];
-    if (flip) { std::reverse(base.begin(), base.end()); std::reverse(py.begin(), py.end()); }
+    if (flip) {
+      std::reverse(base.begin(), base.end());
+      std::reverse(py.begin(), py.end());
+    }
     for (std::size_t i = 0; i <= base.size(); ++i) {
       // value base[0] + i collects (1 - gp) P(base = v) + gp P(base = v - 1); base is contiguous.
       const double here = i < base.size() ? py[i] : 0.0, below = i > 0 ? py[i - 1] : 0.0;
@@ -276,7 +296,10 @@ class HeadCfLaw final : public detail::KernelLaw<HeadCfLaw> {
       pk.push_back(prob);
     }
     // Drop exact zeros at the ends (a strict support), keep the trimming flags honest.
-    while (pk.size() > 1 && pk.back() == 0) { pk.pop_back(); ks.pop_back(); }
+    while (pk.size() > 1 && pk.back() == 0) {
+      pk.pop_back();
+      ks.pop_back();
+    }
     std::size_t first = 0;
     while (first + 1 < pk.size() && pk[first] == 0) ++first;
     ks.erase(ks.begin(), ks.begin() + static_cast<std::ptrdiff_t>(first));

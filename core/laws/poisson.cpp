@@ -14,9 +14,7 @@ class PoissonLaw final : public CountingLaw, public detail::LawKernel {
   const detail::LawKernel* kernel() const override { return this; }
   std::string name() const override { return "poisson"; }
   int n_uniforms() const override { return 1; }
-  double evaluate(double n, double p, const double* u) const override {
-    return poisson::quantile(u[0], n * p);
-  }
+  double evaluate(double n, double p, const double* u) const override { return poisson::quantile(u[0], n * p); }
   bool samples_by_evaluate() const override { return false; }
   void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                     double* out) const override {

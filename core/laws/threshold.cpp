@@ -67,7 +67,8 @@ class ThresholdLaw final : public TemplatedLaw<ThresholdLaw> {
 };
 
 const bool registered = register_law(
-    {"threshold", "WWH18 filtered model: the mean n p above T=16, the exact binomial below",
+    {"threshold",
+     "WWH18 filtered model: the mean n p above T=16, the exact binomial below",
      [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
        ParamReader reader("threshold", params);
        const double t = reader.number("T", kDefaultThreshold);

@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "glintlab/binomial.hpp"
-#include "glintlab/normal.hpp"
 #include "glintlab/errors.hpp"
+#include "glintlab/normal.hpp"
 #include "glintlab/templated_law.hpp"
 
 namespace glintlab {
@@ -82,10 +82,9 @@ class Zk16Law final : public TemplatedLaw<Zk16Law> {
       return Distribution(k, {1.0});
     }
     if (gaussian_branch(n, p)) {
-      auto law = normal::discretized(mean, std::sqrt(mean * (1 - p)), std::ceil(n), 0.0, max_support,
-                                     "zk16.pmf");
-      return Distribution::with_trimmed_tails(std::move(law.support), std::move(law.probs),
-                                              law.trimmed_below, law.trimmed_above);
+      auto law = normal::discretized(mean, std::sqrt(mean * (1 - p)), std::ceil(n), 0.0, max_support, "zk16.pmf");
+      return Distribution::with_trimmed_tails(std::move(law.support), std::move(law.probs), law.trimmed_below,
+                                              law.trimmed_above);
     }
     const double trials = std::floor(n) < cap_ ? n : static_cast<double>(cap_);
     return binomial::distribution(trials, p, max_support);
@@ -95,34 +94,35 @@ class Zk16Law final : public TemplatedLaw<Zk16Law> {
   int cap_;
 };
 
-const bool registered = register_law(
-    {"zk16", "ZK16 hybrid (DB23 eq. 15): Gaussian if n p > 5, else Bernoulli loop capped at cap=16",
-     [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
-       ParamReader reader("zk16", params);
-       const double cap = reader.number("cap", kDefaultCap);
-       reader.finish();
-       if (!(cap >= 1 && cap <= kMaxTemplatedUniforms && cap == std::floor(cap)))
-         throw_invalid("law 'zk16'", "cap", cap, "an integer in [1, 64]");
-       return std::make_unique<Zk16Law>(static_cast<int>(cap));
-     },
-     {.output = LawOutput::kInteger,
-      .support = SupportBound::kBoundedByN,
-      .constant_time = false,
-      .regime = "n p > 5 (its Gaussian branch) or n <= cap (its Bernoulli loop is then exact)",
-      .cost = "constant on the Gaussian branch; below it, work_units = min(ceil n, cap) Bernoulli trials",
-      .study_variants = {LawParams{}},
-      .bench_variants = {LawParams{}},
-      // cap = 4: a cap that cuts the loop inside the test points (n between 4 and 16).
-      .test_variants = {LawParams{}, LawParams{{"cap", 4.0}}},
-      // The loop at cap trials and at 1 trial (their difference is the cost of cap - 1 trials), and
-      // the Gaussian branch: p chosen so that n p stays below or above the switch.
-      .cost_points = {{kDefaultCap, 0.05}, {1.0, 0.05}, {1e3, 0.5}},
-      .bounds = {{.regime = {{"p_range", {0, 0.5}}, {"np_range", {10, 1e300}}},
-                  .metrics = {"tv", "mean_rel_err"},
-                  .reason = "the Gaussian branch (n p > 5)"},
-                 {.regime = {{"n_range", {0, kDefaultCap}}, {"np_range", {0, kGaussianSwitch}}},
-                  .metrics = {"tv", "mean_rel_err"},
-                  .reason = "n p <= 5 and n <= cap: the Bernoulli loop is exact"}}}});
+const bool registered =
+    register_law({"zk16",
+                  "ZK16 hybrid (DB23 eq. 15): Gaussian if n p > 5, else Bernoulli loop capped at cap=16",
+                  [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
+                    ParamReader reader("zk16", params);
+                    const double cap = reader.number("cap", kDefaultCap);
+                    reader.finish();
+                    if (!(cap >= 1 && cap <= kMaxTemplatedUniforms && cap == std::floor(cap)))
+                      throw_invalid("law 'zk16'", "cap", cap, "an integer in [1, 64]");
+                    return std::make_unique<Zk16Law>(static_cast<int>(cap));
+                  },
+                  {.output = LawOutput::kInteger,
+                   .support = SupportBound::kBoundedByN,
+                   .constant_time = false,
+                   .regime = "n p > 5 (its Gaussian branch) or n <= cap (its Bernoulli loop is then exact)",
+                   .cost = "constant on the Gaussian branch; below it, work_units = min(ceil n, cap) Bernoulli trials",
+                   .study_variants = {LawParams{}},
+                   .bench_variants = {LawParams{}},
+                   // cap = 4: a cap that cuts the loop inside the test points (n between 4 and 16).
+                   .test_variants = {LawParams{}, LawParams{{"cap", 4.0}}},
+                   // The loop at cap trials and at 1 trial (their difference is the cost of cap - 1 trials), and
+                   // the Gaussian branch: p chosen so that n p stays below or above the switch.
+                   .cost_points = {{kDefaultCap, 0.05}, {1.0, 0.05}, {1e3, 0.5}},
+                   .bounds = {{.regime = {{"p_range", {0, 0.5}}, {"np_range", {10, 1e300}}},
+                               .metrics = {"tv", "mean_rel_err"},
+                               .reason = "the Gaussian branch (n p > 5)"},
+                              {.regime = {{"n_range", {0, kDefaultCap}}, {"np_range", {0, kGaussianSwitch}}},
+                               .metrics = {"tv", "mean_rel_err"},
+                               .reason = "n p <= 5 and n <= cap: the Bernoulli loop is exact"}}}});
 
 }  // namespace
 }  // namespace glintlab

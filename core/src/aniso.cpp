@@ -96,16 +96,15 @@ std::unique_ptr<GridScheme> make_grid_scheme(const std::string& name, const LawP
 namespace {
 const std::vector<std::pair<std::string, Spatial>> kSpatial = {
     {"none", Spatial::kNone}, {"square", Spatial::kSquare}, {"simplex", Spatial::kSimplex}};
-const std::vector<std::pair<std::string, Angular>> kAngular = {{"none", Angular::kNone}, {"bilinear", Angular::kBilinear}};
+const std::vector<std::pair<std::string, Angular>> kAngular = {{"none", Angular::kNone},
+                                                               {"bilinear", Angular::kBilinear}};
 const std::vector<std::pair<std::string, Realization>> kRealization = {{"blend", Realization::kBlend},
                                                                        {"select", Realization::kSelect}};
 }  // namespace
 
 Spatial spatial_from_name(const std::string& name) { return parse_enum("", "spatial", name, kSpatial); }
 Angular angular_from_name(const std::string& name) { return parse_enum("", "angular", name, kAngular); }
-Realization realization_from_name(const std::string& name) {
-  return parse_enum("", "realization", name, kRealization);
-}
+Realization realization_from_name(const std::string& name) { return parse_enum("", "realization", name, kRealization); }
 std::string spatial_name(Spatial s) { return enum_name(s, kSpatial); }
 std::string angular_name(Angular a) { return enum_name(a, kAngular); }
 std::string realization_name(Realization r) { return enum_name(r, kRealization); }
@@ -119,7 +118,8 @@ std::array<double, 4> barycentric(const std::array<double, 3>& q, const std::arr
   // Solve [t0 - t3, t1 - t3, t2 - t3] λ = q - t3 by Cramer's rule.
   double m[3][3], b[3];
   for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) m[i][j] = t[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)] - t[3][static_cast<std::size_t>(i)];
+    for (int j = 0; j < 3; ++j)
+      m[i][j] = t[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)] - t[3][static_cast<std::size_t>(i)];
     b[i] = q[static_cast<std::size_t>(i)] - t[3][static_cast<std::size_t>(i)];
   }
   auto det3 = [](const double a[3][3]) {
@@ -143,9 +143,7 @@ inline int spatial_vertices_inline(Spatial spatial, double X, double Y, Vertex2*
   const double fx0 = std::floor(X), fy0 = std::floor(Y);
   const auto i = static_cast<std::int64_t>(fx0), j = static_cast<std::int64_t>(fy0);
   switch (spatial) {
-    case Spatial::kNone:
-      out[0] = {i, j, 1.0};
-      return 1;
+    case Spatial::kNone: out[0] = {i, j, 1.0}; return 1;
     case Spatial::kSquare: {
       const double fx = X - fx0, fy = Y - fy0;
       out[0] = {i, j, (1 - fx) * (1 - fy)};
@@ -210,14 +208,18 @@ struct CellUniforms {
     return key + static_cast<std::uint64_t>(cx) * 0xD1B54A32D192ED03ULL +
            static_cast<std::uint64_t>(cy) * 0xABC98388FB8FAC03ULL;
   }
-  static double unit(std::uint64_t x) { return (static_cast<double>(x >> 11) + 0.5) * 0x1.0p-53; }  // open (0, 1), as CounterRng
+  static double unit(std::uint64_t x) {
+    return (static_cast<double>(x >> 11) + 0.5) * 0x1.0p-53;
+  }  // open (0, 1), as CounterRng
   double operator()(std::size_t d) const { return unit(d == 0 ? h : mix64(h + d * 0x8CB92BA72F3D8DD7ULL)); }
 };
 // The uniforms of gathered cells: rows[r] holds CellUniforms::cell_input of row r, u gets row r's nu
 // uniforms at u[r * nu]. A pass of its own (not in the per-term code): the rows are independent, so
 // the hash chains overlap instead of waiting on each term's geometry. Integer hashing and exact
 // conversions only (x >> 11 < 2^53), so the vector clones give the same bits as the scalar one.
-__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void cell_uniform_rows(const std::uint64_t* rows, std::size_t count, std::size_t nu, double* u) {
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void cell_uniform_rows(const std::uint64_t* rows,
+                                                                                           std::size_t count,
+                                                                                           std::size_t nu, double* u) {
   if (nu == 2) {  // the gated and binomial-family laws
     for (std::size_t r = 0; r < count; ++r) {
       const std::uint64_t h = mix64(rows[r]);
@@ -276,9 +278,7 @@ bool AnisoCounter::integer_output() const {
   return inner_.integer_output && scheme_->independent_terms() && evaluations_per_term() == 1;
 }
 
-bool AnisoCounter::has_pmf() const {
-  return integer_output() && inner_.law && inner_.law->has_pmf();
-}
+bool AnisoCounter::has_pmf() const { return integer_output() && inner_.law && inner_.law->has_pmf(); }
 
 std::vector<Term> AnisoCounter::terms(double density, const Shape& shape, bool* clamped) const {
   const std::string where = "aniso_counter('" + scheme_->name() + "')";
@@ -300,7 +300,7 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
   const Spatial angular_lattice = options_.angular == Angular::kNone ? Spatial::kNone : Spatial::kSquare;
   auto refuse = [&](double trials, double p) {
     throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(trials) +
-                                " at p = " + format_value(p));
+                          " at p = " + format_value(p));
   };
   // Rows a chunk can gather at most: every buffer is sized once per chunk, so the gather never
   // reallocates (no regrowth copies) and writes by index.
@@ -333,8 +333,8 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
     // use a few grid orientations, so nearly every term reuses a value std::cos / std::sin already
     // gave for the same argument (the same bits, at a fraction of a libm call).
     struct TrigMemo {
-      std::uint64_t bits = 0;  // the angle +0.0
-      double c = 1.0, s = 0.0;   // std::cos(+0.0), std::sin(+0.0) exactly
+      std::uint64_t bits = 0;   // the angle +0.0
+      double c = 1.0, s = 0.0;  // std::cos(+0.0), std::sin(+0.0) exactly
     };
     std::array<TrigMemo, 64> trig;
     // Memo of each term slot's grid key: neighbouring pixels mostly read the same grids.
@@ -399,8 +399,7 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
         }
         GridMemo& gm = grid_memo[ti];
         if (!gm.set || gm.seed != px.grid_seed || gm.grid.scale != t.grid.scale || gm.grid.ratio != t.grid.ratio ||
-            gm.grid.orientation != t.grid.orientation)
-        {
+            gm.grid.orientation != t.grid.orientation) {
           const std::uint64_t key = grid_key(px.grid_seed, t.grid);
           gm = {t.grid, px.grid_seed, key, true, av[0].i, av[0].j, texel_key(key, av[0].i, av[0].j)};
         }
@@ -435,8 +434,8 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
     inner_.evaluate(n, pp, g->u.data(), gathered, g->k.data());
     for (std::size_t q = 0; q < gathered; ++q) {
       if (!std::isfinite(kk[q]))
-        throw_invalid_message(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
-                                    format_value(n[q]) + ", p = " + format_value(pp[q]));
+        throw_invalid_message(where + ": the inner law returned " + format_value(kk[q]) +
+                              " at n = " + format_value(n[q]) + ", p = " + format_value(pp[q]));
       if (coef[q] != 0.0) k_out[owner[q]] += coef[q] * kk[q];
     }
   };
@@ -453,12 +452,12 @@ void check_trials(const std::string& where, const InnerLaw& inner, const std::ve
   for (const Term& t : terms)
     if (t.trials > 0 && !inner.law->accepts(t.trials, p))
       throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(t.trials) +
-                                  " at p = " + format_value(p));
+                            " at p = " + format_value(p));
 }
 }  // namespace
 
-void AnisoCounter::count_pixels(double density, ParamArray p, const double* uv, const double* jac,
-                                const double* slope, std::size_t m, std::uint64_t seed, PixelOutput out) const {
+void AnisoCounter::count_pixels(double density, ParamArray p, const double* uv, const double* jac, const double* slope,
+                                std::size_t m, std::uint64_t seed, PixelOutput out) const {
   const std::string where = "aniso_counter('" + scheme_->name() + "').count_image";
   check_n(where, density, "N");
   check_length(where, "p", p.size, m);
@@ -470,11 +469,12 @@ void AnisoCounter::count_pixels(double density, ParamArray p, const double* uv, 
       throw_invalid(where, indexed_name("slope", i, true), slope[i], "a finite angular coordinate, |slope| <= 1e9");
   }
   const std::uint64_t select_seed = hash_combine(seed, 0x5E1EC7ULL);
-  run(density, m,
+  run(
+      density, m,
       [&](std::size_t i, Pixel& px, Shape& shape) {
         shape = shape_from_jacobian(jac[4 * i], jac[4 * i + 1], jac[4 * i + 2], jac[4 * i + 3]);
-        px = {uv[2 * i], uv[2 * i + 1], slope ? slope[2 * i] : 0.0, slope ? slope[2 * i + 1] : 0.0, p[i], seed,
-              select_seed};
+        px = {uv[2 * i], uv[2 * i + 1], slope ? slope[2 * i] : 0.0, slope ? slope[2 * i + 1] : 0.0, p[i],
+              seed,      select_seed};
       },
       out.count, out.evaluations, out.status);
 }
@@ -490,7 +490,8 @@ void AnisoCounter::sample(double density, double p, const Shape& shape, std::siz
   double extent = 0;
   for (const Term& t : ts) extent = std::max({extent, t.cell_major, t.cell_minor});
   const double width = 1e6 * (extent > 0 ? extent : 1.0);
-  run(density, count,
+  run(
+      density, count,
       [&](std::size_t r, Pixel& px, Shape& s) {
         CounterRng rng(seed, static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(r >> 32), 0,
                        kStreamAnisoPosition);
@@ -507,8 +508,9 @@ Distribution AnisoCounter::pmf(double density, double p, const Shape& shape, std
   if (!has_pmf()) {
     std::string why = !inner_.law || !inner_.law->has_pmf() ? "the inner law has no exact distribution"
                       : !inner_.integer_output              ? "the inner law's counts are not integers"
-                      : !scheme_->independent_terms()       ? "the scheme's terms share cells or are rescaled"
-                                                            : "blended realizations are not integers (use realization='select')";
+                      : !scheme_->independent_terms()
+                          ? "the scheme's terms share cells or are rescaled"
+                          : "blended realizations are not integers (use realization='select')";
     throw not_implemented(where + ": no exact distribution: " + why);
   }
   check_p(where, p);

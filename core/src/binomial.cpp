@@ -35,8 +35,7 @@ double log_add(double a, double b) {
 // Smallest integer k in [lo, hi] with cdf(k) >= u, written as the complementary test sf(k) <= 1 - u
 // when u > 1/2 so that upper-tail quantiles keep their precision. `guess` seeds an exponential then
 // binary search, so the cost is O(log |k - guess|) distribution-function calls.
-double discrete_inverse(double u, double lo, double hi, double guess,
-                        const std::function<double(double)>& cdf_fn,
+double discrete_inverse(double u, double lo, double hi, double guess, const std::function<double(double)>& cdf_fn,
                         const std::function<double(double)>& sf_fn) {
   const bool upper = u > 0.5;
   const double tail = 1.0 - u;  // exact for u >= 1/2 (Sterbenz)
@@ -48,7 +47,10 @@ double discrete_inverse(double u, double lo, double hi, double guess,
     double step = 1;
     for (;;) {
       const double t = std::max(lo - 1, b - step);
-      if (t < lo || !reached(t)) { a = t; break; }
+      if (t < lo || !reached(t)) {
+        a = t;
+        break;
+      }
       b = t;
       step *= 2;
     }
@@ -57,14 +59,20 @@ double discrete_inverse(double u, double lo, double hi, double guess,
     double step = 1;
     for (;;) {
       const double t = std::min(hi, a + step);
-      if (t >= hi || reached(t)) { b = t; break; }
+      if (t >= hi || reached(t)) {
+        b = t;
+        break;
+      }
       a = t;
       step *= 2;
     }
   }
   while (b - a > 1) {
     const double mid = std::floor(a + (b - a) / 2);
-    if (reached(mid)) b = mid; else a = mid;
+    if (reached(mid))
+      b = mid;
+    else
+      a = mid;
   }
   return b;
 }
@@ -238,13 +246,13 @@ Distribution distribution(double n, double p, std::size_t max_support) {
   // Width check before walking: the trimmed support spans about +-8.5 standard deviations.
   const double sd = std::sqrt(variance(n, p));
   if (std::min(hi + 1, 17.0 * sd + 40.0) > static_cast<double>(max_support))
-    throw_invalid_message("binomial.distribution: n = " + format_value(n) + ", p = " +
-                                format_value(p) + " needs about " + format_value(std::floor(17 * sd)) +
-                                " support points, more than max_support = " +
-                                std::to_string(max_support) + "; use cdf/sf/log_pmf instead");
+    throw_invalid_message("binomial.distribution: n = " + format_value(n) + ", p = " + format_value(p) +
+                          " needs about " + format_value(std::floor(17 * sd)) +
+                          " support points, more than max_support = " + std::to_string(max_support) +
+                          "; use cdf/sf/log_pmf instead");
   const double mode = std::floor((m + 1) * p);
-  return Distribution::from_log_concave([&](double k) { return log_pmf(k, n, p); }, 0.0, hi, mode,
-                                        max_support, "binomial.distribution");
+  return Distribution::from_log_concave([&](double k) { return log_pmf(k, n, p); }, 0.0, hi, mode, max_support,
+                                        "binomial.distribution");
 }
 
 // Below this mean, inversion (expected mean + 1 steps, O(1) with the table); above, BTRD/PTRD,
@@ -372,7 +380,8 @@ void Sampler::tabulate_log_ratios(std::size_t max_entries) {
   if (!(hi >= lo) || hi - lo + 1 > static_cast<double>(max_entries)) return;
   log_ratio_lo_ = lo;
   log_ratio_table_.resize(static_cast<std::size_t>(hi - lo) + 1);
-  for (std::size_t j = 0; j < log_ratio_table_.size(); ++j) log_ratio_table_[j] = log_ratio_(lo + static_cast<double>(j));
+  for (std::size_t j = 0; j < log_ratio_table_.size(); ++j)
+    log_ratio_table_[j] = log_ratio_(lo + static_cast<double>(j));
 }
 
 template <class Rng>
@@ -411,21 +420,32 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
     }
     return;
   }
-  const detail::BtrdStep1 step{.m = m_, .g = g_, .flip = flip_ ? 1.0 : 0.0, .urvr = urvr_, .inv_vr = inv_vr_,
-                               .two_a = 2 * a_, .b = b_, .c = c_};
-  const detail::BtrdAttempt attempt{.m = m_, .mode = mode_, .alpha = alpha_, .a = a_, .b = b_, .c = c_, .vr = vr_,
-                                    .inv_vr = inv_vr_, .r = r_, .nr = nr_, .npq = npq_};
+  const detail::BtrdStep1 step{
+      .m = m_, .g = g_, .flip = flip_ ? 1.0 : 0.0, .urvr = urvr_, .inv_vr = inv_vr_, .two_a = 2 * a_, .b = b_, .c = c_};
+  const detail::BtrdAttempt attempt{.m = m_,
+                                    .mode = mode_,
+                                    .alpha = alpha_,
+                                    .a = a_,
+                                    .b = b_,
+                                    .c = c_,
+                                    .vr = vr_,
+                                    .inv_vr = inv_vr_,
+                                    .r = r_,
+                                    .nr = nr_,
+                                    .npq = npq_};
   constexpr std::size_t kPadded = kVectorBlock + 8;  // room for binomial_compact_avx512's whole-vector stores
-  alignas(64) double redo[kVectorBlock], v[kPadded], u1[kPadded], k[kVectorBlock], w[kVectorBlock],
-      log_w[kVectorBlock], lo[kVectorBlock], hi[kVectorBlock], state[kVectorBlock];
+  alignas(64) double redo[kVectorBlock], v[kPadded], u1[kPadded], k[kVectorBlock], w[kVectorBlock], log_w[kVectorBlock],
+      lo[kVectorBlock], hi[kVectorBlock], state[kVectorBlock];
   std::uint32_t row_of[kPadded];
   for (std::size_t b = 0; b < rows; b += kVectorBlock) {
     const std::size_t len = std::min(kVectorBlock, rows - b);
     const double* ub = u + 2 * b;
     double* ob = out + b;
     // Step 1 on every row.
-    if (level >= 2) detail::binomial_btrd_rows_avx512(step, ub, len, ob, redo);
-    else detail::binomial_btrd_rows_avx2(step, ub, len, ob, redo);
+    if (level >= 2)
+      detail::binomial_btrd_rows_avx512(step, ub, len, ob, redo);
+    else
+      detail::binomial_btrd_rows_avx2(step, ub, len, ob, redo);
     // The rest of the first attempt on the rows step 1 left (a fifth to a quarter), compacted.
     std::size_t pending = 0;
     if (level >= 2) {
@@ -438,8 +458,10 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
         pending += redo[r] != 0.0;
       }
     }
-    if (level >= 2) detail::binomial_btrd_attempt_avx512(attempt, v, u1, pending, k, w, lo, hi, state);
-    else detail::binomial_btrd_attempt_avx2(attempt, v, u1, pending, k, w, lo, hi, state);
+    if (level >= 2)
+      detail::binomial_btrd_attempt_avx512(attempt, v, u1, pending, k, w, lo, hi, state);
+    else
+      detail::binomial_btrd_attempt_avx2(attempt, v, u1, pending, k, w, lo, hi, state);
     // Step 3.2 compares log w with [lo, hi]: the vector log is within a few ulps of the C
     // library's, so a margin of 2^-40 |log w| proves the scalar comparison's outcome; inside it, the
     // scalar Sampler decides.
@@ -450,9 +472,12 @@ void Sampler::sample_rows(const double* u, std::uint64_t seed, std::uint64_t fir
       double st = state[j];
       if (st == 2.0) {
         const double margin = 0x1.0p-40 * std::abs(log_w[j]);
-        if (log_w[j] < lo[j] - margin) st = 0.0;
-        else if (log_w[j] > hi[j] + margin) st = 1.0;
-        else st = btrd_far_accepts(k[j], std::abs(k[j] - mode_), w[j]) ? 0.0 : 1.0;  // btrd()'s own test
+        if (log_w[j] < lo[j] - margin)
+          st = 0.0;
+        else if (log_w[j] > hi[j] + margin)
+          st = 1.0;
+        else
+          st = btrd_far_accepts(k[j], std::abs(k[j] - mode_), w[j]) ? 0.0 : 1.0;  // btrd()'s own test
       }
       if (st == 0.0) {  // accepted by the first attempt, which drew the first block's two uniforms
         const double integer = flip_ ? m_ - k[j] : k[j];
@@ -496,13 +521,17 @@ void sample_pixels(const double* n, const double* p, const double* u, std::uint6
     double* ob = out + b;
     // The inversion's P(K = 0) = exp(m log1p(-min(p, 1 - p))) by the vector functions: an
     // approximation, used only with the guard band (binomial_simd.hpp).
-    if (level >= 2) detail::binomial_pixels_prepare_avx512(nb, pb, len, x, m);
-    else detail::binomial_pixels_prepare_avx2(nb, pb, len, x, m);
+    if (level >= 2)
+      detail::binomial_pixels_prepare_avx512(nb, pb, len, x, m);
+    else
+      detail::binomial_pixels_prepare_avx2(nb, pb, len, x, m);
     detail::vec_log1p(x, f0, len);
     for (std::size_t i = 0; i < len; ++i) x[i] = m[i] * f0[i];
     detail::vec_exp(x, f0, len);
-    if (level >= 2) detail::binomial_pixels_avx512(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
-    else detail::binomial_pixels_avx2(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
+    if (level >= 2)
+      detail::binomial_pixels_avx512(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
+    else
+      detail::binomial_pixels_avx2(nb, pb, ub, f0, len, ob, redo, inv_a, inv_s, inv_bound);
     const auto scalar_draw = [&](std::size_t i) {
       PrefetchedRng rng(ub + 2 * i, seed, first_index + b + i, stream);
       ob[i] = Sampler(nb[i], pb[i])(rng);
@@ -534,8 +563,10 @@ void sample_pixels(const double* n, const double* p, const double* u, std::uint6
       ++searching;
     }
     // BTRD's first attempt past step 1, as Sampler::sample_rows does it, with each pixel's constants.
-    if (level >= 2) detail::binomial_pixels_attempt_avx512(bn, bp, bv, bu1, attempting, bk, bw, blo, bhi, bstate);
-    else detail::binomial_pixels_attempt_avx2(bn, bp, bv, bu1, attempting, bk, bw, blo, bhi, bstate);
+    if (level >= 2)
+      detail::binomial_pixels_attempt_avx512(bn, bp, bv, bu1, attempting, bk, bw, blo, bhi, bstate);
+    else
+      detail::binomial_pixels_attempt_avx2(bn, bp, bv, bu1, attempting, bk, bw, blo, bhi, bstate);
     detail::vec_log(bw, blog_w, attempting);
     for (std::size_t j = 0; j < attempting; ++j) {
       const std::size_t i = brow[j];
@@ -564,8 +595,10 @@ void sample_pixels(const double* n, const double* p, const double* u, std::uint6
     }
     // The search, eight steps at a time, on the pixels not settled yet.
     while (searching > 0) {
-      if (level >= 2) detail::binomial_inversion_steps_avx512(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
-      else detail::binomial_inversion_steps_avx2(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
+      if (level >= 2)
+        detail::binomial_inversion_steps_avx512(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
+      else
+        detail::binomial_inversion_steps_avx2(su0, sa, ss, sbound, searching, sk, sf, sc, sstate);
       std::size_t still = 0;
       for (std::size_t j = 0; j < searching; ++j) {
         const std::size_t i = row_of[j];
@@ -599,8 +632,7 @@ namespace poisson {
 
 namespace {
 void check_lambda(const char* where, double lambda) {
-  if (!(lambda >= 0.0) || !std::isfinite(lambda))
-    throw_invalid(where, "lambda", lambda, "a finite mean >= 0");
+  if (!(lambda >= 0.0) || !std::isfinite(lambda)) throw_invalid(where, "lambda", lambda, "a finite mean >= 0");
 }
 }  // namespace
 
@@ -632,27 +664,26 @@ double quantile(double u, double lambda) {
   const double hi = std::ceil(lambda + 40.0 * std::sqrt(lambda) + 100.0);
   const double uu = std::clamp(u, kMinU, kMaxU);
   return discrete_inverse(
-      uu, 0.0, hi, normal_guess(uu, lambda, std::sqrt(lambda)),
-      [&](double k) { return cdf(k, lambda); }, [&](double k) { return sf(k, lambda); });
+      uu, 0.0, hi, normal_guess(uu, lambda, std::sqrt(lambda)), [&](double k) { return cdf(k, lambda); },
+      [&](double k) { return sf(k, lambda); });
 }
 
 Distribution distribution(double lambda, std::size_t max_support) {
   check_lambda("poisson.distribution", lambda);
   const double sd = std::sqrt(lambda);
   if (17.0 * sd + 40.0 > static_cast<double>(max_support))
-    throw_invalid_message("poisson.distribution: lambda = " + format_value(lambda) +
-                                " needs more than max_support = " + std::to_string(max_support) +
-                                " support points; use cdf/sf/log_pmf instead");
+    throw_invalid_message("poisson.distribution: lambda = " + format_value(lambda) + " needs more than max_support = " +
+                          std::to_string(max_support) + " support points; use cdf/sf/log_pmf instead");
   return Distribution::from_log_concave([&](double k) { return log_pmf(k, lambda); }, 0.0,
-                                        std::numeric_limits<double>::max(), std::floor(lambda),
-                                        max_support, "poisson.distribution");
+                                        std::numeric_limits<double>::max(), std::floor(lambda), max_support,
+                                        "poisson.distribution");
 }
 
 Sampler::Sampler(double lambda, bool tabulate) : lambda_(lambda) {
   check_lambda("poisson.sample", lambda);
   if (lambda < binomial::kInversionMaxMean) {
-    inversion_ = SmallMeanInversion(std::exp(-lambda), lambda, 0.0,
-                                    std::ceil(lambda + 15.0 * std::sqrt(lambda) + 30.0), tabulate);
+    inversion_ = SmallMeanInversion(std::exp(-lambda), lambda, 0.0, std::ceil(lambda + 15.0 * std::sqrt(lambda) + 30.0),
+                                    tabulate);
   } else {
     ptrd_ = true;
     const double slam = std::sqrt(lambda);
@@ -674,9 +705,7 @@ double Sampler::operator()(CounterRng& rng) const {
     const double k = std::floor((2 * a_ / us + b_) * u + lambda_ + 0.43);
     if (us >= 0.07 && v <= vr_) return k;
     if (k < 0 || (us < 0.013 && v > us)) continue;
-    if (std::log(v) + log_inv_alpha_ - std::log(a_ / (us * us) + b_) <=
-        special::poisson_log_pmf(k, lambda_))
-      return k;
+    if (std::log(v) + log_inv_alpha_ - std::log(a_ / (us * us) + b_) <= special::poisson_log_pmf(k, lambda_)) return k;
   }
 }
 

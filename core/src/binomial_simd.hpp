@@ -19,12 +19,12 @@ inline constexpr double kBinomialInversionMaxMean = 30.0;
 
 // Constants of BTRD's step 1 for one (n, p), as binomial::Sampler holds them.
 struct BtrdStep1 {
-  double m;       // integer part of n
-  double g;       // probability of the fractional facet (0: none)
-  double flip;    // 1: K = m - BTRD(m, 1 - p)
-  double urvr;    // step 1 accepts v <= urvr
+  double m;     // integer part of n
+  double g;     // probability of the fractional facet (0: none)
+  double flip;  // 1: K = m - BTRD(m, 1 - p)
+  double urvr;  // step 1 accepts v <= urvr
   double inv_vr;
-  double two_a;   // 2 a
+  double two_a;  // 2 a
   double b, c;
 };
 
@@ -44,10 +44,10 @@ struct BtrdAttempt {
 //   1  rejected (K outside [0, m], or step 3.1 rejects): the next attempt starts at the second block;
 //   2  step 3.2's squeeze decides: accept iff log(w[j]) < lo[j], reject iff log(w[j]) > hi[j],
 //      otherwise (or on NaN) the scalar Sampler decides.
-void binomial_btrd_attempt_avx512(const BtrdAttempt& s, const double* v, const double* u1, std::size_t count,
-                                  double* k, double* w, double* lo, double* hi, double* state);
-void binomial_btrd_attempt_avx2(const BtrdAttempt& s, const double* v, const double* u1, std::size_t count,
-                                double* k, double* w, double* lo, double* hi, double* state);
+void binomial_btrd_attempt_avx512(const BtrdAttempt& s, const double* v, const double* u1, std::size_t count, double* k,
+                                  double* w, double* lo, double* hi, double* state);
+void binomial_btrd_attempt_avx2(const BtrdAttempt& s, const double* v, const double* u1, std::size_t count, double* k,
+                                double* w, double* lo, double* hi, double* state);
 
 // The rows with redo[r] != 0 gathered densely: row_of[j], v[j] = u[2 row], u1[j] = u[2 row + 1];
 // returns their number. The AVX-512 version writes whole vectors: the three outputs need room for
@@ -65,8 +65,8 @@ void binomial_pixels_prepare_avx2(const double* n, const double* p, std::size_t 
 // K = 0 only when u0 lies below f0 by more than kInversionGuard, so the exact value decides alike.
 // out[i] the draw; redo[i] = 0 done, 1 for the scalar Sampler (invalid parameters included, so
 // that it reports them), 3 for BTRD's steps 2-3.2 (step 1 did not accept u0), 2 for the
-// inversion's search past K = 0 (u0 above f0 by more than the guard), whose recursion f(k) = f(k - 1) (a / k - s) up to k = bound is given in inv_a, inv_s,
-// inv_bound (the Sampler's values).
+// inversion's search past K = 0 (u0 above f0 by more than the guard), whose recursion f(k) = f(k - 1) (a / k - s) up to
+// k = bound is given in inv_a, inv_s, inv_bound (the Sampler's values).
 void binomial_pixels_avx512(const double* n, const double* p, const double* u, const double* f0, std::size_t count,
                             double* out, double* redo, double* inv_a, double* inv_s, double* inv_bound);
 void binomial_pixels_avx2(const double* n, const double* p, const double* u, const double* f0, std::size_t count,

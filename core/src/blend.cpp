@@ -41,8 +41,10 @@ struct UninitializedAllocator : std::allocator<T> {
   UninitializedAllocator(const UninitializedAllocator<U>&) noexcept {}
   template <class U, class... Args>
   void construct(U* at, Args&&... args) {
-    if constexpr (sizeof...(Args) == 0) ::new (static_cast<void*>(at)) U;
-    else ::new (static_cast<void*>(at)) U(std::forward<Args>(args)...);
+    if constexpr (sizeof...(Args) == 0)
+      ::new (static_cast<void*>(at)) U;
+    else
+      ::new (static_cast<void*>(at)) U(std::forward<Args>(args)...);
   }
 };
 template <class T>
@@ -84,8 +86,10 @@ class FixedEvaluatorCache {
     }
     std::shared_ptr<const detail::FixedEvaluator> made = inner.fixed_evaluator(n, p, rows);
     const std::lock_guard<std::mutex> lock(mutex_);
-    if (entries_.size() < kEntries) entries_.push_back({n, p, made});
-    else entries_[next_++ % kEntries] = {n, p, made};
+    if (entries_.size() < kEntries)
+      entries_.push_back({n, p, made});
+    else
+      entries_[next_++ % kEntries] = {n, p, made};
     return made;
   }
 
@@ -214,17 +218,13 @@ BlendedLaw::BlendedLaw(std::unique_ptr<BlendRule> rule, InnerLaw inner, LevelLad
     throw_invalid("blended_law", "inner.n_uniforms", inner_.n_uniforms, "0 to 64 uniforms");
 }
 
-std::string BlendedLaw::binning() const {
-  return rule_->integer_output() && inner_.integer_output ? "none" : "round";
-}
+std::string BlendedLaw::binning() const { return rule_->integer_output() && inner_.integer_output ? "none" : "round"; }
 
 bool BlendedLaw::has_pmf() const {
   return rule_->has_pmf() && inner_.law && inner_.law->has_pmf() && inner_.integer_output;
 }
 
-double BlendedLaw::variance_ratio(double area) const {
-  return rule_->variance_ratio(area, ladder_.bracket(area));
-}
+double BlendedLaw::variance_ratio(double area) const { return rule_->variance_ratio(area, ladder_.bracket(area)); }
 
 Distribution BlendedLaw::pmf(double density, double area, double p, std::size_t max_support) const {
   const std::string where = "blended_law('" + rule_->name() + "', inner='" + inner_.name + "')";
@@ -234,8 +234,9 @@ Distribution BlendedLaw::pmf(double density, double area, double p, std::size_t 
   if (!has_pmf())
     throw not_implemented(where + " has no exact distribution: " +
                           (!rule_->has_pmf() ? std::string("the blend's K has a continuous part")
-                           : inner_.law && inner_.law->has_pmf() ? std::string("the inner law produces non-integer counts")
-                                                                  : std::string("the inner law has none")) +
+                           : inner_.law && inner_.law->has_pmf()
+                               ? std::string("the inner law produces non-integer counts")
+                               : std::string("the inner law has none")) +
                           "; estimate one from samples instead");
   const auto trials = snap_trials(rule_->trials(density, area, b));
   Distribution levels[2] = {Distribution({0.0}, {1.0}), Distribution({0.0}, {1.0})};
@@ -307,7 +308,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       for (double t : trials)
         if (t > 0 && !accepted(memo, t, p[i]))
           throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(t) +
-                                      " at p = " + format_value(p[i]) + " (P = " + format_value(area[i]) + ")");
+                                " at p = " + format_value(p[i]) + " (P = " + format_value(area[i]) + ")");
     };
     // On every thread; the lowest bad index is then checked again to throw its own message, as a
     // serial pass would.
@@ -320,8 +321,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
           check_trials(i, memo);
         } catch (const std::exception&) {
           std::size_t seen = first_bad.load();
-          while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
-          }
+          while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {}
           return;
         }
       }
@@ -342,8 +342,8 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   auto check_finite = [&](const double* kk, std::size_t rows, const double* n, const double* pp, std::size_t step) {
     for (std::size_t q = 0; q < rows; ++q)
       if (!std::isfinite(kk[q]))
-        throw_invalid_message(where + ": the inner law returned " + format_value(kk[q]) + " at n = " +
-                              format_value(n[q * step]) + ", p = " + format_value(pp[q * step]));
+        throw_invalid_message(where + ": the inner law returned " + format_value(kk[q]) +
+                              " at n = " + format_value(n[q * step]) + ", p = " + format_value(pp[q * step]));
   };
   // The level counts into K; the facet streams only for rules that thin (roulette).
   // drawn: for one footprint area (bracket_step 0), which levels have trials (an undrawn level's
@@ -677,8 +677,8 @@ void BlendedLaw::sample(double density, ParamArray area, ParamArray p, std::size
   run(density, area, p, count, seed, IndexCells{}, out);
 }
 
-void BlendedLaw::sample_at(double density, ParamArray area, ParamArray p, ParamArray x, ParamArray y,
-                           std::size_t count, std::uint64_t seed, double* out) const {
+void BlendedLaw::sample_at(double density, ParamArray area, ParamArray p, ParamArray x, ParamArray y, std::size_t count,
+                           std::uint64_t seed, double* out) const {
   const std::string where = "blended_law('" + rule_->name() + "').sample_at";
   for (auto [name, arr] : {std::pair<const char*, ParamArray>{"x", x}, {"y", y}}) {
     check_length(where, name, arr.size, count);
@@ -686,7 +686,8 @@ void BlendedLaw::sample_at(double density, ParamArray area, ParamArray p, ParamA
       if (!std::isfinite(arr[i]) || std::abs(arr[i]) > 1e9)
         throw_invalid(where, indexed_name(name, i, arr.size > 1), arr[i], "a finite texture coordinate, |x| <= 1e9");
   }
-  run(density, area, p, count, seed,
+  run(
+      density, area, p, count, seed,
       [x, y](std::size_t i, double level_area) {
         // Cells of side sqrt(A_l) anchored at the origin; indices wrap modulo 2^32 in the key.
         const double side = std::sqrt(level_area);
@@ -709,7 +710,7 @@ Distribution thinned(const Distribution& counts, double q, std::size_t max_suppo
   const double hi = counts.support().back();
   if (hi + 1 > static_cast<double>(max_support))
     throw_invalid_message("roulette pmf: the law needs more than max_support = " + std::to_string(max_support) +
-                                " support points");
+                          " support points");
   std::vector<double> probs(static_cast<std::size_t>(hi) + 1, 0.0);
   for (std::size_t i = 0; i < counts.size(); ++i) {
     const double k = counts.support()[i];

@@ -110,11 +110,11 @@ std::size_t extreme_draws(const std::vector<double>& q, std::size_t count, doubl
 //     `alpha`, draws are doubled until alpha is clearly on one side of the estimate (which needs a
 //     resolution below alpha to reject), within a cap of kMaxValues sampled values; a decision still open at the cap
 //     gives a NaN p-value (a check cannot pass on it) and says so.
-ExactLr exact_lr_pvalue(const std::vector<double>& obs, const std::vector<double>& ps, double mass,
-                        std::size_t count, double alpha) {
-  constexpr double kEnumerate = 2e6;     // count vectors: ~0.05 s
-  constexpr double kMaxValues = 4e7;     // Monte Carlo sampled values: a few seconds at most
-  std::vector<double> q;                 // cells of positive mass (the others cannot be observed)
+ExactLr exact_lr_pvalue(const std::vector<double>& obs, const std::vector<double>& ps, double mass, std::size_t count,
+                        double alpha) {
+  constexpr double kEnumerate = 2e6;  // count vectors: ~0.05 s
+  constexpr double kMaxValues = 4e7;  // Monte Carlo sampled values: a few seconds at most
+  std::vector<double> q;              // cells of positive mass (the others cannot be observed)
   std::vector<std::size_t> index;
   double g_obs = 0.0;
   const double total = static_cast<double>(count);
@@ -171,8 +171,8 @@ ExactLr exact_lr_pvalue(const std::vector<double>& obs, const std::vector<double
 
 }  // namespace
 
-Chi2Result chi2_test(const double* samples, std::size_t count, const Distribution& law,
-                     double min_expected, int fitted_params, double alpha) {
+Chi2Result chi2_test(const double* samples, std::size_t count, const Distribution& law, double min_expected,
+                     int fitted_params, double alpha) {
   constexpr const char* where = "chi2_test";
   if (count == 0) throw_invalid_message("chi2_test: samples is empty");
   if (!(min_expected > 0.0) || !std::isfinite(min_expected))
@@ -196,8 +196,14 @@ Chi2Result chi2_test(const double* samples, std::size_t count, const Distributio
     // Beyond the support: part of the open-ended tail bin if the law's tail was trimmed there
     // (and the value is on the integer lattice), impossible otherwise.
     const bool lattice = std::floor(s) == s;
-    if (s < xs.front() && law.trimmed_below() && lattice) { obs.front() += 1; continue; }
-    if (s > xs.back() && law.trimmed_above() && lattice) { obs.back() += 1; continue; }
+    if (s < xs.front() && law.trimmed_below() && lattice) {
+      obs.front() += 1;
+      continue;
+    }
+    if (s > xs.back() && law.trimmed_above() && lattice) {
+      obs.back() += 1;
+      continue;
+    }
     const auto it = std::lower_bound(xs.begin(), xs.end(), s);
     if (it != xs.end() && *it == s) {
       obs[static_cast<std::size_t>(it - xs.begin())] += 1;
@@ -228,8 +234,8 @@ Chi2Result chi2_test(const double* samples, std::size_t count, const Distributio
     r.statistic = std::numeric_limits<double>::infinity();
     r.dof = std::max(0, static_cast<int>(r.expected.size()) - 1 - fitted_params);
     r.pvalue = 0.0;
-    r.note = std::to_string(impossible) + " sample(s) fall on values the law gives probability 0 (first: " +
-             format_value(first_impossible) + ")";
+    r.note = std::to_string(impossible) +
+             " sample(s) fall on values the law gives probability 0 (first: " + format_value(first_impossible) + ")";
     return r;
   }
   for (std::size_t b = 0; b < r.expected.size(); ++b) {

@@ -15,16 +15,15 @@ Distribution::Distribution(std::vector<double> support, std::vector<double> prob
     : support_(std::move(support)), probs_(std::move(probs)) {
   constexpr std::string_view where = "Distribution";
   if (support_.size() != probs_.size())
-    throw_invalid_message("Distribution: support has " + std::to_string(support_.size()) +
-                                " points but probs has " + std::to_string(probs_.size()));
+    throw_invalid_message("Distribution: support has " + std::to_string(support_.size()) + " points but probs has " +
+                          std::to_string(probs_.size()));
   if (support_.empty()) throw_invalid_message("Distribution: support is empty");
   double sum = 0.0;
   for (std::size_t i = 0; i < support_.size(); ++i) {
     if (!std::isfinite(support_[i]))
       throw_invalid(where, indexed_name("support", i, true), support_[i], "a finite number");
     if (i > 0 && !(support_[i] > support_[i - 1]))
-      throw_invalid(where, indexed_name("support", i, true), support_[i],
-                    "strictly increasing support values");
+      throw_invalid(where, indexed_name("support", i, true), support_[i], "strictly increasing support values");
     if (!(probs_[i] >= 0.0) || !std::isfinite(probs_[i]))
       throw_invalid(where, indexed_name("probs", i, true), probs_[i], "a finite probability >= 0");
     sum += probs_[i];
@@ -69,17 +68,15 @@ double Distribution::cdf(double x) const {
   return std::min(s, 1.0);
 }
 
-Distribution Distribution::from_log_concave(const std::function<double(double)>& log_pmf, double lo,
-                                            double hi, double mode, std::size_t max_support,
-                                            std::string_view where) {
+Distribution Distribution::from_log_concave(const std::function<double(double)>& log_pmf, double lo, double hi,
+                                            double mode, std::size_t max_support, std::string_view where) {
   const double half = kTrimMass / 2;
   mode = std::clamp(std::floor(mode), lo, hi);
   std::deque<double> ks{mode}, ps{std::exp(log_pmf(mode))};
   auto too_large = [&] {
-    throw_invalid_message(std::string(where) + ": the distribution needs more than " +
-                                std::to_string(max_support) +
-                                " support points to hold all but 1e-14 of its mass; use the cdf/sf "
-                                "functions for such parameters or raise max_support");
+    throw_invalid_message(std::string(where) + ": the distribution needs more than " + std::to_string(max_support) +
+                          " support points to hold all but 1e-14 of its mass; use the cdf/sf "
+                          "functions for such parameters or raise max_support");
   };
   // Walks one side; returns whether a tail with positive mass was left out. With the ratio
   // r = pmf(k)/pmf(k -+ 1) non-increasing away from the mode, the rest is at most pmf(k) r / (1 - r).
@@ -90,7 +87,13 @@ Distribution Distribution::from_log_concave(const std::function<double(double)>&
       const double lf = log_pmf(k);
       if (lf == -std::numeric_limits<double>::infinity()) return false;  // impossible from here on
       const double f = std::exp(lf);
-      if (dir > 0) { ks.push_back(k); ps.push_back(f); } else { ks.push_front(k); ps.push_front(f); }
+      if (dir > 0) {
+        ks.push_back(k);
+        ps.push_back(f);
+      } else {
+        ks.push_front(k);
+        ps.push_front(f);
+      }
       if (ks.size() > max_support) too_large();
       if (f == 0.0) return true;  // underflow: the rest is below 1e-308 but not zero
       const double r = prev > 0 ? f / prev : 0.0;
@@ -101,8 +104,14 @@ Distribution Distribution::from_log_concave(const std::function<double(double)>&
   };
   const bool above = walk(+1), below = walk(-1);
   // Drop zeros (underflowed or impossible) at the ends.
-  while (ps.size() > 1 && ps.back() == 0.0) { ps.pop_back(); ks.pop_back(); }
-  while (ps.size() > 1 && ps.front() == 0.0) { ps.pop_front(); ks.pop_front(); }
+  while (ps.size() > 1 && ps.back() == 0.0) {
+    ps.pop_back();
+    ks.pop_back();
+  }
+  while (ps.size() > 1 && ps.front() == 0.0) {
+    ps.pop_front();
+    ks.pop_front();
+  }
   Distribution d;
   d.trimmed_below_ = below;
   d.trimmed_above_ = above;
@@ -124,7 +133,8 @@ Distribution Distribution::empirical(const double* samples, std::size_t count) {
   if (count == 0) throw_invalid_message("empirical distribution: samples is empty");
   std::vector<double> v(samples, samples + count);
   for (std::size_t i = 0; i < count; ++i)
-    if (!std::isfinite(v[i])) throw_invalid("empirical distribution", indexed_name("samples", i, true), v[i], "finite samples");
+    if (!std::isfinite(v[i]))
+      throw_invalid("empirical distribution", indexed_name("samples", i, true), v[i], "finite samples");
   std::sort(v.begin(), v.end());
   Distribution d;
   for (std::size_t i = 0; i < count;) {
@@ -151,8 +161,8 @@ Distribution scaled_sum(const Distribution& x, double a, const Distribution& y, 
   const double lo = bin(a * x.support().front() + b * y.support().front());
   const double hi = bin(a * x.support().back() + b * y.support().back());
   if (hi - lo + 1 > static_cast<double>(max_support))
-    throw_invalid_message(std::string(where) + ": the law needs more than max_support = " +
-                                std::to_string(max_support) + " support points");
+    throw_invalid_message(std::string(where) +
+                          ": the law needs more than max_support = " + std::to_string(max_support) + " support points");
   std::vector<double> probs(static_cast<std::size_t>(hi - lo) + 1, 0.0);
   for (std::size_t i = 0; i < x.size(); ++i) {
     const double xi = a * x.support()[i], pi = x.probs()[i];
@@ -171,8 +181,7 @@ Distribution scaled_sum(const Distribution& x, double a, const Distribution& y, 
     kept.pop_back();
     support.pop_back();
   }
-  return Distribution::with_trimmed_tails(std::move(support), std::move(kept),
-                                          x.trimmed_below() || y.trimmed_below(),
+  return Distribution::with_trimmed_tails(std::move(support), std::move(kept), x.trimmed_below() || y.trimmed_below(),
                                           x.trimmed_above() || y.trimmed_above());
 }
 

@@ -21,13 +21,11 @@ std::string format_value(double value) {
   return buf;
 }
 
-void throw_invalid(std::string_view where, std::string_view name, double value,
-                   std::string_view expected) {
+void throw_invalid(std::string_view where, std::string_view name, double value, std::string_view expected) {
   throw_invalid(where, name, format_value(value), expected);
 }
 
-void throw_invalid(std::string_view where, std::string_view name, std::string_view value,
-                   std::string_view expected) {
+void throw_invalid(std::string_view where, std::string_view name, std::string_view value, std::string_view expected) {
   std::string msg;
   if (!where.empty()) msg.append(where).append(": ");  // no context: the message starts at the name
   msg.append(name).append(" = ").append(value);
@@ -45,8 +43,7 @@ void check_length(std::string_view where, std::string_view name, std::size_t siz
   throw std::invalid_argument(msg.append(std::to_string(count)));
 }
 
-void throw_unknown_name(std::string_view where, std::string_view what, std::string_view name,
-                        std::string_view known) {
+void throw_unknown_name(std::string_view where, std::string_view what, std::string_view name, std::string_view known) {
   std::string msg;
   if (!where.empty()) msg.append(where).append(": ");
   msg.append("unknown ").append(what).append(" '").append(name).append("'; known: ");

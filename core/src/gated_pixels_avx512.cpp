@@ -13,8 +13,10 @@
 #define GLINTLAB_GATED_BLOCK glintlab::detail::gated_pixels_block_avx512
 #include "gated_pixels_body.inc"
 
-#define GLINTLAB_POLY7(c, x) \
-  ((((((((c)[7] * (x) + (c)[6]) * (x) + (c)[5]) * (x) + (c)[4]) * (x) + (c)[3]) * (x) + (c)[2]) * (x) + (c)[1]) * (x) + (c)[0])
+#define GLINTLAB_POLY7(c, x)                                                                                      \
+  ((((((((c)[7] * (x) + (c)[6]) * (x) + (c)[5]) * (x) + (c)[4]) * (x) + (c)[3]) * (x) + (c)[2]) * (x) + (c)[1]) * \
+       (x) +                                                                                                      \
+   (c)[0])
 #define GLINTLAB_HEAD_CF_KERNEL glintlab::detail::head_cf_pixels_avx512
 #define GLINTLAB_HEAD_CF_BLOCK glintlab::detail::head_cf_pixels_block_avx512
 #include "head_cf_pixels_body.inc"

@@ -25,8 +25,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kChunk = 64;
 
 void fail(const std::string& what, double value, const std::string& expected) {
-  throw_invalid_message("facet_counts: " + what + " = " + format_value(value) + " is invalid; expected " +
-                              expected);
+  throw_invalid_message("facet_counts: " + what + " = " + format_value(value) + " is invalid; expected " + expected);
 }
 }  // namespace
 

@@ -6,8 +6,8 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
-#include <limits>
 #include <exception>
+#include <limits>
 #include <stdexcept>
 
 #include "glintlab/detail/law_kernel.hpp"
@@ -42,16 +42,19 @@ void parallel_chunks(std::size_t count, Body body) {
 // a branch per element they cost 4-5 ns of a per-pixel draw's ~25 (perf). Integer results: the same
 // on every clone.
 // Whether some (n[i], p[i]), i in [a, b), is outside accepts()'s domain.
-__attribute__((target_clones("avx512f", "avx2", "default"))) bool any_outside_domain(
-    const double* n, const double* p, std::size_t a, std::size_t b, double max_n) {
+__attribute__((target_clones("avx512f", "avx2", "default"))) bool any_outside_domain(const double* n, const double* p,
+                                                                                     std::size_t a, std::size_t b,
+                                                                                     double max_n) {
   int bad = 0;
 #pragma omp simd reduction(| : bad)
   for (std::size_t i = a; i < b; ++i) bad |= !((n[i] >= 0.0) & (n[i] <= max_n) & (p[i] >= 0.0) & (p[i] <= 1.0));
   return bad != 0;
 }
 // #{j in (a, b) : n[j] == n[j - 1] and p[j] == p[j - 1]}.
-__attribute__((target_clones("avx512f", "avx2", "default"))) std::size_t count_equal_pairs(
-    const double* n, const double* p, std::size_t a, std::size_t b) {
+__attribute__((target_clones("avx512f", "avx2", "default"))) std::size_t count_equal_pairs(const double* n,
+                                                                                           const double* p,
+                                                                                           std::size_t a,
+                                                                                           std::size_t b) {
   std::size_t equal = 0;
 #pragma omp simd reduction(+ : equal)
   for (std::size_t j = a + 1; j < b; ++j) equal += (n[j] == n[j - 1]) & (p[j] == p[j - 1]);
@@ -75,8 +78,7 @@ void validate_all(const CountingLaw& law, ParamArray n, ParamArray p, std::size_
     for (std::size_t i = i0; i < i1; ++i)
       if (!law.accepts(n[i], p[i])) {
         std::size_t seen = first_bad.load();
-        while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
-        }
+        while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {}
         return;
       }
   });
@@ -163,9 +165,7 @@ Precision precision_from_name(const std::string& name) {
   return parse_enum("", "precision", name, kPrecisions);
 }
 
-std::string precision_name(Precision precision) {
-  return precision == Precision::kFloat32 ? "float32" : "float64";
-}
+std::string precision_name(Precision precision) { return precision == Precision::kFloat32 ? "float32" : "float64"; }
 
 namespace {
 void require_precision(const CountingLaw& law, Precision precision) {
@@ -175,8 +175,8 @@ void require_precision(const CountingLaw& law, Precision precision) {
 }
 
 // float32 sampling: evaluate_f32 on the batch uniforms, a block of rows at a time.
-void sample_range_f32(const CountingLaw& law, double n, double p, std::uint64_t seed, std::size_t i0,
-                      std::size_t i1, double* out) {
+void sample_range_f32(const CountingLaw& law, double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
+                      double* out) {
   const std::size_t kk = static_cast<std::size_t>(law.n_uniforms());
   constexpr std::size_t kRows = 256;
   std::vector<double> u(kRows * std::max<std::size_t>(kk, 1));
@@ -189,8 +189,7 @@ void sample_range_f32(const CountingLaw& law, double n, double p, std::uint64_t 
 }  // namespace
 
 Distribution CountingLaw::pmf(double, double, std::size_t) const {
-  throw not_implemented("law '" + name() +
-                        "' has no exact distribution; estimate one from samples instead");
+  throw not_implemented("law '" + name() + "' has no exact distribution; estimate one from samples instead");
 }
 
 void CountingLaw::validate(double n, double p, std::size_t index, bool is_array) const {
@@ -202,7 +201,7 @@ void CountingLaw::validate(double n, double p, std::size_t index, bool is_array)
     throw_invalid(where, indexed_name("n", index, is_array), n,
                   "n <= " + format_value(max_n_) + ", the law's numeric domain (" + domain_note_ + ")");
   throw_invalid_message(where + ": (n, p) = (" + format_value(n) + ", " + format_value(p) +
-                              ") is outside the law's domain");
+                        ") is outside the law's domain");
 }
 
 void CountingLaw::apply_traits(const LawTraits& traits) {
@@ -228,9 +227,7 @@ std::vector<LawInfo> registered_laws() { return law_registry().all(); }
 
 LawTraits law_traits(const std::string& name) { return law_registry().find(name).traits; }
 
-std::string law_output_name(LawOutput output) {
-  return output == LawOutput::kInteger ? "integer" : "real";
-}
+std::string law_output_name(LawOutput output) { return output == LawOutput::kInteger ? "integer" : "real"; }
 
 std::string support_bound_name(SupportBound bound) {
   switch (bound) {
@@ -281,7 +278,7 @@ void ParamReader::finish() const {
       std::string options;
       for (const auto& k : known_) options += (options.empty() ? "" : ", ") + k;
       throw_invalid_message("law '" + law_ + "': unknown parameter '" + key + "'; expected " +
-                                  (options.empty() ? "no parameters" : "one of: " + options));
+                            (options.empty() ? "no parameters" : "one of: " + options));
     }
   }
 }
@@ -293,14 +290,16 @@ void set_num_threads(int threads) {
 
 int num_threads() { return thread_setting(); }
 
-void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count,
-                 std::uint64_t seed, double* out, Precision precision) {
+void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count, std::uint64_t seed, double* out,
+                 Precision precision) {
   require_precision(law, precision);
   validate_all(law, n, p, count);
   const detail::KernelOf kernel(law);
   const auto range = [&](double nn, double pp, std::size_t i0, std::size_t i1, double* o) {
-    if (precision == Precision::kFloat32) sample_range_f32(law, nn, pp, seed, i0, i1, o);
-    else kernel->sample_range(nn, pp, seed, i0, i1, o);
+    if (precision == Precision::kFloat32)
+      sample_range_f32(law, nn, pp, seed, i0, i1, o);
+    else
+      kernel->sample_range(nn, pp, seed, i0, i1, o);
   };
   if (n.size == 1 && p.size == 1) {
     if (precision == Precision::kFloat64 && count >= kTabulateMinBatch) {
@@ -332,7 +331,8 @@ void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t
           }
           if (!n_array) std::fill(nb.begin(), nb.begin() + rows, n.data[0]);
           if (!p_array) std::fill(pb.begin(), pb.begin() + rows, p.data[0]);
-          kernel->sample_pixels(n_array ? n.data + s : nb.data(), p_array ? p.data + s : pb.data(), seed, s, rows, out + s);
+          kernel->sample_pixels(n_array ? n.data + s : nb.data(), p_array ? p.data + s : pb.data(), seed, s, rows,
+                                out + s);
         }
       };
       for (std::size_t i = i0; i < i1;) {
@@ -363,15 +363,15 @@ void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t
   }
 }
 
-void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const double* u,
-                   std::size_t count, double* out, Precision precision) {
+void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const double* u, std::size_t count, double* out,
+                   Precision precision) {
   require_precision(law, precision);
   validate_all(law, n, p, count);
   const std::size_t k = static_cast<std::size_t>(law.n_uniforms());
   for (std::size_t i = 0; i < count * k; ++i)
     if (!(u[i] >= 0.0 && u[i] <= 1.0))
-      throw_invalid(law.name(), "u[" + std::to_string(i / k) + ", " + std::to_string(i % k) + "]",
-                    u[i], "a uniform number in [0, 1]");
+      throw_invalid(law.name(), "u[" + std::to_string(i / k) + ", " + std::to_string(i % k) + "]", u[i],
+                    "a uniform number in [0, 1]");
   parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
     if (precision == Precision::kFloat32) {
       for (std::size_t i = i0; i < i1; ++i) out[i] = law.evaluate_f32(n[i], p[i], u + i * k);
@@ -381,8 +381,7 @@ void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const dou
   });
 }
 
-void fill_uniforms(std::uint64_t seed, std::uint16_t stream, std::size_t start, std::size_t count,
-                   int k, double* out) {
+void fill_uniforms(std::uint64_t seed, std::uint16_t stream, std::size_t start, std::size_t count, int k, double* out) {
   if (k < 0) throw_invalid("uniforms", "n_uniforms", k, "an integer >= 0");
   if (k == 0) return;
   const std::size_t kk = static_cast<std::size_t>(k);

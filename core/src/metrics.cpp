@@ -15,9 +15,12 @@ struct Named {
   const char* name;
   Metric metric;
 };
-constexpr Named kMetrics[] = {{"tv", Metric::kTV},         {"chi2_distance", Metric::kChi2Distance},
-                              {"hellinger", Metric::kHellinger}, {"kl", Metric::kKL},
-                              {"js", Metric::kJS},         {"w1", Metric::kW1},
+constexpr Named kMetrics[] = {{"tv", Metric::kTV},
+                              {"chi2_distance", Metric::kChi2Distance},
+                              {"hellinger", Metric::kHellinger},
+                              {"kl", Metric::kKL},
+                              {"js", Metric::kJS},
+                              {"w1", Metric::kW1},
                               {"ks", Metric::kKS}};
 
 // Walks the union of both supports in increasing order, calling f(x, a_x, b_x).

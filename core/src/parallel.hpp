@@ -1,7 +1,7 @@
 // Private helper of the core's vectorized drivers: one place that splits a batch across OpenMP
 // threads and carries the first exception back to the caller (an exception must not escape an
-// OpenMP region), and stops between chunks on an interrupt request. Every item derives its random numbers from its own index, so results never
-// depend on the split.
+// OpenMP region), and stops between chunks on an interrupt request. Every item derives its random numbers from its own
+// index, so results never depend on the split.
 #pragma once
 
 #include <algorithm>

@@ -28,7 +28,8 @@ constexpr double kPeakCount = 0.005;
 constexpr double kLostWeight = 0.05;  // share of the significance given to the lost-sample test
 
 void check_tolerances(const BinOptions& o) {
-  if (!(o.rel_tol >= 0.0) || !std::isfinite(o.rel_tol)) throw_invalid(kWhere, "rel_tol", o.rel_tol, "a finite number >= 0");
+  if (!(o.rel_tol >= 0.0) || !std::isfinite(o.rel_tol))
+    throw_invalid(kWhere, "rel_tol", o.rel_tol, "a finite number >= 0");
   if (!(o.shift_tol >= 0.0) || !std::isfinite(o.shift_tol))
     throw_invalid(kWhere, "cubature_tol", o.shift_tol, "a finite number >= 0");
   if (!(o.min_expected > 0.0) || !std::isfinite(o.min_expected))
@@ -78,9 +79,9 @@ int domain_dim(Domain d) { return d == Domain::hemisphere || d == Domain::sphere
 
 double domain_measure(Domain d) {
   switch (d) {
-    case Domain::hemisphere: return kTwoPi;                   // dw = dz dphi, z = s, phi = 2 pi t
-    case Domain::sphere: return 2.0 * kTwoPi;                 // z = 2 s - 1
-    case Domain::disk: return std::numbers::pi;               // dA = r dr dphi = d(r^2) dphi / 2, r^2 = s
+    case Domain::hemisphere: return kTwoPi;      // dw = dz dphi, z = s, phi = 2 pi t
+    case Domain::sphere: return 2.0 * kTwoPi;    // z = 2 s - 1
+    case Domain::disk: return std::numbers::pi;  // dA = r dr dphi = d(r^2) dphi / 2, r^2 = s
     case Domain::square: return 1.0;
   }
   return 1.0;
@@ -110,13 +111,19 @@ void to_square(Domain d, const double* points, std::size_t count, double unit_to
         }
         case Domain::disk: {
           const double r2 = p[0] * p[0] + p[1] * p[1];
-          if (r2 > 1.0) { bad = true; break; }
+          if (r2 > 1.0) {
+            bad = true;
+            break;
+          }
           si = r2;
           ti = turn(p[0], p[1]);
           break;
         }
         case Domain::square:
-          if (!(p[0] >= 0.0 && p[0] <= 1.0 && p[1] >= 0.0 && p[1] <= 1.0)) { bad = true; break; }
+          if (!(p[0] >= 0.0 && p[0] <= 1.0 && p[1] >= 0.0 && p[1] <= 1.0)) {
+            bad = true;
+            break;
+          }
           si = p[0];
           ti = p[1];
           break;
@@ -163,10 +170,19 @@ void genz_malik_nodes(const Rect& r, double* st) {
   };
   put(0, 0);
   for (double l : {kL2, kL3}) {
-    put(l, 0); put(-l, 0); put(0, l); put(0, -l);
+    put(l, 0);
+    put(-l, 0);
+    put(0, l);
+    put(0, -l);
   }
-  put(kL4, kL4); put(kL4, -kL4); put(-kL4, kL4); put(-kL4, -kL4);
-  put(kL5, kL5); put(kL5, -kL5); put(-kL5, kL5); put(-kL5, -kL5);
+  put(kL4, kL4);
+  put(kL4, -kL4);
+  put(-kL4, kL4);
+  put(-kL4, -kL4);
+  put(kL5, kL5);
+  put(kL5, -kL5);
+  put(-kL5, kL5);
+  put(-kL5, -kL5);
 }
 
 void genz_malik_integrate(const Rect& r, const double* f, double& integral, double& error) {
@@ -182,13 +198,15 @@ void genz_malik_integrate(const Rect& r, const double* f, double& integral, doub
   error = area * std::max(std::abs(i7 - i5), std::max(-i7, 0.0));
 }
 
-Bins::Bins(Domain d, const BinOptions& options, const double* pilot_s, const double* pilot_t,
-           std::size_t pilot_count, const double* pilot_pdf)
+Bins::Bins(Domain d, const BinOptions& options, const double* pilot_s, const double* pilot_t, std::size_t pilot_count,
+           const double* pilot_pdf)
     : domain_(d), opt_(options) {
   if (!(opt_.total >= 1.0) || !std::isfinite(opt_.total)) throw_invalid(kWhere, "samples", opt_.total, "a number >= 1");
-  if (!(opt_.target > 0.0) || !std::isfinite(opt_.target)) throw_invalid(kWhere, "target", opt_.target, "a finite number > 0");
+  if (!(opt_.target > 0.0) || !std::isfinite(opt_.target))
+    throw_invalid(kWhere, "target", opt_.target, "a finite number > 0");
   check_tolerances(opt_);
-  if (opt_.max_depth < 0 || opt_.max_depth > 30) throw_invalid(kWhere, "max_depth", opt_.max_depth, "an integer in [0, 30]");
+  if (opt_.max_depth < 0 || opt_.max_depth > 30)
+    throw_invalid(kWhere, "max_depth", opt_.max_depth, "an integer in [0, 30]");
   ps_.assign(pilot_s, pilot_s + pilot_count);
   pt_.assign(pilot_t, pilot_t + pilot_count);
   if (pilot_pdf) {
@@ -255,7 +273,7 @@ void Bins::supply(const double* values, std::size_t count) {
   if (pending_.empty()) throw std::logic_error("sampler_test: no pdf values are pending");
   if (count != pending_.size() * kGenzMalikNodes)
     throw_invalid_message("sampler_test: pdf returned " + std::to_string(count) + " values for " +
-                                std::to_string(pending_.size() * kGenzMalikNodes) + " points");
+                          std::to_string(pending_.size() * kGenzMalikNodes) + " points");
   const int dim = domain_dim(domain_);
   for (std::size_t i = 0; i < count; ++i)
     if (!(values[i] >= 0.0) || !std::isfinite(values[i])) {
@@ -273,8 +291,10 @@ void Bins::supply(const double* values, std::size_t count) {
     genz_malik_integrate(pending_[i].r, f, value[i], err[i]);
     top[i] = *std::max_element(f, f + kGenzMalikNodes);
   }
-  if (tree_phase_) finish_tree_round(value, err, top);
-  else finish_refine_round(value, err, top);
+  if (tree_phase_)
+    finish_tree_round(value, err, top);
+  else
+    finish_refine_round(value, err, top);
   nodes_.clear();
   if (!pending_.empty()) emit_nodes();
 }
@@ -310,8 +330,8 @@ void Bins::finish_tree_round(const std::vector<double>& value, const std::vector
       for (std::size_t j = p0; j < p1; ++j) peak = std::max(peak, pq_[j]);
     const double reach = peak * task.r.ws * task.r.wt;  // mass the cell would hold at its peak density
     const bool peaked = reach > kPeakRatio * (value[i] + err[i]) && opt_.total * reach > kPeakCount;
-    const bool split = task.depth < opt_.min_depth ||
-                       ((heavy || discrepant || peaked) && task.depth < opt_.max_depth && budget);
+    const bool split =
+        task.depth < opt_.min_depth || ((heavy || discrepant || peaked) && task.depth < opt_.max_depth && budget);
     if (!split) continue;
     // Children in the order (s low, t low), (s high, t low), (s low, t high), (s high, t high); the
     // pilot points of the cell are partitioned in place into the same order.
@@ -487,10 +507,12 @@ void Bins::plan_refinement() {
   const std::size_t required = splits.size();
   // They come after the statistic's: only once the shift is within its limit, so that a budget spent on
   // the mass never leaves the chi-square's rule unmet.
-  if (global && shift_bound_ <= shift_limit_ && mass_error_ > mass_limit_) cover(std::vector<double>(leaves_.size(), 1.0), mass_error_ - 0.5 * mass_limit_);
+  if (global && shift_bound_ <= shift_limit_ && mass_error_ > mass_limit_)
+    cover(std::vector<double>(leaves_.size(), 1.0), mass_error_ - 0.5 * mass_limit_);
   // Their own allowance: as many evaluations again as the bins and the statistic's rule took (at a jump
   // of the pdf the mass converges only to first order, and would otherwise take the whole budget).
-  if (global && shift_bound_ <= shift_limit_ && shift_met_at_ == 0) shift_met_at_ = std::max<std::size_t>(evaluations_, 1);
+  if (global && shift_bound_ <= shift_limit_ && shift_met_at_ == 0)
+    shift_met_at_ = std::max<std::size_t>(evaluations_, 1);
   const std::size_t mass_budget = std::min(opt_.max_nodes, 2 * shift_met_at_);
   if (splits.size() > required && evaluations_ + 4 * splits.size() * kGenzMalikNodes > mass_budget) {
     for (std::size_t i = required; i < splits.size(); ++i) drop[splits[i].first][splits[i].second] = false;
@@ -510,7 +532,8 @@ void Bins::plan_refinement() {
     const SubCell c = sub_[b][k];
     const double hs = 0.5 * c.r.ws, ht = 0.5 * c.r.wt;
     for (int q = 0; q < 4; ++q)
-      pending_.push_back({{c.r.s0 + (q & 1 ? hs : 0.0), c.r.t0 + (q & 2 ? ht : 0.0), hs, ht}, c.depth + 1,
+      pending_.push_back({{c.r.s0 + (q & 1 ? hs : 0.0), c.r.t0 + (q & 2 ? ht : 0.0), hs, ht},
+                          c.depth + 1,
                           static_cast<std::int64_t>(b)});
   }
   for (std::size_t b = 0; b < leaves_.size(); ++b) {
@@ -584,7 +607,10 @@ void Bins::count(Domain d, const double* points, std::size_t n, double unit_tol,
     out.assign(leaves_.size(), 0);
     std::uint32_t l = 0;
     for (std::size_t k = 0; k < m; ++k) {
-      if (bad[k]) { ++l; continue; }
+      if (bad[k]) {
+        ++l;
+        continue;
+      }
       ++out[static_cast<std::size_t>(descend(s[k], t[k]))];
     }
     lost_partial[c] = l;
@@ -630,14 +656,16 @@ ChiSquare chi_square(const std::vector<double>& observed, const std::vector<doub
   r.lost_observed = lost;
   r.lost_expected = std::max(0.0, total * (1.0 - mass));
   const double hi = total * std::max(0.0, 1.0 - mass + mass_err), lo = total * std::max(0.0, 1.0 - mass - mass_err);
-  const double p_many = lost <= 0.0 ? 1.0 : (hi > 0.0 ? boost::math::gamma_p(lost, hi) : 0.0);   // P(X >= lost)
-  const double p_few = lo > 0.0 ? boost::math::gamma_q(lost + 1.0, lo) : 1.0;                     // P(X <= lost)
+  const double p_many = lost <= 0.0 ? 1.0 : (hi > 0.0 ? boost::math::gamma_p(lost, hi) : 0.0);  // P(X >= lost)
+  const double p_few = lo > 0.0 ? boost::math::gamma_q(lost + 1.0, lo) : 1.0;                   // P(X <= lost)
   r.pvalue_lost = std::min(1.0, 2.0 * std::min(p_many, p_few));
   bool impossible = false;
   for (std::size_t k = 0; k < r.observed.size(); ++k) {
     const double d = r.observed[k] - r.expected[k];
-    if (r.expected[k] > 0.0) r.statistic += d * d / r.expected[k];
-    else if (r.observed[k] > 0.0) impossible = true;
+    if (r.expected[k] > 0.0)
+      r.statistic += d * d / r.expected[k];
+    else if (r.observed[k] > 0.0)
+      impossible = true;
   }
   r.dof = static_cast<int>(r.observed.size()) - 1;
   if (impossible) {
@@ -647,8 +675,9 @@ ChiSquare chi_square(const std::vector<double>& observed, const std::vector<doub
   } else if (r.dof < 1) {
     r.dof = 0;
     r.pvalue_chi2 = std::numeric_limits<double>::quiet_NaN();
-    r.note = "no power: all " + format_value(total) + " samples merge into one bin of expected count >= " +
-             format_value(min_expected) + "; the test cannot reject (p-value NaN); draw more samples";
+    r.note = "no power: all " + format_value(total) +
+             " samples merge into one bin of expected count >= " + format_value(min_expected) +
+             "; the test cannot reject (p-value NaN); draw more samples";
   } else {
     const boost::math::chi_squared_distribution<double> chi2(r.dof);
     r.pvalue_chi2 = boost::math::cdf(boost::math::complement(chi2, r.statistic));

@@ -19,12 +19,24 @@ void dispatch(int op, const double* x, double* y, std::size_t count) {
   // SLEEF's AVX2 functions use FMA3, which every AVX2 CPU of Intel and AMD has; checked anyway.
   if (level >= 1 && cpu_has_fma()) return vec_math_avx2(op, x, y, count);
   switch (op) {
-    case 0: for (std::size_t i = 0; i < count; ++i) y[i] = std::log(x[i]); break;
-    case 1: for (std::size_t i = 0; i < count; ++i) y[i] = std::log1p(x[i]); break;
-    case 2: for (std::size_t i = 0; i < count; ++i) y[i] = std::exp(x[i]); break;
-    case 3: for (std::size_t i = 0; i < count; ++i) y[i] = std::expm1(x[i]); break;
-    case 4: for (std::size_t i = 0; i < count; ++i) y[i] = std::sin(x[i]); break;
-    default: for (std::size_t i = 0; i < count; ++i) y[i] = std::cos(x[i]); break;
+    case 0:
+      for (std::size_t i = 0; i < count; ++i) y[i] = std::log(x[i]);
+      break;
+    case 1:
+      for (std::size_t i = 0; i < count; ++i) y[i] = std::log1p(x[i]);
+      break;
+    case 2:
+      for (std::size_t i = 0; i < count; ++i) y[i] = std::exp(x[i]);
+      break;
+    case 3:
+      for (std::size_t i = 0; i < count; ++i) y[i] = std::expm1(x[i]);
+      break;
+    case 4:
+      for (std::size_t i = 0; i < count; ++i) y[i] = std::sin(x[i]);
+      break;
+    default:
+      for (std::size_t i = 0; i < count; ++i) y[i] = std::cos(x[i]);
+      break;
   }
 }
 }  // namespace

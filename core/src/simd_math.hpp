@@ -55,4 +55,3 @@ bool head_cf_pixels_block_avx512(const double* n, const double* p, const double*
 bool head_cf_pixels_block_avx2(const double* n, const double* p, const double* u, std::size_t count, double* out,
                                double* redo);
 }  // namespace glintlab::detail
-

@@ -48,8 +48,10 @@ double disk_triangle_area(double px, double py, double qx, double qy) {
     const double bx = px + ts[i + 1] * dx, by = py + ts[i + 1] * dy;
     const double tm = 0.5 * (ts[i] + ts[i + 1]);
     const double mx = px + tm * dx, my = py + tm * dy;
-    if (mx * mx + my * my <= 1) area += 0.5 * cross(ax, ay, bx, by);
-    else area += 0.5 * std::atan2(cross(ax, ay, bx, by), ax * bx + ay * by);
+    if (mx * mx + my * my <= 1)
+      area += 0.5 * cross(ax, ay, bx, by);
+    else
+      area += 0.5 * std::atan2(cross(ax, ay, bx, by), ax * bx + ay * by);
   }
   return area;
 }
@@ -65,8 +67,8 @@ double polygon_area(const std::vector<std::pair<double, double>>& poly) {
 }
 
 // Sutherland-Hodgman: keeps the part of `poly` where nx x + ny y <= d.
-std::vector<std::pair<double, double>> clip(const std::vector<std::pair<double, double>>& poly, double nx,
-                                            double ny, double d) {
+std::vector<std::pair<double, double>> clip(const std::vector<std::pair<double, double>>& poly, double nx, double ny,
+                                            double d) {
   std::vector<std::pair<double, double>> out;
   for (std::size_t i = 0; i < poly.size(); ++i) {
     const auto [x0, y0] = poly[i];
@@ -165,9 +167,7 @@ Footprint Footprint::from_uv_derivatives(double dudx, double dvdx, double dudy, 
   return ellipse(s.major, s.minor, s.angle);
 }
 
-double Footprint::area() const {
-  return kind_ == Kind::kRect ? a_ * b_ : std::numbers::pi * a_ * b_;
-}
+double Footprint::area() const { return kind_ == Kind::kRect ? a_ * b_ : std::numbers::pi * a_ * b_; }
 
 bool Footprint::contains(double x, double y) const {
   const double u = x * c_ + y * s_, v = -x * s_ + y * c_;
@@ -222,8 +222,10 @@ double Footprint::overlap(double x0, double y0, double x1, double y1) const {
 std::string Footprint::describe() const {
   std::ostringstream out;
   out.precision(6);
-  if (kind_ == Kind::kRect) out << "Rect(width=" << a_ << ", height=" << b_ << ", angle=" << angle_ << ")";
-  else out << "Ellipse(a=" << a_ << ", b=" << b_ << ", angle=" << angle_ << ")";
+  if (kind_ == Kind::kRect)
+    out << "Rect(width=" << a_ << ", height=" << b_ << ", angle=" << angle_ << ")";
+  else
+    out << "Ellipse(a=" << a_ << ", b=" << b_ << ", angle=" << angle_ << ")";
   return out.str();
 }
 
@@ -280,8 +282,8 @@ void row_spans(const Footprint& f, double cx, double y0, double y1, const Chord&
 }
 
 std::int64_t scan_grid_side(Layout layout, double density) {
-  const double side = layout == Layout::kStratified ? std::round(std::sqrt(density))
-                                                    : std::max(1.0, std::floor(std::sqrt(density)));
+  const double side =
+      layout == Layout::kStratified ? std::round(std::sqrt(density)) : std::max(1.0, std::floor(std::sqrt(density)));
   return static_cast<std::int64_t>(side);
 }
 
@@ -296,7 +298,8 @@ void check_density(Layout layout, double density) {
       const double lo = std::floor(std::sqrt(density)), hi = lo + 1;
       throw_invalid("ground_truth", "density", density,
                     "a perfect square M^2 >= 1 for the stratified layout (one facet per cell of an M x M grid), "
-                    "e.g. " + format_value(std::max(1.0, lo * lo)) + " or " + format_value(hi * hi));
+                    "e.g. " +
+                        format_value(std::max(1.0, lo * lo)) + " or " + format_value(hi * hi));
     }
   }
 }
@@ -330,7 +333,7 @@ class Scanner {
     // Pass 1, geometry only: the cells an edge crosses, and runs of cells every footprint either
     // fully contains or misses, grouped by which footprints contain them (their signature).
     const std::size_t words = (m + 63) / 64;
-    std::map<std::vector<std::uint64_t>, double> groups;  // signature -> number of cells
+    std::map<std::vector<std::uint64_t>, double> groups;            // signature -> number of cells
     std::vector<std::pair<std::int64_t, std::int64_t>> edge_cells;  // (column, row)
     std::vector<RowSpan> inside(m), touched(m);
     std::vector<Chord> below(m), above(m);  // chords at the current row's lower and upper edges
@@ -452,8 +455,8 @@ std::vector<Placed> gather(const std::vector<Placed>& fps) {
 
 // Realization r draws from the key (seed, r): counter words x = low, y = high 32 bits of r.
 CounterRng realization_rng(std::uint64_t seed, std::size_t r) {
-  return CounterRng(seed, static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(static_cast<std::uint64_t>(r) >> 32),
-                    0, kStreamGroundTruth);
+  return CounterRng(seed, static_cast<std::uint32_t>(r),
+                    static_cast<std::uint32_t>(static_cast<std::uint64_t>(r) >> 32), 0, kStreamGroundTruth);
 }
 
 // Realizations are scheduled 16 at a time (their costs vary with the footprint's position).
@@ -491,10 +494,11 @@ Distribution poisson_binomial(const std::vector<double>& q, std::size_t max_supp
   double mean = 0, var = 0;
   for (double v : q) mean += v, var += v * (1 - v);
   const double width = 12 * std::sqrt(var) + 30;
-  const double lo = std::max(0.0, std::floor(mean - width)), hi = std::min(static_cast<double>(q.size()), std::ceil(mean + width));
+  const double lo = std::max(0.0, std::floor(mean - width)),
+               hi = std::min(static_cast<double>(q.size()), std::ceil(mean + width));
   if (hi - lo + 1 > static_cast<double>(max_support))
     throw_invalid_message("ground_truth.pmf: the boundary law needs more than max_support = " +
-                                std::to_string(max_support) + " support points");
+                          std::to_string(max_support) + " support points");
   // dp[k - base] = P(S = k) over the live window [base, base + dp.size()).
   std::vector<double> dp{1.0}, next;
   double base = 0, lost_above = 0;
@@ -532,7 +536,8 @@ GroundTruth::GroundTruth(Layout layout, double density, Footprint footprint, dou
   check_density(layout, density);
   check_p("ground_truth", p);
   if (2 * footprint_.half_width() >= 1 || 2 * footprint_.half_height() >= 1)
-    throw_invalid("ground_truth", "footprint bounding box", 2 * std::max(footprint_.half_width(), footprint_.half_height()),
+    throw_invalid("ground_truth", "footprint bounding box",
+                  2 * std::max(footprint_.half_width(), footprint_.half_height()),
                   "a footprint whose bounding box fits in the unit domain (side < 1)");
   if (center_) {
     auto [x, y] = *center_;
@@ -572,7 +577,7 @@ Distribution GroundTruth::pmf(std::size_t max_support, int quadrature) const {
   for (auto [k, v] : mix) support.push_back(k), probs.push_back(v);
   if (support.size() > max_support)
     throw_invalid_message("ground_truth.pmf: the law needs more than max_support = " + std::to_string(max_support) +
-                                " support points");
+                          " support points");
   return Distribution::with_trimmed_tails(std::move(support), std::move(probs), below, above);
 }
 

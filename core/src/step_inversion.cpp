@@ -17,8 +17,8 @@
 
 namespace glintlab {
 
-StepInversion::StepInversion(std::vector<double> thresholds, std::vector<double> guards, double base,
-                             bool exact_below, bool exact_above)
+StepInversion::StepInversion(std::vector<double> thresholds, std::vector<double> guards, double base, bool exact_below,
+                             bool exact_above)
     : t_(std::move(thresholds)), guard_(std::move(guards)), base_(base), exact_below_(exact_below),
       exact_above_(exact_above) {
   if (t_.size() != guard_.size()) throw std::logic_error("StepInversion: one guard per threshold");
@@ -68,12 +68,12 @@ namespace {
 GLINTLAB_AVX512 inline __m512d load_column(const double* u, std::size_t k, std::size_t col) {
   if (k == 1) return _mm512_loadu_pd(u);
   if (k == 2) {
-    const __m512i pick = col == 0 ? _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14)
-                                  : _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
+    const __m512i pick =
+        col == 0 ? _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14) : _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
     return _mm512_permutex2var_pd(_mm512_loadu_pd(u), pick, _mm512_loadu_pd(u + 8));
   }
-  const __m256i idx = _mm256_mullo_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
-                                         _mm256_set1_epi32(static_cast<int>(k)));
+  const __m256i idx =
+      _mm256_mullo_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(static_cast<int>(k)));
   return _mm512_i32gather_pd(idx, u + col, 8);
 }
 
@@ -81,9 +81,8 @@ GLINTLAB_AVX512 inline __m512d load_column(const double* u, std::size_t k, std::
 // term and gate with the scalar code's operations (int32 -> double is exact; s * v is exact for
 // s = +-1; a masked add of 1.0 where the scalar code adds 1.0, the value kept where it adds 0.0).
 // mask[r / 8] gets the lanes whose cell is void. Returns the rows done.
-GLINTLAB_AVX512 std::size_t affine_avx512(const std::int32_t* cells, const std::int16_t* cells16,
-                                          std::size_t size, double scale,
-                                          double base, const double* u, std::size_t k, std::size_t col,
+GLINTLAB_AVX512 std::size_t affine_avx512(const std::int32_t* cells, const std::int16_t* cells16, std::size_t size,
+                                          double scale, double base, const double* u, std::size_t k, std::size_t col,
                                           std::size_t rows, const StepInversion::Affine& f, double* out,
                                           std::uint8_t* mask) {
   const __m512d vscale = _mm512_set1_pd(scale), vbase = _mm512_set1_pd(base);
@@ -121,8 +120,8 @@ GLINTLAB_AVX512 std::size_t affine_avx512(const std::int32_t* cells, const std::
 
 }  // namespace
 
-void StepInversion::affine_rows(const double* u, std::size_t k, std::size_t col, std::size_t rows,
-                                const Affine& f, double* out, std::uint8_t* mask) const {
+void StepInversion::affine_rows(const double* u, std::size_t k, std::size_t col, std::size_t rows, const Affine& f,
+                                double* out, std::uint8_t* mask) const {
   if (rows > 256) throw std::logic_error("StepInversion::affine_rows: at most 256 rows");
   // The scalar expression for row r from its step value v; false when v asks for direct evaluation.
   const auto finish = [&](std::size_t r, double v) {
@@ -135,8 +134,8 @@ void StepInversion::affine_rows(const double* u, std::size_t k, std::size_t col,
   };
   std::size_t done = 0;
   if (detail::simd_level() >= 2)
-    done = affine_avx512(cell16_.empty() ? cell_.data() : nullptr, cell16_.empty() ? nullptr : cell16_.data(),
-                         cells_, cells_scale_, base_, u, k, col, rows, f, out, mask);
+    done = affine_avx512(cell16_.empty() ? cell_.data() : nullptr, cell16_.empty() ? nullptr : cell16_.data(), cells_,
+                         cells_scale_, base_, u, k, col, rows, f, out, mask);
   // Vector lanes on a void cell: the search of operator().
   for (std::size_t g = 0; g < done / 8; ++g)
     for (std::size_t l = 0; l < 8 && mask[g]; ++l)

@@ -100,8 +100,7 @@ void binomial_sum(double k, double n, double p, double& lower, double& upper) {
 void poisson_sum(double k, double lambda, double& lower, double& upper) {
   const double mode = std::floor(lambda);
   if (k < mode) {
-    lower = sum_away_from_mode(k, std::exp(poisson_log_pmf(k, lambda)), -1, 0.0,
-                               [&](double j) { return j / lambda; });
+    lower = sum_away_from_mode(k, std::exp(poisson_log_pmf(k, lambda)), -1, 0.0, [&](double j) { return j / lambda; });
     upper = 1.0 - lower;
   } else {
     upper = sum_away_from_mode(k + 1, std::exp(poisson_log_pmf(k + 1, lambda)), +1, -1.0,
@@ -112,10 +111,26 @@ void poisson_sum(double k, double lambda, double& lower, double& upper) {
 
 // Both tails of the binomial at k (integer n), exact edge cases first.
 void binomial_tails(double k, double n, double p, double& lower, double& upper, int method) {
-  if (k < 0) { lower = 0; upper = 1; return; }
-  if (k >= n) { lower = 1; upper = 0; return; }
-  if (p == 0.0) { lower = 1; upper = 0; return; }
-  if (p == 1.0) { lower = 0; upper = 1; return; }
+  if (k < 0) {
+    lower = 0;
+    upper = 1;
+    return;
+  }
+  if (k >= n) {
+    lower = 1;
+    upper = 0;
+    return;
+  }
+  if (p == 0.0) {
+    lower = 1;
+    upper = 0;
+    return;
+  }
+  if (p == 1.0) {
+    lower = 0;
+    upper = 1;
+    return;
+  }
   // p > 1/2 through the failures, K' = n - K ~ Binomial(n, 1 - p) with 1 - p exact:
   // P(K <= k) = P(K' >= n - k) = P(K' > n - k - 1).
   if (p > 0.5) {
@@ -124,16 +139,28 @@ void binomial_tails(double k, double n, double p, double& lower, double& upper, 
   }
   const double var = n * p * (1 - p);
   const bool saddle = method == 0 ? var > kTailSumVariance : method == 2;
-  if (saddle) binomial_saddle(k + 1, n, p, upper, lower);  // P(K >= k + 1) = P(K > k)
-  else binomial_sum(k, n, p, lower, upper);
+  if (saddle)
+    binomial_saddle(k + 1, n, p, upper, lower);  // P(K >= k + 1) = P(K > k)
+  else
+    binomial_sum(k, n, p, lower, upper);
 }
 
 void poisson_tails(double k, double lambda, double& lower, double& upper, int method) {
-  if (k < 0) { lower = 0; upper = 1; return; }
-  if (lambda == 0.0) { lower = 1; upper = 0; return; }
+  if (k < 0) {
+    lower = 0;
+    upper = 1;
+    return;
+  }
+  if (lambda == 0.0) {
+    lower = 1;
+    upper = 0;
+    return;
+  }
   const bool saddle = method == 0 ? lambda > kTailSumVariance : method == 2;
-  if (saddle) poisson_saddle(k + 1, lambda, upper, lower);
-  else poisson_sum(k, lambda, lower, upper);
+  if (saddle)
+    poisson_saddle(k + 1, lambda, upper, lower);
+  else
+    poisson_sum(k, lambda, lower, upper);
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 // Batch generation of the counter-based uniforms of fill_uniforms(): Philox4x32-10 for 32 rows at a
 // time with AVX-512 or 8 with AVX2 (the 32x32 -> 64-bit multiplies of even and odd lanes),
-// dispatched at run time, and a portable path for other CPUs. Both are bit-identical to CounterRng: the same Philox4x32-10
-// (Salmon et al. 2011, constants as in Random123), counter layout and 53-bit conversion;
+// dispatched at run time, and a portable path for other CPUs. Both are bit-identical to CounterRng: the same
+// Philox4x32-10 (Salmon et al. 2011, constants as in Random123), counter layout and 53-bit conversion;
 // tests/cpp/test_rng.cpp checks the identity for both paths.
 #include <immintrin.h>
 
@@ -12,8 +12,8 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cstddef>
 #include <climits>
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -34,14 +34,14 @@ inline double to_unit(std::uint32_t hi, std::uint32_t lo) {
 }
 
 // Writes the two doubles of block `b` into row `row` (the second only if the row has room).
-inline void store_block(double* row, std::size_t b, std::size_t k, std::uint32_t o0, std::uint32_t o1,
-                        std::uint32_t o2, std::uint32_t o3) {
+inline void store_block(double* row, std::size_t b, std::size_t k, std::uint32_t o0, std::uint32_t o1, std::uint32_t o2,
+                        std::uint32_t o3) {
   row[2 * b] = to_unit(o0, o1);
   if (2 * b + 1 < k) row[2 * b + 1] = to_unit(o2, o3);
 }
 
-void rows_portable(std::uint32_t key0, std::uint32_t key1, std::uint32_t c3_init, std::size_t start,
-                   std::size_t count, std::size_t k, double* out) {
+void rows_portable(std::uint32_t key0, std::uint32_t key1, std::uint32_t c3_init, std::size_t start, std::size_t count,
+                   std::size_t k, double* out) {
   const std::size_t blocks = (k + 1) / 2;
   for (std::size_t r = 0; r < count; ++r) {
     const std::uint64_t row = start + r;
@@ -65,7 +65,7 @@ void rows_portable(std::uint32_t key0, std::uint32_t key1, std::uint32_t c3_init
 
 // (hi, lo) of m * x for the 8 unsigned 32-bit lanes of x.
 __attribute__((target("avx2"))) inline void mulhilo8(__m256i m, __m256i x, __m256i& hi, __m256i& lo) {
-  const __m256i even = _mm256_mul_epu32(x, m);                         // lanes 0, 2, 4, 6
+  const __m256i even = _mm256_mul_epu32(x, m);                        // lanes 0, 2, 4, 6
   const __m256i odd = _mm256_mul_epu32(_mm256_srli_epi64(x, 32), m);  // lanes 1, 3, 5, 7
   lo = _mm256_blend_epi32(even, _mm256_slli_epi64(odd, 32), 0xAA);
   hi = _mm256_blend_epi32(_mm256_srli_epi64(even, 32), odd, 0xAA);
@@ -81,8 +81,8 @@ __attribute__((target("avx2"))) inline __m256d to_unit4(__m256i hi, __m256i lo, 
   const __m128i b4 = h == 0 ? _mm256_castsi256_si128(b) : _mm256_extracti128_si256(b, 1);
   const __m256d da = _mm256_cvtepi32_pd(a4);
   // b as unsigned: flip the sign bit, convert signed, add 2^31 back (all exact).
-  const __m256d db = _mm256_add_pd(_mm256_cvtepi32_pd(_mm_xor_si128(b4, _mm_set1_epi32(INT32_MIN))),
-                                   _mm256_set1_pd(2147483648.0));
+  const __m256d db =
+      _mm256_add_pd(_mm256_cvtepi32_pd(_mm_xor_si128(b4, _mm_set1_epi32(INT32_MIN))), _mm256_set1_pd(2147483648.0));
   const __m256d x = _mm256_add_pd(_mm256_mul_pd(da, _mm256_set1_pd(4294967296.0)), db);
   return _mm256_mul_pd(_mm256_add_pd(x, _mm256_set1_pd(0.5)), _mm256_set1_pd(0x1.0p-53));
 }
@@ -94,9 +94,8 @@ __attribute__((target("avx2"))) inline void store_interleaved(double* out, __m25
   _mm256_storeu_pd(out + 4, _mm256_permute2f128_pd(lo, hi, 0x31));
 }
 
-__attribute__((target("avx2"))) void rows_avx2(std::uint32_t key0, std::uint32_t key1,
-                                                std::uint32_t c3_init, std::size_t start,
-                                                std::size_t count, std::size_t k, double* out) {
+__attribute__((target("avx2"))) void rows_avx2(std::uint32_t key0, std::uint32_t key1, std::uint32_t c3_init,
+                                               std::size_t start, std::size_t count, std::size_t k, double* out) {
   const std::size_t blocks = (k + 1) / 2;
   const __m256i m0 = _mm256_set1_epi32(static_cast<int>(kM0)), m1 = _mm256_set1_epi32(static_cast<int>(kM1));
   // The key schedule (Weyl sequence) once per call.
@@ -166,7 +165,6 @@ __attribute__((target("avx2"))) void rows_avx2(std::uint32_t key0, std::uint32_t
   rows_portable(key0, key1, c3_init, start + base, count - base, k, out + base * k);
 }
 
-
 // The AVX-512 path: each row's Philox state in the low halves of 64-bit lanes, 8 rows per vector,
 // kGroups independent vectors in flight so that the ten dependent rounds of one group (multiply
 // latency) overlap with the others'. vpmuludq multiplies the low 32 bits of each 64-bit lane into
@@ -184,8 +182,8 @@ GLINTLAB_AVX512 inline __m512d to_unit8(__m512i hi, __m512i lo) {
   return _mm512_mul_pd(_mm512_add_pd(x, _mm512_set1_pd(0.5)), _mm512_set1_pd(0x1.0p-53));
 }
 
-GLINTLAB_AVX512 void rows_avx512(std::uint32_t key0, std::uint32_t key1, std::uint32_t c3_init,
-                                 std::size_t start, std::size_t count, std::size_t k, double* out) {
+GLINTLAB_AVX512 void rows_avx512(std::uint32_t key0, std::uint32_t key1, std::uint32_t c3_init, std::size_t start,
+                                 std::size_t count, std::size_t k, double* out) {
   constexpr int kGroups = 4, kLanes = 8;
   const std::size_t blocks = (k + 1) / 2;
   const __m512i m0 = _mm512_set1_epi64(kM0), m1 = _mm512_set1_epi64(kM1);
@@ -265,23 +263,27 @@ std::atomic<int> simd_setting{2};
 }  // namespace
 
 void set_simd_level(int level) {
-  if (level < 0 || level > 2) throw_invalid_message("set_simd_level: level = " + std::to_string(level) +
-                                                          " is not 0 (portable), 1 (AVX2) or 2 (AVX-512)");
+  if (level < 0 || level > 2)
+    throw_invalid_message("set_simd_level: level = " + std::to_string(level) +
+                          " is not 0 (portable), 1 (AVX2) or 2 (AVX-512)");
   simd_setting.store(level, std::memory_order_relaxed);
 }
 
 int simd_level() { return std::min(simd_setting.load(std::memory_order_relaxed), cpu_simd_level()); }
 
 // Rows [start, start + count): row r gets blocks 0 .. ceil(k/2) - 1 of key (seed, r, stream).
-void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start,
-                         std::size_t count, int k, double* out) {
+void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start, std::size_t count, int k,
+                         double* out) {
   const std::uint32_t key0 = static_cast<std::uint32_t>(seed), key1 = static_cast<std::uint32_t>(seed >> 32);
   const std::uint32_t c3 = stream;  // level 0 in the upper 16 bits
   const std::size_t kk = static_cast<std::size_t>(k);
   const int level = simd_level();
-  if (level >= 2) rows_avx512(key0, key1, c3, start, count, kk, out);
-  else if (level >= 1) rows_avx2(key0, key1, c3, start, count, kk, out);
-  else rows_portable(key0, key1, c3, start, count, kk, out);
+  if (level >= 2)
+    rows_avx512(key0, key1, c3, start, count, kk, out);
+  else if (level >= 1)
+    rows_avx2(key0, key1, c3, start, count, kk, out);
+  else
+    rows_portable(key0, key1, c3, start, count, kk, out);
 }
 
 // The same rows keyed at LOD level `level` (the counter's upper 16 bits, as CounterRng's).
@@ -291,9 +293,12 @@ void philox_uniform_rows_level(std::uint64_t seed, std::uint16_t level, std::uin
   const std::uint32_t c3 = (static_cast<std::uint32_t>(level) << 16) | stream;
   const std::size_t kk = static_cast<std::size_t>(k);
   const int simd = simd_level();
-  if (simd >= 2) rows_avx512(key0, key1, c3, start, count, kk, out);
-  else if (simd >= 1) rows_avx2(key0, key1, c3, start, count, kk, out);
-  else rows_portable(key0, key1, c3, start, count, kk, out);
+  if (simd >= 2)
+    rows_avx512(key0, key1, c3, start, count, kk, out);
+  else if (simd >= 1)
+    rows_avx2(key0, key1, c3, start, count, kk, out);
+  else
+    rows_portable(key0, key1, c3, start, count, kk, out);
 }
 
 }  // namespace glintlab::detail

@@ -39,7 +39,9 @@ float word_float(const std::uint32_t* row, int k) {
   std::memcpy(&f, row + k, sizeof f);
   return f;
 }
-F3 word_f3(const std::uint32_t* row, int k) { return {word_float(row, k), word_float(row, k + 1), word_float(row, k + 2)}; }
+F3 word_f3(const std::uint32_t* row, int k) {
+  return {word_float(row, k), word_float(row, k + 1), word_float(row, k + 2)};
+}
 
 // glintlab_hash3 on 32-bit words (wrapping arithmetic, as the shader's uint).
 void hash3(std::uint32_t v[3]) {

@@ -138,9 +138,7 @@ struct Wwh18Ndf::Footprint {
       for (int k = 0; k < n; ++k) {
         const int l = (k + 1) % n;
         const double dk = dist(px[k], py[k]), dl = dist(px[l], py[l]);
-        if (dk >= 0) {
-          qx[m] = px[k], qy[m] = py[k], ++m;
-        }
+        if (dk >= 0) { qx[m] = px[k], qy[m] = py[k], ++m; }
         if ((dk >= 0) != (dl >= 0)) {
           const double t = dk / (dk - dl);
           qx[m] = px[k] + t * (px[l] - px[k]), qy[m] = py[k] + t * (py[l] - py[k]), ++m;
@@ -176,7 +174,8 @@ Wwh18Ndf::Wwh18Ndf(const Wwh18Params& params) : p_(params) {
     throw_invalid(kWhere, "table_res", p_.table_res_deg, "a resolution in [0.25, 90] degrees dividing 90");
   bool lod_ok = p_.lod_deg == 0.0;
   for (double l : kWwhLodLevels) lod_ok = lod_ok || p_.lod_deg == l;
-  if (!lod_ok) throw_invalid(kWhere, "lod", p_.lod_deg, "0 (no blur) or one of 1, 2, 5, 10, 20, 30, 45, 60, 90 degrees");
+  if (!lod_ok)
+    throw_invalid(kWhere, "lod", p_.lod_deg, "0 (no blur) or one of 1, 2, 5, 10, 20, 30, 45, 60, 90 degrees");
   s0_ = std::sqrt(p_.flakes_per_cell / p_.density);
   cos_gamma_ = std::cos(p_.gamma_deg * kDeg);
   cone_solid_angle_ = 2.0 * kPi * (1.0 - cos_gamma_);
@@ -397,10 +396,9 @@ double Wwh18Ndf::lambda(std::uint64_t seed, int level, std::int64_t i, std::int6
     tea_encrypt(v0, v1, key, p_.tea_rounds);
     return unit32(v0);
   }
-  const auto r = CounterRng::block(
-      {k, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j),
-       (kStreamLambda << 24) | (static_cast<std::uint32_t>(level) << 16)},
-      {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)});
+  const auto r = CounterRng::block({k, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j),
+                                    (kStreamLambda << 24) | (static_cast<std::uint32_t>(level) << 16)},
+                                   {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)});
   return unit32(r[0]);
 }
 
@@ -454,8 +452,10 @@ double Wwh18Ndf::traverse(const Footprint& fp, std::uint64_t seed, double p) con
   };
   std::vector<Node> stack;
   const double side0 = std::ldexp(s0_, start);
-  for (auto i = static_cast<std::int64_t>(std::floor(fp.xmin / side0)); i <= static_cast<std::int64_t>(std::floor(fp.xmax / side0)); ++i)
-    for (auto j = static_cast<std::int64_t>(std::floor(fp.ymin / side0)); j <= static_cast<std::int64_t>(std::floor(fp.ymax / side0)); ++j)
+  for (auto i = static_cast<std::int64_t>(std::floor(fp.xmin / side0));
+       i <= static_cast<std::int64_t>(std::floor(fp.xmax / side0)); ++i)
+    for (auto j = static_cast<std::int64_t>(std::floor(fp.ymin / side0));
+         j <= static_cast<std::int64_t>(std::floor(fp.ymax / side0)); ++j)
       stack.push_back({start, i, j});
   const double eps_area = p_.error_eps * fp.area;
   double count = 0.0;
@@ -489,7 +489,8 @@ void check_pixel(const double* uv, const double* h, std::size_t i) {
     if (!std::isfinite(uv[2 * i + c]) || std::abs(uv[2 * i + c]) > 1e9)
       throw_invalid(kWhere, indexed_name("uv", 2 * i + c, true), uv[2 * i + c], "a finite position, |uv| <= 1e9");
   for (int c = 0; c < 3; ++c)
-    if (!std::isfinite(h[3 * i + c])) throw_invalid(kWhere, indexed_name("h", 3 * i + c, true), h[3 * i + c], "a finite half vector");
+    if (!std::isfinite(h[3 * i + c]))
+      throw_invalid(kWhere, indexed_name("h", 3 * i + c, true), h[3 * i + c], "a finite half vector");
   const double* H = h + 3 * i;
   if (!(H[0] * H[0] + H[1] * H[1] + H[2] * H[2] > 1e-300))
     throw_invalid(kWhere, indexed_name("h", 3 * i, true), H[0], "a nonzero half vector");
@@ -503,8 +504,8 @@ void check_cells(double cells, std::size_t i) {
 
 }  // namespace
 
-void Wwh18Ndf::reference_counts(const double* uv, const double* jac, const double* h, std::size_t m,
-                                std::uint64_t seed, double* out) const {
+void Wwh18Ndf::reference_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                                double* out) const {
   const double a2 = p_.alpha * p_.alpha;
   detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
     for (std::size_t px = first; px < last; ++px) {
@@ -516,8 +517,10 @@ void Wwh18Ndf::reference_counts(const double* uv, const double* jac, const doubl
         out[px] = 0.0;
         continue;
       }
-      const auto i0 = static_cast<std::int64_t>(std::floor(fp.xmin / s0_)), i1 = static_cast<std::int64_t>(std::floor(fp.xmax / s0_));
-      const auto j0 = static_cast<std::int64_t>(std::floor(fp.ymin / s0_)), j1 = static_cast<std::int64_t>(std::floor(fp.ymax / s0_));
+      const auto i0 = static_cast<std::int64_t>(std::floor(fp.xmin / s0_)),
+                 i1 = static_cast<std::int64_t>(std::floor(fp.xmax / s0_));
+      const auto j0 = static_cast<std::int64_t>(std::floor(fp.ymin / s0_)),
+                 j1 = static_cast<std::int64_t>(std::floor(fp.ymax / s0_));
       check_cells(static_cast<double>(i1 - i0 + 1) * static_cast<double>(j1 - j0 + 1), px);
       double count = 0.0;
       for (std::int64_t i = i0; i <= i1; ++i)
@@ -548,7 +551,8 @@ void Wwh18Ndf::counts(const double* uv, const double* jac, const double* h, cons
       check_pixel(uv, h, px);
       if (wi)
         for (int c = 0; c < 3; ++c)
-          if (!std::isfinite(wi[3 * px + c])) throw_invalid(kWhere, indexed_name("wi", 3 * px + c, true), wi[3 * px + c], "a finite direction");
+          if (!std::isfinite(wi[3 * px + c]))
+            throw_invalid(kWhere, indexed_name("wi", 3 * px + c, true), wi[3 * px + c], "a finite direction");
       const Footprint fp(uv[2 * px], uv[2 * px + 1], jac + 4 * px, px);
       const double p = model_p(h + 3 * px, wi ? wi + 3 * px : nullptr);
       if (p_out) p_out[px] = p;

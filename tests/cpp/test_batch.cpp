@@ -1,6 +1,6 @@
 // Batch samplers (per-(n, p) tables) must give exactly what per-sample evaluation gives.
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <vector>
 
@@ -15,32 +15,35 @@ using namespace glintlab;
 TEST_CASE("batch samplers equal per-sample evaluation, bit for bit", "[law][batch]") {
   // Every registered law, at regimes that exercise the table (small and large supports), its
   // fallbacks (too many steps: n = 1e15) and degenerate parameters.
-  const std::vector<std::pair<double, double>> points{
-      {16, 0.1}, {1e3, 1e-2}, {1e6, 0.3}, {1e9, 1e-6}, {10.5, 0.3}, {0.3, 0.2}, {1e15, 0.5},
-      {40, 0.97}, {3.7, 0.6}, {1e6, 1 - 1e-7}, {1, 0.5}, {0, 0.5}, {100, 0}, {100, 1}};
+  const std::vector<std::pair<double, double>> points{{16, 0.1},  {1e3, 1e-2}, {1e6, 0.3}, {1e9, 1e-6}, {10.5, 0.3},
+                                                      {0.3, 0.2}, {1e15, 0.5}, {40, 0.97}, {3.7, 0.6},  {1e6, 1 - 1e-7},
+                                                      {1, 0.5},   {0, 0.5},    {100, 0},   {100, 1}};
   // At every SIMD level: the AVX-512 gathers of the step tables and the scalar path must agree
   // with evaluate() alike (levels above the CPU's run its best).
   const std::size_t count = 20'000;
   std::vector<double> batch(count), direct(count);
-  struct Restore { ~Restore() { detail::set_simd_level(2); } } restore;
-  for (int level : {2, 0}) for (const auto& info : registered_laws()) {
-    detail::set_simd_level(level);
-    const auto law = make_law(info.name);
-    for (const auto& [n, p] : points) {
-      if (!law->accepts(n, p)) continue;
-      sample_many(*law, {&n, 1}, {&p, 1}, count, 42, batch.data());
-      detail::LawKernel(*law).sample_range(n, p, 42, 0, count, direct.data());
-      // Laws with their own sampler (the exact binomial's batch tabulates BTRD's final test) are
-      // compared with their own sample_range.
-      const detail::KernelOf kernel(*law);
-      if (kernel->batch_sampler(n, p, count) == nullptr || !kernel->samples_by_evaluate())
-        kernel->sample_range(n, p, 42, 0, count, direct.data());
-      std::size_t mismatches = 0;
-      for (std::size_t i = 0; i < count; ++i) mismatches += batch[i] != direct[i];
-      INFO(info.name << " n = " << n << " p = " << p << ", SIMD level " << detail::simd_level());
-      CHECK(mismatches == 0);
+  struct Restore {
+    ~Restore() { detail::set_simd_level(2); }
+  } restore;
+  for (int level : {2, 0})
+    for (const auto& info : registered_laws()) {
+      detail::set_simd_level(level);
+      const auto law = make_law(info.name);
+      for (const auto& [n, p] : points) {
+        if (!law->accepts(n, p)) continue;
+        sample_many(*law, {&n, 1}, {&p, 1}, count, 42, batch.data());
+        detail::LawKernel(*law).sample_range(n, p, 42, 0, count, direct.data());
+        // Laws with their own sampler (the exact binomial's batch tabulates BTRD's final test) are
+        // compared with their own sample_range.
+        const detail::KernelOf kernel(*law);
+        if (kernel->batch_sampler(n, p, count) == nullptr || !kernel->samples_by_evaluate())
+          kernel->sample_range(n, p, 42, 0, count, direct.data());
+        std::size_t mismatches = 0;
+        for (std::size_t i = 0; i < count; ++i) mismatches += batch[i] != direct[i];
+        INFO(info.name << " n = " << n << " p = " << p << ", SIMD level " << detail::simd_level());
+        CHECK(mismatches == 0);
+      }
     }
-  }
 }
 
 TEST_CASE("step tables answer exactly or not at all", "[batch]") {
@@ -76,7 +79,9 @@ TEST_CASE("step tables answer exactly or not at all", "[batch]") {
   fill_uniforms(5, kStreamSample, 0, more.size(), 1, more.data());
   u.insert(u.end(), more.begin(), more.end());
   std::vector<double> out(u.size());
-  struct Restore { ~Restore() { detail::set_simd_level(2); } } restore;
+  struct Restore {
+    ~Restore() { detail::set_simd_level(2); }
+  } restore;
   for (int level : {2, 0}) {
     detail::set_simd_level(level);
     table->sample_rows(u.data(), 1, 0, u.size(), StepInversion::Affine{}, out.data(),
@@ -118,36 +123,48 @@ TEST_CASE("per-pixel evaluation equals evaluate(), bit for bit, at every SIMD le
   for (std::size_t i = 0; i < count; ++i) {
     n[i] = i % 17 == 0 ? edge_n[(i / 17) % 8] : std::exp(std::log(1e-2) + rng.uniform() * std::log(1e14));
     const double t = rng.uniform();
-    p[i] = i % 13 == 0 ? edge_p[(i / 13) % 6] : (i % 2 ? std::exp(std::log(1e-9) * t) : 1 - std::exp(std::log(1e-9) * t));
+    p[i] =
+        i % 13 == 0 ? edge_p[(i / 13) % 6] : (i % 2 ? std::exp(std::log(1e-9) * t) : 1 - std::exp(std::log(1e-9) * t));
   }
-  struct Restore { ~Restore() { detail::set_simd_level(2); set_num_threads(2); } } restore;
-  for (int level : {2, 1, 0}) for (const auto& info : registered_laws()) {
-    detail::set_simd_level(level);
-    const auto law = make_law(info.name);
-    if (!detail::KernelOf(*law)->samples_by_evaluate()) continue;
-    // Laws whose cost grows with n (explicit trial loops) get n capped at 1e4.
-    const double cap = info.traits.constant_time ? 1e300 : 1e4;
-    std::vector<double> nn, pp;
-    for (std::size_t i = 0; i < count; ++i)
-      if (law->accepts(std::min(n[i], cap), p[i])) { nn.push_back(std::min(n[i], cap)); pp.push_back(p[i]); }
-    const std::size_t m = nn.size(), k = static_cast<std::size_t>(law->n_uniforms());
-    u.assign(m * std::max<std::size_t>(k, 1), 0.0);
-    fill_uniforms(42, kStreamSample, 0, m, static_cast<int>(k), u.data());
-    detail::KernelOf(*law)->evaluate_pixels(nn.data(), pp.data(), u.data(), m, fast.data());
-    for (std::size_t i = 0; i < m; ++i) direct[i] = law->evaluate(nn[i], pp[i], u.data() + i * k);
-    std::size_t mismatches = 0;
-    for (std::size_t i = 0; i < m; ++i) mismatches += !(fast[i] == direct[i] || (std::isnan(fast[i]) && std::isnan(direct[i])));
-    INFO(info.name << ", SIMD level " << detail::simd_level() << ", " << m << " pixels");
-    CHECK(mismatches == 0);
-    for (int threads : {1, 2}) {  // sample_many's per-pixel path: same output at any thread count
-      set_num_threads(threads);
-      sample_many(*law, {nn.data(), m}, {pp.data(), m}, m, 42, fast.data());
-      mismatches = 0;
-      for (std::size_t i = 0; i < m; ++i) mismatches += !(fast[i] == direct[i] || (std::isnan(fast[i]) && std::isnan(direct[i])));
-      INFO("sample_many, " << threads << " threads");
-      CHECK(mismatches == 0);
+  struct Restore {
+    ~Restore() {
+      detail::set_simd_level(2);
+      set_num_threads(2);
     }
-  }
+  } restore;
+  for (int level : {2, 1, 0})
+    for (const auto& info : registered_laws()) {
+      detail::set_simd_level(level);
+      const auto law = make_law(info.name);
+      if (!detail::KernelOf(*law)->samples_by_evaluate()) continue;
+      // Laws whose cost grows with n (explicit trial loops) get n capped at 1e4.
+      const double cap = info.traits.constant_time ? 1e300 : 1e4;
+      std::vector<double> nn, pp;
+      for (std::size_t i = 0; i < count; ++i)
+        if (law->accepts(std::min(n[i], cap), p[i])) {
+          nn.push_back(std::min(n[i], cap));
+          pp.push_back(p[i]);
+        }
+      const std::size_t m = nn.size(), k = static_cast<std::size_t>(law->n_uniforms());
+      u.assign(m * std::max<std::size_t>(k, 1), 0.0);
+      fill_uniforms(42, kStreamSample, 0, m, static_cast<int>(k), u.data());
+      detail::KernelOf(*law)->evaluate_pixels(nn.data(), pp.data(), u.data(), m, fast.data());
+      for (std::size_t i = 0; i < m; ++i) direct[i] = law->evaluate(nn[i], pp[i], u.data() + i * k);
+      std::size_t mismatches = 0;
+      for (std::size_t i = 0; i < m; ++i)
+        mismatches += !(fast[i] == direct[i] || (std::isnan(fast[i]) && std::isnan(direct[i])));
+      INFO(info.name << ", SIMD level " << detail::simd_level() << ", " << m << " pixels");
+      CHECK(mismatches == 0);
+      for (int threads : {1, 2}) {  // sample_many's per-pixel path: same output at any thread count
+        set_num_threads(threads);
+        sample_many(*law, {nn.data(), m}, {pp.data(), m}, m, 42, fast.data());
+        mismatches = 0;
+        for (std::size_t i = 0; i < m; ++i)
+          mismatches += !(fast[i] == direct[i] || (std::isnan(fast[i]) && std::isnan(direct[i])));
+        INFO("sample_many, " << threads << " threads");
+        CHECK(mismatches == 0);
+      }
+    }
 }
 
 TEST_CASE("the exact binomial's prefetched Philox rows give the scalar generator's draws", "[law][batch][pixels]") {
@@ -155,11 +172,16 @@ TEST_CASE("the exact binomial's prefetched Philox rows give the scalar generator
   // (binomial::PrefetchedRng); the draws must be those of binomial::Sampler on CounterRng::for_index,
   // including the samples that need more than two uniforms (BTRD rejections, the fractional facet).
   const auto law = make_law("binomial");
-  const std::vector<std::pair<double, double>> points{
-      {16, 0.1}, {1e3, 1e-2}, {1e6, 0.3}, {1e9, 1e-6}, {40.5, 0.7}, {1e15, 0.5}, {0.5, 0.5}, {100, 0}, {100, 1}};
+  const std::vector<std::pair<double, double>> points{{16, 0.1},   {1e3, 1e-2}, {1e6, 0.3}, {1e9, 1e-6}, {40.5, 0.7},
+                                                      {1e15, 0.5}, {0.5, 0.5},  {100, 0},   {100, 1}};
   const std::size_t count = 5000;
   std::vector<double> got(count);
-  struct Restore { ~Restore() { detail::set_simd_level(2); set_num_threads(2); } } restore;
+  struct Restore {
+    ~Restore() {
+      detail::set_simd_level(2);
+      set_num_threads(2);
+    }
+  } restore;
   for (int level : {2, 1, 0}) {
     detail::set_simd_level(level);
     for (const auto& [n, p] : points) {
@@ -206,8 +228,8 @@ TEST_CASE("the vector per-pixel kernels hand their unsure pixels to evaluate()",
   std::vector<double> n, p, u;
   const double ns[] = {1e-3, 0.5, 1, 1.5, 2, 7.3, 16, 1e3, 1e6, 1e12};
   const double ps[] = {1e-300, 1e-17, 1e-9, 1e-6, 0.01, 0.3, 0.5, 0.7, 1 - 1e-9};
-  const double tails[] = {1e-300, 1e-100, 1e-13, 1.5e-11, 1e-9, 0.075, 0.0750000001, 0.5,
-                          0.925, 1 - 1e-9, 1 - 1e-13, 1 - 1.5e-11};
+  const double tails[] = {1e-300,       1e-100, 1e-13, 1.5e-11,  1e-9,      0.075,
+                          0.0750000001, 0.5,    0.925, 1 - 1e-9, 1 - 1e-13, 1 - 1.5e-11};
   for (double nv : ns)
     for (double pv : ps) {
       const double p1 = -std::expm1(nv * std::log1p(-pv));
@@ -252,7 +274,9 @@ TEST_CASE("the vector per-pixel kernels hand their unsure pixels to evaluate()",
     }
   const std::size_t m = n.size();
   std::vector<double> fast(m);
-  struct Restore { ~Restore() { detail::set_simd_level(2); } } restore;
+  struct Restore {
+    ~Restore() { detail::set_simd_level(2); }
+  } restore;
   for (int level : {2, 1, 0})
     for (const char* name : {"gated", "head_cf"}) {
       detail::set_simd_level(level);

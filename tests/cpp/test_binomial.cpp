@@ -84,8 +84,10 @@ TEST_CASE("binomial pmf at huge n: exact identities", "[binomial]") {
     for (double p : {1e-300, 1e-13, 1e-7, 0.3, 0.5, 1 - 1e-7}) {
       INFO("n = " << n << ", p = " << p);
       // Closed forms at the ends, in long double.
-      CHECK(rel_err(binomial::pmf(0, n, p), static_cast<double>(std::exp(n * std::log1p(-static_cast<long double>(p))))) < 1e-13);
-      CHECK(rel_err(binomial::pmf(n, n, p), static_cast<double>(std::exp(n * std::log(static_cast<long double>(p))))) < 1e-13);
+      CHECK(rel_err(binomial::pmf(0, n, p),
+                    static_cast<double>(std::exp(n * std::log1p(-static_cast<long double>(p))))) < 1e-13);
+      CHECK(rel_err(binomial::pmf(n, n, p), static_cast<double>(std::exp(n * std::log(static_cast<long double>(p))))) <
+            1e-13);
       // The ratio recurrence f(k+1)/f(k) = (n - k) p / ((k + 1) q), at points across the bulk.
       const double mean = n * p, sd = std::sqrt(mean * (1 - p));
       for (double z : {-6.0, -1.0, 0.0, 2.0, 7.0}) {
@@ -254,17 +256,19 @@ TEST_CASE("Poisson law: pmf against Boost, cdf/sf, quantile", "[poisson]") {
 
 TEST_CASE("binomial and Poisson samplers match their exact laws (chi-square)", "[binomial][statistical]") {
   const double alpha = 1e-4;
-  struct Case { double n, p; };
+  struct Case {
+    double n, p;
+  };
   // Inversion (min(p, 1-p) n < 30), BTRD (>= 30), the p > 1/2 flip, non-integer n, extreme n.
-  const std::vector<Case> cases{{1, 0.5},     {16, 0.1},  {40, 0.2},   {150, 0.19}, {150, 0.21},
-                                {60, 0.9},    {100, 0.5}, {1e3, 1e-2}, {1e6, 0.3},  {1e9, 1e-6},
-                                {10.5, 0.3},  {1000.25, 0.02}, {0.4, 0.7}, {1e15, 1e-12}, {1e12, 0.999999}};
+  const std::vector<Case> cases{{1, 0.5},    {16, 0.1},       {40, 0.2},   {150, 0.19},   {150, 0.21},
+                                {60, 0.9},   {100, 0.5},      {1e3, 1e-2}, {1e6, 0.3},    {1e9, 1e-6},
+                                {10.5, 0.3}, {1000.25, 0.02}, {0.4, 0.7},  {1e15, 1e-12}, {1e12, 0.999999}};
   std::uint64_t seed = 100;
   for (const auto& c : cases) {
     const auto samples = draw(c.n, c.p, 400'000, seed);
     const auto r = chi2_test(samples.data(), samples.size(), binomial::distribution(c.n, c.p));
-    INFO("binomial n = " << c.n << ", p = " << c.p << ", seed " << seed << ": chi2 " << r.statistic
-                         << ", dof " << r.dof << ", p-value " << r.pvalue << " " << r.note);
+    INFO("binomial n = " << c.n << ", p = " << c.p << ", seed " << seed << ": chi2 " << r.statistic << ", dof " << r.dof
+                         << ", p-value " << r.pvalue << " " << r.note);
     CHECK(r.pvalue > alpha);
     ++seed;
   }

@@ -21,7 +21,8 @@ double scalar_draw(double n, double p, std::uint64_t seed, std::uint64_t index) 
 
 std::size_t count_mismatches(const std::vector<double>& got, const std::vector<double>& want) {
   std::size_t bad = 0;
-  for (std::size_t i = 0; i < got.size(); ++i) bad += !(got[i] == want[i] && std::signbit(got[i]) == std::signbit(want[i]));
+  for (std::size_t i = 0; i < got.size(); ++i)
+    bad += !(got[i] == want[i] && std::signbit(got[i]) == std::signbit(want[i]));
   return bad;
 }
 
@@ -38,9 +39,9 @@ TEST_CASE("vector BTRD step 1 across a batch equals the scalar sampler, bit for 
   // BTRD's regime from its threshold (mean 30) to n = 2^53, integer and fractional n, p on both
   // sides of 1/2; the inversion and constant regimes go through the same entry point.
   const std::vector<std::pair<double, double>> points{
-      {1e6, 0.3},       {1e9, 1e-6},      {60, 0.5},     {61, 0.49},   {59.5, 0.5},          {62.5, 0.51},
-      {1e6 + 0.5, 0.3}, {1e15, 0.5},      {9e15, 0.25},  {1e12, 0.999}, {1e4 + 0.7, 0.9},    {3000, 0.01},
-      {1e9 + 0.999, 1e-6}, {16, 0.1},     {2999.9, 0.01}, {100, 0},      {100, 1},             {0.5, 0.5}};
+      {1e6, 0.3},          {1e9, 1e-6}, {60, 0.5},      {61, 0.49},    {59.5, 0.5},      {62.5, 0.51},
+      {1e6 + 0.5, 0.3},    {1e15, 0.5}, {9e15, 0.25},   {1e12, 0.999}, {1e4 + 0.7, 0.9}, {3000, 0.01},
+      {1e9 + 0.999, 1e-6}, {16, 0.1},   {2999.9, 0.01}, {100, 0},      {100, 1},         {0.5, 0.5}};
   const std::size_t count = 3000, first = 4294967000ull;  // crosses 2^32: the rows' high word changes
   RestoreSimd restore;
   const auto law = make_law("binomial");
@@ -71,7 +72,8 @@ TEST_CASE("vector per-pixel setup and first steps equal the scalar sampler, bit 
     const double a = pick.uniform(), b = pick.uniform(), c = pick.uniform();
     n[i] = i % 17 == 0 ? edge_n[(i / 17) % 12] : std::exp(a * std::log(1e15));
     if (i % 3 == 1) n[i] = std::floor(n[i]);
-    p[i] = i % 13 == 0 ? edge_p[(i / 13) % 8] : (i % 2 ? std::exp(std::log(1e-12) * b) : 1 - std::exp(std::log(1e-12) * b));
+    p[i] = i % 13 == 0 ? edge_p[(i / 13) % 8]
+                       : (i % 2 ? std::exp(std::log(1e-12) * b) : 1 - std::exp(std::log(1e-12) * b));
     if (i % 5 == 0) p[i] = c;
   }
   RestoreSimd restore;

@@ -1,8 +1,8 @@
 // LOD blending: the level ladder, each blend's exact law against its sampler, DB23 eq. 10's
 // equality with Binomial(N P, p), ZK16's variance deficit, the roulette's mean, coherence of
 // positioned draws, thread independence and bad input.
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <memory>
 #include <vector>
@@ -17,8 +17,8 @@ using namespace glintlab;
 
 namespace {
 
-BlendedLaw blended(const std::string& name, const std::string& inner = "binomial", double ratio = 4,
-                   double base = 1.0, LawParams params = {}) {
+BlendedLaw blended(const std::string& name, const std::string& inner = "binomial", double ratio = 4, double base = 1.0,
+                   LawParams params = {}) {
   return BlendedLaw(make_blend(name, params), InnerLaw::from_law(std::shared_ptr<const CountingLaw>(make_law(inner))),
                     LevelLadder(ratio, base));
 }
@@ -126,7 +126,8 @@ TEST_CASE("every blend's sampler follows its exact law", "[blend][statistical]")
   CHECK(tests == 24);
 }
 
-TEST_CASE("negative controls: ZK16 and a mis-weighted distributed law are rejected against the ground truth", "[blend][statistical]") {
+TEST_CASE("negative controls: ZK16 and a mis-weighted distributed law are rejected against the ground truth",
+          "[blend][statistical]") {
   // The distributed law with the LOD weight w in place of the area weight (the mistake eq. 10's
   // misprint invites): its mean is off, and the chi-square test must see it.
   class WrongWeights final : public BlendRule {
@@ -145,7 +146,8 @@ TEST_CASE("negative controls: ZK16 and a mis-weighted distributed law are reject
     }
   };
   const BlendedLaw wrong(std::make_unique<WrongWeights>(),
-                         InnerLaw::from_law(std::shared_ptr<const CountingLaw>(make_law("binomial"))), LevelLadder(4, kALo));
+                         InnerLaw::from_law(std::shared_ptr<const CountingLaw>(make_law("binomial"))),
+                         LevelLadder(4, kALo));
   const double cells = 40;
   const Distribution truth = binomial::distribution(cells, 0.15);
   const auto xw = draw(wrong, kN, cells / kN, 0.15, 40000, 3);
@@ -156,7 +158,8 @@ TEST_CASE("negative controls: ZK16 and a mis-weighted distributed law are reject
   CHECK(chi2_test(xd.data(), xd.size(), truth).pvalue > 1e-3);
 }
 
-TEST_CASE("ZK16's variance is the analytic fraction P[(1-w)^2/A_lo + w^2/A_hi] of the binomial's", "[blend][statistical]") {
+TEST_CASE("ZK16's variance is the analytic fraction P[(1-w)^2/A_lo + w^2/A_hi] of the binomial's",
+          "[blend][statistical]") {
   const auto law = blended("zk16_linear", "binomial", 4, kALo);
   for (double cells : {24.0, 32.0, 48.0}) {
     const double P = cells / kN, p = 0.2;

@@ -3,16 +3,16 @@
 // ladder's bisection against its logarithm; and whole blends (every rule, gated / binomial / head_cf
 // inside, one P, runs of equal P, P per sample, sample and sample_at, 1 and 2 threads, every SIMD
 // level) against the same blend driven through evaluate() alone (no fixed evaluator, no per-pixel path).
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <cstring>
 #include <memory>
 #include <vector>
 
 #include "glintlab/binomial.hpp"
-#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/blend.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 
 using namespace glintlab;
 
@@ -27,7 +27,8 @@ std::vector<double> test_uniforms(const CountingLaw& law, double n, double p, st
   if (k == 1 && law.name() == "binomial" && p > 0) {
     const double mean = n * p, sd = std::sqrt(std::max(n * p * (1 - p), 0.25));
     const double stride = std::max(1.0, std::floor(sd / 8));  // about 150 counts across the window
-    for (double kk = std::max(0.0, std::floor(mean - 9 * sd)); kk <= std::min(std::ceil(n), mean + 9 * sd); kk += stride) {
+    for (double kk = std::max(0.0, std::floor(mean - 9 * sd)); kk <= std::min(std::ceil(n), mean + 9 * sd);
+         kk += stride) {
       for (double v : {binomial::cdf(kk, n, p), 1.0 - binomial::sf(kk, n, p)}) {
         if (!(v > 0 && v < 1)) continue;
         u.push_back(v);
@@ -72,8 +73,8 @@ bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
 TEST_CASE("fixed evaluators give evaluate()'s bits at every (n, p) and SIMD level", "[blend][fast]") {
   SimdLevelGuard guard;
   const std::vector<std::array<double, 2>> points = {
-      {4e4, 0.01}, {1.6e5, 0.01}, {16, 0.1}, {37.3, 0.3}, {1e3, 0.5}, {1e3, 0.97}, {2.5, 0.999}, {0.4, 0.2},
-      {1e6, 0.3},  {1e7, 0.01},   {1e9, 1e-6}, {123.7, 1.0}, {55, 0.0}, {0, 0.3}, {1e4, 1e-9}, {7, 0.5}};
+      {4e4, 0.01}, {1.6e5, 0.01}, {16, 0.1},   {37.3, 0.3},  {1e3, 0.5}, {1e3, 0.97}, {2.5, 0.999}, {0.4, 0.2},
+      {1e6, 0.3},  {1e7, 0.01},   {1e9, 1e-6}, {123.7, 1.0}, {55, 0.0},  {0, 0.3},    {1e4, 1e-9},  {7, 0.5}};
   for (const char* name : {"gated", "binomial", "head_cf"}) {
     const auto law = make_law(name);
     for (const auto& [n, p] : points) {
@@ -149,8 +150,8 @@ TEST_CASE("blends' fast paths reproduce the general path bit for bit", "[blend][
       {"distributed", {}}, {"zk16_linear", {}}, {"nearest", {}}, {"roulette", {}}, {"roulette", {{"epsilon", 0.0}}}};
   for (const auto& [rule, params] : rules) {
     for (const char* inner : {"gated", "binomial", "head_cf"}) {
-      const BlendedLaw fast(make_blend(rule, params), InnerLaw::from_law(std::shared_ptr<const CountingLaw>(make_law(inner))),
-                            LevelLadder(4, 1));
+      const BlendedLaw fast(make_blend(rule, params),
+                            InnerLaw::from_law(std::shared_ptr<const CountingLaw>(make_law(inner))), LevelLadder(4, 1));
       const BlendedLaw general(make_blend(rule, params), evaluate_only(inner), LevelLadder(4, 1));
       // The general path of the exact binomial is CDF inversion per draw (microseconds): fewer draws.
       const std::size_t n_draws = std::string(inner) == "binomial" ? 1000 : count;
@@ -194,8 +195,8 @@ TEST_CASE("blends' fast paths reproduce the general path bit for bit", "[blend][
 
 TEST_CASE("a bad element of a long array is named, the lowest index first, on any number of threads", "[blend][fast]") {
   ThreadsGuard threads_guard;
-  const BlendedLaw law(make_blend("distributed"), InnerLaw::from_law(std::shared_ptr<const CountingLaw>(make_law("gated"))),
-                       LevelLadder(4, 1));
+  const BlendedLaw law(make_blend("distributed"),
+                       InnerLaw::from_law(std::shared_ptr<const CountingLaw>(make_law("gated"))), LevelLadder(4, 1));
   std::vector<double> P(20000, 2.0), out(P.size());
   const double p = 0.1;
   P[17000] = 1e300;  // beyond the 16-bit level index
@@ -218,7 +219,8 @@ TEST_CASE("a facet stream with its first block from the vectorized rows draws as
       detail::philox_uniform_rows_level(9, key, kStreamLevelFacets, start, rows, 2, first.data());
       for (std::size_t r = 0; r < rows; ++r) {
         const std::size_t i = start + r;
-        const CounterRng rng(9, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(i >> 32), key, kStreamLevelFacets);
+        const CounterRng rng(9, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(i >> 32), key,
+                             kStreamLevelFacets);
         FacetStream prefetched(first.data() + 2 * r, rng);
         CounterRng scalar = rng;
         for (int d = 0; d < 7; ++d) CHECK(prefetched.uniform() == scalar.uniform());

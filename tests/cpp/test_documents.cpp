@@ -34,21 +34,22 @@ json experiment() { return json::parse(R"({"laws": ["binomial"], "grid": {"n": [
 json bounds() { return json::parse(R"({"bounds": [{"id": "a", "law": "gated", "metric": "tv", "maximum": 0.1}]})"); }
 
 json scene() {
-  return json::parse(R"({"camera": {"resolution": [64, 36], "fov_deg": 60, "position": [0, -4.5, 0.3], "look_at": [0, 0, 0]},
+  return json::parse(
+      R"({"camera": {"resolution": [64, 36], "fov_deg": 60, "position": [0, -4.5, 0.3], "look_at": [0, 0, 0]},
                          "primitive": {"type": "sphere", "center": [0, 0, 0], "radius": 1},
                          "light": {"type": "point", "position": [1.5, -4.5, 1.5]},
                          "material": {"density": 1000}})");
 }
 
-json report() { return json::parse(R"({"kind": "report", "sections": [{"name": "exact_laws", "params": {"samples": 10}}]})"); }
+json report() {
+  return json::parse(R"({"kind": "report", "sections": [{"name": "exact_laws", "params": {"samples": 10}}]})");
+}
 
 // The InputError a document raises (the test fails if it parses).
 InputError error_text(const std::string& kind, const std::string& text) {
   try {
     parse_document(kind, text, "t.json");
-  } catch (const InputError& e) {
-    return e;
-  }
+  } catch (const InputError& e) { return e; }
   FAIL("no InputError for " << text);
   throw std::logic_error("unreachable");
 }
@@ -453,9 +454,7 @@ TEST_CASE("documents: const, exclusiveMinimum, exclusiveMaximum", "[documents]")
     json doc = json::parse(text);
     try {
       set.validate("s.json", doc, "d.json");
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
+    } catch (const InputError& e) { return std::string(e.what()); }
     return std::string("accepted");
   };
   CHECK(error(R"({"k": "report", "z": 2.0, "x": 1e-300, "i": 0})") == "accepted");  // 2.0 equals 2, as in draft-07
@@ -487,9 +486,7 @@ TEST_CASE("documents: allOf and if/then choose a variant by a field, and report 
   const auto error = [&](const char* text) {
     try {
       validate(text);
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
+    } catch (const InputError& e) { return std::string(e.what()); }
     return std::string("accepted");
   };
   // Only the matching variant's defaults are filled in (and the common ones).
@@ -508,7 +505,8 @@ TEST_CASE("documents: allOf and if/then choose a variant by a field, and report 
   for (const char* where : {R"("if": {"required": ["t"]}, "then": {"required": ["u"]})",
                             R"("allOf": [{"if": {"required": ["t"]}, "then": {"required": ["u"]}}])",
                             R"("oneOf": [{"if": {"required": ["t"]}, "then": {"required": ["u"]}}])"}) {
-    const SchemaSet by_default(Files{{"t.json", std::string(R"({"properties": {"t": {"default": "a"}}, )") + where + "}"}});
+    const SchemaSet by_default(
+        Files{{"t.json", std::string(R"({"properties": {"t": {"default": "a"}}, )") + where + "}"}});
     json doc = json::parse("{}");
     CHECK_NOTHROW(by_default.validate("t.json", doc, "d.json"));
     CHECK(doc == json::parse(R"({"t": "a"})"));
@@ -618,15 +616,14 @@ TEST_CASE("documents: a schema set resolves references across files by name", "[
   try {
     set.validate("a.json", doc, "d.json");
     FAIL("accepted");
-  } catch (const InputError& e) {
-    CHECK(std::string(e.what()) == "d.json: at /x/0: expected an integer, got \"a\"");
-  }
+  } catch (const InputError& e) { CHECK(std::string(e.what()) == "d.json: at /x/0: expected an integer, got \"a\""); }
   CHECK_THROWS_AS(set.validate("c.json", doc, "d.json"), std::logic_error);
 }
 
 TEST_CASE("documents: embedded schemas and the standard grid match the data files", "[documents]") {
   using glintlab::validation::schema_text;
-  CHECK(json::parse(schema_text("experiment")) == json::parse(read_file("python/glintlab/data/schema/experiment.schema.json")));
+  CHECK(json::parse(schema_text("experiment")) ==
+        json::parse(read_file("python/glintlab/data/schema/experiment.schema.json")));
   CHECK(json::parse(schema_text("bounds")) == json::parse(read_file("python/glintlab/data/schema/bounds.schema.json")));
   CHECK(json::parse(schema_text("scene")) == json::parse(read_file("python/glintlab/data/schema/scene.schema.json")));
   CHECK(json::parse(schema_text("report")) == json::parse(read_file("python/glintlab/data/schema/report.schema.json")));

@@ -21,9 +21,7 @@ template <class F>
 std::string message_of(F f) {
   try {
     f();
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
+  } catch (const std::invalid_argument& e) { return e.what(); }
   return "(no exception)";
 }
 enum class Colour { kRed, kGreen };
@@ -44,9 +42,11 @@ TEST_CASE("parse_enum: one table, one message for an unknown name", "[errors]") 
   CHECK_THAT(message_of([] { parse_enum("paint", "colour", "blue", kColours); }),
              Equals("paint: unknown colour 'blue'; known: red, green"));
   const std::vector<std::pair<std::string, Colour>> vec(std::begin(kColours), std::end(kColours));
-  CHECK_THAT(message_of([&] { parse_enum("", "colour", "Red", vec); }), Equals("unknown colour 'Red'; known: red, green"));
+  CHECK_THAT(message_of([&] { parse_enum("", "colour", "Red", vec); }),
+             Equals("unknown colour 'Red'; known: red, green"));
   // The parsers of the library use it: the same format whatever the enum.
-  CHECK_THAT(message_of([] { precision_from_name("half"); }), Equals("unknown precision 'half'; known: float64, float32"));
+  CHECK_THAT(message_of([] { precision_from_name("half"); }),
+             Equals("unknown precision 'half'; known: float64, float32"));
   CHECK_THAT(message_of([] { metric_from_name("tvv"); }), StartsWith("distance: unknown metric 'tvv'; known: tv, "));
 }
 

@@ -60,24 +60,24 @@ TEST_CASE("float16: hand-worked values round to nearest even", "[float16]") {
   CHECK(float_to_half_bits(-0.0f) == 0x8000u);
   CHECK(float_to_half_bits(1.0f) == 0x3C00u);
   CHECK(float_to_half_bits(-2.0f) == 0xC000u);
-  CHECK(float_to_half_bits(65504.0f) == 0x7BFFu);                    // the largest half
-  CHECK(float_to_half_bits(65519.996f) == 0x7BFFu);                  // just below the midpoint
-  CHECK(float_to_half_bits(65520.0f) == 0x7C00u);                    // the midpoint: ties to even = infinity
+  CHECK(float_to_half_bits(65504.0f) == 0x7BFFu);    // the largest half
+  CHECK(float_to_half_bits(65519.996f) == 0x7BFFu);  // just below the midpoint
+  CHECK(float_to_half_bits(65520.0f) == 0x7C00u);    // the midpoint: ties to even = infinity
   CHECK(float_to_half_bits(1e30f) == 0x7C00u);
   CHECK(float_to_half_bits(-__builtin_inff()) == 0xFC00u);
   CHECK((float_to_half_bits(__builtin_nanf("")) & 0x7E00u) == 0x7E00u);  // NaN stays a quiet NaN
-  CHECK(float_to_half_bits(float_of(0x7F800001u)) == 0x7E00u);          // a signalling NaN is quieted
+  CHECK(float_to_half_bits(float_of(0x7F800001u)) == 0x7E00u);           // a signalling NaN is quieted
   // 1 + 2^-11 is the midpoint between 1 and 1 + 2^-10: ties to even gives 1; 1 + 3 2^-11 gives 1 + 2^-9.
   CHECK(float_to_half_bits(1.0f + 0x1p-11f) == 0x3C00u);
   CHECK(float_to_half_bits(1.0f + 3 * 0x1p-11f) == 0x3C02u);
-  CHECK(float_to_half_bits(1.0f + 0x1p-11f + 0x1p-23f) == 0x3C01u);   // above the midpoint
+  CHECK(float_to_half_bits(1.0f + 0x1p-11f + 0x1p-23f) == 0x3C01u);  // above the midpoint
   // Subnormals: multiples of 2^-24; 2^-25 ties to 0, just above it rounds to 2^-24.
   CHECK(float_to_half_bits(0x1p-24f) == 0x0001u);
   CHECK(float_to_half_bits(0x1p-25f) == 0x0000u);
   CHECK(float_to_half_bits(float_of(bits_of(0x1p-25f) + 1)) == 0x0001u);
-  CHECK(float_to_half_bits(3 * 0x1p-25f) == 0x0002u);                 // 1.5 2^-24: tie to even 2
-  CHECK(float_to_half_bits(5 * 0x1p-25f) == 0x0002u);                 // 2.5 2^-24: tie to even 2
-  CHECK(float_to_half_bits(0x1p-14f - 0x1p-26f) == 0x0400u);          // rounds up into the normals
+  CHECK(float_to_half_bits(3 * 0x1p-25f) == 0x0002u);         // 1.5 2^-24: tie to even 2
+  CHECK(float_to_half_bits(5 * 0x1p-25f) == 0x0002u);         // 2.5 2^-24: tie to even 2
+  CHECK(float_to_half_bits(0x1p-14f - 0x1p-26f) == 0x0400u);  // rounds up into the normals
   CHECK(float_to_half_bits(0x1p-14f) == 0x0400u);
   CHECK(round_to_half(1e-30f) == 0.0f);
   CHECK(round_to_half(0.1f) == 0.0999755859375f);
@@ -110,11 +110,14 @@ TEST_CASE("float16: bit-identical to _Float16 on every half and on the rounding 
   for (std::uint32_t hi = 0; hi < (1u << 19); ++hi)
     for (const std::uint32_t lo : lows) {
       const std::uint32_t f = (hi << 13) | lo;
-      bad += mismatches(f, f, [](std::uint64_t g) { return g + 1; }, first_bad);
+      bad += mismatches(
+          f, f, [](std::uint64_t g) { return g + 1; }, first_bad);
     }
   for (const std::uint64_t s : {0x00000000ull, 0x80000000ull})
-    bad += mismatches(s | 0x33000000ull, s | 0x38800000ull, [](std::uint64_t g) { return g + 61; }, first_bad);
-  bad += mismatches(0, 0xFFFFFFFFull, [](std::uint64_t g) { return g + 4099; }, first_bad);
+    bad += mismatches(
+        s | 0x33000000ull, s | 0x38800000ull, [](std::uint64_t g) { return g + 61; }, first_bad);
+  bad += mismatches(
+      0, 0xFFFFFFFFull, [](std::uint64_t g) { return g + 4099; }, first_bad);
   INFO("first mismatch: float bits 0x" << std::hex << first_bad);
   CHECK(bad == 0);
 }
@@ -122,7 +125,8 @@ TEST_CASE("float16: bit-identical to _Float16 on every half and on the rounding 
 // All 2^32 floats (about a minute on one core): `glintlab_tests "[float16-exhaustive]"`.
 TEST_CASE("float16: bit-identical to _Float16 on all 2^32 floats", "[.][float16-exhaustive]") {
   std::uint32_t first_bad = 0;
-  const std::uint64_t bad = mismatches(0, 0xFFFFFFFFull, [](std::uint64_t g) { return g + 1; }, first_bad);
+  const std::uint64_t bad = mismatches(
+      0, 0xFFFFFFFFull, [](std::uint64_t g) { return g + 1; }, first_bad);
   INFO("first mismatch: float bits 0x" << std::hex << first_bad);
   CHECK(bad == 0);
 }

@@ -30,7 +30,8 @@ Pixels ellipses(std::size_t m, double a, double b, double t) {
   return px;
 }
 
-std::vector<double> counts(const Pixels& px, double N, double p, std::uint64_t seed, std::vector<std::uint8_t>* st = nullptr) {
+std::vector<double> counts(const Pixels& px, double N, double p, std::uint64_t seed,
+                           std::vector<std::uint8_t>* st = nullptr) {
   std::vector<double> k(px.size()), tested(px.size());
   std::vector<std::uint8_t> status(px.size());
   images::facet_counts(N, &p, 1, px.uv.data(), px.jac.data(), px.slope.data(), px.size(), seed, 1e8, k.data(),

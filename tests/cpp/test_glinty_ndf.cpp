@@ -21,7 +21,8 @@ TEST_CASE("the mollified roulette of eq. 8", "[glinty_ndf]") {
   CHECK(kpt25_roulette(0.95, 1.0, 0.1) == 1.0);
   // R(1 - r, 1 - w) = 1 - R(r, w): the two levels' expected keep rates add up to 1.
   for (double r : {0.01, 0.07, 0.3, 0.93})
-    for (double w : {0.0, 0.05, 0.5, 0.97}) CHECK(kpt25_roulette(1 - r, 1 - w, 0.1) == Approx(1 - kpt25_roulette(r, w, 0.1)).margin(1e-12));
+    for (double w : {0.0, 0.05, 0.5, 0.97})
+      CHECK(kpt25_roulette(1 - r, 1 - w, 0.1) == Approx(1 - kpt25_roulette(r, w, 0.1)).margin(1e-12));
 }
 
 TEST_CASE("Gaussian mass in the disk and a rectangle", "[glinty_ndf]") {
@@ -106,9 +107,7 @@ TEST_CASE("bad glinty NDF parameters are refused by name", "[glinty_ndf]") {
     try {
       Kpt25Ndf ndf(p);
       FAIL("accepted a bad " + name);
-    } catch (const std::invalid_argument& e) {
-      CHECK(std::string(e.what()).find(name + " = ") != std::string::npos);
-    }
+    } catch (const std::invalid_argument& e) { CHECK(std::string(e.what()).find(name + " = ") != std::string::npos); }
   };
   refused([](Kpt25Params& p) { p.density = 0; }, "density");
   refused([](Kpt25Params& p) { p.alpha = NAN; }, "alpha");
@@ -126,7 +125,7 @@ TEST_CASE("Algorithm 2: the area of a rectangle in the disk, T^-1, and sample ag
   CHECK(rect_disk_area(0, 1, 0, 1) == Approx(M_PI / 4).epsilon(1e-14));
   CHECK(rect_disk_area(0.5, 1, 0, 0.5) == Approx(M_PI / 16).epsilon(1e-14));
   CHECK(rect_disk_area(0.45, 0.55, 0.45, 0.55) == Approx(0.01).epsilon(1e-14));  // inside
-  CHECK(rect_disk_area(0.9, 1.0, 0.9, 1.0) == 0.0);                                // a corner outside
+  CHECK(rect_disk_area(0.9, 1.0, 0.9, 1.0) == 0.0);                              // a corner outside
   for (GlintTarget t : {GlintTarget::beckmann, GlintTarget::ggx}) {
     Kpt25Params p;
     p.target = t;

@@ -79,8 +79,10 @@ double ggx_aniso(double ax, double ay, std::array<double, 3> h) {
 
 std::vector<double> run(const Kpt25Ndf& nd, const Pixels& p, std::uint64_t seed, bool reference) {
   std::vector<double> out(p.n);
-  if (reference) nd.reference(p.uv.data(), p.jac.data(), p.h.data(), p.n, seed, out.data());
-  else nd.evaluate(p.uv.data(), p.jac.data(), p.h.data(), p.n, seed, out.data());
+  if (reference)
+    nd.reference(p.uv.data(), p.jac.data(), p.h.data(), p.n, seed, out.data());
+  else
+    nd.evaluate(p.uv.data(), p.jac.data(), p.h.data(), p.n, seed, out.data());
   return out;
 }
 
@@ -131,7 +133,9 @@ TEST_CASE("anisotropic glints (A-star): the mean stays D(h), and the printed den
   CHECK(std::abs(z_of(pr, D)) > kZ);
 }
 
-TEST_CASE("per-facet colour: the mean colour is D(h) times the expected colour, and an uncoloured compensation is rejected", "[kpt25]") {
+TEST_CASE(
+    "per-facet colour: the mean colour is D(h) times the expected colour, and an uncoloured compensation is rejected",
+    "[kpt25]") {
   // k = 1: the compensation carries much of the mean, so colouring it wrongly shows.
   Kpt25Params p;
   p.density = 1e4;
@@ -300,12 +304,13 @@ struct Surface {
   Surface(std::array<double, 3> nv, std::size_t count, double side, double theta, std::uint64_t seed) : m(count) {
     const double l = std::sqrt(nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2]);
     for (double& x : nv) x /= l;
-    std::array<double, 3> a = std::abs(nv[2]) < 0.9 ? std::array<double, 3>{0.3, 0.5, 1.0}
-                                                    : std::array<double, 3>{1.0, 0.2, 0.1};
+    std::array<double, 3> a =
+        std::abs(nv[2]) < 0.9 ? std::array<double, 3>{0.3, 0.5, 1.0} : std::array<double, 3>{1.0, 0.2, 0.1};
     std::array<double, 3> t = {nv[1] * a[2] - nv[2] * a[1], nv[2] * a[0] - nv[0] * a[2], nv[0] * a[1] - nv[1] * a[0]};
     const double lt = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
     for (double& x : t) x /= lt;
-    const std::array<double, 3> b = {nv[1] * t[2] - nv[2] * t[1], nv[2] * t[0] - nv[0] * t[2], nv[0] * t[1] - nv[1] * t[0]};
+    const std::array<double, 3> b = {nv[1] * t[2] - nv[2] * t[1], nv[2] * t[0] - nv[0] * t[2],
+                                     nv[0] * t[1] - nv[1] * t[0]};
     Uniform u(seed);
     for (std::size_t i = 0; i < count; ++i) {
       std::array<double, 3> q = {400 * u() - 200, 400 * u() - 200, 400 * u() - 200};
@@ -387,8 +392,8 @@ TEST_CASE("KPT25's completed paths do not depend on the number of threads", "[kp
   const auto one = all(1), two = all(2), four = all(4);
   set_num_threads(threads);
   for (std::size_t i = 0; i < one.size(); ++i) {
-    const bool same = (std::isnan(one[i]) && std::isnan(two[i]) && std::isnan(four[i])) ||
-                      (one[i] == two[i] && one[i] == four[i]);
+    const bool same =
+        (std::isnan(one[i]) && std::isnan(two[i]) && std::isnan(four[i])) || (one[i] == two[i] && one[i] == four[i]);
     if (!same) FAIL("value " << i << " differs across thread counts");
   }
 }
@@ -403,10 +408,35 @@ TEST_CASE("KPT25's completed paths refuse bad input by name", "[kpt25]") {
       if (what.find(name) == std::string::npos) FAIL("'" + what + "' does not name " + name);
     }
   };
-  names([] { Kpt25Params p; p.alpha_y = -0.2; Kpt25Ndf nd(p); }, "alpha_y = ");
-  names([] { Kpt25Params p; p.glint_ax = 0.0; Kpt25Ndf nd(p); }, "anisotropy = ");
-  names([] { Kpt25Params p; p.glint_ay = 2.0; p.compensation = GlintCompensation::disk; Kpt25Ndf nd(p); }, "compensation = ");
-  names([] { Kpt25Params p; p.triplanar_sharpness = 0.0; Kpt25Ndf nd(p); }, "triplanar_sharpness = ");
+  names(
+      [] {
+        Kpt25Params p;
+        p.alpha_y = -0.2;
+        Kpt25Ndf nd(p);
+      },
+      "alpha_y = ");
+  names(
+      [] {
+        Kpt25Params p;
+        p.glint_ax = 0.0;
+        Kpt25Ndf nd(p);
+      },
+      "anisotropy = ");
+  names(
+      [] {
+        Kpt25Params p;
+        p.glint_ay = 2.0;
+        p.compensation = GlintCompensation::disk;
+        Kpt25Ndf nd(p);
+      },
+      "compensation = ");
+  names(
+      [] {
+        Kpt25Params p;
+        p.triplanar_sharpness = 0.0;
+        Kpt25Ndf nd(p);
+      },
+      "triplanar_sharpness = ");
   const double uv[2] = {0.1, 0.2}, jac[4] = {0.01, 0, 0, 0.01}, h[3] = {0, 0, 1};
   double out[3] = {0, 0, 0};
   Kpt25Params ga;
@@ -421,7 +451,8 @@ TEST_CASE("KPT25's completed paths refuse bad input by name", "[kpt25]") {
   const Kpt25Ndf nd{Kpt25Params{}};
   const std::vector<double> palette = {1, 1, 1};
   names([&] { nd.evaluate_rgb(uv, jac, h, 1, 0, palette.data(), 0, out); }, "colors = ");
-  const double P[3] = {0, 0, 0}, dP[6] = {0.01, 0, 0, 0, 0.01, 0}, zero[3] = {0, 0, 0}, line[6] = {0.01, 0, 0, 0.02, 0, 0};
+  const double P[3] = {0, 0, 0}, dP[6] = {0.01, 0, 0, 0, 0.01, 0}, zero[3] = {0, 0, 0},
+               line[6] = {0.01, 0, 0, 0.02, 0, 0};
   const double bad_p[3] = {0, NAN, 0};
   names([&] { nd.evaluate_triplanar(P, dP, zero, h, 1, 0, out); }, "n[0, :] = ");
   names([&] { nd.evaluate_triplanar(P, dP, h, zero, 1, 0, out); }, "h[0, :] = ");

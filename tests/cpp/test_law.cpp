@@ -63,7 +63,8 @@ TEST_CASE("drivers validate every element and name it", "[law][errors]") {
   std::vector<double> pbad{0.5, 0.5, 0.5, NAN};
   CHECK_THROWS_WITH(sample_many(*law, {n.data(), 4}, {pbad.data(), 4}, 4, 1, out.data()), Contains("p[3] = nan"));
   std::vector<double> u{0.1, 0.2, 1.5, 0.3};
-  CHECK_THROWS_WITH(evaluate_many(*law, {n.data(), 4}, {p.data(), 1}, u.data(), 4, out.data()), Contains("u[2, 0] = 1.5"));
+  CHECK_THROWS_WITH(evaluate_many(*law, {n.data(), 4}, {p.data(), 1}, u.data(), 4, out.data()),
+                    Contains("u[2, 0] = 1.5"));
   CHECK_THROWS_WITH(sample_many(*law, {n.data(), 3}, {p.data(), 1}, 4, 1, out.data()), Contains("n has 3 values"));
   CHECK_THROWS_WITH(set_num_threads(0), Contains("threads = 0"));
 }

@@ -32,21 +32,26 @@ std::uint32_t bits(float x) {
 }  // namespace
 
 TEST_CASE("method shaders: the GlintInput fields arrive in place, float and float3 results", "[shader][method]") {
-  if (vulkan_devices().empty()) { WARN("no Vulkan device: install mesa-vulkan-drivers"); return; }
+  if (vulkan_devices().empty()) {
+    WARN("no Vulkan device: install mesa-vulkan-drivers");
+    return;
+  }
   const std::size_t rows = 5;
   std::vector<std::uint32_t> in(rows * kMethodInputWords);
   for (std::size_t i = 0; i < rows; ++i) {
-    for (std::size_t w = 0; w < 27; ++w) in[i * kMethodInputWords + w] = bits(static_cast<float>(i) + 0.01f * static_cast<float>(w));
+    for (std::size_t w = 0; w < 27; ++w)
+      in[i * kMethodInputWords + w] = bits(static_cast<float>(i) + 0.01f * static_cast<float>(w));
     in[i * kMethodInputWords + 27] = static_cast<std::uint32_t>(10 + i);  // pixel column
-    in[i * kMethodInputWords + 28] = 7;                                    // pixel row
-    in[i * kMethodInputWords + 29] = 3;                                    // frame
-    in[i * kMethodInputWords + 30] = 123456789;                            // seed
+    in[i * kMethodInputWords + 28] = 7;                                   // pixel row
+    in[i * kMethodInputWords + 29] = 3;                                   // frame
+    in[i * kMethodInputWords + 30] = 123456789;                           // seed
   }
   std::vector<float> out(rows * kMethodOutputWords);
   SECTION("glsl, vec3") {
-    auto k = method_kernel(method_spec(
-        "vec3 glint(GlintInput g) { return vec3(g.J.w, g.h.z, float(g.pixel.x) + float(g.frame) + float(g.seed % 1000u)); }",
-        "glsl"));
+    auto k =
+        method_kernel(method_spec("vec3 glint(GlintInput g) { return vec3(g.J.w, g.h.z, float(g.pixel.x) + "
+                                  "float(g.frame) + float(g.seed % 1000u)); }",
+                                  "glsl"));
     run_method(*k, reinterpret_cast<const float*>(in.data()), rows, out.data(), 10.0);
     for (std::size_t i = 0; i < rows; ++i) {
       const float* o = &out[i * kMethodOutputWords];

@@ -11,9 +11,7 @@ using namespace glintlab;
 using Catch::Matchers::Contains;
 
 namespace {
-double d(const Distribution& a, const Distribution& b, const char* m) {
-  return distance(a, b, metric_from_name(m));
-}
+double d(const Distribution& a, const Distribution& b, const char* m) { return distance(a, b, metric_from_name(m)); }
 }  // namespace
 
 TEST_CASE("metrics on a hand-computed pair", "[metrics]") {
@@ -47,8 +45,7 @@ TEST_CASE("metrics: identity, disjoint supports, symmetry, finite KL", "[metrics
   CHECK(d(x, y, "hellinger") == 1.0);
   CHECK(d(x, y, "js") == Approx(std::log(2.0)));
   CHECK(d(x, y, "w1") == Approx(5.0));
-  for (const char* m : {"tv", "chi2_distance", "hellinger", "js", "w1", "ks"})
-    CHECK(d(a, b, m) == Approx(d(b, a, m)));
+  for (const char* m : {"tv", "chi2_distance", "hellinger", "js", "w1", "ks"}) CHECK(d(a, b, m) == Approx(d(b, a, m)));
   // KL(a || b) = .2 log(2/3) + .5 log(5/4).
   CHECK(d(a, b, "kl") == Approx(0.2 * std::log(2.0 / 3) + 0.5 * std::log(1.25)));
   CHECK_THROWS_WITH(metric_from_name("foo"), Contains("unknown metric 'foo'; known: tv, "));

@@ -46,9 +46,7 @@ std::string bad_load(const char* c) {
   ::setenv("GLINTLAB_BAD_PLUGIN_CASE", c, 1);
   try {
     load_plugin(kBad);
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
+  } catch (const std::invalid_argument& e) { return e.what(); }
   return "(loaded)";
 }
 
@@ -58,7 +56,8 @@ TEST_CASE("the example plugin registers its laws like built-in ones", "[plugin]"
   const auto names = load_plugin(kExample);
   REQUIRE(names == std::vector<std::string>{"example_binomial_inversion", "example_round_normal"});
   for (const auto& info : registered_laws())
-    if (info.name == "example_binomial_inversion") CHECK_THAT(info.summary, Contains("(plugin libglintlab_example_plugin.so)"));
+    if (info.name == "example_binomial_inversion")
+      CHECK_THAT(info.summary, Contains("(plugin libglintlab_example_plugin.so)"));
   CHECK(registered("example_round_normal"));
 
   const auto inv = make_law("example_binomial_inversion");
@@ -121,8 +120,16 @@ TEST_CASE("plugin sampling does not depend on the number of threads", "[plugin][
 
 TEST_CASE("the example pmf is glintlab's exact binomial", "[plugin]") {
   const auto law = example();
-  for (auto [n, p] : {std::pair{10.0, 0.3}, {100.0, 0.01}, {1000.0, 0.5}, {1e4, 0.999}, {1e5, 1e-3}, {10.5, 0.7},
-                      {0.4, 0.9}, {7.25, 1.0}, {50.0, 0.0}, {3.0, 1e-300}}) {
+  for (auto [n, p] : {std::pair{10.0, 0.3},
+                      {100.0, 0.01},
+                      {1000.0, 0.5},
+                      {1e4, 0.999},
+                      {1e5, 1e-3},
+                      {10.5, 0.7},
+                      {0.4, 0.9},
+                      {7.25, 1.0},
+                      {50.0, 0.0},
+                      {3.0, 1e-300}}) {
     const Distribution mine = law->pmf(n, p, kDefaultMaxSupport);
     const Distribution exact = binomial::distribution(n, p);
     INFO("n = " << n << ", p = " << p);
@@ -189,7 +196,8 @@ TEST_CASE("the loader refuses missing files and non-plugins, naming the path", "
 TEST_CASE("the loader refuses bad tables and checks plugin pmfs", "[plugin][errors]") {
   // One test case: once the broken plugin loads (last case), its path is cached.
   const std::string at = "plugin '" + kBad + "'";
-  CHECK_THAT(bad_load("n_uniforms"), Contains(at) && Contains("law 'bad_k': n_uniforms = 9 is invalid; expected 0 to 4"));
+  CHECK_THAT(bad_load("n_uniforms"),
+             Contains(at) && Contains("law 'bad_k': n_uniforms = 9 is invalid; expected 0 to 4"));
   CHECK_THAT(bad_load("empty_name"), Contains("laws[0].name = '' is invalid"));
   CHECK_THAT(bad_load("bad_name"), Contains("laws[0].name = 'has space' is invalid"));
   CHECK_THAT(bad_load("null_name"), Contains("laws[0].name = NULL is invalid"));
@@ -199,7 +207,8 @@ TEST_CASE("the loader refuses bad tables and checks plugin pmfs", "[plugin][erro
   CHECK_THAT(bad_load("clash"), Contains("laws[1].name = 'binomial'") && Contains("a built-in law has it"));
   // A name reserved by the caller (the Python layer passes its custom laws' names).
   ::setenv("GLINTLAB_BAD_PLUGIN_CASE", "clash", 1);
-  CHECK_THROWS_WITH(load_plugin(kBad, {"bad_fine"}), Contains("laws[0].name = 'bad_fine'") && Contains("a Python custom law has it"));
+  CHECK_THROWS_WITH(load_plugin(kBad, {"bad_fine"}),
+                    Contains("laws[0].name = 'bad_fine'") && Contains("a Python custom law has it"));
   CHECK_THAT(bad_load("empty"), Contains("count = 0 is invalid"));
   CHECK_THAT(bad_load("null_table"), Contains("NULL table"));
   CHECK_FALSE(registered("bad_fine"));  // nothing of a refused table is registered

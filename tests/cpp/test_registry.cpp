@@ -5,8 +5,8 @@
 
 #include <algorithm>
 #include <atomic>
-#include <functional>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <random>
@@ -42,9 +42,7 @@ std::string joined(const std::vector<std::string>& names) {
 std::string message_of(const std::function<void()>& f) {
   try {
     f();
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
+  } catch (const std::invalid_argument& e) { return e.what(); }
   return "(no std::invalid_argument)";
 }
 
@@ -176,8 +174,8 @@ TEST_CASE("laws, blends and grid schemes refuse unknown names with one message",
 namespace {
 
 // n values exact in float, so that a float32 evaluation sees the same n as the bound.
-const std::vector<double> kGridN{0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 3.75, 10.5, 16.0, 17.0, 100.0, 1000.0,
-                                 65536.0, 1048576.0, 1073741824.0};
+const std::vector<double> kGridN{0.0,  0.25, 0.5,   1.0,    1.5,     2.0,       3.75,        10.5,
+                                 16.0, 17.0, 100.0, 1000.0, 65536.0, 1048576.0, 1073741824.0};
 const std::vector<double> kGridP{0.0, 1e-300, 1e-7, 0.05, 0.3, 0.5, 0.7, 1 - 1e-7, 1.0};
 
 // Rows of k uniforms: the corners (0, 1 and near them, where quantiles run off to infinity) in every
@@ -209,8 +207,10 @@ std::string params_text(const LawParams& params) {
   std::string s;
   for (const auto& [k, v] : params) {
     s += (s.empty() ? "" : ", ") + k + "=";
-    if (const double* x = std::get_if<double>(&v)) s += std::to_string(*x);
-    else s += std::get<std::string>(v);
+    if (const double* x = std::get_if<double>(&v))
+      s += std::to_string(*x);
+    else
+      s += std::get<std::string>(v);
   }
   return "{" + s + "}";
 }
@@ -263,7 +263,8 @@ void check_declared_traits(const LawInfo& info) {
           if (t.constant_time && w != 0) ++bad_value;
           const double top = t.max_count(n);
           for (const auto& u : rows) {
-            const double k = prec == Precision::kFloat32 ? law->evaluate_f32(n, p, u.data()) : law->evaluate(n, p, u.data());
+            const double k =
+                prec == Precision::kFloat32 ? law->evaluate_f32(n, p, u.data()) : law->evaluate(n, p, u.data());
             if (!std::isfinite(k) || k < 0) {
               ++bad_value;
               UNSCOPED_INFO("bad K = " << k << " at n = " << n << ", p = " << p << ", u0 = " << u[0]);
@@ -314,14 +315,14 @@ TEST_CASE("every built-in law declares its traits, and keeps them on a grid of (
 
 TEST_CASE("declared traits say what the lists in the studies said", "[registry][traits]") {
   // The facts the Python name lists held, now read from the laws (spot checks, one per list).
-  CHECK(law_traits("poisson").support == SupportBound::kUnbounded);       // extremes: unbounded_laws()
-  CHECK(law_traits("gated_shader").support == SupportBound::kNPlusOne);   // its n + 1 defect
+  CHECK(law_traits("poisson").support == SupportBound::kUnbounded);      // extremes: unbounded_laws()
+  CHECK(law_traits("gated_shader").support == SupportBound::kNPlusOne);  // its n + 1 defect
   CHECK(law_traits("binomial").reference);
-  CHECK(law_traits("poisson").study_variants.empty());                    // not in the trade study
-  CHECK(law_traits("gaussian").study_variants.size() == 2);               // floor and round
+  CHECK(law_traits("poisson").study_variants.empty());       // not in the trade study
+  CHECK(law_traits("gaussian").study_variants.size() == 2);  // floor and round
   CHECK(law_traits("gaussian").bench_variants.size() == 1);
-  CHECK(law_traits("zk16").test_variants.size() == 2);                    // cap = 4 too
-  CHECK(law_traits("threshold").output == LawOutput::kReal);              // the mean n p
+  CHECK(law_traits("zk16").test_variants.size() == 2);        // cap = 4 too
+  CHECK(law_traits("threshold").output == LawOutput::kReal);  // the mean n p
   CHECK(law_traits("head_cf").constant_time);
   CHECK_FALSE(law_traits("zk16").constant_time);
   CHECK(law_traits("zk16").max_count(10.5) == 11);
@@ -352,7 +353,7 @@ TEST_CASE("zk16's work units are the trials its loop runs", "[registry][traits][
     CHECK(law->work_units(100, 0.05) == cap);  // n p = 5 is still the loop (the switch is n p > 5)
   }
   CHECK(make_law("zk16")->work_units(100, 0.05) == 16);
-  CHECK(make_law("threshold")->work_units(1e3, 0.5) == 0);      // above T: the mean, no walk
+  CHECK(make_law("threshold")->work_units(1e3, 0.5) == 0);  // above T: the mean, no walk
   CHECK(make_law("threshold")->work_units(100, 0.1) == Approx(11));
   CHECK(make_law("gated")->work_units(1e6, 0.3) == 0);
 }
@@ -383,7 +384,8 @@ class AllOrNoneLaw final : public TemplatedLaw<AllOrNoneLaw> {
 };
 
 LawInfo all_or_none_info() {
-  return {"test_all_or_none", "test law: all facets reflect together",
+  return {"test_all_or_none",
+          "test law: all facets reflect together",
           [](const LawParams& params) -> std::unique_ptr<CountingLaw> {
             ParamReader("test_all_or_none", params).finish();
             return std::make_unique<AllOrNoneLaw>();
@@ -470,7 +472,7 @@ TEST_CASE("blend rules declare their analytic variance ratio, and it holds", "[r
   CHECK(blended("zk16_linear").variance_ratio(1.0) == Approx(1.0));  // on a level
   CHECK(blended("nearest").variance_ratio(2.0) == Approx(0.5));      // P / A_hi: the upper level
   CHECK(blended("distributed").variance_ratio(2.0) == 1.0);
-  CHECK(std::isnan(blended("roulette").variance_ratio(2.0)));         // no closed form declared
+  CHECK(std::isnan(blended("roulette").variance_ratio(2.0)));  // no closed form declared
   CHECK_THROWS_WITH(blended("zk16_linear").variance_ratio(-1.0), Contains("P = -1"));
 
   // Measured: Var[K] / (N P p (1 - p)) from samples matches the declared ratio.

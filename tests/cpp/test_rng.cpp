@@ -29,8 +29,7 @@ double chi2_pvalue(const std::vector<double>& counts, double expected_each) {
 }
 
 // 2-D chi-square on pairs (first(i), second(i)) over a bins x bins grid.
-double pair_pvalue(const std::function<std::pair<double, double>(std::uint32_t)>& pair, int bins,
-                   std::uint32_t count) {
+double pair_pvalue(const std::function<std::pair<double, double>(std::uint32_t)>& pair, int bins, std::uint32_t count) {
   std::vector<double> counts(static_cast<std::size_t>(bins * bins), 0.0);
   for (std::uint32_t i = 0; i < count; ++i) {
     auto [a, b] = pair(i);
@@ -91,31 +90,39 @@ TEST_CASE("neighbouring keys give independent numbers", "[rng][statistical]") {
   const std::uint32_t count = 1'000'000;
   const int bins = 32;
   SECTION("cell x and x + 1") {
-    const double pv = pair_pvalue([](std::uint32_t i) {
-      CounterRng a(7, i, 0), b(7, i + 1, 0);
-      return std::pair{a.uniform(), b.uniform()};
-    }, bins, count);
+    const double pv = pair_pvalue(
+        [](std::uint32_t i) {
+          CounterRng a(7, i, 0), b(7, i + 1, 0);
+          return std::pair{a.uniform(), b.uniform()};
+        },
+        bins, count);
     INFO("p-value " << pv);
     CHECK(pv > kAlpha);
   }
   SECTION("seed s and s + 1") {
-    const double pv = pair_pvalue([](std::uint32_t i) {
-      CounterRng a(1000, i, 5), b(1001, i, 5);
-      return std::pair{a.uniform(), b.uniform()};
-    }, bins, count);
+    const double pv = pair_pvalue(
+        [](std::uint32_t i) {
+          CounterRng a(1000, i, 5), b(1001, i, 5);
+          return std::pair{a.uniform(), b.uniform()};
+        },
+        bins, count);
     INFO("p-value " << pv);
     CHECK(pv > kAlpha);
   }
   SECTION("level and stream neighbours, and successive draws of one key") {
-    const double pv_level = pair_pvalue([](std::uint32_t i) {
-      CounterRng a(3, i, 1, 4, 0), b(3, i, 1, 5, 0);
-      return std::pair{a.uniform(), b.uniform()};
-    }, bins, count);
-    const double pv_draws = pair_pvalue([](std::uint32_t i) {
-      CounterRng a(3, i, 2);
-      const double u = a.uniform();
-      return std::pair{u, a.uniform()};
-    }, bins, count);
+    const double pv_level = pair_pvalue(
+        [](std::uint32_t i) {
+          CounterRng a(3, i, 1, 4, 0), b(3, i, 1, 5, 0);
+          return std::pair{a.uniform(), b.uniform()};
+        },
+        bins, count);
+    const double pv_draws = pair_pvalue(
+        [](std::uint32_t i) {
+          CounterRng a(3, i, 2);
+          const double u = a.uniform();
+          return std::pair{u, a.uniform()};
+        },
+        bins, count);
     INFO("p-values " << pv_level << ", " << pv_draws);
     CHECK(pv_level > kAlpha);
     CHECK(pv_draws > kAlpha);
@@ -125,39 +132,43 @@ TEST_CASE("neighbouring keys give independent numbers", "[rng][statistical]") {
 TEST_CASE("the independence check rejects correlated neighbouring keys", "[rng][statistical][power]") {
   // A deliberately bad keyed generator: the number of key x + 1 is that of key x shifted by a small
   // amount (as a naive "seed + cell index" LCG would give). The pair test must reject it.
-  const double pv = pair_pvalue([](std::uint32_t i) {
-    CounterRng a(7, i, 0);
-    const double u = a.uniform();
-    return std::pair{u, std::fmod(u + 0.01 * a.uniform(), 1.0)};
-  }, 32, 1'000'000);
+  const double pv = pair_pvalue(
+      [](std::uint32_t i) {
+        CounterRng a(7, i, 0);
+        const double u = a.uniform();
+        return std::pair{u, std::fmod(u + 0.01 * a.uniform(), 1.0)};
+      },
+      32, 1'000'000);
   INFO("p-value " << pv);
   CHECK(pv < 1e-12);
 }
-
 
 TEST_CASE("batch uniforms equal the scalar counter RNG draw for draw", "[rng]") {
   // fill_uniforms runs a vectorized Philox (AVX-512 or AVX2 where available) or a portable loop;
   // every level must reproduce CounterRng::for_index exactly, including batches that cross
   // x = 2^32 (row >> 32 = y). Levels above the CPU's fall back to the best it has.
-  struct Restore { ~Restore() { glintlab::detail::set_simd_level(2); } } restore;
-  for (int simd : {2, 1, 0}) for (int k : {1, 2, 3, 5}) {
-    glintlab::detail::set_simd_level(simd);
-    INFO("level in effect " << glintlab::detail::simd_level());
-    for (std::uint64_t start : {std::uint64_t{0}, std::uint64_t{4093}, (std::uint64_t{1} << 32) - 3,
-                                   (std::uint64_t{1} << 32) - 20}) {
-      const std::size_t count = 1001;
-      std::vector<double> batch(count * static_cast<std::size_t>(k));
-      glintlab::detail::philox_uniform_rows(77, glintlab::kStreamSample, start, count, k, batch.data());
-      for (std::size_t r = 0; r < count; ++r) {
-        auto rng = CounterRng::for_index(77, start + r, glintlab::kStreamSample);
-        for (int j = 0; j < k; ++j) {
-          const double want = rng.uniform();
-          if (batch[r * k + j] != want) {
-            INFO("simd " << simd << ", k = " << k << ", row " << start + r << ", column " << j);
-            REQUIRE(batch[r * k + j] == want);
+  struct Restore {
+    ~Restore() { glintlab::detail::set_simd_level(2); }
+  } restore;
+  for (int simd : {2, 1, 0})
+    for (int k : {1, 2, 3, 5}) {
+      glintlab::detail::set_simd_level(simd);
+      INFO("level in effect " << glintlab::detail::simd_level());
+      for (std::uint64_t start :
+           {std::uint64_t{0}, std::uint64_t{4093}, (std::uint64_t{1} << 32) - 3, (std::uint64_t{1} << 32) - 20}) {
+        const std::size_t count = 1001;
+        std::vector<double> batch(count * static_cast<std::size_t>(k));
+        glintlab::detail::philox_uniform_rows(77, glintlab::kStreamSample, start, count, k, batch.data());
+        for (std::size_t r = 0; r < count; ++r) {
+          auto rng = CounterRng::for_index(77, start + r, glintlab::kStreamSample);
+          for (int j = 0; j < k; ++j) {
+            const double want = rng.uniform();
+            if (batch[r * k + j] != want) {
+              INFO("simd " << simd << ", k = " << k << ", row " << start + r << ", column " << j);
+              REQUIRE(batch[r * k + j] == want);
+            }
           }
         }
       }
     }
-  }
 }

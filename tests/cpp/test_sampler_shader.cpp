@@ -26,7 +26,9 @@ KernelSpec sampler_spec(std::string source, std::string language) {
   return s;
 }
 
-void put(std::vector<float>& in, std::size_t row, std::size_t word, float x) { in[row * kSamplerInputWords + word] = x; }
+void put(std::vector<float>& in, std::size_t row, std::size_t word, float x) {
+  in[row * kSamplerInputWords + word] = x;
+}
 
 void put_mode(std::vector<float>& in, std::size_t row, std::uint32_t mode) {
   std::memcpy(&in[row * kSamplerInputWords + 9], &mode, sizeof mode);
@@ -35,7 +37,10 @@ void put_mode(std::vector<float>& in, std::size_t row, std::uint32_t mode) {
 }  // namespace
 
 TEST_CASE("shader samplers: rows arrive in place, the mode word picks the function", "[shader][sampler-shader]") {
-  if (vulkan_devices().empty()) { WARN("no Vulkan device: install mesa-vulkan-drivers"); return; }
+  if (vulkan_devices().empty()) {
+    WARN("no Vulkan device: install mesa-vulkan-drivers");
+    return;
+  }
   const std::string language = GENERATE(std::string("hlsl"), std::string("glsl"));
   const std::string v = language == "hlsl" ? "float" : "vec";
   // sample_h echoes uv.y, J.w, wo.z and u.w; pdf_h returns h.x + 10 h.y + 100 h.z + J.x.
@@ -55,10 +60,10 @@ TEST_CASE("shader samplers: rows arrive in place, the mode word picks the functi
     const float* o = &out[i * kSamplerOutputWords];
     const float f = static_cast<float>(i);
     if (i % 2 == 0) {
-      CHECK(o[0] == f + 0.01f);       // uv.y: word 1
-      CHECK(o[1] == f + 0.01f * 5);   // J.w: word 5
-      CHECK(o[2] == f + 0.01f * 8);   // wo.z: word 8
-      CHECK(o[3] == 0.4f);            // u.w: word 13
+      CHECK(o[0] == f + 0.01f);      // uv.y: word 1
+      CHECK(o[1] == f + 0.01f * 5);  // J.w: word 5
+      CHECK(o[2] == f + 0.01f * 8);  // wo.z: word 8
+      CHECK(o[3] == 0.4f);           // u.w: word 13
     } else {
       CHECK(o[0] == Approx(0.1 + 10 * 0.2 + 100 * 0.3 + (f + 0.02)).epsilon(1e-6));
       CHECK(o[1] == 0.0f);
@@ -68,7 +73,10 @@ TEST_CASE("shader samplers: rows arrive in place, the mode word picks the functi
 }
 
 TEST_CASE("shader samplers: a missing pdf_h names the contract", "[shader][sampler-shader]") {
-  if (vulkan_devices().empty()) { WARN("no Vulkan device: install mesa-vulkan-drivers"); return; }
+  if (vulkan_devices().empty()) {
+    WARN("no Vulkan device: install mesa-vulkan-drivers");
+    return;
+  }
   try {
     sampler_kernel(sampler_spec("float4 sample_h(float2 uv, float4 J, float3 wo, float4 u) { return u; }", "hlsl"));
     FAIL("compiled without pdf_h");
@@ -77,24 +85,31 @@ TEST_CASE("shader samplers: a missing pdf_h names the contract", "[shader][sampl
     CHECK(msg.find("float pdf_h(float2 uv, float4 J, float3 wo, float3 h)") != std::string::npos);
     CHECK(msg.find("pdf_h") != std::string::npos);
   }
-  CHECK_THROWS_AS(sampler_kernel(sampler_spec("float4 sample_h(float2 uv, float4 J, float3 wo, float4 u) { return u; }",
-                                              "hlsl"), "1bad"),
-                  std::invalid_argument);
+  CHECK_THROWS_AS(
+      sampler_kernel(sampler_spec("float4 sample_h(float2 uv, float4 J, float3 wo, float4 u) { return u; }", "hlsl"),
+                     "1bad"),
+      std::invalid_argument);
 }
 
 TEST_CASE("shader samplers: the shipped GGX VNDF pdf_h is the visible-normal density", "[shader][sampler-shader]") {
-  if (vulkan_devices().empty()) { WARN("no Vulkan device: install mesa-vulkan-drivers"); return; }
-  auto k = sampler_kernel(sampler_spec("#define GLINTLAB_GLSL\n#include \"glintlab_prelude.h\"\n#include \"ggx_vndf_body.h\"\n",
-                                       "glsl"));
+  if (vulkan_devices().empty()) {
+    WARN("no Vulkan device: install mesa-vulkan-drivers");
+    return;
+  }
+  auto k = sampler_kernel(
+      sampler_spec("#define GLINTLAB_GLSL\n#include \"glintlab_prelude.h\"\n#include \"ggx_vndf_body.h\"\n", "glsl"));
   const double a = 0.3, wo[3] = {0.6, 0.0, 0.8};
   const std::size_t rows = 64;
   std::vector<float> in(rows * kSamplerInputWords, 0.0f), out(rows * kSamplerOutputWords);
   std::vector<double> want(rows);
   for (std::size_t i = 0; i < rows; ++i) {
     const double th = 1.5 * static_cast<double>(i) / rows, ph = 0.7 * static_cast<double>(i);
-    const float h[3] = {static_cast<float>(std::sin(th) * std::cos(ph)), static_cast<float>(std::sin(th) * std::sin(ph)),
-                        static_cast<float>(std::cos(th))};
-    for (int j = 0; j < 3; ++j) { put(in, i, 6 + j, static_cast<float>(wo[j])); put(in, i, 10 + j, h[j]); }
+    const float h[3] = {static_cast<float>(std::sin(th) * std::cos(ph)),
+                        static_cast<float>(std::sin(th) * std::sin(ph)), static_cast<float>(std::cos(th))};
+    for (int j = 0; j < 3; ++j) {
+      put(in, i, 6 + j, static_cast<float>(wo[j]));
+      put(in, i, 10 + j, h[j]);
+    }
     put_mode(in, i, 1u);
     // G1(wo) max(0, wo.h) D(h) / wo.z in double, at the float32 h the shader sees.
     const double hx = h[0], hy = h[1], hz = h[2];
@@ -105,5 +120,6 @@ TEST_CASE("shader samplers: the shipped GGX VNDF pdf_h is the visible-normal den
     want[i] = G1 * std::max(0.0, wo[0] * hx + wo[1] * hy + wo[2] * hz) * D / wo[2];
   }
   run_sampler(*k, in.data(), rows, out.data(), 10.0);
-  for (std::size_t i = 0; i < rows; ++i) CHECK(out[i * kSamplerOutputWords] == Approx(want[i]).epsilon(3e-5).margin(1e-6));
+  for (std::size_t i = 0; i < rows; ++i)
+    CHECK(out[i * kSamplerOutputWords] == Approx(want[i]).epsilon(3e-5).margin(1e-6));
 }

@@ -29,7 +29,8 @@ TEST_CASE("Genz-Malik is exact to degree 7 and its error estimate sees degree 6"
   genz_malik_nodes(r, st);
   // integral of s^a t^b over [0.25, 0.75] x [0.5, 0.75]
   auto exact = [](int a, int b) {
-    return (std::pow(0.75, a + 1) - std::pow(0.25, a + 1)) / (a + 1) * (std::pow(0.75, b + 1) - std::pow(0.5, b + 1)) / (b + 1);
+    return (std::pow(0.75, a + 1) - std::pow(0.25, a + 1)) / (a + 1) * (std::pow(0.75, b + 1) - std::pow(0.5, b + 1)) /
+           (b + 1);
   };
   for (int a = 0; a <= 7; ++a)
     for (int b = 0; a + b <= 7; ++b) {

@@ -29,7 +29,10 @@ bool have_device() { return !vulkan_devices().empty(); }
 }  // namespace
 
 TEST_CASE("shader runner: a kernel's outputs, broadcast and per row", "[shader]") {
-  if (!have_device()) { WARN("no Vulkan device: install mesa-vulkan-drivers"); return; }
+  if (!have_device()) {
+    WARN("no Vulkan device: install mesa-vulkan-drivers");
+    return;
+  }
   const Kernel k(spec("float count(float n, float p, vec4 u) { return n * p + u.x + 4.0 * u.w; }"));
   CHECK(!k.device_name().empty());
   const std::vector<double> n{3.0, 5.0, 7.0}, p{0.5};
@@ -74,9 +77,7 @@ TEST_CASE("shader runner: compile errors name the file and line, a wrong signatu
   auto message = [](const KernelSpec& s) {
     try {
       Kernel k(s);
-    } catch (const std::invalid_argument& e) {
-      return std::string(e.what());
-    }
+    } catch (const std::invalid_argument& e) { return std::string(e.what()); }
     return std::string("no error");
   };
   const std::string syntax = message(spec("float count(float n, float p, vec4 u) {\n  return n *;\n}\n"));
@@ -93,9 +94,9 @@ TEST_CASE("shader runner: compile errors name the file and line, a wrong signatu
 
 TEST_CASE("shader runner: a kernel past its timeout throws, and the device serves the next call", "[shader]") {
   if (!have_device()) return;
-  const Kernel slow(spec(
-      "float count(float n, float p, vec4 u) { float a = u.x;\n"
-      "  for (int i = 0; i < int(n); ++i) a = sin(a * 1.0001 + float(i) * 1e-7 + p);\n  return a; }"));
+  const Kernel slow(
+      spec("float count(float n, float p, vec4 u) { float a = u.x;\n"
+           "  for (int i = 0; i < int(n); ++i) a = sin(a * 1.0001 + float(i) * 1e-7 + p);\n  return a; }"));
   const std::size_t rows = 5000;
   std::vector<double> u(2 * rows, 0.5);
   std::vector<float> out(rows);
@@ -113,24 +114,21 @@ namespace {
 std::string error_of(const KernelSpec& s) {
   try {
     Kernel k(s);
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
+  } catch (const std::invalid_argument& e) { return e.what(); }
   return "no error";
 }
 }  // namespace
 
-TEST_CASE("shader runner: a resource the contract does not bind is refused by name, before the driver",
-          "[shader]") {
+TEST_CASE("shader runner: a resource the contract does not bind is refused by name, before the driver", "[shader]") {
   if (!have_device()) return;
   // Descriptor set 1 crashed lavapipe inside vkCreateComputePipelines / the dispatch.
-  const std::string set1 = error_of(spec(
-      "layout(std430, set = 1, binding = 0) buffer Extra { float extra[]; };\n"
-      "float count(float n, float p, vec4 u) { return extra[0]; }"));
+  const std::string set1 =
+      error_of(spec("layout(std430, set = 1, binding = 0) buffer Extra { float extra[]; };\n"
+                    "float count(float n, float p, vec4 u) { return extra[0]; }"));
   CHECK(set1.find("'Extra' (storage buffer, set 1, binding 0) is not bound by glintlab") != std::string::npos);
-  const std::string cbuffer = error_of(spec(
-      "cbuffer Params : register(b0) { float scale; };\nfloat count(float n, float p, float4 u) { return scale; }",
-      "hlsl"));
+  const std::string cbuffer = error_of(
+      spec("cbuffer Params : register(b0) { float scale; };\nfloat count(float n, float p, float4 u) { return scale; }",
+           "hlsl"));
   CHECK(cbuffer.find("'Params' (uniform buffer, set 0, binding 0)") != std::string::npos);
   // The wrapper's own resources are exactly the allowed ones.
   for (const std::string language : {"glsl", "hlsl"}) {
@@ -140,7 +138,8 @@ TEST_CASE("shader runner: a resource the contract does not bind is refused by na
     const auto resources = spirv_resources(ok.spirv());
     CHECK(resources.size() == 5);
     for (const auto& r : resources)
-      CHECK((r.kind == "push constant" || (r.kind == "storage buffer" && r.set == 0 && r.binding >= 0 && r.binding < 4)));
+      CHECK(
+          (r.kind == "push constant" || (r.kind == "storage buffer" && r.set == 0 && r.binding >= 0 && r.binding < 4)));
   }
 }
 
@@ -159,13 +158,16 @@ TEST_CASE("shader runner: an #include cycle is refused naming it", "[shader]") {
 
 TEST_CASE("shader runner: loops whose trip count is not a small constant", "[shader]") {
   if (!have_device()) return;
-  const Kernel data(spec("float count(float n, float p, vec4 u) { float k = 0.0;\n"
-                         "  for (int i = 0; i < int(n); ++i) k += 1.0; return k; }"));
+  const Kernel data(
+      spec("float count(float n, float p, vec4 u) { float k = 0.0;\n"
+           "  for (int i = 0; i < int(n); ++i) k += 1.0; return k; }"));
   CHECK(data.unbounded_loops() == 1);
-  const Kernel small(spec("float count(float n, float p, vec4 u) { float k = 0.0;\n"
-                          "  for (int i = 0; i < 5000; ++i) k += u.x * float(i); return k; }"));
+  const Kernel small(
+      spec("float count(float n, float p, vec4 u) { float k = 0.0;\n"
+           "  for (int i = 0; i < 5000; ++i) k += u.x * float(i); return k; }"));
   CHECK(small.unbounded_loops() == 0);
-  const Kernel big(spec("float count(float n, float p, vec4 u) { float k = 0.0;\n"
-                        "  for (int i = 0; i < 70000; ++i) k += u.x * float(i); return k; }"));
+  const Kernel big(
+      spec("float count(float n, float p, vec4 u) { float k = 0.0;\n"
+           "  for (int i = 0; i < 70000; ++i) k += u.x * float(i); return k; }"));
   CHECK(big.unbounded_loops() == 1);
 }

@@ -33,8 +33,7 @@ TEST_CASE("overlaps are exact: covered cells add up to the area, boxes match qua
     const int q = 1500;
     double inside = 0;
     for (int i = 0; i < q; ++i)
-      for (int j = 0; j < q; ++j)
-        inside += f.contains(x0 + (x1 - x0) * (i + 0.5) / q, y0 + (y1 - y0) * (j + 0.5) / q);
+      for (int j = 0; j < q; ++j) inside += f.contains(x0 + (x1 - x0) * (i + 0.5) / q, y0 + (y1 - y0) * (j + 0.5) / q);
     const double quad = inside / (double(q) * q) * (x1 - x0) * (y1 - y0);
     INFO(f.describe());
     CHECK(f.overlap(x0, y0, x1, y1) == Approx(quad).epsilon(2e-3));
@@ -67,8 +66,8 @@ TEST_CASE("realizations follow the exact law of every layout and footprint", "[s
         const GroundTruth gt(layout, 1e4, f, 0.3, c);
         const auto x = gt.sample(100'000, 11);
         const auto res = chi2_test(x.data(), x.size(), gt.pmf());
-        INFO(layout_name(layout) << " " << f.describe() << (fixed ? " fixed centre" : " random centre") << ": p = "
-                                 << res.pvalue);
+        INFO(layout_name(layout) << " " << f.describe() << (fixed ? " fixed centre" : " random centre")
+                                 << ": p = " << res.pvalue);
         CHECK(res.pvalue > alpha);
       }
 }
@@ -140,13 +139,15 @@ TEST_CASE("bad ground-truth input is refused by name", "[spatial]") {
   CHECK_THROWS_WITH(GroundTruth(Layout::kPoisson, -1, f, 0.3), Catch::Contains("density = -1"));
   CHECK_THROWS_WITH(GroundTruth(Layout::kPoisson, NAN, f, 0.3), Catch::Contains("density = nan"));
   CHECK_THROWS_WITH(GroundTruth(Layout::kPoisson, 100, f, 1.5), Catch::Contains("p = 1.5"));
-  CHECK_THROWS_WITH(GroundTruth(Layout::kPoisson, 100, Footprint::rect(1.2, 0.1), 0.5), Catch::Contains("bounding box"));
+  CHECK_THROWS_WITH(GroundTruth(Layout::kPoisson, 100, Footprint::rect(1.2, 0.1), 0.5),
+                    Catch::Contains("bounding box"));
   CHECK_THROWS_WITH(GroundTruth(Layout::kPoisson, 100, f, 0.5, std::pair{INFINITY, 0.0}), Catch::Contains("center[0]"));
   CHECK_THROWS_WITH(Footprint::rect(-1, 1), Catch::Contains("width = -1"));
   CHECK_THROWS_WITH(Footprint::ellipse(1, 0), Catch::Contains("b = 0"));
   CHECK_THROWS_WITH(Footprint::ellipse(1, NAN), Catch::Contains("b = nan"));
   CHECK_THROWS_WITH(parse_layout("grid"), Catch::Contains("layout"));
   const auto big = Footprint::rect(0.4, 0.4);  // three of them spread over 1.07 of the domain
-  CHECK_THROWS_WITH(joint_counts(Layout::kPoisson, 100, 0.5, {{big, 0.0, 0.5}, {big, 0.33, 0.5}, {big, 0.66, 0.5}}, 10, 1),
-                    Catch::Contains("fit in the unit domain"));
+  CHECK_THROWS_WITH(
+      joint_counts(Layout::kPoisson, 100, 0.5, {{big, 0.0, 0.5}, {big, 0.33, 0.5}, {big, 0.66, 0.5}}, 10, 1),
+      Catch::Contains("fit in the unit domain"));
 }

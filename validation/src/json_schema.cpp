@@ -15,10 +15,7 @@ using json = nlohmann::json;
 InputError::InputError(std::string source, std::string pointer, std::string expected, std::string got)
     : std::invalid_argument(source + ": at " + (pointer.empty() ? "/" : pointer) + ": expected " + expected + ", got " +
                             got),
-      source_(std::move(source)),
-      pointer_(std::move(pointer)),
-      expected_(std::move(expected)),
-      got_(std::move(got)) {}
+      source_(std::move(source)), pointer_(std::move(pointer)), expected_(std::move(expected)), got_(std::move(got)) {}
 
 namespace {
 
@@ -107,25 +104,18 @@ constexpr TypeName type_names[] = {{"integer", t_integer, "an integer"},
 
 unsigned value_types(const json& v) {
   switch (v.type()) {
-    case json::value_t::null:
-      return t_null;
-    case json::value_t::boolean:
-      return t_boolean;
+    case json::value_t::null: return t_null;
+    case json::value_t::boolean: return t_boolean;
     case json::value_t::number_integer:
-    case json::value_t::number_unsigned:
-      return t_integer | t_number;
+    case json::value_t::number_unsigned: return t_integer | t_number;
     case json::value_t::number_float: {
       const double x = v.get<double>();
       return std::isfinite(x) && std::trunc(x) == x ? t_integer | t_number : t_number;
     }
-    case json::value_t::string:
-      return t_string;
-    case json::value_t::array:
-      return t_array;
-    case json::value_t::object:
-      return t_object;
-    default:
-      return 0;
+    case json::value_t::string: return t_string;
+    case json::value_t::array: return t_array;
+    case json::value_t::object: return t_object;
+    default: return 0;
   }
 }
 
@@ -355,9 +345,7 @@ struct SchemaSet::Impl {
     for (const auto& [name, text] : texts) {
       try {
         files[name] = json::parse(text);
-      } catch (const json::exception& e) {
-        bad(name, e.what());
-      }
+      } catch (const json::exception& e) { bad(name, e.what()); }
     }
     for (const auto& [name, root] : files) {
       if (root.is_object() && root.contains("definitions")) {

@@ -22,7 +22,7 @@
 namespace glintlab {
 namespace {
 
-constexpr int kMaxLaws = 1024;             // a sanity bound on *count (garbage would be larger)
+constexpr int kMaxLaws = 1024;  // a sanity bound on *count (garbage would be larger)
 constexpr std::size_t kMaxNameLength = 64;
 constexpr long long kFirstCapacity = 4096;  // pmf buffer of the first call; doubled on request
 
@@ -71,7 +71,7 @@ class PluginLaw final : public CountingLaw, public detail::LawKernel {
       if (len != GLINTLAB_PMF_CAPACITY) break;
       if (capacity >= limit)
         glintlab::throw_invalid_message(e_->name + ".pmf: the distribution at " + at + " needs more than " +
-                                    std::to_string(max_support) + " points (max_support)");
+                                        std::to_string(max_support) + " points (max_support)");
       capacity = std::min(2 * capacity, limit);
     }
     if (len == GLINTLAB_PMF_NONE)
@@ -90,9 +90,9 @@ class PluginLaw final : public CountingLaw, public detail::LawKernel {
     double sum = 0.0, c = 0.0;  // compensated: supports reach millions of points
     for (std::size_t i = 0; i < probs.size(); ++i) {
       if (!(probs[i] >= 0.0) || !std::isfinite(probs[i]))
-        throw std::runtime_error(bad + ": probs[" + std::to_string(i) + "] (k = " +
-                                 std::to_string(first + static_cast<long long>(i)) + ") = " + format_value(probs[i]) +
-                                 "; expected a finite probability >= 0");
+        throw std::runtime_error(bad + ": probs[" + std::to_string(i) +
+                                 "] (k = " + std::to_string(first + static_cast<long long>(i)) +
+                                 ") = " + format_value(probs[i]) + "; expected a finite probability >= 0");
       const double y = probs[i] - c, t = sum + y;
       c = (t - sum) - y;
       sum = t;
@@ -101,7 +101,8 @@ class PluginLaw final : public CountingLaw, public detail::LawKernel {
       throw std::runtime_error(bad + ": probabilities sum to " + format_value(sum) + "; expected 1 within 1e-9");
     std::vector<double> support(probs.size());
     for (std::size_t i = 0; i < support.size(); ++i) support[i] = static_cast<double>(first) + static_cast<double>(i);
-    return Distribution::with_trimmed_tails(std::move(support), std::move(probs), (trimmed & GLINTLAB_TRIMMED_BELOW) != 0,
+    return Distribution::with_trimmed_tails(std::move(support), std::move(probs),
+                                            (trimmed & GLINTLAB_TRIMMED_BELOW) != 0,
                                             (trimmed & GLINTLAB_TRIMMED_ABOVE) != 0);
   }
 
@@ -131,8 +132,8 @@ bool valid_name(const char* s) {
   if (!((s[0] >= 'a' && s[0] <= 'z') || (s[0] >= 'A' && s[0] <= 'Z'))) return false;
   for (std::size_t i = 0; i < len; ++i) {
     const char ch = s[i];
-    const bool ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') ||
-                    ch == '_' || ch == '-' || ch == '.';
+    const bool ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_' ||
+                    ch == '-' || ch == '.';
     if (!ok) return false;
   }
   return true;
@@ -188,7 +189,7 @@ std::vector<std::string> load_plugin(const std::string& path, const std::vector<
   void* sym = dlsym(guard.handle, GLINTLAB_PLUGIN_SYMBOL_V1);
   if (!sym)
     glintlab::throw_invalid_message(where + ": the library does not export " GLINTLAB_PLUGIN_SYMBOL_V1
-                                " (define it with GLINTLAB_PLUGIN from glintlab/plugin.h, with C linkage)");
+                                            " (define it with GLINTLAB_PLUGIN from glintlab/plugin.h, with C linkage)");
   glintlab_plugin_laws_v1_fn entry_fn;
   static_assert(sizeof entry_fn == sizeof sym);
   std::memcpy(&entry_fn, &sym, sizeof sym);  // object to function pointer, as POSIX allows
@@ -196,8 +197,7 @@ std::vector<std::string> load_plugin(const std::string& path, const std::vector<
   int count = -1;
   const glintlab_law_v1* table = entry_fn(&count);
   if (count < 1 || count > kMaxLaws)
-    throw_invalid(where, GLINTLAB_PLUGIN_SYMBOL_V1 " count", count,
-                  "1 to " + std::to_string(kMaxLaws) + " laws");
+    throw_invalid(where, GLINTLAB_PLUGIN_SYMBOL_V1 " count", count, "1 to " + std::to_string(kMaxLaws) + " laws");
   if (!table) glintlab::throw_invalid_message(where + ": " GLINTLAB_PLUGIN_SYMBOL_V1 " returned a NULL table");
 
   // Validate everything before registering anything: a bad plugin leaves no trace.
@@ -227,11 +227,13 @@ std::vector<std::string> load_plugin(const std::string& path, const std::vector<
     if (law.n_uniforms < 0 || law.n_uniforms > 4) throw_invalid(here, "n_uniforms", law.n_uniforms, "0 to 4");
     if (!law.evaluate) throw_invalid(here, "evaluate", "NULL", "a function");
     const std::string binning = law.binning ? law.binning : "none";
-    if (binning != "none" && binning != "round") throw_invalid(here, "binning", quoted(law.binning), "'none' or 'round'");
+    if (binning != "none" && binning != "round")
+      throw_invalid(here, "binning", quoted(law.binning), "'none' or 'round'");
     auto e = std::make_shared<PluginEntry>();
     e->name = name;
     e->path = canonical;
-    e->summary = std::string(law.summary ? law.summary : "") + " (plugin " + fs::path(canonical).filename().string() + ")";
+    e->summary =
+        std::string(law.summary ? law.summary : "") + " (plugin " + fs::path(canonical).filename().string() + ")";
     e->binning = binning;
     e->n_uniforms = law.n_uniforms;
     e->evaluate = law.evaluate;
@@ -241,7 +243,9 @@ std::vector<std::string> load_plugin(const std::string& path, const std::vector<
   }
 
   for (const auto& e : entries) {
-    register_law({e->name, e->summary, [e](const LawParams& params) -> std::unique_ptr<CountingLaw> {
+    register_law({e->name,
+                  e->summary,
+                  [e](const LawParams& params) -> std::unique_ptr<CountingLaw> {
                     ParamReader(e->name, params).finish();  // plugin laws take no parameters
                     return std::make_unique<PluginLaw>(e);
                   },

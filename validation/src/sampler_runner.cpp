@@ -30,7 +30,8 @@ std::string body(const std::string& f, const std::string& v2, const std::string&
     << "  " << v3 << " wo = " << vec(v3, 6, 3) << ";\n"
     << "  if (glintlab_in[b + 9u] == 0u) {\n"
     << "    " << v4 << " r = " << sample_entry << "(uv, J, wo, " << vec(v4, 10, 4) << ");\n"
-    << "    glintlab_out[o] = r.x; glintlab_out[o + 1u] = r.y; glintlab_out[o + 2u] = r.z; glintlab_out[o + 3u] = r.w;\n"
+    << "    glintlab_out[o] = r.x; glintlab_out[o + 1u] = r.y; glintlab_out[o + 2u] = r.z; glintlab_out[o + 3u] = "
+       "r.w;\n"
     << "  } else {\n"
     << "    float p = " << pdf_entry << "(uv, J, wo, " << vec(v3, 10, 3) << ");\n"
     << "    glintlab_out[o] = p; glintlab_out[o + 1u] = 0.0; glintlab_out[o + 2u] = 0.0; glintlab_out[o + 3u] = 0.0;\n"
@@ -42,11 +43,10 @@ std::string body(const std::string& f, const std::string& v2, const std::string&
 
 std::string sampler_signature(const std::string& language, const std::string& sample_entry,
                               const std::string& pdf_entry) {
-  return language == "hlsl"
-             ? "float4 " + sample_entry + "(float2 uv, float4 J, float3 wo, float4 u) and float " + pdf_entry +
-                   "(float2 uv, float4 J, float3 wo, float3 h)"
-             : "vec4 " + sample_entry + "(vec2 uv, vec4 J, vec3 wo, vec4 u) and float " + pdf_entry +
-                   "(vec2 uv, vec4 J, vec3 wo, vec3 h)";
+  return language == "hlsl" ? "float4 " + sample_entry + "(float2 uv, float4 J, float3 wo, float4 u) and float " +
+                                  pdf_entry + "(float2 uv, float4 J, float3 wo, float3 h)"
+                            : "vec4 " + sample_entry + "(vec2 uv, vec4 J, vec3 wo, vec4 u) and float " + pdf_entry +
+                                  "(vec2 uv, vec4 J, vec3 wo, vec3 h)";
 }
 
 std::string sampler_wrapper_source(const std::string& language, const std::string& sample_entry,
@@ -71,7 +71,8 @@ std::string sampler_wrapper_source(const std::string& language, const std::strin
       << "#include \"glintlab_sampler_glsl.h\"\n"
       << "#include \"" << include_name << "\"\n"
       << "layout(local_size_x = " << kGroupSize << ") in;\n"
-      << "layout(push_constant) uniform GlintlabPush { uint count; uint in_stride; uint out_stride; uint pad; } glintlab_push;\n"
+      << "layout(push_constant) uniform GlintlabPush { uint count; uint in_stride; uint out_stride; uint pad; } "
+         "glintlab_push;\n"
       << "layout(std430, set = 0, binding = 0) readonly buffer GlintlabIn { uint glintlab_in[]; };\n"
       << "layout(std430, set = 0, binding = 3) writeonly buffer GlintlabOut { float glintlab_out[]; };\n"
       << "void main() {\n"
@@ -87,7 +88,8 @@ std::shared_ptr<Kernel> sampler_kernel(KernelSpec spec, const std::string& pdf_e
     glintlab::throw_invalid("", "language", "'" + spec.language + "'", "'hlsl' or 'glsl'");
   validate_spec(spec);  // the sample entry among the rest
   bool ident = !pdf_entry.empty() && !(pdf_entry[0] >= '0' && pdf_entry[0] <= '9');
-  for (char c : pdf_entry) ident = ident && (c == '_' || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9'));
+  for (char c : pdf_entry)
+    ident = ident && (c == '_' || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9'));
   if (!ident) glintlab::throw_invalid("", "pdf_entry", "'" + pdf_entry + "'", "a function name");
   spec.n_uniforms = 0;  // the wrapper reads its own uniforms from the rows
   const std::vector<SpirvResource> allowed{{"glintlab_push", "push constant", -1, -1},
@@ -95,9 +97,8 @@ std::shared_ptr<Kernel> sampler_kernel(KernelSpec spec, const std::string& pdf_e
                                            {"GlintlabIn", "storage buffer", 0, 0},
                                            {"glintlab_out", "storage buffer", 0, 3},
                                            {"GlintlabOut", "storage buffer", 0, 3}};
-  return std::make_shared<Kernel>(
-      spec, sampler_wrapper_source(spec.language, spec.entry, pdf_entry, spec.source_name),
-      sampler_signature(spec.language, spec.entry, pdf_entry), allowed);
+  return std::make_shared<Kernel>(spec, sampler_wrapper_source(spec.language, spec.entry, pdf_entry, spec.source_name),
+                                  sampler_signature(spec.language, spec.entry, pdf_entry), allowed);
 }
 
 void run_sampler(const Kernel& kernel, const float* in, std::size_t count, float* out, double timeout_s) {

@@ -150,7 +150,8 @@ int choose_device(const std::string& request) {
   std::vector<DeviceInfo> all;
   for (std::size_t i = 0; i < v.physical.size(); ++i) all.push_back(describe(static_cast<int>(i), v.physical[i]));
   std::string known;
-  for (const auto& d : all) known += (known.empty() ? "" : ", ") + std::to_string(d.index) + ": " + d.name + " (" + d.type + ")";
+  for (const auto& d : all)
+    known += (known.empty() ? "" : ", ") + std::to_string(d.index) + ": " + d.name + " (" + d.type + ")";
   auto best = [&](auto keep) {
     int chosen = -1;
     for (const auto& d : all)
@@ -176,7 +177,10 @@ int choose_device(const std::string& request) {
       glintlab::throw_invalid("", "device", "'" + request + "'", "one of " + known);
   } else {
     for (const auto& d : all)
-      if (d.name.find(request) != std::string::npos) { chosen = d.index; break; }
+      if (d.name.find(request) != std::string::npos) {
+        chosen = d.index;
+        break;
+      }
     if (chosen < 0)
       glintlab::throw_invalid("", "device", "'" + request + "'",
                               "'auto', 'gpu', 'cpu', an index or part of a name among " + known);
@@ -200,7 +204,10 @@ Device& device(int index) {
   vkGetPhysicalDeviceQueueFamilyProperties(d->phys, &nfam, fams.data());
   bool found = false;
   for (std::uint32_t i = 0; i < nfam && !found; ++i)
-    if (fams[i].queueFlags & VK_QUEUE_COMPUTE_BIT) { d->family = i; found = true; }
+    if (fams[i].queueFlags & VK_QUEUE_COMPUTE_BIT) {
+      d->family = i;
+      found = true;
+    }
   if (!found) throw NoVulkanDevice("Vulkan device '" + d->name + "' has no compute queue");
   const float priority = 1.0f;
   VkDeviceQueueCreateInfo q{};
@@ -232,7 +239,8 @@ std::string wrapper_name(const std::string& language) {
 
 bool is_identifier(const std::string& s) {
   if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
-  return std::all_of(s.begin(), s.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+  return std::all_of(s.begin(), s.end(),
+                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
 }
 
 std::string strip_bom(std::string text) {  // Visual Studio saves UTF-8 with a byte-order mark
@@ -250,11 +258,22 @@ std::size_t invalid_utf8(const std::string& text) {
     const unsigned c = b[i];
     std::size_t len = 0;
     unsigned lo = 0x80, hi = 0xBF;  // the allowed range of the second byte
-    if (c < 0x80) { ++i; continue; }
-    if (c >= 0xC2 && c <= 0xDF) len = 2;
-    else if (c >= 0xE0 && c <= 0xEF) { len = 3; if (c == 0xE0) lo = 0xA0; if (c == 0xED) hi = 0x9F; }
-    else if (c >= 0xF0 && c <= 0xF4) { len = 4; if (c == 0xF0) lo = 0x90; if (c == 0xF4) hi = 0x8F; }
-    else return i;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    if (c >= 0xC2 && c <= 0xDF)
+      len = 2;
+    else if (c >= 0xE0 && c <= 0xEF) {
+      len = 3;
+      if (c == 0xE0) lo = 0xA0;
+      if (c == 0xED) hi = 0x9F;
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      len = 4;
+      if (c == 0xF0) lo = 0x90;
+      if (c == 0xF4) hi = 0x8F;
+    } else
+      return i;
     if (i + len > n) return i;
     if (b[i + 1] < lo || b[i + 1] > hi) return i;
     for (std::size_t k = 2; k < len; ++k)
@@ -327,7 +346,8 @@ class MacroBounds {
       std::set<std::string> open;
       bound = size(entry.first, open, memo);
       if (bound > kMaxMacroTokens)
-        return "macro " + entry.first + (file.empty() ? " (from defines)" : " (defined in " + file + " or a file before it)");
+        return "macro " + entry.first +
+               (file.empty() ? " (from defines)" : " (defined in " + file + " or a file before it)");
     }
     bound = code_tokens_;
     if (bound > kMaxMacroTokens) return "the code of " + file + " (nested calls of function-like macros)";
@@ -341,8 +361,7 @@ class MacroBounds {
     if (name.empty()) return "";
     char n[32];
     std::snprintf(n, sizeof n, "%.3g", bound);
-    return name + " expands to " + n + " tokens, more than " +
-           std::to_string(static_cast<long long>(kMaxMacroTokens)) +
+    return name + " expands to " + n + " tokens, more than " + std::to_string(static_cast<long long>(kMaxMacroTokens)) +
            " (each macro that repeats another multiplies its size: the compiler would run out of memory); "
            "define it with fewer repetitions or as a function";
   }
@@ -361,7 +380,10 @@ class MacroBounds {
     for (std::size_t i = 0; i < s.size();) {
       const char c = s[i];
       std::size_t e = i + 1;
-      if (std::isspace(static_cast<unsigned char>(c))) { i = e; continue; }
+      if (std::isspace(static_cast<unsigned char>(c))) {
+        i = e;
+        continue;
+      }
       if (ident_start(c) || std::isdigit(static_cast<unsigned char>(c)))
         while (e < s.size() && (ident_char(s[e]) || s[e] == '.')) ++e;
       else if (c == '"')
@@ -375,8 +397,14 @@ class MacroBounds {
     std::string out;
     out.reserve(text.size());
     for (std::size_t i = 0; i < text.size(); ++i) {
-      if (text[i] == '\\' && i + 1 < text.size() && text[i + 1] == '\n') { ++i; continue; }
-      if (text[i] == '\\' && i + 2 < text.size() && text[i + 1] == '\r' && text[i + 2] == '\n') { i += 2; continue; }
+      if (text[i] == '\\' && i + 1 < text.size() && text[i + 1] == '\n') {
+        ++i;
+        continue;
+      }
+      if (text[i] == '\\' && i + 2 < text.size() && text[i + 1] == '\r' && text[i + 2] == '\n') {
+        i += 2;
+        continue;
+      }
       if (text[i] == '/' && i + 1 < text.size() && text[i + 1] == '/') {
         while (i < text.size() && text[i] != '\n') ++i;
         if (i < text.size()) out += '\n';
@@ -401,7 +429,8 @@ class MacroBounds {
   // parameter (nested calls multiply). With `count_only` set, only that identifier (a parameter)
   // counts: the number of copies of it the sequence makes.
   double sequence(const std::vector<std::string>& ts, const std::set<std::string>& params,
-                  const std::string& count_only, std::set<std::string>& open, std::map<std::string, double>& memo) const {
+                  const std::string& count_only, std::set<std::string>& open,
+                  std::map<std::string, double>& memo) const {
     double total = 0, weight = 1;
     std::vector<double> weights;  // the weight outside each open parenthesis
     double call = 0;              // the repetition of the function-like macro whose '(' comes next
@@ -450,7 +479,8 @@ class MacroBounds {
     if (const auto m = memo.find(key); m != memo.end()) return m->second;
     open.insert(name);
     double r = 1;
-    for (const auto& p : it->second.params) r = std::max(r, sequence(it->second.body, it->second.params, p, open, memo));
+    for (const auto& p : it->second.params)
+      r = std::max(r, sequence(it->second.body, it->second.params, p, open, memo));
     open.erase(name);
     memo[key] = r;
     return r;
@@ -498,17 +528,27 @@ class Includer final : public shaderc::CompileOptions::IncluderInterface {
     } else {
       std::vector<std::filesystem::path> candidates;
       const std::filesystem::path from(requesting);
-      if (from.has_parent_path()) candidates.push_back(from.parent_path() / requested);
-      else candidates.push_back(std::filesystem::path(requested));
+      if (from.has_parent_path())
+        candidates.push_back(from.parent_path() / requested);
+      else
+        candidates.push_back(std::filesystem::path(requested));
       for (const auto& d : dirs_) candidates.push_back(std::filesystem::path(d) / requested);
       std::string found, content;
       for (const auto& c : candidates) {
         if (is_sealed_) {
-          if (auto it = sealed_.find(c.string()); it != sealed_.end()) { found = it->first; content = it->second; break; }
+          if (auto it = sealed_.find(c.string()); it != sealed_.end()) {
+            found = it->first;
+            content = it->second;
+            break;
+          }
           continue;
         }
         std::error_code ec;
-        if (std::filesystem::is_regular_file(c, ec)) { found = c.string(); content = read_file(c); break; }
+        if (std::filesystem::is_regular_file(c, ec)) {
+          found = c.string();
+          content = read_file(c);
+          break;
+        }
       }
       const std::size_t bad = found.empty() ? std::string::npos : invalid_utf8(content);
       if (found.empty()) {
@@ -517,17 +557,18 @@ class Includer final : public shaderc::CompileOptions::IncluderInterface {
       } else if (bad != std::string::npos) {
         char hex[8];
         std::snprintf(hex, sizeof hex, "0x%02x", static_cast<unsigned char>(content[bad]));
-        r->content = found + ": byte " + hex + " at offset " + std::to_string(bad) + " (line " +
-                     std::to_string(1 + std::count(content.begin(), content.begin() + static_cast<std::ptrdiff_t>(bad), '\n')) +
-                     ") is not UTF-8; expected a UTF-8 file (save it as UTF-8)";
+        r->content =
+            found + ": byte " + hex + " at offset " + std::to_string(bad) + " (line " +
+            std::to_string(1 + std::count(content.begin(), content.begin() + static_cast<std::ptrdiff_t>(bad), '\n')) +
+            ") is not UTF-8; expected a UTF-8 file (save it as UTF-8)";
       } else if (static_cast<int>(depth) > kMaxIncludeDepth || ++st.count > kMaxIncludes) {
         st.failure = limit_message(found, static_cast<int>(depth) > kMaxIncludeDepth);
         r->content = st.failure;
       } else {
         r->name = found;
         r->content = std::move(content);
-        if (st.included && std::none_of(st.included->begin(), st.included->end(),
-                                        [&](const auto& f) { return f.first == found; }))
+        if (st.included &&
+            std::none_of(st.included->begin(), st.included->end(), [&](const auto& f) { return f.first == found; }))
           st.included->emplace_back(found, r->content);
       }
     }
@@ -565,14 +606,14 @@ class Includer final : public shaderc::CompileOptions::IncluderInterface {
         if (full[i] == full[end]) {
           std::string cycle;
           for (std::size_t k = i; k <= end; ++k) cycle += (k > i ? " -> " : "") + short_name(full[k]);
-          return "#include cycle " + cycle + " (" + full[end] + " includes itself through this chain; #pragma "
+          return "#include cycle " + cycle + " (" + full[end] +
+                 " includes itself through this chain; #pragma "
                  "once is not honoured by the shader compiler: guard the file with #ifndef/#define or remove "
                  "the include)";
         }
     std::string path;
     for (const auto& f : full) path += (path.empty() ? "" : " -> ") + short_name(f);
-    if (depth)
-      return "#include nested deeper than " + std::to_string(kMaxIncludeDepth) + " files (" + path + ")";
+    if (depth) return "#include nested deeper than " + std::to_string(kMaxIncludeDepth) + " files (" + path + ")";
     return "more than " + std::to_string(kMaxIncludes) + " #include directives processed (last: " + path + ")";
   }
   struct Result {
@@ -617,16 +658,19 @@ shaderc::CompileOptions options(const KernelSpec& spec, std::shared_ptr<IncludeS
       wrapper_only = false;
   if (wrapper_only)
     glintlab::throw_invalid_message("shader " + spec.source_name + ": no function " + spec.entry +
-                                " with the expected signature " +
-                                (signature.empty() ? expected_signature(spec.language, spec.entry) : signature) +
-                                " (" + spec.language + "); the compiler says:\n" + messages);
+                                    " with the expected signature " +
+                                    (signature.empty() ? expected_signature(spec.language, spec.entry) : signature) +
+                                    " (" + spec.language + "); the compiler says:\n" + messages);
   glintlab::throw_invalid_message("shader " + spec.source_name + " does not compile (" + spec.language +
-                              "); the compiler says:\n" + messages);
+                                  "); the compiler says:\n" + messages);
 }
 
 std::uint64_t fnv1a(const std::string& s) {
   std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : s) { h ^= c; h *= 1099511628211ull; }
+  for (unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
   return h;
 }
 
@@ -739,7 +783,8 @@ void reap(Device& d);
 void wait_for_retired(Device& d, double timeout_s);
 
 void reap(Device& d) {  // with d.mutex held
-  std::erase_if(d.retired, [&](const std::unique_ptr<Job>& j) { return vkGetFenceStatus(d.dev, j->fence) == VK_SUCCESS; });
+  std::erase_if(d.retired,
+                [&](const std::unique_ptr<Job>& j) { return vkGetFenceStatus(d.dev, j->fence) == VK_SUCCESS; });
 }
 
 void wait_for_retired(Device& d, double timeout_s) {
@@ -748,7 +793,8 @@ void wait_for_retired(Device& d, double timeout_s) {
   std::vector<VkFence> fences;
   for (const auto& j : d.retired) fences.push_back(j->fence);
   const auto timeout_ns = static_cast<std::uint64_t>(std::min(timeout_s, 1e9) * 1e9);
-  const VkResult w = vkWaitForFences(d.dev, static_cast<std::uint32_t>(fences.size()), fences.data(), VK_TRUE, timeout_ns);
+  const VkResult w =
+      vkWaitForFences(d.dev, static_cast<std::uint32_t>(fences.size()), fences.data(), VK_TRUE, timeout_ns);
   if (w == VK_TIMEOUT) {
     std::ostringstream msg;
     msg << "device '" << d.name << "' is still busy with an earlier kernel that passed its own timeout; this "
@@ -804,7 +850,8 @@ std::string wrapper_source(const std::string& language, const std::string& entry
       << "#extension GL_GOOGLE_include_directive : require\n"
       << "#include \"" << include_name << "\"\n"
       << "layout(local_size_x = " << kGroupSize << ") in;\n"
-      << "layout(push_constant) uniform GlintlabPush { uint count; uint n_stride; uint p_stride; uint pad; } glintlab_push;\n"
+      << "layout(push_constant) uniform GlintlabPush { uint count; uint n_stride; uint p_stride; uint pad; } "
+         "glintlab_push;\n"
       << "layout(std430, set = 0, binding = 0) readonly buffer GlintlabN { float glintlab_n[]; };\n"
       << "layout(std430, set = 0, binding = 1) readonly buffer GlintlabP { float glintlab_p[]; };\n"
       << "layout(std430, set = 0, binding = 2) readonly buffer GlintlabU { vec4 glintlab_u[]; };\n"
@@ -812,7 +859,8 @@ std::string wrapper_source(const std::string& language, const std::string& entry
       << "void main() {\n"
       << "  uint i = gl_GlobalInvocationID.x;\n"
       << "  if (i >= glintlab_push.count) return;\n"
-      << "  float k = " << entry << "(glintlab_n[i * glintlab_push.n_stride], glintlab_p[i * glintlab_push.p_stride], glintlab_u[i]);\n"
+      << "  float k = " << entry
+      << "(glintlab_n[i * glintlab_push.n_stride], glintlab_p[i * glintlab_push.p_stride], glintlab_u[i]);\n"
       << "  glintlab_k[i] = k;\n"
       << "}\n";
   }
@@ -822,14 +870,15 @@ std::string wrapper_source(const std::string& language, const std::string& entry
 void validate_spec(const KernelSpec& spec) {
   if (spec.language != "hlsl" && spec.language != "glsl")
     glintlab::throw_invalid("", "language", "'" + spec.language + "'", "'hlsl' or 'glsl'");
-  if (!is_identifier(spec.entry))
-    glintlab::throw_invalid("", "entry", "'" + spec.entry + "'", "a function name");
+  if (!is_identifier(spec.entry)) glintlab::throw_invalid("", "entry", "'" + spec.entry + "'", "a function name");
   if (spec.n_uniforms < 0 || spec.n_uniforms > 4)
     glintlab::throw_invalid("", "n_uniforms", std::to_string(spec.n_uniforms), "0 to 4");
   for (const auto& [name, value] : spec.defines) {
-    if (!is_identifier(name)) glintlab::throw_invalid_message("defines: name '" + name + "' is invalid; expected an identifier");
+    if (!is_identifier(name))
+      glintlab::throw_invalid_message("defines: name '" + name + "' is invalid; expected an identifier");
     if (value.find_first_of("\r\n") != std::string::npos)
-      glintlab::throw_invalid_message("defines: " + name + " = '" + value + "' is invalid; expected a value on one line");
+      glintlab::throw_invalid_message("defines: " + name + " = '" + value +
+                                      "' is invalid; expected a value on one line");
   }
   if (spec.source_name.empty() || spec.source_name.rfind("glintlab_kernel.", 0) == 0)
     glintlab::throw_invalid("", "source_name", "'" + spec.source_name + "'", "a file name");
@@ -845,7 +894,8 @@ std::string preprocess(const KernelSpec& spec, const std::string& wrapper,
   shaderc::Compiler compiler;
   auto pre = compiler.PreprocessGlsl(wrapper, shaderc_glsl_compute_shader, wrapper_name(spec.language).c_str(),
                                      options(spec, state));
-  if (!state->macro_failure.empty()) glintlab::throw_invalid_message("shader " + spec.source_name + ": " + state->macro_failure);
+  if (!state->macro_failure.empty())
+    glintlab::throw_invalid_message("shader " + spec.source_name + ": " + state->macro_failure);
   if (pre.GetCompilationStatus() != shaderc_compilation_status_success)
     compile_failure(spec, pre.GetErrorMessage(), signature);
   return std::string(pre.cbegin(), pre.cend());
@@ -867,10 +917,28 @@ namespace {
 namespace spv {
 constexpr std::uint32_t kMagic = 0x07230203;
 enum Op : std::uint32_t {
-  Name = 5, TypeInt = 21, TypeFloat = 22, TypeStruct = 30, TypePointer = 32, Constant = 43, Variable = 59,
-  Decorate = 71, IAdd = 128, FAdd = 129, ISub = 130, FSub = 131, IEqual = 170, INotEqual = 171, FOrdEqual = 180,
-  FUnordNotEqual = 183, FUnordGreaterThanEqual = 191,
-  Phi = 245, LoopMerge = 246, Label = 248, Branch = 249, BranchConditional = 250,
+  Name = 5,
+  TypeInt = 21,
+  TypeFloat = 22,
+  TypeStruct = 30,
+  TypePointer = 32,
+  Constant = 43,
+  Variable = 59,
+  Decorate = 71,
+  IAdd = 128,
+  FAdd = 129,
+  ISub = 130,
+  FSub = 131,
+  IEqual = 170,
+  INotEqual = 171,
+  FOrdEqual = 180,
+  FUnordNotEqual = 183,
+  FUnordGreaterThanEqual = 191,
+  Phi = 245,
+  LoopMerge = 246,
+  Label = 248,
+  Branch = 249,
+  BranchConditional = 250,
 };
 enum Storage : std::uint32_t { UniformConstant = 0, Uniform = 2, PushConstant = 9, StorageBuffer = 12 };
 enum Decoration : std::uint32_t { BufferBlock = 3, Binding = 33, DescriptorSet = 34 };
@@ -887,8 +955,9 @@ std::vector<Instruction> instructions(const std::vector<std::uint32_t>& code) {
   for (std::size_t i = 5; i < code.size();) {
     const std::uint32_t count = code[i] >> 16;
     if (count == 0 || i + count > code.size()) glintlab::throw_invalid_message("truncated SPIR-V module");
-    out.push_back({code[i] & 0xFFFFu, std::vector<std::uint32_t>(code.begin() + static_cast<std::ptrdiff_t>(i) + 1,
-                                                                 code.begin() + static_cast<std::ptrdiff_t>(i + count))});
+    out.push_back(
+        {code[i] & 0xFFFFu, std::vector<std::uint32_t>(code.begin() + static_cast<std::ptrdiff_t>(i) + 1,
+                                                       code.begin() + static_cast<std::ptrdiff_t>(i + count))});
     i += count;
   }
   return out;
@@ -937,8 +1006,8 @@ std::vector<SpirvResource> spirv_resources(const std::vector<std::uint32_t>& spi
     if (r.name.empty() && names.count(block)) r.name = names[block];
     if (r.name.empty()) r.name = "%" + std::to_string(id);
     const std::uint32_t sc = storage[id];
-    r.kind = sc == spv::PushConstant ? "push constant"
-             : sc == spv::UniformConstant ? "sampler or image"
+    r.kind = sc == spv::PushConstant                                   ? "push constant"
+             : sc == spv::UniformConstant                              ? "sampler or image"
              : (sc == spv::StorageBuffer || buffer_block.count(block)) ? "storage buffer"
                                                                        : "uniform buffer";
     if (sets.count(id)) r.set = sets[id];
@@ -977,20 +1046,33 @@ void require_resources(const std::vector<std::uint32_t>& spirv, const std::vecto
 
 int unbounded_loops(const std::vector<std::uint32_t>& spirv) {
   const auto ins = instructions(spirv);
-  std::map<std::uint32_t, std::size_t> def;          // result id -> instruction
-  std::map<std::uint32_t, std::size_t> terminator;   // block label -> its branch
+  std::map<std::uint32_t, std::size_t> def;                    // result id -> instruction
+  std::map<std::uint32_t, std::size_t> terminator;             // block label -> its branch
   std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;  // (header block, merge block)
   std::uint32_t block = 0;
   for (std::size_t i = 0; i < ins.size(); ++i) {
     const auto& in = ins[i];
     switch (in.op) {
-      case spv::TypeInt: case spv::TypeFloat: if (!in.w.empty()) def[in.w[0]] = i; break;
-      case spv::Constant: case spv::Phi: case spv::IAdd: case spv::FAdd: case spv::ISub: case spv::FSub:
+      case spv::TypeInt:
+      case spv::TypeFloat:
+        if (!in.w.empty()) def[in.w[0]] = i;
+        break;
+      case spv::Constant:
+      case spv::Phi:
+      case spv::IAdd:
+      case spv::FAdd:
+      case spv::ISub:
+      case spv::FSub:
         if (in.w.size() >= 2) def[in.w[1]] = i;
         break;
-      case spv::Label: if (!in.w.empty()) block = in.w[0]; break;
-      case spv::LoopMerge: if (!in.w.empty()) loops.emplace_back(block, in.w[0]); break;
-      case spv::Branch: case spv::BranchConditional: terminator[block] = i; break;
+      case spv::Label:
+        if (!in.w.empty()) block = in.w[0];
+        break;
+      case spv::LoopMerge:
+        if (!in.w.empty()) loops.emplace_back(block, in.w[0]);
+        break;
+      case spv::Branch:
+      case spv::BranchConditional: terminator[block] = i; break;
       default:
         if (in.op >= spv::IEqual && in.op <= spv::FUnordGreaterThanEqual && in.w.size() >= 2) def[in.w[1]] = i;
     }
@@ -1023,8 +1105,16 @@ int unbounded_loops(const std::vector<std::uint32_t>& spirv) {
     if (in.op != spv::IAdd && in.op != spv::FAdd && in.op != spv::ISub && in.op != spv::FSub) return false;
     const bool sub = in.op == spv::ISub || in.op == spv::FSub;
     double c = 0;
-    if (constant(in.w[3], c)) { phi = in.w[2]; step = sub ? -c : c; return get(phi, spv::Phi) != nullptr; }
-    if (!sub && constant(in.w[2], c)) { phi = in.w[3]; step = c; return get(phi, spv::Phi) != nullptr; }
+    if (constant(in.w[3], c)) {
+      phi = in.w[2];
+      step = sub ? -c : c;
+      return get(phi, spv::Phi) != nullptr;
+    }
+    if (!sub && constant(in.w[2], c)) {
+      phi = in.w[3];
+      step = c;
+      return get(phi, spv::Phi) != nullptr;
+    }
     return false;
   };
   auto bounded = [&](std::uint32_t header, std::uint32_t merge) {
@@ -1034,7 +1124,10 @@ int unbounded_loops(const std::vector<std::uint32_t>& spirv) {
     std::uint32_t at = header;
     for (int hop = 0; hop < 2 && terminator.count(at); ++hop) {
       const auto& t = ins[terminator[at]];
-      if (t.op == spv::BranchConditional && t.w.size() >= 3 && (t.w[1] == merge || t.w[2] == merge)) { br = &t; break; }
+      if (t.op == spv::BranchConditional && t.w.size() >= 3 && (t.w[1] == merge || t.w[2] == merge)) {
+        br = &t;
+        break;
+      }
       if (t.op != spv::Branch) break;
       at = t.w[0];
     }
@@ -1045,9 +1138,12 @@ int unbounded_loops(const std::vector<std::uint32_t>& spirv) {
     if (cmp.op < spv::IEqual || cmp.op > spv::FUnordGreaterThanEqual || cmp.w.size() < 4) return false;
     double limit = 0;
     std::uint32_t var = 0;
-    if (constant(cmp.w[3], limit)) var = cmp.w[2];
-    else if (constant(cmp.w[2], limit)) var = cmp.w[3];
-    else return false;
+    if (constant(cmp.w[3], limit))
+      var = cmp.w[2];
+    else if (constant(cmp.w[2], limit))
+      var = cmp.w[3];
+    else
+      return false;
     std::uint32_t phi_id = var;
     double step = 0;
     if (!get(phi_id, spv::Phi) && !stepped(var, phi_id, step)) return false;
@@ -1057,9 +1153,14 @@ int unbounded_loops(const std::vector<std::uint32_t>& spirv) {
     for (std::size_t k = 2; k + 1 < phi->w.size(); k += 2) {
       std::uint32_t back = 0;
       double c = 0;
-      if (constant(phi->w[k], c)) { start = c; have_start = true; }
-      else if (stepped(phi->w[k], back, c) && back == phi_id) { inc = c; have_inc = true; }
-      else return false;
+      if (constant(phi->w[k], c)) {
+        start = c;
+        have_start = true;
+      } else if (stepped(phi->w[k], back, c) && back == phi_id) {
+        inc = c;
+        have_inc = true;
+      } else
+        return false;
     }
     if (!have_start || !have_inc || std::abs(inc) < 1) return false;
     // A counter stepping away from its bound (i < 1000; --i), or stepping over it where the test is an
@@ -1217,8 +1318,8 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
     barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
     barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
     barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(job->command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
-                         &barrier, 0, nullptr, 0, nullptr);
+    vkCmdPipelineBarrier(job->command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier,
+                         0, nullptr, 0, nullptr);
     check(vkEndCommandBuffer(job->command), "vkEndCommandBuffer");
     check(vkResetFences(d.dev, 1, &job->fence), "vkResetFences");
     VkSubmitInfo submit{};
@@ -1231,8 +1332,8 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
       // The device still uses the buffers: they are freed by a later call once the fence signals.
       d.retired.push_back(std::move(job));
       std::ostringstream msg;
-      msg << "shader kernel ran longer than timeout = " << timeout_s << " s on '" << d.name
-          << "' (rows " << base << " .. " << base + rows << "); its buffers are released when the device finishes";
+      msg << "shader kernel ran longer than timeout = " << timeout_s << " s on '" << d.name << "' (rows " << base
+          << " .. " << base + rows << "); its buffers are released when the device finishes";
       throw ShaderTimeout(msg.str());
     }
     check(r, "vkWaitForFences");
@@ -1280,8 +1381,8 @@ void Kernel::run_rows(const float* in, std::size_t in_stride, std::size_t count,
     barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
     barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
     barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(job->command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
-                         &barrier, 0, nullptr, 0, nullptr);
+    vkCmdPipelineBarrier(job->command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier,
+                         0, nullptr, 0, nullptr);
     check(vkEndCommandBuffer(job->command), "vkEndCommandBuffer");
     check(vkResetFences(d.dev, 1, &job->fence), "vkResetFences");
     VkSubmitInfo submit{};

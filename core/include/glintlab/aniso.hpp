@@ -32,10 +32,10 @@
 // An AnisoCounter evaluates a scheme with an inner law on cells: term t's grid is keyed by its
 // (scale, ratio, orientation) level, the cell containing the pixel position in that grid's rotated and
 // stretched coordinates, and an angular texel, so a realization is coherent across pixels. Realizations
-// may be interpolated (docs/math/grids.md#grid-realizations): spatially over the 4 corners of a square cell or the 3 vertices of
-// a simplex (triangle) cell, angularly over 4 texels (DB23 eq. 14), either blended with the
-// interpolation weights v_j (mean kept, variance scaled by Σ v_j^2) or by selecting one vertex with
-// probability v_j (the marginal law kept exactly).
+// may be interpolated (docs/math/grids.md#grid-realizations): spatially over the 4 corners of a square cell or the 3
+// vertices of a simplex (triangle) cell, angularly over 4 texels (DB23 eq. 14), either blended with the interpolation
+// weights v_j (mean kept, variance scaled by Σ v_j^2) or by selecting one vertex with probability v_j (the marginal law
+// kept exactly).
 #pragma once
 
 #include <array>
@@ -92,8 +92,8 @@ struct Term {
   double dx = 0, dy = 0;  // probe offset from the pixel centre (texture units)
   double weight = 0;      // the scheme's interpolation weight (for reports)
   double cell_area = 0;
-  double trials = 0;      // n handed to the inner law
-  double scale = 1;       // K += scale · count
+  double trials = 0;  // n handed to the inner law
+  double scale = 1;   // K += scale · count
 };
 
 class GridScheme {
@@ -148,9 +148,9 @@ struct CounterOptions {
 
 // Per-pixel output of AnisoCounter::count_pixels.
 struct PixelOutput {
-  double* count;               // K (0 where status is kDegenerate / kNonFinite)
-  std::int32_t* evaluations;   // inner-law evaluations the pixel costs
-  std::uint8_t* status;        // ShapeStatus
+  double* count;              // K (0 where status is kDegenerate / kNonFinite)
+  std::int32_t* evaluations;  // inner-law evaluations the pixel costs
+  std::uint8_t* status;       // ShapeStatus
 };
 
 class AnisoCounter {
@@ -179,8 +179,7 @@ class AnisoCounter {
 
   // `count` independent realizations of K for one footprint: realization r has its own grids (from
   // (seed, r)), a uniformly random position within every grid's cells and a random angular coordinate.
-  void sample(double density, double p, const Shape& shape, std::size_t count, std::uint64_t seed,
-              double* out) const;
+  void sample(double density, double p, const Shape& shape, std::size_t count, std::uint64_t seed, double* out) const;
 
   // Exact law of K (realizations selected, or not interpolated; independent terms; an inner law with an
   // exact law and integer counts); throws not_implemented otherwise.

@@ -1,8 +1,8 @@
 // The exact binomial law of the count K of reflecting facets among n, each reflecting with
 // probability p, and the Poisson law of a Poisson layout (K ~ Poisson(n p)).
 //
-// Non-integer n (the "stratified" rule, docs/math/ground_truth.md#gt-non-integer): n = m + f with m = floor(n), f in [0, 1) means
-// m facets fully inside the footprint plus one facet covered by the fraction f, so
+// Non-integer n (the "stratified" rule, docs/math/ground_truth.md#gt-non-integer): n = m + f with m = floor(n), f in
+// [0, 1) means m facets fully inside the footprint plus one facet covered by the fraction f, so
 //   K = Binomial(m, p) + Bernoulli(f p),   E[K] = n p exactly,   Var[K] = m p q + f p (1 - f p).
 // For integer n it is the ordinary binomial. This is the law of counting stratified facets in a
 // footprint of area n / N made of whole cells plus one partial cell, and it keeps the mean right,
@@ -27,10 +27,10 @@ namespace glintlab::binomial {
 
 double mean(double n, double p);
 double variance(double n, double p);
-double log_pmf(double k, double n, double p);   // -inf outside the support or for non-integer k
+double log_pmf(double k, double n, double p);  // -inf outside the support or for non-integer k
 double pmf(double k, double n, double p);
-double cdf(double k, double n, double p);       // P(K <= k)
-double sf(double k, double n, double p);        // P(K > k)
+double cdf(double k, double n, double p);  // P(K <= k)
+double sf(double k, double n, double p);   // P(K > k)
 // Smallest integer k with P(K <= k) >= u' (inversion; monotone in u), u in [0, 1] clamped to
 // u' in [2^-53, 1 - 2^-53]: u = 1 stays finite and continuous with u -> 1 (K = mean + ~8.3 sd,
 // not n), and u = 0 likewise (K = 0 when P(K = 0) >= 2^-53; n when p = 1), never an impossible K.
@@ -111,9 +111,12 @@ class Sampler {
   void tabulate_log_ratios(std::size_t max_entries);
 
  private:
-  template <class Rng> double draw(Rng& rng) const;
-  template <class Rng> double draw_integer_part(Rng& rng) const;
-  template <class Rng> double btrd(Rng& rng) const;
+  template <class Rng>
+  double draw(Rng& rng) const;
+  template <class Rng>
+  double draw_integer_part(Rng& rng) const;
+  template <class Rng>
+  double btrd(Rng& rng) const;
   // BTRD's step 3.2 for an attempt at k, km = |k - mode| > 15, v scaled by step 3: true to accept.
   bool btrd_far_accepts(double k, double km, double v) const;
 
@@ -124,8 +127,7 @@ class Sampler {
   double constant_ = 0;   // result of the integer part when it is deterministic (p in {0, 1}, m = 0)
   SmallMeanInversion inversion_;
   // BTRD
-  double b_ = 0, a_ = 0, c_ = 0, alpha_ = 0, vr_ = 0, inv_vr_ = 0, urvr_ = 0, mode_ = 0, r_ = 0, nr_ = 0,
-         npq_ = 0;
+  double b_ = 0, a_ = 0, c_ = 0, alpha_ = 0, vr_ = 0, inv_vr_ = 0, urvr_ = 0, mode_ = 0, r_ = 0, nr_ = 0, npq_ = 0;
   special::BinomialLogRatio log_ratio_;  // log f(k) - log f(mode)
   std::vector<double> log_ratio_table_;  // log_ratio_(k) for k = log_ratio_lo_, ... (tabulate_log_ratios)
   double log_ratio_lo_ = 0;

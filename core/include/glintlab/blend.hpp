@@ -41,10 +41,10 @@ class FixedEvaluator;  // detail/law_kernel.hpp
 
 // Where a footprint of area P sits on the level ladder.
 struct LevelBracket {
-  int lo;              // A_lo = base_area · ratio^lo <= P < A_hi
+  int lo;  // A_lo = base_area · ratio^lo <= P < A_hi
   double area_lo, area_hi;
-  double w_lod;        // log_ratio(P / A_lo) in [0, 1): the fractional LOD
-  double w_area;       // (P - A_lo) / (A_hi - A_lo) in [0, 1): DB23 eq. 10's weight of the upper level
+  double w_lod;   // log_ratio(P / A_lo) in [0, 1): the fractional LOD
+  double w_area;  // (P - A_lo) / (A_hi - A_lo) in [0, 1): DB23 eq. 10's weight of the upper level
 };
 
 class LevelLadder {
@@ -146,8 +146,8 @@ class BlendRule {
   // Exact law of K from the inner laws' exact laws at each level (a point mass at 0 where trials()
   // is 0), on
   // integer bins (round half up) when !integer_output(). Throws not_implemented when underivable.
-  virtual Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo,
-                                   const Distribution& hi, std::size_t max_support) const = 0;
+  virtual Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo, const Distribution& hi,
+                                   std::size_t max_support) const = 0;
   // Var[K] / Var[Binomial(N P, p)] for an exact binomial inner law at footprint area P = `area`,
   // derived analytically by the rule (it does not depend on N or p); NaN when the rule has no
   // closed form. Declared with the rule so that studies comparing measured variance with the
@@ -199,8 +199,7 @@ class BlendedLaw {
 
   // Independent samples: sample i sits in cell (i mod 2^32, i >> 32) at every level. density is a
   // scalar; area and p are arrays of 1 or `count` values.
-  void sample(double density, ParamArray area, ParamArray p, std::size_t count, std::uint64_t seed,
-              double* out) const;
+  void sample(double density, ParamArray area, ParamArray p, std::size_t count, std::uint64_t seed, double* out) const;
   // Counts at texture positions (x[i], y[i]): the cell of level l is (floor(x / s_l), floor(y / s_l))
   // with s_l = sqrt(A_l), so nearby pixels and successive frames share cells (coherence).
   void sample_at(double density, ParamArray area, ParamArray p, ParamArray x, ParamArray y, std::size_t count,

@@ -33,8 +33,8 @@ struct Chi2Result {
 // (fewer than two merged bins) then never leaves the decision p <= alpha to a p-value coarser than
 // alpha: it enumerates every outcome when they are few, else uses the method-of-types bound or draws
 // more Monte Carlo samples until the decision is clear (docs/math/metrics.md#metric-chi2-test).
-Chi2Result chi2_test(const double* samples, std::size_t count, const Distribution& law,
-                     double min_expected = 5.0, int fitted_params = 0, double alpha = 0.0);
+Chi2Result chi2_test(const double* samples, std::size_t count, const Distribution& law, double min_expected = 5.0,
+                     int fitted_params = 0, double alpha = 0.0);
 
 // The merge rule of chi2_test on cells already in order: cells are merged greedily from the first
 // until each merged bin expects at least `min_expected`; a remainder below that joins the last bin.

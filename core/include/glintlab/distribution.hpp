@@ -39,14 +39,13 @@ class Distribution {
   // convolutions). Walks outward from `mode` and stops on each side once a geometric bound on the
   // remaining tail is below kTrimMass / 2 (a trimmed tail), or at lo / hi / an impossible value
   // (nothing trimmed). Throws std::invalid_argument naming `where` beyond `max_support` points.
-  static Distribution from_log_concave(const std::function<double(double)>& log_pmf, double lo,
-                                       double hi, double mode, std::size_t max_support,
-                                       std::string_view where);
+  static Distribution from_log_concave(const std::function<double(double)>& log_pmf, double lo, double hi, double mode,
+                                       std::size_t max_support, std::string_view where);
 
   // A law given on part of its support, the rest (below the first / above the last point, total
   // below 1e-14) trimmed away: probs sum to 1 within 1e-9 as in the constructor.
-  static Distribution with_trimmed_tails(std::vector<double> support, std::vector<double> probs,
-                                         bool trimmed_below, bool trimmed_above);
+  static Distribution with_trimmed_tails(std::vector<double> support, std::vector<double> probs, bool trimmed_below,
+                                         bool trimmed_above);
 
   // The empirical law of samples (each distinct value with its frequency). Samples must be finite.
   static Distribution empirical(const double* samples, std::size_t count);

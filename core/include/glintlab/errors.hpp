@@ -36,10 +36,9 @@ bool interrupt_requested() noexcept;
 
 std::string format_value(double value);
 
-[[noreturn]] void throw_invalid(std::string_view where, std::string_view name, double value,
+[[noreturn]] void throw_invalid(std::string_view where, std::string_view name, double value, std::string_view expected);
+[[noreturn]] void throw_invalid(std::string_view where, std::string_view name, std::string_view value,
                                 std::string_view expected);
-[[noreturn]] void throw_invalid(std::string_view where, std::string_view name,
-                                std::string_view value, std::string_view expected);
 
 // A message of its own, for the few checks that fit none of the shapes here (a document's
 // structure, a plugin that does not load): std::invalid_argument(message).

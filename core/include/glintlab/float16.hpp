@@ -24,7 +24,7 @@ inline std::uint16_t float_to_half_bits(float x) {
   if (a >= 0x7F800000u)  // infinity, or NaN (quieted, top payload bits kept)
     return static_cast<std::uint16_t>(sign | (a == 0x7F800000u ? 0x7C00u : 0x7E00u | ((a >> 13) & 0x3FFu)));
   if (a >= 0x477FF000u) return static_cast<std::uint16_t>(sign | 0x7C00u);  // rounds to infinity
-  if (a >= 0x38800000u) {  // a normal half (|x| >= 2^-14)
+  if (a >= 0x38800000u) {                                                   // a normal half (|x| >= 2^-14)
     // Ties to even on the 13 dropped bits: adding 0xFFF plus the kept lowest bit carries exactly when
     // the dropped part is above one half, or is one half and the kept part is odd. A carry into the
     // exponent is the right result (1.11..1 rounds up to the next power of two).

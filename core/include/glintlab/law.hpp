@@ -6,6 +6,8 @@
 // detail::LawKernel (detail/law_kernel.hpp), each bit for bit what the definition gives.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -13,8 +15,6 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
-#include <algorithm>
-#include <array>
 #include <utility>
 #include <variant>
 #include <vector>
@@ -84,9 +84,7 @@ class CountingLaw {
   // Whether (n, p) is in the law's domain: a finite n >= 0 up to the traits' numeric domain, and p
   // in [0, 1]. Cheap, and not virtual (a law declares its domain by LawTraits::domain): the drivers
   // call it for every element and build a message only on failure.
-  bool accepts(double n, double p) const {
-    return n >= 0.0 && n <= max_n_ && p >= 0.0 && p <= 1.0;
-  }
+  bool accepts(double n, double p) const { return n >= 0.0 && n <= max_n_ && p >= 0.0 && p <= 1.0; }
   // The numeric domain of the law's traits (LawTraits::domain), set by make_law; a law built
   // otherwise accepts every finite n.
   double max_n() const { return max_n_; }
@@ -99,6 +97,7 @@ class CountingLaw {
   // LawTraits::cost). Declared by the law, from the constants its sampler uses, so that a cost model
   // elsewhere (the scene advisor) cannot drift from the law. (n, p) must be accepted by accepts().
   virtual double work_units(double /*n*/, double /*p*/) const { return 0.0; }
+
  private:
   // make_law applies the registered traits (domain, binning): they are the law's declaration, not
   // something to change on a built law.
@@ -109,7 +108,6 @@ class CountingLaw {
   std::string domain_note_{};
   std::string binning_ = "none";
 };
-
 
 // What a law declares about itself, next to its code (core/laws/<name>.cpp), so that studies,
 // benchmarks, bounds and checks derive their lists from the registry instead of keeping name lists
@@ -187,7 +185,7 @@ struct LawInfo {
   std::string name;
   std::string summary;  // one line for listings
   LawFactory make;
-  LawTraits traits{};   // declared in the law's own file (defaults: nothing promised)
+  LawTraits traits{};  // declared in the law's own file (defaults: nothing promised)
 };
 
 // All laws, built-in and plugin. A function-local static, so that laws registering from static
@@ -208,8 +206,7 @@ class ParamReader {
  public:
   ParamReader(std::string law, LawParams params) : law_(std::move(law)), params_(std::move(params)) {}
   double number(const std::string& key, double fallback);
-  std::string text(const std::string& key, const std::string& fallback,
-                   const std::vector<std::string>& allowed);
+  std::string text(const std::string& key, const std::string& fallback, const std::vector<std::string>& allowed);
   // Throws if a parameter was given that no number()/text() call asked for.
   void finish() const;
 
@@ -243,16 +240,15 @@ int num_threads();
 
 // out[i] = K for (n[i], p[i]) drawn with the counter RNG; validates everything first.
 // In float32, sample i is evaluate_f32 on the uniforms of row i (those of fill_uniforms).
-void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count,
-                 std::uint64_t seed, double* out, Precision precision = Precision::kFloat64);
+void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count, std::uint64_t seed, double* out,
+                 Precision precision = Precision::kFloat64);
 // out[i] = law.evaluate(n[i], p[i], u + i * n_uniforms); validates everything first.
-void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const double* u,
-                   std::size_t count, double* out, Precision precision = Precision::kFloat64);
+void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const double* u, std::size_t count, double* out,
+                   Precision precision = Precision::kFloat64);
 // Row-major count x k uniforms in (0, 1): row r holds the first k draws of
 // CounterRng::for_index(seed, start + r, stream). With stream = kStreamSample these are exactly the
-// numbers the drivers hand to evaluate() (detail::LawKernel's default sample_range), so a law re-implemented in Python as a
-// custom law reproduces the built-in's samples seed for seed.
-void fill_uniforms(std::uint64_t seed, std::uint16_t stream, std::size_t start, std::size_t count,
-                   int k, double* out);
+// numbers the drivers hand to evaluate() (detail::LawKernel's default sample_range), so a law re-implemented in Python
+// as a custom law reproduces the built-in's samples seed for seed.
+void fill_uniforms(std::uint64_t seed, std::uint16_t stream, std::size_t start, std::size_t count, int k, double* out);
 
 }  // namespace glintlab

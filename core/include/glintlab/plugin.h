@@ -100,8 +100,7 @@ typedef struct glintlab_law_v1 {
    * law needs more points); GLINTLAB_PMF_NONE (-2) if there is no exact law at this (n, p)
    * (NotImplementedError naming (n, p)). Probabilities must be finite, >= 0, summing to 1
    * within 1e-9. Reentrant and deterministic like evaluate. */
-  long long (*pmf)(double n, double p, double* probs, long long capacity, long long* first_k,
-                   int* trimmed);
+  long long (*pmf)(double n, double p, double* probs, long long capacity, long long* first_k, int* trimmed);
 } glintlab_law_v1;
 
 /* The function a plugin exports (declared here so a definition is checked against it). */
@@ -119,20 +118,18 @@ typedef const glintlab_law_v1* (*glintlab_plugin_laws_v1_fn)(int* count);
  *                     glintlab::plugin::law("my_other", "summary", 2, other).with_pmf(pmf)) (C++)
  * The table is a function-local static, initialized at compile time (no static-init order
  * issues). */
-#define GLINTLAB_PLUGIN(...)                                                                     \
-  GLINTLAB_PLUGIN_EXTERN_C GLINTLAB_PLUGIN_EXPORT const glintlab_law_v1* glintlab_plugin_laws_v1( \
-      int* count) {                                                                              \
-    static const glintlab_law_v1 glintlab_plugin_table_[] = {__VA_ARGS__};                      \
-    *count = (int)(sizeof glintlab_plugin_table_ / sizeof glintlab_plugin_table_[0]);           \
-    return glintlab_plugin_table_;                                                               \
+#define GLINTLAB_PLUGIN(...)                                                                                   \
+  GLINTLAB_PLUGIN_EXTERN_C GLINTLAB_PLUGIN_EXPORT const glintlab_law_v1* glintlab_plugin_laws_v1(int* count) { \
+    static const glintlab_law_v1 glintlab_plugin_table_[] = {__VA_ARGS__};                                     \
+    *count = (int)(sizeof glintlab_plugin_table_ / sizeof glintlab_plugin_table_[0]);                          \
+    return glintlab_plugin_table_;                                                                             \
   }
 
 #ifdef __cplusplus
 namespace glintlab::plugin {
 
 using evaluate_fn = double (*)(double n, double p, const double* u);
-using pmf_fn = long long (*)(double n, double p, double* probs, long long capacity,
-                             long long* first_k, int* trimmed);
+using pmf_fn = long long (*)(double n, double p, double* probs, long long capacity, long long* first_k, int* trimmed);
 
 // A table entry built by name instead of by field order (C++17 has no designated initializers,
 // and in C++20 they must follow the declaration order). Chain .with_pmf(f) and .with_binning("round").

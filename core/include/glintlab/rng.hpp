@@ -35,16 +35,14 @@ enum Stream : std::uint16_t {
 
 class CounterRng {
  public:
-  CounterRng(std::uint64_t seed, std::uint32_t x, std::uint32_t y, std::uint16_t level = 0,
-             std::uint16_t stream = 0) {
+  CounterRng(std::uint64_t seed, std::uint32_t x, std::uint32_t y, std::uint16_t level = 0, std::uint16_t stream = 0) {
     key_ = {{static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)}};
     ctr_ = {{0u, x, y, (static_cast<std::uint32_t>(level) << 16) | stream}};
   }
 
   // The generator of sample `index` of a batch.
   static CounterRng for_index(std::uint64_t seed, std::uint64_t index, std::uint16_t stream) {
-    return CounterRng(seed, static_cast<std::uint32_t>(index), static_cast<std::uint32_t>(index >> 32),
-                      0, stream);
+    return CounterRng(seed, static_cast<std::uint32_t>(index), static_cast<std::uint32_t>(index >> 32), 0, stream);
   }
 
   // Uniform double in the open interval (0, 1): (m + 1/2) 2^-53 with m a 53-bit integer, so that

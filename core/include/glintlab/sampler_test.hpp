@@ -37,12 +37,12 @@ void to_square(Domain d, const double* points, std::size_t count, double unit_to
 void from_square(Domain d, double s, double t, double* point);
 
 struct BinOptions {
-  double total = 1e6;        // samples the test will draw: expected count = total * integral
-  double target = 500.0;     // a bin splits while its expected (or pilot-estimated) count exceeds this
-  int min_depth = 2;         // quadtree depth every bin reaches (16 cells at 2)
-  int max_depth = 20;        // ... and never exceeds (cell side 2^-20)
-  int max_sub_depth = 12;    // extra levels of integration cells inside a bin
-  double rel_tol = 0.02;     // cubature error of a bin's count must be <= rel_tol sqrt(max(expected, 1)) (0: off)
+  double total = 1e6;      // samples the test will draw: expected count = total * integral
+  double target = 500.0;   // a bin splits while its expected (or pilot-estimated) count exceeds this
+  int min_depth = 2;       // quadtree depth every bin reaches (16 cells at 2)
+  int max_depth = 20;      // ... and never exceeds (cell side 2^-20)
+  int max_sub_depth = 12;  // extra levels of integration cells inside a bin
+  double rel_tol = 0.02;   // cubature error of a bin's count must be <= rel_tol sqrt(max(expected, 1)) (0: off)
   // Global rule (0: off): the bound on the chi-square statistic's shift that the cubature errors of all
   // bins together can cause (shift_bound(), docs/math/sampling.md#cubature-error) must be
   // <= shift_tol sqrt(2 dof), dof from the bins merged as the statistic merges them (min_expected),
@@ -50,7 +50,7 @@ struct BinOptions {
   double shift_tol = 0.0;
   double min_expected = 5.0;
   std::size_t max_nodes = 60'000'000;  // pdf evaluations before the cubature gives up (with a note)
-  double pilot_drawn = 0.0;  // points the pilot sample drew, lost ones included (0: those passed)
+  double pilot_drawn = 0.0;            // points the pilot sample drew, lost ones included (0: those passed)
 };
 
 struct Rect {
@@ -106,10 +106,10 @@ class Bins {
              double& lost) const;
 
  private:
-  struct Task {           // one cell whose cubature is pending
+  struct Task {  // one cell whose cubature is pending
     Rect r;
-    int depth;            // quadtree depth (tree phase) or sub-depth inside its bin (refine phase)
-    std::int64_t node;    // tree node (tree phase) or bin index (refine phase)
+    int depth;          // quadtree depth (tree phase) or sub-depth inside its bin (refine phase)
+    std::int64_t node;  // tree node (tree phase) or bin index (refine phase)
   };
   struct Node {
     std::int64_t child = -1;  // first of 4 children (s low/high x t low/high), -1 for a leaf
@@ -166,11 +166,11 @@ void genz_malik_integrate(const Rect& r, const double* values, double& integral,
 struct ChiSquare {
   double statistic = 0.0;
   int dof = 0;
-  double pvalue = 1.0;          // combined (chi-square and, where separate, the lost-sample test)
-  double pvalue_chi2 = 1.0;     // chi-square alone
-  double pvalue_lost = 1.0;     // lost samples alone (exact two-sided Poisson test)
-  std::vector<std::size_t> starts;             // first bin of each merged bin (bins in order)
-  std::vector<double> observed, expected;      // per merged bin
+  double pvalue = 1.0;                     // combined (chi-square and, where separate, the lost-sample test)
+  double pvalue_chi2 = 1.0;                // chi-square alone
+  double pvalue_lost = 1.0;                // lost samples alone (exact two-sided Poisson test)
+  std::vector<std::size_t> starts;         // first bin of each merged bin (bins in order)
+  std::vector<double> observed, expected;  // per merged bin
   double lost_expected = 0.0, lost_observed = 0.0;
   std::string note;
 };

@@ -14,13 +14,13 @@
 namespace glintlab::images {
 
 struct TraceScene {
-  bool sphere = false;                        // else a plane (displaced when `waves` is not empty)
-  double width = 0, height = 0, focal = 0;    // pixels; focal length in pixels
+  bool sphere = false;                      // else a plane (displaced when `waves` is not empty)
+  double width = 0, height = 0, focal = 0;  // pixels; focal length in pixels
   std::array<double, 3> position{}, forward{}, right{}, up{};
-  std::array<double, 3> center{};             // sphere
+  std::array<double, 3> center{};  // sphere
   double radius = 0;
   std::array<double, 3> origin{}, normal{}, e1{}, e2{};  // plane and its frame
-  std::vector<std::array<double, 5>> waves;   // (amplitude, angular frequency, cos, sin, phase)
+  std::vector<std::array<double, 5>> waves;              // (amplitude, angular frequency, cos, sin, phase)
   double uv_scale = 1;
 };
 

@@ -84,7 +84,7 @@ class GroundTruth {
   const Footprint& footprint() const { return footprint_; }
   const std::optional<std::pair<double, double>>& center() const { return center_; }
   double n() const { return density_ * footprint_.area(); }  // expected facets in the footprint
-  std::int64_t grid_side() const { return side_; }             // M: cells per side of the scan grid
+  std::int64_t grid_side() const { return side_; }           // M: cells per side of the scan grid
 
   // Exact law of K. For the stratified layout with no centre, the law averaged over a uniformly
   // random centre: the midpoint rule on a quadrature x quadrature grid of centre offsets within

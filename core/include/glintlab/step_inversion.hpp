@@ -28,8 +28,8 @@ class StepInversion {
   // Thresholds ascending. For u outside every guard band:
   //   value(u) = base + #{i : thresholds[i] <= u},
   // and u below thresholds[0] (above the last) is answered only if exact_below (exact_above).
-  StepInversion(std::vector<double> thresholds, std::vector<double> guards, double base,
-                bool exact_below, bool exact_above);
+  StepInversion(std::vector<double> thresholds, std::vector<double> guards, double base, bool exact_below,
+                bool exact_above);
 
   // The step's value, or a negative number when the caller must evaluate directly.
   double operator()(double u) const {
@@ -53,8 +53,8 @@ class StepInversion {
   // needs direct evaluation get out[r] = direct(u + r k) instead. With vector gathers (AVX-512)
   // where the CPU has them; the same values as the scalar expression above either way.
   template <class Direct>
-  void sample_rows(const double* u, std::size_t k, std::size_t col, std::size_t rows, const Affine& f,
-                   double* out, Direct&& direct) const {
+  void sample_rows(const double* u, std::size_t k, std::size_t col, std::size_t rows, const Affine& f, double* out,
+                   Direct&& direct) const {
     constexpr std::size_t kChunk = 256;
     std::uint8_t mask[kChunk / 8];
     for (std::size_t r0 = 0; r0 < rows; r0 += kChunk) {
@@ -76,8 +76,8 @@ class StepInversion {
  private:
   double search(double u) const;
   // sample_rows for at most 256 rows: mask bit r set where direct evaluation is needed.
-  void affine_rows(const double* u, std::size_t k, std::size_t col, std::size_t rows, const Affine& f,
-                   double* out, std::uint8_t* mask) const;
+  void affine_rows(const double* u, std::size_t k, std::size_t col, std::size_t rows, const Affine& f, double* out,
+                   std::uint8_t* mask) const;
   std::vector<double> t_, guard_;
   // Cell g: #{t <= u} for every u of the cell, or -1 - #{t <= left edge} (search). In 16 bits for a
   // table of 2^17 cells or more with fewer than 2^15 - 1 thresholds (cell16_, one spare element: the

@@ -24,14 +24,11 @@ inline constexpr int kMaxTemplatedUniforms = 64;
 template <class Derived>
 class TemplatedLaw : public CountingLaw {
  public:
-  double evaluate(double n, double p, const double* u) const override {
-    return self().template eval<double>(n, p, u);
-  }
+  double evaluate(double n, double p, const double* u) const override { return self().template eval<double>(n, p, u); }
   double evaluate_f32(double n, double p, const double* u) const override {
     std::array<float, kMaxTemplatedUniforms> uf{};
     for (int i = 0; i < n_uniforms(); ++i) uf[static_cast<std::size_t>(i)] = uniform_to_float(u[i]);
-    return static_cast<double>(
-        self().template eval<float>(static_cast<float>(n), static_cast<float>(p), uf.data()));
+    return static_cast<double>(self().template eval<float>(static_cast<float>(n), static_cast<float>(p), uf.data()));
   }
   bool supports(Precision) const override { return true; }
 

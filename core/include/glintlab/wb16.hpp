@@ -13,17 +13,17 @@ namespace glintlab::wb16 {
 // The shader's -D parameters (WB16_<NAME>), with its defaults. Floats are rounded to float32 once,
 // as the shader's float literals are.
 struct Params {
-  double sparkle_size = 0.9;     // the round kernel keeps dist2 <= (1 - size) * kernel_scale
-  double sparkle_density = 30.0; // grid cells per paper unit at level 1
-  double view_dep = 1.0;         // cells the remapped view direction shifts the lookup by
+  double sparkle_size = 0.9;      // the round kernel keeps dist2 <= (1 - size) * kernel_scale
+  double sparkle_density = 30.0;  // grid cells per paper unit at level 1
+  double view_dep = 1.0;          // cells the remapped view direction shifts the lookup by
   double noise_amount = 1.0;
-  double noise_density = 1.0;    // noise texture periods per paper unit at level 1
-  double unit = 10.0;            // paper units per scene unit
-  int shape = 0;                 // 0: the round kernel; 1: Shopf's star (Code 1)
-  double shopf_k = 3.0;          // Code 1's k
-  int noise = 0;                 // 0: noise on the grid centres; 1: Shopf's lookup jitter
-  int anisotropic = 1;           // 1: the anisotropic kernel of lines 36-39
-  double kernel_scale = 1.0;     // multiplies the kernel's threshold (1: as printed)
+  double noise_density = 1.0;  // noise texture periods per paper unit at level 1
+  double unit = 10.0;          // paper units per scene unit
+  int shape = 0;               // 0: the round kernel; 1: Shopf's star (Code 1)
+  double shopf_k = 3.0;        // Code 1's k
+  int noise = 0;               // 0: noise on the grid centres; 1: Shopf's lookup jitter
+  int anisotropic = 1;         // 1: the anisotropic kernel of lines 36-39
+  double kernel_scale = 1.0;   // multiplies the kernel's threshold (1: as printed)
 };
 
 constexpr std::size_t kInputWords = 32;

@@ -90,8 +90,8 @@ class Wwh18Ndf {
                         double* out) const;
   // The model's count (real valued: fractional overlaps, or N |A| P when filtered); wi may be null;
   // mode[i] (if not null) receives a WwhMode, p_out[i] (if not null) the P used.
-  void counts(const double* uv, const double* jac, const double* h, const double* wi, std::size_t m,
-              std::uint64_t seed, double* out, int* mode = nullptr, double* p_out = nullptr) const;
+  void counts(const double* uv, const double* jac, const double* h, const double* wi, std::size_t m, std::uint64_t seed,
+              double* out, int* mode = nullptr, double* p_out = nullptr) const;
 
   // lambda of (level, i, j, k) as the model draws it (exposed for the generator's quality tests).
   double lambda(std::uint64_t seed, int level, std::int64_t i, std::int64_t j, std::uint32_t k) const;
@@ -102,8 +102,7 @@ class Wwh18Ndf {
  private:
   struct Footprint;
   std::uint32_t cell_count(std::uint64_t seed, std::int64_t i, std::int64_t j) const;
-  double node_pass(const Footprint& fp, std::uint64_t seed, int level, std::int64_t i, std::int64_t j,
-                   double p) const;
+  double node_pass(const Footprint& fp, std::uint64_t seed, int level, std::int64_t i, std::int64_t j, double p) const;
   double traverse(const Footprint& fp, std::uint64_t seed, double p) const;
   double band_mass(double t0, double t1) const;  // mass of D(m)(m.n) with theta_m in [t0, t1], radians
   void build_cells();

@@ -110,8 +110,7 @@ class LawKernel {
   // Default: evaluate() per pixel; laws with costly per-(n, p) constants compute them with vector
   // code over the block and fall back to evaluate() wherever the vector result could decide
   // differently.
-  virtual void evaluate_pixels(const double* n, const double* p, const double* u, std::size_t count,
-                               double* out) const;
+  virtual void evaluate_pixels(const double* n, const double* p, const double* u, std::size_t count, double* out) const;
 
   // --- Sampling. Sample i of a batch uses CounterRng::for_index(seed, i, kStreamSample), so results
   // do not depend on how a batch is split between threads.
@@ -119,13 +118,12 @@ class LawKernel {
   // from the two paths above). A law with its own sampler returns false and overrides sample_range.
   virtual bool samples_by_evaluate() const { return true; }
   // Samples i0 .. i1-1 at one (n, p).
-  virtual void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
-                            double* out) const;
+  virtual void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1, double* out) const;
   // Samples start .. start + count - 1 whose (n, p) change at every sample: out[r] is what
   // sample_range(n[r], p[r], seed, start + r, start + r + 1) gives. Default: the uniforms' rows and
   // evaluate_pixels when sampling by evaluate, else sample_range per pixel.
-  virtual void sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start,
-                             std::size_t count, double* out) const;
+  virtual void sample_pixels(const double* n, const double* p, std::uint64_t seed, std::size_t start, std::size_t count,
+                             double* out) const;
   // A batch sampler for `count` (>= kTabulateMinBatch) samples at one (n, p), or nullptr (then
   // sample_range). Default: when sampling by evaluate with 1 to 4 uniforms, fixed_evaluator on
   // blocks of the fill_uniforms rows; else nullptr.

@@ -13,8 +13,8 @@ void set_simd_level(int level);
 int simd_level();  // the level in effect: min(the setting, what the CPU has)
 
 // Rows [start, start + count) of fill_uniforms (bit-identical at every SIMD level).
-void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start,
-                         std::size_t count, int k, double* out);
+void philox_uniform_rows(std::uint64_t seed, std::uint16_t stream, std::size_t start, std::size_t count, int k,
+                         double* out);
 // The same rows at LOD level `level` (16-bit key): row r holds the first k draws of
 // CounterRng(seed, low 32 bits of r, high 32 bits of r, level, stream).
 void philox_uniform_rows_level(std::uint64_t seed, std::uint16_t level, std::uint16_t stream, std::size_t start,

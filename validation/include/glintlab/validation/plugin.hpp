@@ -17,8 +17,7 @@ namespace glintlab {
 // elsewhere (the Python layer passes its custom laws' names) that an entry must not use.
 // Throws std::invalid_argument naming the path and the problem: file missing, dlopen's own
 // message, missing entry point, or a bad table entry (index, name and field).
-std::vector<std::string> load_plugin(const std::string& path,
-                                     const std::vector<std::string>& reserved = {});
+std::vector<std::string> load_plugin(const std::string& path, const std::vector<std::string>& reserved = {});
 
 struct LoadedPlugin {
   std::string path;  // canonical path of the library

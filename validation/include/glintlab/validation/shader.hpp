@@ -45,22 +45,22 @@ class NoVulkanDevice : public std::runtime_error {
 };
 
 struct DeviceInfo {
-  int index = 0;           // in vkEnumeratePhysicalDevices order
-  std::string name;        // e.g. "llvmpipe (LLVM 15.0.6, 256 bits)"
-  std::string type;        // "discrete_gpu", "integrated_gpu", "virtual_gpu", "cpu", "other"
-  std::string api_version; // "1.3.230"
-  std::string driver;      // driver name and info when the device reports them
+  int index = 0;            // in vkEnumeratePhysicalDevices order
+  std::string name;         // e.g. "llvmpipe (LLVM 15.0.6, 256 bits)"
+  std::string type;         // "discrete_gpu", "integrated_gpu", "virtual_gpu", "cpu", "other"
+  std::string api_version;  // "1.3.230"
+  std::string driver;       // driver name and info when the device reports them
 };
 
 // Every Vulkan device the loader sees (empty when there is none; never throws for that).
 std::vector<DeviceInfo> vulkan_devices();
 
 struct KernelSpec {
-  std::string source;        // the user's code
-  std::string source_name;   // its file path (messages, #include "x" relative to it), or "<string>"
+  std::string source;       // the user's code
+  std::string source_name;  // its file path (messages, #include "x" relative to it), or "<string>"
   std::string entry = "count";
-  std::string language = "hlsl";  // "hlsl" or "glsl"
-  int n_uniforms = 2;             // 0 .. 4
+  std::string language = "hlsl";                             // "hlsl" or "glsl"
+  int n_uniforms = 2;                                        // 0 .. 4
   std::vector<std::pair<std::string, std::string>> defines;  // -D NAME=VALUE
   std::vector<std::string> include_dirs;                     // searched after the source's folder
   // "auto" (a GPU when there is one, else the CPU device), "gpu", "cpu", or a device index ("0") or
@@ -75,10 +75,10 @@ struct KernelSpec {
 // A resource a SPIR-V module declares: a variable in the UniformConstant (samplers, images),
 // Uniform (uniform or storage blocks), StorageBuffer or PushConstant storage class.
 struct SpirvResource {
-  std::string name;   // the variable's name, else its block's type name, else "%<id>"
-  std::string kind;   // "storage buffer", "uniform buffer", "push constant", "sampler or image"
-  int set = -1;       // DescriptorSet decoration (-1: none)
-  int binding = -1;   // Binding decoration (-1: none)
+  std::string name;  // the variable's name, else its block's type name, else "%<id>"
+  std::string kind;  // "storage buffer", "uniform buffer", "push constant", "sampler or image"
+  int set = -1;      // DescriptorSet decoration (-1: none)
+  int binding = -1;  // Binding decoration (-1: none)
 };
 
 class Kernel {
@@ -108,8 +108,8 @@ class Kernel {
 
   // out[i] = entry(float(n[i]), float(p[i]), u_f32(row i)); n and p have size 1 (broadcast) or
   // count; u holds count rows of n_uniforms() uniforms. timeout_s bounds each submission.
-  void run(const double* n, std::size_t n_size, const double* p, std::size_t p_size, const double* u,
-           std::size_t count, float* out, double timeout_s) const;
+  void run(const double* n, std::size_t n_size, const double* p, std::size_t p_size, const double* u, std::size_t count,
+           float* out, double timeout_s) const;
 
   // Raw rows, for kernels with their own wrapper: binding 0 holds count rows of in_stride 32-bit
   // words, binding 3 receives count rows of out_stride floats; the push constants are (rows,
@@ -124,8 +124,7 @@ class Kernel {
 };
 
 // The wrapper kernel glintlab puts around the user's function (for the docs and for tests).
-std::string wrapper_source(const std::string& language, const std::string& entry,
-                           const std::string& include_name);
+std::string wrapper_source(const std::string& language, const std::string& entry, const std::string& include_name);
 
 // ---------------------------------------------------------------- the compile path, piece by piece
 // Kernel's constructor is these steps in order; another contract (another wrapper, other bindings)
