@@ -90,3 +90,13 @@ def test_report_records_cpu_seconds_per_section(tmp_path):
     record = json.loads((tmp_path / "sections" / "exact_laws.json").read_text())
     assert record["cpu_seconds"] == sec["cpu_seconds"]
     assert "s CPU" in (tmp_path / "index.html").read_text()
+
+
+@pytest.mark.parametrize("section, key", [("scenes", "scale"), ("glinty_ndf", "reference_tol")])
+def test_report_size_parameters_refuse_bad_values_by_name(tmp_path, section, key):
+    from glintlab.report.sections import SECTIONS
+    from glintlab.studies.base import Context
+    sec = SECTIONS.get(section)
+    for bad in (1.5, -0.1):
+        with pytest.raises(ValueError, match=key):
+            sec.compute({**sec.defaults, key: bad}, Context(tmp_path, 1))

@@ -25,7 +25,7 @@ MEANING = ("On DB23's Table 1 scenes DB23's grid has the same cost on every pixe
 # regime maps, the pixel-weighted law errors and the per-pixel costs are per-pixel figures over half a
 # million pixels; an 8 x 4 SIMD group spans twice the scene's extent per side at half the resolution.
 DEFAULTS = {"scenes": str(data_path("scenes")), "scale": 0.5}
-QUICK = {"scale": 0.25}
+QUICK = {"scale": 0.125}  # 240 x 135: a smoke run (make run QUICK=1 under 45 s)
 NOTEBOOK = "scene_profiles.ipynb"
 TABLE = {"scene_table1": ["scene", "method", "mean_group", "worst_group", "simd_efficiency",
                           "zk16_over_this_worst_group", "paper_ms"],
