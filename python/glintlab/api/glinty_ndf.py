@@ -824,7 +824,7 @@ register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16")
 # KPT25's constant-time NDF (Algorithm 1: k = 4 angular neighbours, eps = 0.1) over its own point
 # process, whose density is the scene's facet density (docs/math/glinty_ndf.md).
 # Its own truth, the reference, leaves out lobes that move a pixel by less than IMAGE_REFERENCE_TOL x D(h)
-# x W / K_P (about a twentieth of the cells at the scenes' sigma; docs/math/glinty_ndf.md#glinty-reference-reach).
+# x W / K_P (a tenth of the points on the report's sphere; docs/math/glinty_ndf.md#glinty-reference-reach).
 IMAGE_REFERENCE_TOL = 1e-15
 register_image_method("kpt25", lambda m: glinty_ndf("kpt25", density=m.density, target=m.target, alpha=m.alpha,
                                                     alpha_star=0.02, k=4, epsilon=0.1,
