@@ -62,6 +62,8 @@ bench: build
 	@$(VENV)/bin/glintlab aniso --out out/bench/aniso
 	@# Issue 8's target: a 1920 x 1080 profile with every law and grid scheme in under 20 s (times per scene).
 	@$(VENV)/bin/glintlab profile python/glintlab/data/scenes/*.json --out out/bench/scenes
+	@# Issue 32: the report's seconds per section (wall and CPU), full and --quick, against their budgets.
+	@$(VENV)/bin/python bench/bench_report.py --run
 
 # The documentation: the API reference from the docstrings (docs/api), the Markdown pages (docs/*.md,
 # docs/math) and the notebooks, built by Sphinx into out/docs/ (open out/docs/index.html). Any Sphinx

@@ -139,17 +139,18 @@ void bind_glinty_ndf(py::module_& m) {
              }
              return out;
            }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
-      .def("reference", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
+      .def("reference", [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed,
+                           double tol) {
              const std::size_t n = pixels(uv, &jac, h);
              py::array_t<double> out(static_cast<py::ssize_t>(n)), pts(static_cast<py::ssize_t>(n));
              double* o = out.mutable_data();
              double* q = pts.mutable_data();
              {
                glintlab::bindings::LongCall release;
-               g.reference(uv.data(), jac.data(), h.data(), n, seed, o, q);
+               g.reference(uv.data(), jac.data(), h.data(), n, seed, o, q, tol);
              }
              return py::make_tuple(out, pts);
-           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
+           }, py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("tol") = 0.0)
       .def("expected", [](const Kpt25Ndf& g, const Array& jac, const Array& h) {
              const auto n = static_cast<std::size_t>(h.size() / 3);
              if (static_cast<std::size_t>(jac.size()) != 4 * n || static_cast<std::size_t>(h.size()) != 3 * n)

@@ -30,7 +30,7 @@ constexpr double kFilterRadius = 3.0;
 const double kFilterMass = -std::expm1(-0.5 * kFilterRadius * kFilterRadius);
 // Angular cells farther than this many stds from T(h) contribute exp(-x^2/2) = 0 in double arithmetic
 // (exp underflows to 0 below -745.2, and 39^2/2 = 760.5): skipping them keeps the reference an exact sum.
-constexpr double kUnderflowRadius = 39.0;
+constexpr double kUnderflowRadius = kGlintUnderflowRadius;
 // Random numbers of the points: a stream id of their own in the top byte of the last counter word, so
 // they share nothing with the other users of a seed (rng.hpp keeps stream ids below 256 in the low
 // 16 bits with the level above, a word below 2^24 for every level in use).
@@ -665,7 +665,7 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
   const auto j1 = static_cast<std::int64_t>(std::floor((v + px.half_v) / cell));
   std::int64_t a0, a1, b0, b1;
   if (all_angular) {
-    const double reach = kUnderflowRadius * px.sigma, reach_y = kUnderflowRadius * px.sigma_y;
+    const double reach = px.reach * px.sigma, reach_y = px.reach * px.sigma_y;
     a0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.xa - reach) * fna)));
     a1 = std::min<std::int64_t>(na - 1, static_cast<std::int64_t>(std::floor((px.xa + reach) * fna)));
     b0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((px.ya - reach_y) * fna)));
@@ -783,13 +783,32 @@ void Kpt25Ndf::evaluate(const double* uv, const double* jac, const double* h, st
   });
 }
 
+namespace {
+
+// The reach (in lobe stds) of a reference with tolerance tol: a skipped cell lies more than r stds from
+// T(h) along x or y, so each of its points' terms is below exp(-r^2 / 2) times its filter weight (keep x
+// norm x exp(-q / 2)) over 2 pi sigma_x sigma_y; with exp(-r^2 / 2) / (2 pi sigma_x sigma_y) = tol the
+// skipped terms add up to at most tol x the pixel's filter weight W summed over every point, i.e. the value
+// D (sum) / K_P moves by at most tol x D(h) x W / K_P (docs/math/glinty_ndf.md#glinty-reference-reach).
+// Never above the underflow radius, where the sum is already exact.
+double reference_reach(const GlintPixel& px, double tol) {
+  if (!(tol > 0.0)) return kUnderflowRadius;
+  const double r2 = -2.0 * std::log(tol * 2.0 * kPi * px.sigma * px.sigma_y);
+  return r2 > 0.0 ? std::min(kUnderflowRadius, std::sqrt(r2)) : 0.0;
+}
+
+}  // namespace
+
 void Kpt25Ndf::reference(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
-                         double* out, double* out_points) const {
+                         double* out, double* out_points, double tol) const {
+  if (!(tol >= 0.0 && tol < 1.0))
+    throw_invalid(kWhere, "tol", tol, "a tolerance in [0, 1) (0: the exact sum)");
   detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       const double u = uv[2 * i], v = uv[2 * i + 1];
       check_uv(uv, i);
-      const GlintPixel px = pixel(jac, h, i);
+      GlintPixel px = pixel(jac, h, i);
+      px.reach = reference_reach(px, tol);
       double points = 0.0, sum = 0.0;
       if (px.D > 0.0)
         for (int l = 0; l < px.n_levels; ++l)

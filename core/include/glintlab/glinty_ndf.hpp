@@ -95,6 +95,9 @@ struct TriplanarPlane {
 // Maximum MIP level: the angular grid has 2^l x 2^l cells, l <= 15 (the random-number layout's limit).
 inline constexpr int kGlintMaxLevel = 15;
 
+// Angular cells farther than this many lobe stds from T(h) add exp(-x^2 / 2) = 0 in double arithmetic.
+inline constexpr double kGlintUnderflowRadius = 39.0;
+
 // The geometry of one pixel that both evaluations share: target value, angular position, lobe width,
 // levels and weights, spatial filter.
 struct GlintPixel {
@@ -103,6 +106,9 @@ struct GlintPixel {
   double sigma = 0.0;        // angular std alpha_star sqrt(D(h)) (Algorithm 1, line 12); along x with A_*
   double sigma_y = 0.0;      // along y (= sigma without anisotropic glints)
   double lambda = 0.0;       // fractional MIP level
+  // The reference's angular reach in lobe stds: cells farther than reach x sigma from T(h) are skipped
+  // (39: every term skipped underflows to 0, the exact sum; a smaller reach from a tolerance, reference()).
+  double reach = kGlintUnderflowRadius;
   int levels[2] = {0, 0};
   double weights[2] = {1.0, 0.0};
   int n_levels = 1;
@@ -128,8 +134,11 @@ class Kpt25Ndf {
                 double* out) const;
   // The full sum of eq. 11's first term over every point of the same realization (both levels, same
   // roulette), no truncation to B(k) and no compensation. out_points[i] (if not null): points summed.
+  // tol = 0: the exact sum. tol > 0: the lobes farther than r stds from T(h) are left out, with r chosen
+  // per pixel so that the value moves by at most tol x D(h) x W / K_P, W the pixel's filter weight summed
+  // over every point (W / K_P is pi / 4 in expectation); docs/math/glinty_ndf.md#glinty-reference-reach.
   void reference(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
-                 double* out, double* out_points = nullptr) const;
+                 double* out, double* out_points = nullptr, double tol = 0.0) const;
   // Exact expectations over realizations (random seed, random position) for these footprints and half
   // vectors: e_ref = E[reference], e_alg = E[evaluate]. Either pointer may be null.
   void expected(const double* jac, const double* h, std::size_t m, double* e_ref, double* e_alg) const;

@@ -331,7 +331,8 @@ class KPT25(GlintyNDF):
     which does not sample the compensation term) and ``sample_weight`` (Algorithm 2's reservoir weight
     of a point: "lobe_mass", its lobe's mass in the block, or "printed", the filter and roulette weight
     alone; docs/math/glinty_ndf.md#glinty-sampling) and ``ggx_map`` (GGX only: "orthographic", the exact
-    uniformising map, or "lambert", the paper's eq. 7; docs/math/glinty_ndf.md#glinty-lambert).
+    uniformising map, or "lambert", the paper's eq. 7; docs/math/glinty_ndf.md#glinty-lambert) and
+    ``reference_tol`` (the tolerance :meth:`reference` uses when called without one; 0 = the exact sum).
 
     ``mapping="triplanar"`` (KPT25 §3.3.6, UV-free glints; docs/math/glinty_ndf.md#glinty-triplanar):
     three point processes on the coordinate planes yz, xz, xy of the world position, blended by the
@@ -365,7 +366,7 @@ class KPT25(GlintyNDF):
                  sample_weight: str = "lobe_mass", ggx_map: str = "orthographic", colors=None,
                  anisotropy=(1.0, 1.0), anisotropy_density: str = "preserved", mapping: str = "uv",
                  triplanar_weights: str = "normalized", triplanar_sharpness: float = 1.0,
-                 plane_seeds: str = "distinct"):
+                 plane_seeds: str = "distinct", reference_tol: float = 0.0):
         alpha_y = 0.0
         if isinstance(alpha, (tuple, list, np.ndarray)):  # (alpha_x, alpha_y): anisotropic roughness
             pair = np.asarray(alpha, dtype=object).reshape(-1)
@@ -421,6 +422,13 @@ class KPT25(GlintyNDF):
         if self.anisotropy != (1.0, 1.0):
             self.params["anisotropy"] = self.anisotropy
             self.params["anisotropy_density"] = anisotropy_density
+        # The tolerance of reference() when called without one (0: the exact sum; the scene images' own
+        # truth sets one, docs/math/glinty_ndf.md#glinty-reference-reach).
+        self.reference_tol = V.real("reference_tol", reference_tol)
+        if not (0.0 <= self.reference_tol < 1.0):
+            V.fail("reference_tol", reference_tol, "a tolerance in [0, 1) (0: the exact sum)")
+        if self.reference_tol:
+            self.params["reference_tol"] = self.reference_tol
         self.colors = None
         if colors is not None:  # an (m, 3) palette: RGB output (docs/math/glinty_ndf.md#glinty-colour)
             pal = V.as_float_array("colors", colors)
@@ -533,20 +541,32 @@ class KPT25(GlintyNDF):
         return _core_call(shape, self._core.evaluate, uv.reshape(-1), J.reshape(-1), h.reshape(-1),
                           V.seed(seed)).reshape(shape)
 
-    def reference(self, uv, J, h, seed: int = 0, return_points: bool = False, n=None):
+    def reference(self, uv, J, h, seed: int = 0, return_points: bool = False, n=None, tol=None):
         """The full sum of eq. 11's first term over every point of the same realization whose position
         falls in the filter (both levels, same roulette; no truncation to B(k), no compensation). With
         ``return_points``, also the number of points summed per pixel. Its cost grows with the number
         of points in the footprint. With ``colors``, RGB (..., 3) (and no point counts). With
         ``mapping="triplanar"``, arguments as :meth:`evaluate`, and the points returned are those kept
-        by the roulettes (the sum of their keep weights) in the three planes' truncated filters."""
+        by the roulettes (the sum of their keep weights) in the three planes' truncated filters.
+        ``tol`` (None: the object's ``reference_tol``, 0 unless given): 0 is the exact sum; tol > 0
+        leaves out the lobes too far from T(h) to move the value by more than tol x D(h) x W / K_P
+        (W / K_P: the pixel's summed filter weight, pi / 4 in expectation;
+        docs/math/glinty_ndf.md#glinty-reference-reach)."""
+        tol = self.reference_tol if tol is None else V.real("tol", tol)
+        if not (0.0 <= tol < 1.0):
+            V.fail("tol", tol, "a tolerance in [0, 1) (0: the exact sum)")
         if self.mapping == "triplanar":
+            if tol:
+                V.fail("tol", tol, "0 with mapping='triplanar' (the triplanar reference is the exact sum)")
             d, pts = self._triplanar(uv, J, h, n, seed, True)
             return (d, pts) if return_points else d
         if self.colors is not None:
+            if tol:
+                V.fail("tol", tol, "0 with colors (the RGB reference is the exact sum)")
             return self._rgb(uv, J, h, seed, True)
         uv, J, h, shape = pixel_arrays(uv, J, h)
-        d, pts = _core_call(shape, self._core.reference, uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed))
+        d, pts = _core_call(shape, self._core.reference, uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed),
+                            tol)
         return (d.reshape(shape), pts.reshape(shape)) if return_points else d.reshape(shape)
 
     def expected(self, J, h, n=None) -> tuple[np.ndarray, np.ndarray]:
@@ -903,8 +923,12 @@ register_image_method("db23_shader_48[gated]", _counted("db23_shader_48", "gated
 register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16")
 # KPT25's constant-time NDF (Algorithm 1: k = 4 angular neighbours, eps = 0.1) over its own point
 # process, whose density is the scene's facet density (docs/math/glinty_ndf.md).
+# Its own truth, the reference, leaves out lobes that move a pixel by less than IMAGE_REFERENCE_TOL x D(h)
+# x W / K_P (a tenth of the points on the report's sphere; docs/math/glinty_ndf.md#glinty-reference-reach).
+IMAGE_REFERENCE_TOL = 1e-15
 register_image_method("kpt25", lambda m: glinty_ndf("kpt25", density=m.density, target=m.target, alpha=m.alpha,
-                                                    alpha_star=0.02, k=4, epsilon=0.1),
+                                                    alpha_star=0.02, k=4, epsilon=0.1,
+                                                    reference_tol=IMAGE_REFERENCE_TOL),
                       label="KPT25", truth="reference")
 DENSITY_MAPPINGS["kpt25"] = lambda m: matched_density(m.density, 0.02, m.target, m.alpha, m.R)
 #: The built-in glinty-NDF image methods (the scene images' default list; method shaders registered

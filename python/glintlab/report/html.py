@@ -95,7 +95,8 @@ def write_report_page(out, summary: dict, records: list) -> Path:
             parts += figures
         params = ", ".join(f"{k} = {json.dumps(v)}" for k, v in r["params"].items())
         nb = f"; notebook <code>notebooks/{e(r['notebook'])}</code>" if r["notebook"] else ""
-        parts.append(f"<p class='how'>Parameters: {e(params)}; seed {r['seed']}; {r['seconds']} s. "
+        parts.append(f"<p class='how'>Parameters: {e(params)}; seed {r['seed']}; {r['seconds']} s"
+                     + (f" ({r['cpu_seconds']} s CPU)" if r.get("cpu_seconds") is not None else "") + ". "
                      f"Regenerate alone: <code>{e(r['command'])}</code>{nb}.</p>")
         for name, rows in r["tables"].items():
             df = pd.DataFrame(rows)

@@ -92,13 +92,17 @@ def run_section(entry: dict, out: Path, seed: int, quick: bool, base: Path, conf
     prm = section_params(entry, quick)
     progress.label(sec.short)
     ctx = Context(out, seed, quick, lambda label: progress.label(f"{sec.short}: {label}"), base)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     tables = sec.compute(prm, ctx)
     figures = write_section_files(tables, sec.figures, ctx)
     write_section_pages(sec.name, tables, out)
     seconds = time.perf_counter() - t0
+    # CPU seconds of the whole process (every thread): less sensitive than wall time to other jobs on a
+    # shared machine, and above the wall time where the section's C++ calls ran on several threads.
+    cpu_seconds = time.process_time() - c0
     record = {"name": sec.name, "title": sec.title, "meaning": sec.meaning, "params": prm, "seed": seed,
-              "quick": quick, "seconds": round(seconds, 2), "notebook": sec.notebook,
+              "quick": quick, "seconds": round(seconds, 2), "cpu_seconds": round(cpu_seconds, 2),
+              "notebook": sec.notebook,
               "command": command(out, sec.name, quick, seed, config),
               "figures": [Path(f).name for f in figures], "stats": _jsonable(tables.stats),
               "failures": tables.failures,
@@ -127,7 +131,7 @@ def run(out: Path, quick: bool = False, seed: int | None = None, quiet: bool = F
     import matplotlib
     matplotlib.use("Agg")
     config_arg = None if config is None else str(config)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     with Progress(len(entries), quiet) as progress:
         for entry in entries:
             run_section(entry, out, seed, quick, base, config_arg, progress)
@@ -143,8 +147,10 @@ def run(out: Path, quick: bool = False, seed: int | None = None, quiet: bool = F
         "quick": quick,
         "python": platform.python_version(),
         "seconds": round(time.perf_counter() - t0, 2),
+        "cpu_seconds": round(time.process_time() - c0, 2),
         "ran": [e["name"] for e in entries],
-        "sections": {r["name"]: {k: r[k] for k in ("title", "seconds", "command", "stats", "failures", "params")}
+        "sections": {r["name"]: {**{k: r[k] for k in ("title", "seconds", "command", "stats", "failures", "params")},
+                                 "cpu_seconds": r.get("cpu_seconds")}
                      for r in records},
         "tables": {k: v for r in records for k, v in r["tables"].items()},
         "figures": [f for r in records for f in r["figures"]],
@@ -160,7 +166,8 @@ def print_summary(summary: dict) -> None:
     tables = summary["tables"]
     for name in summary["ran"]:
         sec, rec = SECTIONS.get(name), summary["sections"][name]
-        print(f"\n== {sec.title} ({rec['seconds']} s)")
+        cpu = f", {rec['cpu_seconds']} s CPU" if rec.get("cpu_seconds") is not None else ""
+        print(f"\n== {sec.title} ({rec['seconds']} s{cpu})")
         for k, v in rec["stats"].items():
             print(f"   {k}: {fmt(v)}")
         for table, cols in sec.table.items():
