@@ -6,7 +6,7 @@ JOBS ?= 2
 BUILD_TYPE ?= Release
 QUICK ?=
 
-.PHONY: build run test bench docs sanitize fuzz clang-test deps venv clean wheel
+.PHONY: build run test bench docs sanitize fuzz clang-test deps venv clean wheel format
 
 deps:
 	@bash scripts/install-deps.sh
@@ -42,6 +42,10 @@ run: build
 # wheel first: tests/python/test_install.py's `pip install .` then only relinks (outside ctest's timeout).
 test: build wheel
 	@cd build && ctest --output-on-failure -j $(JOBS)
+
+# The C++ style (.clang-format); make test checks it ("lint: clang-format").
+format:
+	@bash scripts/format-cpp.sh
 
 bench: build
 	@# Issue 21: the renderer and sweep paths, each beside its baseline (out/bench/paths.*).

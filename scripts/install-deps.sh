@@ -27,8 +27,9 @@ PACKAGES=(
   libsleef-dev libhwy-dev
   # property-based tests of the public API
   python3-hypothesis
-  # the Python linter make test runs (.flake8; tests/CMakeLists.txt, "lint: flake8")
-  flake8
+  # the linters make test runs: flake8 for Python (.flake8; "lint: flake8") and clang-format for C++
+  # (.clang-format; "lint: clang-format")
+  flake8 clang-format
   # glint animations (matplotlib writes GIF through Pillow, MP4 through ffmpeg)
   python3-pil ffmpeg
 )

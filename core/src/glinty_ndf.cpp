@@ -57,10 +57,10 @@ double mass_1d(double c, double sigma, double lo, double hi) { return normal_mas
 // triplanar plane (0: the uv-mapped process, and every plane when they share one).
 std::array<std::uint32_t, 4> point_block(std::uint64_t seed, int level, std::int64_t i, std::int64_t j, std::int64_t a,
                                          std::int64_t b, std::uint32_t block, std::uint32_t tag = 0) {
-  const std::array<std::uint32_t, 4> counter = {
-      static_cast<std::uint32_t>(2 * a) + block, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j),
-      (kStreamGlintPoints << 24) | (static_cast<std::uint32_t>(level) << 20) | (tag << 16) |
-          static_cast<std::uint32_t>(b)};
+  const std::array<std::uint32_t, 4> counter = {static_cast<std::uint32_t>(2 * a) + block,
+                                                static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j),
+                                                (kStreamGlintPoints << 24) | (static_cast<std::uint32_t>(level) << 20) |
+                                                    (tag << 16) | static_cast<std::uint32_t>(b)};
   return CounterRng::block(counter, {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)});
 }
 
@@ -650,8 +650,8 @@ GlintPixel Kpt25Ndf::pixel(const double* jac, const double* h, std::size_t i) co
 }
 
 double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, double u, double v, std::uint64_t seed,
-                           bool all_angular, double* points, const double* palette, int n_colors,
-                           double* rgb, double plane_weight, std::uint32_t tag, double* kept) const {
+                           bool all_angular, double* points, const double* palette, int n_colors, double* rgb,
+                           double plane_weight, std::uint32_t tag, double* kept) const {
   if (glint_aniso_) {  // x_s = A_* uv (Algorithm 1, line 2)
     u *= p_.glint_ax;
     v *= p_.glint_ay;
@@ -716,9 +716,8 @@ double Kpt25Ndf::level_sum(const GlintPixel& px, int level, double weight, doubl
           if (keep == 0.0) continue;
           kept_sum += keep;
           const double ex = mx - px.xa, ey = my - px.ya;
-          const double term =
-              glint_aniso_ ? keep * px.norm * std::exp(-0.5 * q - ex * ex * inv2sx - ey * ey * inv2sy)
-                           : keep * px.norm * std::exp(-0.5 * q - (ex * ex + ey * ey) * inv2s2);
+          const double term = glint_aniso_ ? keep * px.norm * std::exp(-0.5 * q - ex * ex * inv2sx - ey * ey * inv2sy)
+                                           : keep * px.norm * std::exp(-0.5 * q - (ex * ex + ey * ey) * inv2s2);
           sum += term;
           if (rgb) {  // GlintColor(i_s, i_a, l): the second word of the point's roulette block
             const double cu = unit(point_block(seed, level, i, j, a, b, 1, tag)[1]);
@@ -801,8 +800,7 @@ double reference_reach(const GlintPixel& px, double tol) {
 
 void Kpt25Ndf::reference(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
                          double* out, double* out_points, double tol) const {
-  if (!(tol >= 0.0 && tol < 1.0))
-    throw_invalid(kWhere, "tol", tol, "a tolerance in [0, 1) (0: the exact sum)");
+  if (!(tol >= 0.0 && tol < 1.0)) throw_invalid(kWhere, "tol", tol, "a tolerance in [0, 1) (0: the exact sum)");
   detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       const double u = uv[2 * i], v = uv[2 * i + 1];
@@ -826,8 +824,12 @@ double Kpt25Ndf::keep_rate(double w) const {
   if (p_.epsilon == 0.0) return w;
   auto f = [&](double r) { return kpt25_roulette(r, w, p_.epsilon); };
   double total = 0.0;
-  double cuts[] = {0.0, std::clamp(w - p_.epsilon, 0.0, 1.0), std::clamp(w + p_.epsilon, 0.0, 1.0),
-                   std::min(p_.epsilon, 1.0), std::max(0.0, 1.0 - p_.epsilon), 1.0};
+  double cuts[] = {0.0,
+                   std::clamp(w - p_.epsilon, 0.0, 1.0),
+                   std::clamp(w + p_.epsilon, 0.0, 1.0),
+                   std::min(p_.epsilon, 1.0),
+                   std::max(0.0, 1.0 - p_.epsilon),
+                   1.0};
   std::sort(std::begin(cuts), std::end(cuts));
   for (int c = 0; c + 1 < 6; ++c)
     if (cuts[c + 1] > cuts[c])
@@ -845,9 +847,9 @@ double Kpt25Ndf::expected_alg(const GlintPixel& px, double plane_rho, double pla
     block_range(px.xa * fna, na, side, a0, a1);
     block_range(px.ya * fna, na, side, b0, b1);
     const double inv = 1.0 / static_cast<double>(na);
-    const double in_b = gaussian_in_disk_rect(px.xa, px.ya, px.sigma, static_cast<double>(a0) * inv,
-                                              static_cast<double>(a1 + 1) * inv, static_cast<double>(b0) * inv,
-                                              static_cast<double>(b1 + 1) * inv);
+    const double in_b =
+        gaussian_in_disk_rect(px.xa, px.ya, px.sigma, static_cast<double>(a0) * inv, static_cast<double>(a1 + 1) * inv,
+                              static_cast<double>(b0) * inv, static_cast<double>(b1 + 1) * inv);
     total += keep_rate(px.weights[l]) * plane_rho * in_b + px.weights[l] * plane_w * compensation(px, px.levels[l]);
   }
   return total;
@@ -897,40 +899,41 @@ double Kpt25Ndf::level_pdf(const GlintPixel& px, int level, double u, double v, 
   const std::int64_t a0 = whole ? 0 : fx0, a1 = whole ? na - 1 : fx1 + side - 1;
   const std::int64_t b0 = whole ? 0 : fy0, b1 = whole ? na - 1 : fy1 + side - 1;
   double G[4][4] = {}, W[4][4] = {};
-  for_points(p_, res_, px, level, px.weights[level == px.levels[0] ? 0 : 1], u, v, seed, a0, a1, b0, b1,
-             [&](std::int64_t a, std::int64_t b, double mx, double my, double w, double, double) {
-               const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
-               if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
-               const double ex = x - mx, ey = y - my;
-               const double g = w * std::exp(-0.5 * (ex * ex + ey * ey) / (sg * sg)) / (2.0 * kPi * sg * sg);
-               double mxs[4], mys[4];
-               for (int bx = 0; bx < nbx; ++bx) {
-                 const std::int64_t f = fx0 + bx;
-                 const bool in = whole || (a >= f && a < f + side);
-                 mxs[bx] = !in ? -1.0 : whole ? mass_1d(mx, sg, 0.0, 1.0)
-                                              : mass_1d(mx, sg, static_cast<double>(f) * inv_na,
-                                                        static_cast<double>(f + side) * inv_na);
-               }
-               for (int by = 0; by < nby; ++by) {
-                 const std::int64_t f = fy0 + by;
-                 const bool in = whole || (b >= f && b < f + side);
-                 mys[by] = !in ? -1.0 : whole ? mass_1d(my, sg, 0.0, 1.0)
-                                              : mass_1d(my, sg, static_cast<double>(f) * inv_na,
-                                                        static_cast<double>(f + side) * inv_na);
-               }
-               for (int bx = 0; bx < nbx; ++bx)
-                 for (int by = 0; by < nby; ++by)
-                   if (mxs[bx] >= 0.0 && mys[by] >= 0.0) {
-                     const double mass = mxs[bx] * mys[by];
-                     if (p_.sample_lobe_mass) {  // chosen with weight w M_i(B), sampled from N_i 1_B / M_i(B)
-                       G[bx][by] += g;
-                       W[bx][by] += w * mass;
-                     } else if (mass > 0.0) {  // chosen with weight w, sampled from N_i 1_B / M_i(B)
-                       G[bx][by] += g / mass;
-                       W[bx][by] += w;
-                     }
-                   }
-             });
+  for_points(
+      p_, res_, px, level, px.weights[level == px.levels[0] ? 0 : 1], u, v, seed, a0, a1, b0, b1,
+      [&](std::int64_t a, std::int64_t b, double mx, double my, double w, double, double) {
+        const double sg = p_.alpha_star * std::sqrt(disk_D(mx, my));
+        if (!(sg * sg > 1e-300)) return;  // a lobe narrower than 1e-150: no mass (policy)
+        const double ex = x - mx, ey = y - my;
+        const double g = w * std::exp(-0.5 * (ex * ex + ey * ey) / (sg * sg)) / (2.0 * kPi * sg * sg);
+        double mxs[4], mys[4];
+        for (int bx = 0; bx < nbx; ++bx) {
+          const std::int64_t f = fx0 + bx;
+          const bool in = whole || (a >= f && a < f + side);
+          mxs[bx] = !in     ? -1.0
+                    : whole ? mass_1d(mx, sg, 0.0, 1.0)
+                            : mass_1d(mx, sg, static_cast<double>(f) * inv_na, static_cast<double>(f + side) * inv_na);
+        }
+        for (int by = 0; by < nby; ++by) {
+          const std::int64_t f = fy0 + by;
+          const bool in = whole || (b >= f && b < f + side);
+          mys[by] = !in     ? -1.0
+                    : whole ? mass_1d(my, sg, 0.0, 1.0)
+                            : mass_1d(my, sg, static_cast<double>(f) * inv_na, static_cast<double>(f + side) * inv_na);
+        }
+        for (int bx = 0; bx < nbx; ++bx)
+          for (int by = 0; by < nby; ++by)
+            if (mxs[bx] >= 0.0 && mys[by] >= 0.0) {
+              const double mass = mxs[bx] * mys[by];
+              if (p_.sample_lobe_mass) {  // chosen with weight w M_i(B), sampled from N_i 1_B / M_i(B)
+                G[bx][by] += g;
+                W[bx][by] += w * mass;
+              } else if (mass > 0.0) {  // chosen with weight w, sampled from N_i 1_B / M_i(B)
+                G[bx][by] += g / mass;
+                W[bx][by] += w;
+              }
+            }
+      });
   std::int64_t cx0, cx1, cy0, cy1;  // the block x_a = (x, y) would choose (the fallback's support)
   block_range(x * fna, na, side, cx0, cx1);
   block_range(y * fna, na, side, cy0, cy1);
@@ -986,8 +989,10 @@ void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std
       double o[3] = {0.0, 0.0, 1.0};
       if (wo) {
         for (int c = 0; c < 3; ++c)
-          if (!std::isfinite(wo[3 * i + c])) throw_invalid(kWhere, element("wo", i, c), wo[3 * i + c], "a finite direction");
-        if (!unit_vector(wo + 3 * i, o)) throw_invalid(kWhere, row_name("wo", i), row_value(wo + 3 * i, 3), "a nonzero direction");
+          if (!std::isfinite(wo[3 * i + c]))
+            throw_invalid(kWhere, element("wo", i, c), wo[3 * i + c], "a finite direction");
+        if (!unit_vector(wo + 3 * i, o))
+          throw_invalid(kWhere, row_name("wo", i), row_value(wo + 3 * i, 3), "a nonzero direction");
       }
       GlintPixel px;
       footprint(px, jac, i);
@@ -1108,7 +1113,8 @@ void Kpt25Ndf::evaluate_rgb(const double* uv, const double* jac, const double* h
       if (px.D == 0.0) continue;
       double rgb[3] = {0.0, 0.0, 0.0}, comp = 0.0;
       for (int l = 0; l < px.n_levels; ++l) {
-        level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, false, nullptr, palette, n_colors, rgb);
+        level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, false, nullptr, palette, n_colors,
+                  rgb);
         comp += px.weights[l] * compensation(px, px.levels[l]);
       }
       for (int c = 0; c < 3; ++c) o[c] = px.D * (rgb[c] / kp_ + comp * mean[c]);
@@ -1126,7 +1132,8 @@ void Kpt25Ndf::reference_rgb(const double* uv, const double* jac, const double* 
       double rgb[3] = {0.0, 0.0, 0.0};
       if (px.D > 0.0)
         for (int l = 0; l < px.n_levels; ++l)
-          level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, true, nullptr, palette, n_colors, rgb);
+          level_sum(px, px.levels[l], px.weights[l], uv[2 * i], uv[2 * i + 1], seed, true, nullptr, palette, n_colors,
+                    rgb);
       for (int c = 0; c < 3; ++c) out3[3 * i + c] = px.D * rgb[c] / kp_;
     }
   });
@@ -1202,7 +1209,8 @@ int Kpt25Ndf::triplanar_planes(const double* P, const double* dP, const double* 
   }
   double nu[3], hu[3];
   if (!unit_vector(n + 3 * i, nu)) throw_invalid(kWhere, row_name("n", i), row_value(n + 3 * i, 3), "a nonzero normal");
-  if (!unit_vector(h + 3 * i, hu)) throw_invalid(kWhere, row_name("h", i), row_value(h + 3 * i, 3), "a nonzero half vector");
+  if (!unit_vector(h + 3 * i, hu))
+    throw_invalid(kWhere, row_name("h", i), row_value(h + 3 * i, 3), "a nonzero half vector");
   double t[3], b[3];
   frame_of(nu, t, b);
   h_t[0] = hu[0] * t[0] + hu[1] * t[1] + hu[2] * t[2];
@@ -1246,8 +1254,8 @@ GlintPixel Kpt25Ndf::plane_pixel(const TriplanarPlane& pl, const double h_t[3], 
     return pixel(pl.J, h_t, 0);
   } catch (const std::invalid_argument& e) {  // name the caller's pixel and the plane
     static constexpr const char* kPlanes[3] = {"yz", "xz", "xy"};
-    throw_invalid_message(std::string(e.what()) + " (triplanar pixel " + std::to_string(i) + ", " +
-                          kPlanes[pl.axis] + " plane: J = the derivatives of its two coordinates of P)");
+    throw_invalid_message(std::string(e.what()) + " (triplanar pixel " + std::to_string(i) + ", " + kPlanes[pl.axis] +
+                          " plane: J = the derivatives of its two coordinates of P)");
   }
 }
 

@@ -43,12 +43,12 @@ enum class TriplanarWeights {
 };
 
 struct Kpt25Params {
-  double density = 1e6;      // K_P: points per unit texture area (cells of [0, 1)^4 per unit uv area)
+  double density = 1e6;  // K_P: points per unit texture area (cells of [0, 1)^4 per unit uv area)
   GlintTarget target = GlintTarget::beckmann;
-  double alpha = 0.5;        // roughness of the target NDF
-  double alpha_star = 0.02;  // micro-roughness of one facet (eq. 4; angular std sqrt(D(h)) alpha_star)
-  int k = 4;                 // angular neighbours per level: 1, 4, 9 or 16 (a square block of cells)
-  double epsilon = 0.1;      // eq. 8's mollification, in [0, 0.5]
+  double alpha = 0.5;                   // roughness of the target NDF
+  double alpha_star = 0.02;             // micro-roughness of one facet (eq. 4; angular std sqrt(D(h)) alpha_star)
+  int k = 4;                            // angular neighbours per level: 1, 4, 9 or 16 (a square block of cells)
+  double epsilon = 0.1;                 // eq. 8's mollification, in [0, 0.5]
   double filter = 0.28209479177387814;  // pixel filter std in pixels (default 1/(2 sqrt(pi)): effective area = |det J|)
   GlintCompensation compensation = GlintCompensation::square;
   GlintBlend blend = GlintBlend::roulette;
@@ -101,11 +101,11 @@ inline constexpr double kGlintUnderflowRadius = 39.0;
 // The geometry of one pixel that both evaluations share: target value, angular position, lobe width,
 // levels and weights, spatial filter.
 struct GlintPixel {
-  double D = 0.0;            // D(h) of the smooth target (0 below the horizon)
-  double xa = 0.5, ya = 0.5; // T(h) in the unit square (the disk U has centre (1/2, 1/2), radius 1/2)
-  double sigma = 0.0;        // angular std alpha_star sqrt(D(h)) (Algorithm 1, line 12); along x with A_*
-  double sigma_y = 0.0;      // along y (= sigma without anisotropic glints)
-  double lambda = 0.0;       // fractional MIP level
+  double D = 0.0;             // D(h) of the smooth target (0 below the horizon)
+  double xa = 0.5, ya = 0.5;  // T(h) in the unit square (the disk U has centre (1/2, 1/2), radius 1/2)
+  double sigma = 0.0;         // angular std alpha_star sqrt(D(h)) (Algorithm 1, line 12); along x with A_*
+  double sigma_y = 0.0;       // along y (= sigma without anisotropic glints)
+  double lambda = 0.0;        // fractional MIP level
   // The reference's angular reach in lobe stds: cells farther than reach x sigma from T(h) are skipped
   // (39: every term skipped underflows to 0, the exact sum; a smaller reach from a tolerance, reference()).
   double reach = kGlintUnderflowRadius;
@@ -114,8 +114,8 @@ struct GlintPixel {
   int n_levels = 1;
   // Spatial filter: inverse covariance (a, b; b, c), normalisation, box half widths (3 sigma).
   double inv_a = 0.0, inv_b = 0.0, inv_c = 0.0, norm = 0.0, half_u = 0.0, half_v = 0.0;
-  std::size_t index = 0;     // the pixel's index (error messages)
-  const double* J = nullptr; // its four derivatives (error messages)
+  std::size_t index = 0;      // the pixel's index (error messages)
+  const double* J = nullptr;  // its four derivatives (error messages)
 };
 
 // The reference refuses a pixel that would sum more cells than this (a footprint far too large for the
@@ -137,8 +137,8 @@ class Kpt25Ndf {
   // tol = 0: the exact sum. tol > 0: the lobes farther than r stds from T(h) are left out, with r chosen
   // per pixel so that the value moves by at most tol x D(h) x W / K_P, W the pixel's filter weight summed
   // over every point (W / K_P is pi / 4 in expectation); docs/math/glinty_ndf.md#glinty-reference-reach.
-  void reference(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
-                 double* out, double* out_points = nullptr, double tol = 0.0) const;
+  void reference(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed, double* out,
+                 double* out_points = nullptr, double tol = 0.0) const;
   // Exact expectations over realizations (random seed, random position) for these footprints and half
   // vectors: e_ref = E[reference], e_alg = E[evaluate]. Either pointer may be null.
   void expected(const double* jac, const double* h, std::size_t m, double* e_ref, double* e_alg) const;
@@ -151,8 +151,7 @@ class Kpt25Ndf {
   void sample(const double* uv, const double* jac, const double* wo, std::size_t m, std::uint64_t seed,
               std::uint64_t draw_seed, double* h_out, double* pdf_out, double* wi_out) const;
   // The density per steradian of h with which sample() draws h at pixel i (0 below the horizon).
-  void pdf(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
-           double* out) const;
+  void pdf(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed, double* out) const;
   // Per-facet colour (Algorithm 1, lines 17 and 20; docs/math/glinty_ndf.md#glinty-colour): each point
   // takes the entry floor(u n) of the palette (n RGB triples) from a random number u of its own cell,
   // so E[GlintColor] is the palette's mean. out3[3i..] = RGB of evaluate (compensation x the mean
