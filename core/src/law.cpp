@@ -8,7 +8,9 @@
 #include <cstdlib>
 #include <exception>
 #include <limits>
+#include <memory>
 #include <stdexcept>
+#include <vector>
 
 #include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
@@ -61,6 +63,36 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) std::size_t count_e
   return equal;
 }
 
+// The per-pixel driver's one pass over a block of two arrays: whether some (n[i], p[i]), i in [a, b),
+// is outside accepts()'s domain (any_outside_domain), and, into `equal`, count_equal_pairs: the
+// block's parameters are read once, then stay in L1 for the draws.
+__attribute__((target_clones("avx512f", "avx2", "default"))) bool scan_pixel_block(const double* n, const double* p,
+                                                                                   std::size_t a, std::size_t b,
+                                                                                   double max_n, std::size_t& equal) {
+  int bad = !((n[a] >= 0.0) & (n[a] <= max_n) & (p[a] >= 0.0) & (p[a] <= 1.0));
+  std::size_t eq = 0;
+#pragma omp simd reduction(| : bad) reduction(+ : eq)
+  for (std::size_t j = a + 1; j < b; ++j) {
+    bad |= !((n[j] >= 0.0) & (n[j] <= max_n) & (p[j] >= 0.0) & (p[j] <= 1.0));
+    eq += (n[j] == n[j - 1]) & (p[j] == p[j - 1]);
+  }
+  equal = eq;
+  return bad != 0;
+}
+
+// The first i in [a, b) that accepts() refuses, or b.
+std::size_t first_refused(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t a, std::size_t b) {
+  for (std::size_t i = a; i < b; ++i)
+    if (!law.accepts(n[i], p[i])) return i;
+  return b;
+}
+
+// Records i as a refused element: the lowest index wins, whatever the threads' order.
+void record_refused(std::atomic<std::size_t>& first_bad, std::size_t i) {
+  std::size_t seen = first_bad.load();
+  while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {}
+}
+
 void validate_all(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count) {
   check_length("", "n", n.size, count);
   check_length("", "p", p.size, count);
@@ -75,12 +107,7 @@ void validate_all(const CountingLaw& law, ParamArray n, ParamArray p, std::size_
       // for a chunk that holds a bad element.
       if (!any_outside_domain(n.data, p.data, i0, i1, max_n)) return;
     }
-    for (std::size_t i = i0; i < i1; ++i)
-      if (!law.accepts(n[i], p[i])) {
-        std::size_t seen = first_bad.load();
-        while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {}
-        return;
-      }
+    if (const std::size_t i = first_refused(law, n, p, i0, i1); i < i1) record_refused(first_bad, i);
   });
   if (const std::size_t i = first_bad.load(); i < m) law.validate(n[i], p[i], i, m > 1);
 }
@@ -119,12 +146,14 @@ void LawKernel::sample_range(double n, double p, std::uint64_t seed, std::size_t
   // The uniforms of fill_uniforms (the vectorized Philox), a block of rows at a time.
   const int k = law().n_uniforms();
   const std::size_t kk = static_cast<std::size_t>(k);
-  constexpr std::size_t kRows = 256;
-  std::vector<double> u(kRows * std::max<std::size_t>(kk, 1));
+  constexpr std::size_t kRows = 256, kStackUniforms = 4;  // as sample_pixels: no allocation, no zero-fill
+  alignas(64) double stack_rows[kRows * kStackUniforms];
+  std::unique_ptr<double[]> heap_rows(kk > kStackUniforms ? new double[kRows * kk] : nullptr);
+  double* u = heap_rows ? heap_rows.get() : stack_rows;
   for (std::size_t b0 = i0; b0 < i1; b0 += kRows) {
     const std::size_t rows = std::min(kRows, i1 - b0);
-    if (k > 0) philox_uniform_rows(seed, kStreamSample, b0, rows, k, u.data());
-    for (std::size_t r = 0; r < rows; ++r) out[b0 - i0 + r] = law().evaluate(n, p, u.data() + r * kk);
+    if (k > 0) philox_uniform_rows(seed, kStreamSample, b0, rows, k, u);
+    for (std::size_t r = 0; r < rows; ++r) out[b0 - i0 + r] = law().evaluate(n, p, u + r * kk);
   }
 }
 
@@ -135,12 +164,16 @@ void LawKernel::sample_pixels(const double* n, const double* p, std::uint64_t se
     for (std::size_t r = 0; r < count; ++r) sample_range(n[r], p[r], seed, start + r, start + r + 1, out + r);
     return;
   }
-  constexpr std::size_t kRows = 256;
-  std::vector<double> u(kRows * k);
+  // The rows on the stack for up to 4 uniforms (every law of the registry): no allocation and no
+  // zero-fill per call; Philox writes every element that evaluate_pixels reads.
+  constexpr std::size_t kRows = 256, kStackUniforms = 4;
+  alignas(64) double stack_rows[kRows * kStackUniforms];
+  std::unique_ptr<double[]> heap_rows(k > kStackUniforms ? new double[kRows * k] : nullptr);
+  double* u = heap_rows ? heap_rows.get() : stack_rows;
   for (std::size_t b = 0; b < count; b += kRows) {
     const std::size_t rows = std::min(kRows, count - b);
-    philox_uniform_rows(seed, kStreamSample, start + b, rows, static_cast<int>(k), u.data());
-    evaluate_pixels(n + b, p + b, u.data(), rows, out + b);
+    philox_uniform_rows(seed, kStreamSample, start + b, rows, static_cast<int>(k), u);
+    evaluate_pixels(n + b, p + b, u, rows, out + b);
   }
 }
 
@@ -293,7 +326,15 @@ int num_threads() { return thread_setting(); }
 void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count, std::uint64_t seed, double* out,
                  Precision precision) {
   require_precision(law, precision);
-  validate_all(law, n, p, count);
+  // Two arrays (a renderer's pixels): the validation is fused into the draw pass below (one read of
+  // each block of (n, p), which then stays in cache for the draws); otherwise everything first.
+  const bool fused = n.size > 1 && p.size > 1;
+  if (fused) {
+    check_length("", "n", n.size, count);
+    check_length("", "p", p.size, count);
+  } else {
+    validate_all(law, n, p, count);
+  }
   const detail::KernelOf kernel(law);
   const auto range = [&](double nn, double pp, std::size_t i0, std::size_t i1, double* o) {
     if (precision == Precision::kFloat32)
@@ -309,58 +350,79 @@ void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t
       }
     }
     parallel_chunks(count, [&](std::size_t i0, std::size_t i1) { range(n[0], p[0], i0, i1, out + i0); });
-  } else {
-    // Runs of equal (n, p) share one sampler setup (results are keyed by index, so unchanged);
-    // short runs are gathered into blocks of pixels for the law's sample_pixels (its vector
-    // per-pixel path: evaluate_pixels on one block of uniforms, or prefetched Philox rows).
-    constexpr std::size_t kShortRun = 16, kRows = 256, kBlock = 8 * kRows;
-    const std::size_t k = static_cast<std::size_t>(law.n_uniforms());
-    const bool n_array = n.size > 1 || count == 1, p_array = p.size > 1 || count == 1;
-    parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
-      std::vector<double> u(precision == Precision::kFloat32 ? kRows * std::max<std::size_t>(k, 1) : 0);
-      std::vector<double> nb(n_array ? 0 : kRows), pb(p_array ? 0 : kRows);
-      // Pixels [a, b) by the per-pixel path; the arrays are passed in place (a scalar n or p is
-      // broadcast into a block first).
-      const auto pixels = [&](std::size_t a, std::size_t b) {
-        for (std::size_t s = a; s < b; s += kRows) {
-          const std::size_t rows = std::min(kRows, b - s);
-          if (precision == Precision::kFloat32) {
-            if (k > 0) detail::philox_uniform_rows(seed, kStreamSample, s, rows, static_cast<int>(k), u.data());
-            for (std::size_t r = 0; r < rows; ++r) out[s + r] = law.evaluate_f32(n[s + r], p[s + r], u.data() + r * k);
-            continue;
-          }
-          if (!n_array) std::fill(nb.begin(), nb.begin() + rows, n.data[0]);
-          if (!p_array) std::fill(pb.begin(), pb.begin() + rows, p.data[0]);
-          kernel->sample_pixels(n_array ? n.data + s : nb.data(), p_array ? p.data + s : pb.data(), seed, s, rows,
-                                out + s);
-        }
-      };
-      for (std::size_t i = i0; i < i1;) {
-        const std::size_t b1 = std::min(i1, i + kBlock);
-        // A run of kShortRun equal pixels needs kShortRun - 1 equal neighbours: most blocks of a
-        // renderer's pixels have none, and this branch-free count settles them (a run crossing the
-        // block's end may then be drawn pixel by pixel: the same values, at the per-pixel cost).
-        const std::size_t equal_neighbours = count_equal_neighbours(n, p, i, b1);
-        if (equal_neighbours + 1 < kShortRun) {
-          pixels(i, b1);
-          i = b1;
+    return;
+  }
+  // Runs of equal (n, p) share one sampler setup (results are keyed by index, so unchanged);
+  // short runs are gathered into blocks of pixels for the law's sample_pixels (its vector
+  // per-pixel path: evaluate_pixels on one block of uniforms, or prefetched Philox rows).
+  constexpr std::size_t kShortRun = 16, kRows = 256, kBlock = 8 * kRows;
+  const std::size_t k = static_cast<std::size_t>(law.n_uniforms());
+  const bool n_array = n.size > 1 || count == 1, p_array = p.size > 1 || count == 1;
+  const double max_n = law.max_n();
+  // The lowest refused index of the fused validation (count: none). A block with a refused element
+  // is not drawn, and its chunk stops: the other chunks still record theirs, so the lowest index
+  // overall is the one named, as a serial scan would name it. out is then partly written.
+  std::atomic<std::size_t> first_bad{count};
+  parallel_chunks(count, [&](std::size_t i0, std::size_t i1) {
+    std::vector<double> u(precision == Precision::kFloat32 ? kRows * std::max<std::size_t>(k, 1) : 0);
+    alignas(64) double nb[kRows], pb[kRows];  // a scalar n or p broadcast into a block
+    // Pixels [a, b) by the per-pixel path; the arrays are passed in place.
+    const auto pixels = [&](std::size_t a, std::size_t b) {
+      if (a == b) return;
+      if (precision == Precision::kFloat64 && n_array && p_array) {
+        kernel->sample_pixels(n.data + a, p.data + a, seed, a, b - a, out + a);
+        return;
+      }
+      for (std::size_t s = a; s < b; s += kRows) {
+        const std::size_t rows = std::min(kRows, b - s);
+        if (precision == Precision::kFloat32) {
+          if (k > 0) detail::philox_uniform_rows(seed, kStreamSample, s, rows, static_cast<int>(k), u.data());
+          for (std::size_t r = 0; r < rows; ++r) out[s + r] = law.evaluate_f32(n[s + r], p[s + r], u.data() + r * k);
           continue;
         }
-        std::size_t pending = i;  // short-run pixels [pending, i) not drawn yet
-        while (i < b1) {
-          std::size_t j = i + 1;
-          while (j < i1 && n[j] == n[i] && p[j] == p[i]) ++j;
-          if (j - i >= kShortRun) {
-            pixels(pending, i);
-            range(n[i], p[i], i, j, out + i);
-            pending = j;
-          }
-          i = j;
-        }
-        pixels(pending, i);
+        if (!n_array) std::fill(nb, nb + rows, n.data[0]);
+        if (!p_array) std::fill(pb, pb + rows, p.data[0]);
+        kernel->sample_pixels(n_array ? n.data + s : nb, p_array ? p.data + s : pb, seed, s, rows, out + s);
       }
-    });
-  }
+    };
+    for (std::size_t i = i0; i < i1;) {
+      const std::size_t b1 = std::min(i1, i + kBlock);
+      // A run of kShortRun equal pixels needs kShortRun - 1 equal neighbours: most blocks of a
+      // renderer's pixels have none, and this branch-free count settles them (a run crossing the
+      // block's end may then be drawn pixel by pixel: the same values, at the per-pixel cost).
+      std::size_t equal_neighbours = 0;
+      if (fused) {
+        if (first_bad.load(std::memory_order_relaxed) < i) return;  // an earlier pixel is refused
+        if (scan_pixel_block(n.data, p.data, i, b1, max_n, equal_neighbours)) {
+          if (const std::size_t bad = first_refused(law, n, p, i, b1); bad < b1) {
+            record_refused(first_bad, bad);
+            return;
+          }
+        }
+      } else {
+        equal_neighbours = count_equal_neighbours(n, p, i, b1);
+      }
+      if (equal_neighbours + 1 < kShortRun) {
+        pixels(i, b1);
+        i = b1;
+        continue;
+      }
+      // Pixels past b1 equal to a pixel of the block are drawn with it: they are valid with it.
+      std::size_t pending = i;  // short-run pixels [pending, i) not drawn yet
+      while (i < b1) {
+        std::size_t j = i + 1;
+        while (j < i1 && n[j] == n[i] && p[j] == p[i]) ++j;
+        if (j - i >= kShortRun) {
+          pixels(pending, i);
+          range(n[i], p[i], i, j, out + i);
+          pending = j;
+        }
+        i = j;
+      }
+      pixels(pending, i);
+    }
+  });
+  if (const std::size_t i = first_bad.load(); i < count) law.validate(n[i], p[i], i, true);
 }
 
 void evaluate_many(const CountingLaw& law, ParamArray n, ParamArray p, const double* u, std::size_t count, double* out,

@@ -69,6 +69,38 @@ TEST_CASE("drivers validate every element and name it", "[law][errors]") {
   CHECK_THROWS_WITH(set_num_threads(0), Contains("threads = 0"));
 }
 
+TEST_CASE("the per-pixel driver's fused check names the lowest bad pixel on any thread count", "[law][errors][pixels]") {
+  // Two arrays: the check runs inside the draw pass, block by block on every thread; the message must
+  // still name the lowest bad index, as a serial scan first would. Bad pixels in several chunks (4096
+  // pixels each), one inside a run of equal pixels that crosses a block's end (2048).
+  auto law = make_law("gated");
+  const std::size_t m = 20000;
+  std::vector<double> n(m), p(m), out(m);
+  for (std::size_t i = 0; i < m; ++i) {
+    n[i] = 1.0 + static_cast<double>(i % 97);
+    p[i] = 0.01 * static_cast<double>(1 + i % 89);
+  }
+  for (std::size_t i = 2030; i < 2100; ++i) n[i] = 5, p[i] = 0.5;  // a run across the block end
+  const int saved = num_threads();
+  for (int threads : {1, 2, 3}) {
+    set_num_threads(threads);
+    auto bad_n = n, bad_p = p;
+    bad_n[15000] = -1;
+    bad_p[9001] = NAN;
+    bad_n[17000] = NAN;
+    CHECK_THROWS_WITH(sample_many(*law, {bad_n.data(), m}, {bad_p.data(), m}, m, 1, out.data()),
+                      Contains("p[9001] = nan"));
+    bad_p[2060] = 1.5;  // inside the run
+    CHECK_THROWS_WITH(sample_many(*law, {bad_n.data(), m}, {bad_p.data(), m}, m, 1, out.data()),
+                      Contains("p[2060] = 1.5"));
+    auto last = n;
+    last[m - 1] = -2;
+    CHECK_THROWS_WITH(sample_many(*law, {last.data(), m}, {p.data(), m}, m, 1, out.data()),
+                      Contains("n[19999] = -2"));
+  }
+  set_num_threads(saved);
+}
+
 TEST_CASE("evaluate inverts the exact cdf and fill_uniforms feeds the default sampler", "[law]") {
   auto law = make_law("binomial");
   const double n = 30, p = 0.2;

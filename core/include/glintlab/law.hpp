@@ -238,7 +238,8 @@ struct ParamArray {
 void set_num_threads(int threads);
 int num_threads();
 
-// out[i] = K for (n[i], p[i]) drawn with the counter RNG; validates everything first.
+// out[i] = K for (n[i], p[i]) drawn with the counter RNG. Bad input throws, naming the lowest bad
+// index; with n and p both arrays the check is fused into the draws, so out may then be partly written.
 // In float32, sample i is evaluate_f32 on the uniforms of row i (those of fill_uniforms).
 void sample_many(const CountingLaw& law, ParamArray n, ParamArray p, std::size_t count, std::uint64_t seed, double* out,
                  Precision precision = Precision::kFloat64);
