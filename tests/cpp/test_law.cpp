@@ -88,8 +88,12 @@ TEST_CASE("the per-pixel driver's fused check names the lowest bad pixel on any 
     bad_n[15000] = -1;
     bad_p[9001] = NAN;
     bad_n[17000] = NAN;
+    bad_n[9500] = -1;  // a second one in the same block
     CHECK_THROWS_WITH(sample_many(*law, {bad_n.data(), m}, {bad_p.data(), m}, m, 1, out.data()),
                       Contains("p[9001] = nan"));
+    bad_n[6144] = NAN;  // the first pixel of a block (the scan reads it apart from the rest)
+    CHECK_THROWS_WITH(sample_many(*law, {bad_n.data(), m}, {bad_p.data(), m}, m, 1, out.data()),
+                      Contains("n[6144] = nan"));
     bad_p[2060] = 1.5;  // inside the run
     CHECK_THROWS_WITH(sample_many(*law, {bad_n.data(), m}, {bad_p.data(), m}, m, 1, out.data()),
                       Contains("p[2060] = 1.5"));
