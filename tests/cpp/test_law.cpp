@@ -69,7 +69,8 @@ TEST_CASE("drivers validate every element and name it", "[law][errors]") {
   CHECK_THROWS_WITH(set_num_threads(0), Contains("threads = 0"));
 }
 
-TEST_CASE("the per-pixel driver's fused check names the lowest bad pixel on any thread count", "[law][errors][pixels]") {
+TEST_CASE("the per-pixel driver's fused check names the lowest bad pixel on any thread count",
+          "[law][errors][pixels]") {
   // Two arrays: the check runs inside the draw pass, block by block on every thread; the message must
   // still name the lowest bad index, as a serial scan first would. Bad pixels in several chunks (4096
   // pixels each), one inside a run of equal pixels that crosses a block's end (2048).
@@ -99,8 +100,7 @@ TEST_CASE("the per-pixel driver's fused check names the lowest bad pixel on any 
                       Contains("p[2060] = 1.5"));
     auto last = n;
     last[m - 1] = -2;
-    CHECK_THROWS_WITH(sample_many(*law, {last.data(), m}, {p.data(), m}, m, 1, out.data()),
-                      Contains("n[19999] = -2"));
+    CHECK_THROWS_WITH(sample_many(*law, {last.data(), m}, {p.data(), m}, m, 1, out.data()), Contains("n[19999] = -2"));
   }
   set_num_threads(saved);
 }
