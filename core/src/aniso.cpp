@@ -334,8 +334,8 @@ void evaluate_by_term(const InnerLaw& inner, const std::vector<std::shared_ptr<c
 
 template <class Source>
 void AnisoCounter::run(double density, std::size_t m, Source source, double* k_out, std::int32_t* evals_out,
-                       std::uint8_t* status_out,
-                       const std::vector<std::shared_ptr<const detail::FixedEvaluator>>* fixed) const {
+                       std::uint8_t* status_out, SharedFootprint shared) const {
+  const auto* fixed = shared.fixed;
   const std::string where = "aniso_counter('" + scheme_->name() + "', inner='" + inner_.name + "')";
   const std::size_t nu = static_cast<std::size_t>(inner_.n_uniforms);
   const bool select = options_.realization == Realization::kSelect;
@@ -398,8 +398,14 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
         if (status_out) status_out[i] = static_cast<std::uint8_t>(shape.status);
         continue;
       }
-      terms.clear();
-      const bool clamped = scheme_->terms(shape, density, terms);
+      bool clamped = false;
+      if (shared.terms) {
+        // The same footprint for every pixel: its terms once (sample() computed them), not per pixel.
+        if (terms.empty()) terms = *shared.terms;
+      } else {
+        terms.clear();
+        clamped = scheme_->terms(shape, density, terms);
+      }
       g->ensure_rows(gathered + terms.size() * rows_per_term, nu);
       double* const n = g->n.data();
       double* const pp = g->p.data();
@@ -558,7 +564,7 @@ void AnisoCounter::sample(double density, double p, const Shape& shape, std::siz
         px = {u, v, su, sv, p, hash_combine(seed, r), hash_combine(seed ^ 0x5E1EC7ULL, r)};
         s = shape;
       },
-      out, nullptr, nullptr, fixed.empty() ? nullptr : &fixed);
+      out, nullptr, nullptr, SharedFootprint{&ts, fixed.empty() ? nullptr : &fixed});
 }
 
 Distribution AnisoCounter::pmf(double density, double p, const Shape& shape, std::size_t max_support) const {
