@@ -7,6 +7,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/rng.hpp"
 #include "parallel.hpp"
@@ -242,11 +243,13 @@ struct Gathered {
   std::vector<double> n, p, u, coef, k;
   std::vector<std::size_t> owner;
   std::vector<std::uint64_t> cell;  // CellUniforms::cell_input of each row
+  std::vector<std::uint32_t> term;  // the row's term index in its pixel (used with fixed evaluators)
   bool in_use = false;
   void ensure_rows(std::size_t rows, std::size_t nu) {
     if (n.size() < rows) {
       rows = std::max(rows, 2 * n.size());
       n.resize(rows), p.resize(rows), coef.resize(rows), k.resize(rows), owner.resize(rows), cell.resize(rows);
+      term.resize(rows);
     }
     if (u.size() < n.size() * nu) u.resize(n.size() * nu);
   }
@@ -291,9 +294,48 @@ std::vector<Term> AnisoCounter::terms(double density, const Shape& shape, bool* 
   return out;
 }
 
+namespace {
+// The rows of one chunk grouped by term (a stable counting sort on the term index): each term's
+// rows go to its fixed evaluator at once (a table lookup per row where the law tabulates, where the
+// per-pixel path would rebuild the law's constants for every row), the rest to the per-pixel path.
+// A fixed evaluator gives evaluate()'s bits (LawKernel's contract), so the counts are the same bits
+// either way.
+void evaluate_by_term(const InnerLaw& inner, const std::vector<std::shared_ptr<const detail::FixedEvaluator>>& fixed,
+                      Gathered& g, std::size_t rows, std::size_t nu) {
+  thread_local std::vector<std::size_t> start, order;
+  thread_local std::vector<double> u_sorted, k_sorted, n_rest, p_rest;
+  const std::size_t nt = fixed.size();
+  start.assign(nt + 1, 0);
+  for (std::size_t q = 0; q < rows; ++q) ++start[g.term[q] + 1];
+  for (std::size_t t = 0; t < nt; ++t) start[t + 1] += start[t];
+  order.resize(rows);
+  {
+    std::vector<std::size_t> next(start.begin(), start.end() - 1);
+    for (std::size_t q = 0; q < rows; ++q) order[next[g.term[q]]++] = q;
+  }
+  u_sorted.resize(rows * nu);
+  k_sorted.resize(rows);
+  for (std::size_t s = 0; s < rows; ++s)
+    std::memcpy(u_sorted.data() + s * nu, g.u.data() + order[s] * nu, nu * sizeof(double));
+  for (std::size_t t = 0; t < nt; ++t) {
+    const std::size_t a = start[t], b = start[t + 1];
+    if (a == b) continue;
+    if (fixed[t]) {
+      fixed[t]->evaluate(u_sorted.data() + a * nu, b - a, k_sorted.data() + a);
+    } else {
+      n_rest.resize(b - a), p_rest.resize(b - a);
+      for (std::size_t s = a; s < b; ++s) n_rest[s - a] = g.n[order[s]], p_rest[s - a] = g.p[order[s]];
+      inner.evaluate(n_rest.data(), p_rest.data(), u_sorted.data() + a * nu, b - a, k_sorted.data() + a);
+    }
+  }
+  for (std::size_t s = 0; s < rows; ++s) g.k[order[s]] = k_sorted[s];
+}
+}  // namespace
+
 template <class Source>
 void AnisoCounter::run(double density, std::size_t m, Source source, double* k_out, std::int32_t* evals_out,
-                       std::uint8_t* status_out) const {
+                       std::uint8_t* status_out, SharedFootprint shared) const {
+  const auto* fixed = shared.fixed;
   const std::string where = "aniso_counter('" + scheme_->name() + "', inner='" + inner_.name + "')";
   const std::size_t nu = static_cast<std::size_t>(inner_.n_uniforms);
   const bool select = options_.realization == Realization::kSelect;
@@ -356,13 +398,22 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
         if (status_out) status_out[i] = static_cast<std::uint8_t>(shape.status);
         continue;
       }
-      terms.clear();
-      const bool clamped = scheme_->terms(shape, density, terms);
+      bool clamped = false;
+      if (shared.terms) {
+        // The same footprint for every pixel: its terms once (sample() computed them), not per pixel.
+        if (terms.empty()) terms = *shared.terms;
+      } else {
+        terms.clear();
+        clamped = scheme_->terms(shape, density, terms);
+      }
       g->ensure_rows(gathered + terms.size() * rows_per_term, nu);
       double* const n = g->n.data();
       double* const pp = g->p.data();
       double* const coef = g->coef.data();
       std::size_t* const owner = g->owner.data();
+      std::uint32_t* const term_of = g->term.data();
+      if (fixed && terms.size() != fixed->size())
+        throw_invalid_message(where + ": internal: the footprint's terms changed between pixels");
       if (terms.size() > grid_memo.size()) grid_memo.resize(terms.size());
       if (status_out) status_out[i] = static_cast<std::uint8_t>(clamped ? ShapeStatus::kClamped : shape.status);
       std::int32_t evaluations = 0;
@@ -423,6 +474,7 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
           pp[gathered] = px.p;
           coef[gathered] = wrow[q];
           owner[gathered] = i;
+          term_of[gathered] = static_cast<std::uint32_t>(ti);
         }
       }
       if (evals_out) evals_out[i] = evaluations;
@@ -431,7 +483,10 @@ void AnisoCounter::run(double density, std::size_t m, Source source, double* k_o
     const double *n = g->n.data(), *pp = g->p.data(), *coef = g->coef.data(), *kk = g->k.data();
     const std::size_t* owner = g->owner.data();
     cell_uniform_rows(g->cell.data(), gathered, nu, g->u.data());
-    inner_.evaluate(n, pp, g->u.data(), gathered, g->k.data());
+    if (fixed)
+      evaluate_by_term(inner_, *fixed, *g, gathered, nu);
+    else
+      inner_.evaluate(n, pp, g->u.data(), gathered, g->k.data());
     for (std::size_t q = 0; q < gathered; ++q) {
       if (!std::isfinite(kk[q]))
         throw_invalid_message(where + ": the inner law returned " + format_value(kk[q]) +
@@ -490,6 +545,15 @@ void AnisoCounter::sample(double density, double p, const Shape& shape, std::siz
   double extent = 0;
   for (const Term& t : ts) extent = std::max({extent, t.cell_major, t.cell_minor});
   const double width = 1e6 * (extent > 0 ? extent : 1.0);
+  // Every realization has the same terms: one evaluator per term at (trials, p), prepared once for
+  // the rows it will get (count x the term's evaluations), where the inner law offers one.
+  std::vector<std::shared_ptr<const detail::FixedEvaluator>> fixed;
+  if (inner_.fixed_evaluator && inner_.thread_safe && count >= kTabulateMinBatch) {
+    fixed.resize(ts.size());
+    const std::size_t rows = count * static_cast<std::size_t>(evaluations_per_term());
+    for (std::size_t ti = 0; ti < ts.size(); ++ti)
+      if (ts[ti].trials > 0) fixed[ti] = inner_.fixed_evaluator(ts[ti].trials, p, rows);
+  }
   run(
       density, count,
       [&](std::size_t r, Pixel& px, Shape& s) {
@@ -500,7 +564,7 @@ void AnisoCounter::sample(double density, double p, const Shape& shape, std::siz
         px = {u, v, su, sv, p, hash_combine(seed, r), hash_combine(seed ^ 0x5E1EC7ULL, r)};
         s = shape;
       },
-      out, nullptr, nullptr);
+      out, nullptr, nullptr, SharedFootprint{&ts, fixed.empty() ? nullptr : &fixed});
 }
 
 Distribution AnisoCounter::pmf(double density, double p, const Shape& shape, std::size_t max_support) const {

@@ -236,6 +236,25 @@ def test_custom_python_inner_law_runs_and_matches_the_builtin():
     assert np.all(x == np.floor(t.trials * 0.1).sum())
 
 
+@pytest.mark.parametrize("law", ["binomial", "gated"])
+@pytest.mark.parametrize("label", ["db23_trilinear", "db23_shader_48", "zk16_aniso"])
+def test_sample_fast_path_gives_the_per_pixel_bits(label, law):
+    """sample() hands each term's rows to the built-in law's fixed evaluator (a table); the same law
+    wrapped as a Python law takes the per-pixel path on the same cell uniforms: the same bits. A wrong
+    fast path (a row given another term's evaluator) is caught: it changes the trial count the rows see."""
+    builtin = gl.law(law)
+    wrapped = gl.custom_law(lambda n, p, u: builtin.evaluate(n, p, u), n_uniforms=builtin.n_uniforms,
+                            name=f"wrapped_{law}")
+    scheme, kw = IMAGE_CONFIGS[label]
+    for n, r, ph in ((3.0, 1.5, 30.0), (300.0, 24.0, 60.0)):
+        args = (N, n / N, r, ph * DEG, 0.1)
+        fast = configured_counter(label, law, N).sample(*args, size=500, seed=3)
+        slow = configured_counter((scheme, kw), wrapped, N).sample(*args, size=500, seed=3)
+        assert np.array_equal(fast, slow)
+        wrong = configured_counter(label, law, N).sample(N, n / N * 1.5, r, ph * DEG, 0.1, size=500, seed=3)
+        assert not np.array_equal(wrong, slow)
+
+
 @pytest.mark.parametrize("call,match", [
     (lambda: counter("db23_trilinear").terms(N, 0.0, 2, 0), "P = 0"),
     (lambda: counter("db23_trilinear").terms(N, 1e-4, 0.5, 0), "r = 0.5"),

@@ -190,10 +190,16 @@ class AnisoCounter {
     double u, v, su, sv, p;
     std::uint64_t grid_seed, select_seed;
   };
+  // What every pixel shares when all have the same footprint and p (sample()): its terms, and one
+  // evaluator per term (null where the term has none), used for the rows of that term.
+  struct SharedFootprint {
+    const std::vector<Term>* terms = nullptr;
+    const std::vector<std::shared_ptr<const detail::FixedEvaluator>>* fixed = nullptr;
+  };
   // Runs pixels [0, m): source(i, pixel, shape) fills pixel i's position and footprint.
   template <class Source>
   void run(double density, std::size_t m, Source source, double* k, std::int32_t* evaluations,
-           std::uint8_t* status) const;
+           std::uint8_t* status, SharedFootprint shared = {}) const;
   std::shared_ptr<const GridScheme> scheme_;
   InnerLaw inner_;
   CounterOptions options_;
