@@ -198,8 +198,8 @@ class AnisoCounter {
   };
   // Runs pixels [0, m): source(i, pixel, shape) fills pixel i's position and footprint.
   template <class Source>
-  void run(double density, std::size_t m, Source source, double* k, std::int32_t* evaluations,
-           std::uint8_t* status, SharedFootprint shared = {}) const;
+  void run(double density, std::size_t m, Source source, double* k, std::int32_t* evaluations, std::uint8_t* status,
+           SharedFootprint shared = {}) const;
   std::shared_ptr<const GridScheme> scheme_;
   InnerLaw inner_;
   CounterOptions options_;
