@@ -272,3 +272,41 @@ def test_images_command_runs_a_users_method(tmp_path, capsys):
     finally:
         for n in ("mine", "bad", "nan"):
             IMAGE_METHODS._items.pop(n, None)
+
+
+# A user's glinty-NDF shader: it returns D, reads the scene material as defines, and is shaded with the
+# same BRDF as the built-in NDF methods. The smooth Beckmann NDF written as a shader must render as the
+# built-in smooth method (float32 arithmetic: 1e-4 relative, 1e-6 of the peak where float32 underflows);
+# the same shader without its cos^4 factor must not (the comparison can fail).
+_USER_NDF = """
+float glint(GlintInput g) {
+  float c = dot(normalize(g.h), g.n);
+  if (c <= 0.0) return 0.0;
+  float a2 = GLINTLAB_ALPHA * GLINTLAB_ALPHA, c2 = c * c;
+  return exp((c2 - 1.0) / (c2 * a2)) / (3.14159265 * a2 * c2 * COS4);
+}
+"""
+
+
+@pytest.mark.parametrize("cos4, matches", [("c2", True), ("1.0", False)])
+def test_a_user_ndf_shader_is_shaded_as_the_builtin_ndf_methods(cos4, matches):
+    name = f"user_beckmann_{'ok' if matches else 'wrong'}"
+    m = gl.shader_method(_USER_NDF, language="glsl", name=name, returns="ndf", defines={"COS4": cos4})
+    assert m.returns == "ndf" and name in gl.image_methods("ndf")
+    img = gl.render(name, "sphere", scale=0.05)
+    ref = gl.render("smooth", "sphere", scale=0.05)
+    assert np.array_equal(np.isnan(img), np.isnan(ref))
+    # float32 underflows where the lobe is 1e-300 of its peak: those pixels are measured against the peak.
+    lit = np.isfinite(ref)
+    rel = np.abs(img[lit] - ref[lit]) / np.maximum(ref[lit], 1e-6 * ref[lit].max())
+    assert (rel.max() < 1e-4) == matches, rel.max()
+    h = np.array([0.1, 0.05, 1.0]) / np.linalg.norm([0.1, 0.05, 1.0])
+    assert (abs(m.evaluate([0.3, 0.4], [1e-3, 0, 0, 1e-3], h) / m.smooth(h) - 1) < 1e-5) == matches
+
+
+def test_a_user_ndf_shader_refuses_bad_switches():
+    with pytest.raises(ValueError, match="returns = 'd' is invalid"):
+        gl.shader_method(_USER_NDF, language="glsl", name="user_bad", returns="d", defines={"COS4": "c2"})
+    with pytest.raises(ValueError, match="GLINTLAB_ALPHA"):
+        gl.shader_method(_USER_NDF, language="glsl", name="user_bad", returns="ndf",
+                         defines={"COS4": "c2", "GLINTLAB_ALPHA": 0.5})

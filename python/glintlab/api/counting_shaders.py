@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import json
 import math
 from pathlib import Path
 
@@ -149,6 +150,34 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
         rows = pack_inputs(m, uv=uv.reshape(m, 2), J=J.reshape(m, 4), h=h.reshape(m, 3), n=[0.0, 0.0, 1.0],
                            t=[1.0, 0.0, 0.0], b=[0.0, 1.0, 0.0], seed=np.uint32(seed))
         return self.shade(rows).astype(np.float64).reshape(shape)
+
+
+# The sphere scene's material (data/scenes/sphere.json), what a user's NDF shader is built for by default.
+DEFAULT_MATERIAL = Material(4194304.0, "beckmann", 1.0, 0.5)
+
+
+def user_ndf_method(spec: dict, material: Material | None = None) -> NdfShaderMethod:
+    """A user's method shader that returns D (``shader_method(..., returns="ndf")``) for a scene material,
+    which its code reads as the defines GLINTLAB_DENSITY, GLINTLAB_ALPHA, GLINTLAB_GGX and GLINTLAB_R
+    (beside the user's own defines); compiled on first use."""
+    material = DEFAULT_MATERIAL if material is None else material
+    if not isinstance(material, Material):
+        V.fail("material", material, "a glintlab Material (density, target, alpha, R, angular texel)")
+    ours = {"GLINTLAB_DENSITY": _glsl_float(float(material.density)), "GLINTLAB_ALPHA": _glsl_float(float(material.alpha)),
+            "GLINTLAB_GGX": str(int(material.target == "ggx")), "GLINTLAB_R": _glsl_float(float(material.R))}
+    clash = sorted(set(ours) & {k for k, _ in spec["defines"]})
+    if clash:
+        V.fail("defines", clash[0], "a name glintlab does not set for an NDF shader (it sets the material's)")
+    spec = dict(spec, defines=sorted([*map(tuple, spec["defines"]), *ours.items()]))
+    return _user_ndf(json.dumps(spec, sort_keys=True), material)
+
+
+@functools.lru_cache(maxsize=16)
+def _user_ndf(spec_json: str, material: Material) -> NdfShaderMethod:
+    # One compiled method per (shader, material): the scene images ask for a scene's method once per frame.
+    spec = json.loads(spec_json)
+    spec["defines"] = [tuple(d) for d in spec["defines"]]
+    return NdfShaderMethod(spec, material.target, material.alpha, material.density)
 
 
 @functools.lru_cache(maxsize=16)

@@ -156,7 +156,8 @@ class ShaderMethod(GlintyNDF):
 
 def shader_method(source, language: str | None = None, entry: str = "glint", name: str | None = None,
                   defines: dict | None = None, include_dirs=(), device: str = "auto",
-                  timeout: float = DEFAULT_TIMEOUT_S, register: bool = True) -> ShaderMethod:
+                  timeout: float = DEFAULT_TIMEOUT_S, register: bool = True, returns: str = "intensity",
+                  material=None) -> ShaderMethod:
     """A whole glint method written as a shader function, compiled and run by Vulkan.
 
     ``source``: a file path (``.hlsl``, ``.glsl``, ...) or the code as a string, defining
@@ -166,7 +167,15 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
     folder. Unless ``register`` is False the method is registered as the image method ``name``
     (default: the file's stem, or "shader_method"), replacing an earlier method shader of that name
     (never a built-in method). A shader that does not compile raises ``ValueError`` with the compiler's
-    messages (file:line); no Vulkan device raises ``RuntimeError``."""
+    messages (file:line); no Vulkan device raises ``RuntimeError``.
+
+    ``returns``: "intensity" (the shader's value is the pixel's intensity, shown as is) or "ndf" (the
+    shader returns a glinty NDF value D, and the scene images shade it with the microfacet BRDF as every
+    built-in NDF method). An NDF shader is compiled once per scene material, which it reads as the defines
+    GLINTLAB_DENSITY (facets per unit texture area), GLINTLAB_ALPHA, GLINTLAB_GGX (1 for GGX, 0 for
+    Beckmann) and GLINTLAB_R; the object returned is the method for ``material`` (a :class:`Material`;
+    default: the sphere scene's), with ``evaluate(uv, J, h, seed)`` as every glinty NDF."""
+    V.choice("returns", returns, ("intensity", "ndf"))
     if language is not None and language not in LANGUAGES:
         V.fail("language", language, "'hlsl' or 'glsl'")
     code, source_name, language = _read_source(source, language)
@@ -191,6 +200,12 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
             "defines": sorted((k, "1" if val is True else str(val)) for k, val in defines.items()),
             "include_dirs": [str(d) for d in include_dirs] + [str(data_path("shaders"))], "device": device,
             "timeout": float(timeout)}
+    if returns == "ndf":
+        from .counting_shaders import user_ndf_method  # counting_shaders builds on this module
+        if register:
+            register_image_method(name, lambda m, spec=spec: user_ndf_method(spec, m), label=name, replace=True,
+                                  returns="ndf")
+        return user_ndf_method(spec, material)
     method = ShaderMethod(spec)
     if register:
         register_image_method(name, lambda m, method=method: method, label=name, replace=True, returns="intensity")

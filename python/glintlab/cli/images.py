@@ -35,6 +35,10 @@ def add_parser(sub):
     p.add_argument("--method", action="append", metavar="FILE.hlsl",
                    help="your own method shader (float glint(GlintInput g), docs/guide/shaders.md), rendered "
                         "beside the truth and the smooth image; repeatable")
+    p.add_argument("--method-returns", choices=("intensity", "ndf"), default="intensity",
+                   help="what the --method shaders return: an intensity (default), or a glinty NDF value D that "
+                        "is shaded with the microfacet BRDF as the built-in NDF methods (the material as defines "
+                        "GLINTLAB_DENSITY, GLINTLAB_ALPHA, GLINTLAB_GGX, GLINTLAB_R)")
     p.add_argument("--timing-scale", type=float, default=1.0,
                    help="resolution factor of the timed image of the first scene (default: 1, 1920 x 1080)")
     add_seed(p)
@@ -73,7 +77,7 @@ def check_method_shaders(args, scenes, params) -> int:
     checks that it returns finite values on the first frame of every scene (exit 1 otherwise)."""
     names = []
     for path in args.method:
-        names.append(shader_method(path).name)
+        names.append(shader_method(path, returns=args.method_returns).name)
     base = args.methods or "truth,smooth"
     params["methods"] = params["animation_methods"] = ",".join(dict.fromkeys(base.split(",") + names))
     for sc in scenes:
