@@ -191,10 +191,12 @@ class AnisoCounter {
     std::uint64_t grid_seed, select_seed;
   };
   // What every pixel shares when all have the same footprint and p (sample()): its terms, and one
-  // evaluator per term (null where the term has none), used for the rows of that term.
+  // evaluator per term (null where the term has none), used for the rows of that term. No member
+  // initializers: `= {}` in run()'s declaration value-initializes both to null, and Clang refuses a
+  // default argument that needs a nested class's member initializers inside the enclosing class.
   struct SharedFootprint {
-    const std::vector<Term>* terms = nullptr;
-    const std::vector<std::shared_ptr<const detail::FixedEvaluator>>* fixed = nullptr;
+    const std::vector<Term>* terms;
+    const std::vector<std::shared_ptr<const detail::FixedEvaluator>>* fixed;
   };
   // Runs pixels [0, m): source(i, pixel, shape) fills pixel i's position and footprint.
   template <class Source>
