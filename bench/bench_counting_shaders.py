@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import time
 
 import glintlab as gl
 from glintlab.api import counting_shaders as CS
@@ -24,14 +23,7 @@ from glintlab.resources import data_path
 from glintlab.validation import scene_images as si
 from glintlab.validation.scene import load_scene
 
-
-def best(fn, repeats):
-    out, t = None, float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        t = min(t, time.perf_counter() - t0)
-    return out, t
+from timing import best
 
 
 def main() -> int:

@@ -11,7 +11,6 @@ when measurements complete.
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
 
@@ -21,14 +20,7 @@ from glintlab.validation import scene_images as si
 from glintlab.validation.scene import load_scene
 from glintlab.resources import data_path
 
-
-def best(fn, repeats):
-    out, t = None, float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        t = min(t, time.perf_counter() - t0)
-    return out, t
+from timing import best
 
 
 def main() -> int:

@@ -12,7 +12,6 @@ benchmark, not a test: exits 0 when the measurements complete (each row says PAS
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
 
@@ -20,18 +19,7 @@ import glintlab as gl
 from glintlab.resources import data_path
 from glintlab.validation.scene import TABLE1_SCENES, load_scene
 
-
-def best(fn, repeats):
-    """(last result, best seconds of ``repeats`` calls). The previous result is dropped before each call, so
-    that its memory is reused as in a render loop: a first call also pays the kernel's zeroing of fresh
-    pages (23 float64 per pixel: 380 MB at 1080p, about 0.3 s on an idle machine), which --repeats 1 shows."""
-    out, t = None, float("inf")
-    for _ in range(repeats):
-        out = None
-        t0 = time.perf_counter()
-        out = fn()
-        t = min(t, time.perf_counter() - t0)
-    return out, t
+from timing import best
 
 
 def rel_diff(a, b, hit):
