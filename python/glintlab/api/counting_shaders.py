@@ -35,7 +35,7 @@ from ..resources import data_path
 from . import checks as V
 from .glinty_ndf import (DB23, DENSITY_MAPPINGS, KPT25, GlintyNDF, Material, matched_density, pixel_arrays,
                          register_image_method)
-from .method_shaders import ShaderMethod, frame_rows, pack_inputs, unpack_inputs
+from .method_shaders import ShaderMethod, frame_rows, pack_inputs, register_ndf_shader_factory, unpack_inputs
 from .shaders import DEFAULT_TIMEOUT_S, _read_source
 
 #: Each method shader is one body (<name>_method_body.h) with a thin .glsl and .hlsl wrapper.
@@ -178,6 +178,9 @@ def _user_ndf(spec_json: str, material: Material) -> NdfShaderMethod:
     spec = json.loads(spec_json)
     spec["defines"] = [tuple(d) for d in spec["defines"]]
     return NdfShaderMethod(spec, material.target, material.alpha, material.density)
+
+
+register_ndf_shader_factory(user_ndf_method)
 
 
 @functools.lru_cache(maxsize=16)

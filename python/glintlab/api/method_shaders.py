@@ -154,6 +154,16 @@ class ShaderMethod(GlintyNDF):
         return img
 
 
+# What builds a user's shader that returns D, ``factory(spec, material)``: counting_shaders.user_ndf_method,
+# which builds on this module and registers itself when imported (glintlab's __init__ imports it).
+_NDF_SHADER_FACTORY = [None]
+
+
+def register_ndf_shader_factory(factory) -> None:
+    """Sets what ``shader_method(..., returns="ndf")`` builds (api/counting_shaders.py calls it)."""
+    _NDF_SHADER_FACTORY[0] = factory
+
+
 def shader_method(source, language: str | None = None, entry: str = "glint", name: str | None = None,
                   defines: dict | None = None, include_dirs=(), device: str = "auto",
                   timeout: float = DEFAULT_TIMEOUT_S, register: bool = True, returns: str = "intensity",
@@ -201,11 +211,11 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
             "include_dirs": [str(d) for d in include_dirs] + [str(data_path("shaders"))], "device": device,
             "timeout": float(timeout)}
     if returns == "ndf":
-        from .counting_shaders import user_ndf_method  # counting_shaders builds on this module
+        factory = _NDF_SHADER_FACTORY[0]
         if register:
-            register_image_method(name, lambda m, spec=spec: user_ndf_method(spec, m), label=name, replace=True,
+            register_image_method(name, lambda m, spec=spec: factory(spec, m), label=name, replace=True,
                                   returns="ndf")
-        return user_ndf_method(spec, material)
+        return factory(spec, material)
     method = ShaderMethod(spec)
     if register:
         register_image_method(name, lambda m, method=method: method, label=name, replace=True, returns="intensity")
