@@ -53,7 +53,7 @@ DEFAULTS = {
 }
 QUICK = {"samples": 50000, "spiky_samples": 50000, "lobes": 50, "kpt25_pixels": 16, "kpt25_directions": 32,
          "lighting_pixels": [0], "lighting_repeats": 32, "lighting_samples": 128}
-NOTEBOOK = ""
+NOTEBOOK = "sampling.ipynb"
 TABLE = {"sampling_verdicts": ["sampler", "variant", "pvalue", "bins", "lost", "mismatches", "verdict", "seconds"],
          "sampling_spiky": ["sampler", "bins_kind", "bins", "pvalue", "verdict"],
          "sampling_furnace": ["ndf", "quantity", "theta_o_deg", "value", "error"],
