@@ -12,30 +12,21 @@ measurements complete (FAIL is printed, not returned, where a ratio exceeds 10).
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 
-import glintlab as gl
 from glintlab.api import counting_shaders as CS
 from glintlab.api.glinty_ndf import Material, method_density
 from glintlab.api.method_shaders import frame_rows
-from glintlab.resources import data_path
 from glintlab.validation import scene_images as si
-from glintlab.validation.scene import load_scene
 
-from timing import best
+from timing import best, lit_scene_from_args
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--scene", default="plane_25")
-    ap.add_argument("--scale", type=float, default=1.0, help="resolution factor per side (1: 1920 x 1080)")
-    ap.add_argument("--repeats", type=int, default=2)
-    args = ap.parse_args()
-    if not gl.vulkan_devices():
-        print("no Vulkan device: install mesa-vulkan-drivers")
+    setup = lit_scene_from_args(__doc__)
+    if setup is None:
         return 0
-    sc = si.with_directional_light(load_scene(data_path("scenes", f"{args.scene}.json")).scaled(args.scale))
+    args, sc = setup
     inp = si.frame_inputs(sc)
     rows, _ = frame_rows(dataclasses.replace(inp, hit=inp.mask), seed=1)
     facets = Material.of(sc)

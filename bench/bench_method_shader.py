@@ -10,29 +10,20 @@ when measurements complete.
 """
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
 
 import glintlab as gl
 from glintlab.api import method_shaders as MS
 from glintlab.validation import scene_images as si
-from glintlab.validation.scene import load_scene
-from glintlab.resources import data_path
 
-from timing import best
+from timing import best, lit_scene_from_args
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--scene", default="plane_25")
-    ap.add_argument("--scale", type=float, default=1.0, help="resolution factor per side (1: 1920 x 1080)")
-    ap.add_argument("--repeats", type=int, default=2)
-    args = ap.parse_args()
-    if not gl.vulkan_devices():
-        print("no Vulkan device: install mesa-vulkan-drivers")
+    setup = lit_scene_from_args(__doc__)
+    if setup is None:
         return 0
-    sc = si.with_directional_light(load_scene(data_path("scenes", f"{args.scene}.json")).scaled(args.scale))
+    args, sc = setup
     inp, t_in = best(lambda: si.frame_inputs(sc), 1)
     (rows, _), t_pack = best(lambda: MS.frame_rows(inp, seed=1), args.repeats)
     method = MS.wb16_method()
