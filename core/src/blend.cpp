@@ -198,6 +198,16 @@ void BlendRule::combine_rows(double area, const LevelBracket& b, std::size_t m, 
   }
 }
 
+void BlendRule::combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
+                                  const double* k_hi, const FacetRows& facets, double* out) const {
+  std::array<FacetStream, 2> streams;
+  const bool reads_facets = thins();
+  for (std::size_t r = 0; r < m; ++r) {
+    if (reads_facets) streams = {facets.stream(r, 0), facets.stream(r, 1)};
+    out[r] = combine(area[r], b[r], k_lo[r], k_hi[r], streams);
+  }
+}
+
 Registry<BlendInfo>& blend_registry() {
   static Registry<BlendInfo> blends("blend");
   return blends;
@@ -350,7 +360,6 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   // facets are never read).
   auto combine_rows = [&](std::size_t i0, std::size_t m, const LevelBracket* brackets, std::size_t bracket_step,
                           const double* k_lo, const double* k_hi, std::array<bool, 2> drawn = {true, true}) {
-    std::array<FacetStream, 2> facets;
     // sample()'s facet streams (index cells): the first Philox block of each row's stream at each
     // level, computed ahead as vectorized rows (one block per level the chunk spans; a scalar Philox
     // block per row and level was most of the roulette's cost). The same numbers.
@@ -396,23 +405,37 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       rule_->combine_rows(area[0], b, m, k_lo, k_hi, rows, out + i0);
       return;
     }
-    for (std::size_t r = 0; r < m; ++r) {
-      const std::size_t i = i0 + r;
-      const LevelBracket& b = brackets[r * bracket_step];
-      if (thins) {
-        for (int j = 0; j < 2; ++j) {
-          const auto [cx, cy] = cell_of(i, j == 0 ? b.area_lo : b.area_hi);
-          const CounterRng rng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
-          if (first_blocks) {
-            const auto l = static_cast<std::size_t>(b.lo + j - level_min);
-            facets[static_cast<std::size_t>(j)] = FacetStream(first_blocks.get() + (l * m + r) * 2, rng);
-          } else {
-            facets[static_cast<std::size_t>(j)] = FacetStream(rng);
-          }
+    // A bracket per row: each row's first blocks gathered into the layout of the one-bracket form, so
+    // that a rule's combine_rows_each reads them as combine_rows does.
+    BlendRule::FacetRows rows;
+    std::unique_ptr<double[]> gathered;
+    if (first_blocks) {
+      gathered.reset(new double[4 * m]);
+      for (int j = 0; j < 2; ++j) {
+        double* dst = gathered.get() + static_cast<std::size_t>(j) * 2 * m;
+        for (std::size_t r = 0; r < m; ++r) {
+          const auto l = static_cast<std::size_t>(brackets[r].lo + j - level_min);
+          dst[2 * r] = first_blocks[(l * m + r) * 2];
+          dst[2 * r + 1] = first_blocks[(l * m + r) * 2 + 1];
         }
+        rows.first[static_cast<std::size_t>(j)] = dst;
       }
-      out[i] = rule_->combine(area[i], b, k_lo[r], k_hi[r], facets);
     }
+    rows.stream = [&](std::size_t r, int j) {
+      const LevelBracket& b = brackets[r];
+      const auto [cx, cy] = cell_of(i0 + r, j == 0 ? b.area_lo : b.area_hi);
+      const CounterRng rng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
+      const double* first = rows.first[static_cast<std::size_t>(j)];
+      return first ? FacetStream(first + 2 * r, rng) : FacetStream(rng);
+    };
+    const double* areas = area.data + i0;
+    std::unique_ptr<double[]> one_area;
+    if (area.size == 1) {
+      one_area.reset(new double[m]);
+      std::fill_n(one_area.get(), m, area[0]);
+      areas = one_area.get();
+    }
+    rule_->combine_rows_each(areas, brackets, m, k_lo, k_hi, rows, out + i0);
   };
 
   // One footprint area and one p for the whole batch (a flat patch, a study at one P): one bracket,

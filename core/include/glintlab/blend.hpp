@@ -139,6 +139,13 @@ class BlendRule {
   // depends on the bracket alone, with the same bits.
   virtual void combine_rows(double area, const LevelBracket& b, std::size_t m, const double* k_lo, const double* k_hi,
                             const FacetRows& facets, double* out) const;
+  // The same with a footprint area and bracket per row (P per sample): out[r] = combine(area[r], b[r],
+  // k_lo[r], k_hi[r], {facets.stream(r, 0), facets.stream(r, 1)}) for r < m (the default does exactly
+  // that). facets.first[j], when set, holds row r's level-j first block at [2 r], [2 r + 1] as above
+  // (gathered from the levels' vectorized rows). A rule may override it to batch its per-row work
+  // (vector code, moments per distinct weight), with the same bits.
+  virtual void combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
+                                 const double* k_hi, const FacetRows& facets, double* out) const;
   // Whether combine_pmf can give an exact law (given exact inner laws).
   virtual bool has_pmf() const { return true; }
   // Whether K is an integer when the inner counts are.
