@@ -16,6 +16,10 @@ class Distributed final : public BlendRule {
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
     return {(1.0 - b.w_area) * density * b.area_lo, b.w_area * density * b.area_hi};
   }
+  void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
+                   double* t_hi) const override {
+    trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
+  }
   double combine(double, const LevelBracket&, double k_lo, double k_hi, std::array<FacetStream, 2>&) const override {
     return k_lo + k_hi;
   }

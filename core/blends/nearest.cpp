@@ -11,8 +11,13 @@ class Nearest final : public BlendRule {
   std::string name() const override { return "nearest"; }
   static bool upper(const LevelBracket& b) { return b.w_lod >= 0.5; }
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
-    if (upper(b)) return {0.0, density * b.area_hi};
-    return {density * b.area_lo, 0.0};
+    // Selects, not a branch: per-sample footprints make round(w) a coin flip for the branch predictor.
+    const bool up = upper(b);
+    return {up ? 0.0 : density * b.area_lo, up ? density * b.area_hi : 0.0};
+  }
+  void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
+                   double* t_hi) const override {
+    trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
   }
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                  std::array<FacetStream, 2>&) const override {

@@ -110,6 +110,10 @@ class Roulette final : public BlendRule {
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
     return {density * b.area_lo, b.w_lod > 0 ? density * b.area_hi : 0.0};
   }
+  void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
+                   double* t_hi) const override {
+    trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
+  }
   bool thins() const override { return true; }
   bool has_pmf() const override { return eps_ == 0; }
 

@@ -15,6 +15,10 @@ class Zk16Linear final : public BlendRule {
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
     return {density * b.area_lo, density * b.area_hi};
   }
+  void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
+                   double* t_hi) const override {
+    trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
+  }
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                  std::array<FacetStream, 2>&) const override {
     return area * ((1.0 - b.w_lod) * k_lo / b.area_lo + b.w_lod * k_hi / b.area_hi);

@@ -104,6 +104,12 @@ class FixedEvaluatorCache {
   std::size_t next_ = 0;
 };
 
+// Records sample i as refused: the lowest index wins, whatever the threads' order.
+void record_refused(std::atomic<std::size_t>& first, std::size_t i) {
+  std::size_t seen = first.load();
+  while (i < seen && !first.compare_exchange_weak(seen, i)) {}
+}
+
 }  // namespace
 
 LevelLadder::LevelLadder(double ratio, double base_area) : ratio_(ratio), base_area_(base_area), log_ratio_(0.0) {
@@ -168,6 +174,60 @@ LevelBracket LevelLadder::bracket_at(double a, int lo, double w_lod) const {
   b.w_lod = w_lod;
   b.w_area = std::clamp((a - b.area_lo) / (b.area_hi - b.area_lo), 0.0, kBelowOne);
   return b;
+}
+
+void LevelLadder::brackets(const double* a, std::size_t m, LevelBracket* out) const {
+  if (!increasing_) {
+    for (std::size_t r = 0; r < m; ++r) out[r] = bracket(a[r]);
+    return;
+  }
+  // Pass 1: the level index, as bracket() finds it inside the table (its guess and two steps, as
+  // selects); a row whose area lies outside the table or whose guess is still off (ratios near 1)
+  // takes bracket() itself, rarely.
+  const double front = areas_.front(), back = areas_.back();
+  const double* areas = areas_.data() + kTabulated;
+  for (std::size_t r = 0; r < m; ++r) {
+    const double x = a[r] / base_area_;
+    std::uint64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    const double rough_log2 = static_cast<double>(static_cast<std::int64_t>(bits >> 52) - 1023) +
+                              static_cast<double>(bits & ((std::uint64_t{1} << 52) - 1)) * 0x1p-52;
+    const double rough = std::floor(rough_log2 * inv_log2_ratio_);
+    int lo = static_cast<int>(std::clamp(rough, static_cast<double>(-kTabulated), static_cast<double>(kTabulated - 1)));
+    lo -= static_cast<int>(lo > -kTabulated && areas[lo] > a[r]);
+    lo += static_cast<int>(lo + 1 < kTabulated && areas[lo + 1] <= a[r]);
+    out[r].lo = lo;
+  }
+  // Pass 2: the areas and the ratio whose logarithm is the fractional LOD (bracket_at's expressions;
+  // the guess stays inside the table, so every row can be computed and the rare unsettled ones redone).
+  for (std::size_t r = 0; r < m; ++r) {
+    const int lo = out[r].lo;
+    out[r].area_lo = areas[lo];
+    out[r].area_hi = areas[lo + 1];
+    out[r].w_lod = a[r] / out[r].area_lo;
+  }
+  // Pass 3: the logarithms back to back (independent calls that the core overlaps), then the weights.
+  for (std::size_t r = 0; r < m; ++r) out[r].w_lod = std::log(out[r].w_lod);
+  for (std::size_t r = 0; r < m; ++r) {
+    LevelBracket& b = out[r];
+    b.w_lod = std::clamp(b.w_lod / log_ratio_, 0.0, kBelowOne);
+    b.w_area = std::clamp((a[r] - b.area_lo) / (b.area_hi - b.area_lo), 0.0, kBelowOne);
+  }
+  // Rows outside the table, or whose guess is still off (ratios near 1): bracket() itself.
+  for (std::size_t r = 0; r < m; ++r) {
+    const int lo = out[r].lo;
+    if (!(a[r] >= front && a[r] < back && areas[lo] <= a[r] && a[r] < areas[lo + 1])) [[unlikely]]
+      out[r] = bracket(a[r]);
+  }
+}
+
+void BlendRule::trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
+                            double* t_hi) const {
+  for (std::size_t r = 0; r < m; ++r) {
+    const std::array<double, 2> t = trials(density, area[r], b[r]);
+    t_lo[r] = t[0];
+    t_hi[r] = t[1];
+  }
 }
 
 InnerLaw InnerLaw::from_law(std::shared_ptr<const CountingLaw> law) {
@@ -269,79 +329,20 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   check_n(where, density, "N");
   check_length(where, "P", area.size, count);
   check_length(where, "p", p.size, count);
-  // Validate everything before drawing anything: a bad element is named, no partial output.
-  for (std::size_t i = 0; i < area.size; ++i) {
+  // One sample's checks, throwing the message that names it: its P, its p, its level index, then the
+  // trial counts the rule asks of the inner law at its levels.
+  auto check_sample = [&](std::size_t i) {
     const double a = area[i];
     if (!(a > 0.0) || !std::isfinite(a))
       throw_invalid(where, indexed_name("P", i, area.size > 1), a, "a finite footprint area > 0");
-  }
-  for (std::size_t i = 0; i < p.size; ++i) check_p(where, p[i], indexed_name("p", i, p.size > 1));
-  // The level indices the validation finds, kept for the draws when P is an array of at most 2^24
-  // samples (the level search once per sample, not twice).
-  constexpr std::size_t kKeptBracketsMax = std::size_t{1} << 24;  // 160 MiB at most
-  // Only each sample's level index and w_lod are kept (10 bytes, not the 40 of a bracket: writing a
-  // fresh 40 MB array cost about as much in page faults as the level search it saves), uninitialized
-  // (the validation writes every entry); the draw rebuilds the bracket from them
-  // (LevelLadder::bracket_at, the same bits, no logarithm).
-  std::unique_ptr<std::int16_t[]> kept_levels;
-  std::unique_ptr<double[]> kept_w_lod;
-  if (inner_.law && area.size == count && count > 1 && count <= kKeptBracketsMax) {
-    kept_levels.reset(new std::int16_t[count]);
-    kept_w_lod.reset(new double[count]);
-  }
-  if (inner_.law) {
-    // The inner law's domain check, remembered per chunk of samples for the last (n, p) pairs it
-    // accepted: a rule drawing N A_l trials asks the same few pairs (one per level) at every sample.
-    struct AcceptedMemo {
-      double t[4], p[4];
-      unsigned next = 0;
-      AcceptedMemo() {
-        for (int e = 0; e < 4; ++e) t[e] = p[e] = std::numeric_limits<double>::quiet_NaN();
-      }
-    };
-    auto accepted = [&](AcceptedMemo& memo, double t, double pi) {
-      for (int e = 0; e < 4; ++e)
-        if (memo.t[e] == t && memo.p[e] == pi) return true;
-      if (!inner_.law->accepts(t, pi)) return false;
-      memo.t[memo.next] = t;
-      memo.p[memo.next] = pi;
-      memo.next = (memo.next + 1) % 4;
-      return true;
-    };
-    auto check_trials = [&](std::size_t i, AcceptedMemo& memo) {
-      const LevelBracket b = ladder_.bracket(area[i]);
-      if (kept_levels) {
-        kept_levels[i] = static_cast<std::int16_t>(b.lo);  // |lo| < 32767 (bracket() checks it)
-        kept_w_lod[i] = b.w_lod;
-      }
-      const auto trials = snap_trials(rule_->trials(density, area[i], b));
-      for (double t : trials)
-        if (t > 0 && !accepted(memo, t, p[i]))
-          throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(t) +
-                                " at p = " + format_value(p[i]) + " (P = " + format_value(area[i]) + ")");
-    };
-    // On every thread; the lowest bad index is then checked again to throw its own message, as a
-    // serial pass would.
-    const std::size_t m = std::max(area.size, p.size);
-    std::atomic<std::size_t> first_bad{m};
-    detail::parallel_chunks(m, kChunk, kChunk, [&](std::size_t i0, std::size_t i1) {
-      AcceptedMemo memo;
-      for (std::size_t i = i0; i < i1; ++i) {
-        try {
-          check_trials(i, memo);
-        } catch (const std::exception&) {
-          std::size_t seen = first_bad.load();
-          while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {}
-          return;
-        }
-      }
-    });
-    if (first_bad.load() < m) {
-      AcceptedMemo memo;
-      check_trials(first_bad.load(), memo);
-    }
-  }
-
+    check_p(where, p[i], indexed_name("p", i, p.size > 1));
+    const LevelBracket b = ladder_.bracket(a);
+    if (!inner_.law) return;
+    for (double t : snap_trials(rule_->trials(density, a, b)))
+      if (t > 0 && !inner_.law->accepts(t, p[i]))
+        throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(t) +
+                              " at p = " + format_value(p[i]) + " (P = " + format_value(a) + ")");
+  };
   const std::size_t k = static_cast<std::size_t>(inner_.n_uniforms);
   const bool thins = rule_->thins();
   // Sample i's cells are (i mod 2^32, i >> 32) at every level (sample(), not sample_at()): the
@@ -442,6 +443,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   // one pair of trial counts, and each drawn level at one (n, p), evaluated by the inner law's fixed
   // evaluator (a table built once for the batch where the law has one) instead of per pixel.
   if (area.size == 1 && p.size == 1) {
+    check_sample(0);  // before anything is drawn
     const LevelBracket b = ladder_.bracket(area[0]);
     const auto trials = snap_trials(rule_->trials(density, area[0], b));
     std::unique_ptr<detail::FixedEvaluator> evaluators[2];
@@ -494,8 +496,18 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
 
   // Arrays: per-sample brackets. A level whose rows in a chunk all share one (n, p) (runs of equal P
   // and p) gets a fixed evaluator, kept for the following chunks of the run.
+  // The checks are fused into the draws (one bracket and one pair of trial counts per sample, not
+  // two): a chunk with a refused sample stops before drawing, a chunk after the lowest refused sample
+  // found so far is not drawn, and the lowest refused sample is then checked again to throw its own
+  // message, as a serial scan would. So out may be partly written when the call throws.
+  // Scalar P or p are checked once here.
+  if (area.size == 1 && (!(area[0] > 0.0) || !std::isfinite(area[0])))
+    throw_invalid(where, "P", area[0], "a finite footprint area > 0");
+  if (p.size == 1) check_p(where, p[0]);
+  std::atomic<std::size_t> first_refused{count};
   FixedEvaluatorCache cache;
   auto chunk_body = [&](std::size_t i0, std::size_t i1) {
+    if (first_refused.load(std::memory_order_relaxed) < i0) return;  // an earlier sample is refused
     const std::size_t m = i1 - i0;
     const std::unique_ptr<LevelBracket[]> brackets(new LevelBracket[m]);  // every row written below
     // Per level slot: the rows it is drawn for (compacted), their trials, p, uniforms and counts.
@@ -508,19 +520,65 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       pp[j].resize(m);
     }
     int level_min = std::numeric_limits<int>::max(), level_max = std::numeric_limits<int>::min();
+    // The checks, brackets and trial counts in passes over the chunk's rows (a per-row sequence of
+    // them mispredicted on random footprints); the first refused row stops the chunk.
+    std::size_t refused_at = m;
     for (std::size_t r = 0; r < m; ++r) {
-      const std::size_t i = i0 + r;
-      brackets[r] = kept_levels ? ladder_.bracket_at(area[i], kept_levels[i], kept_w_lod[i]) : ladder_.bracket(area[i]);
-      const auto trials = snap_trials(rule_->trials(density, area[i], brackets[r]));
+      const double a = area[i0 + r], pi = p[i0 + r];
+      if (!(a > 0.0) || !std::isfinite(a) || !(pi >= 0.0 && pi <= 1.0)) [[unlikely]] {
+        refused_at = r;
+        break;
+      }
+    }
+    const double* areas = area.data + (area.size == 1 ? 0 : i0);
+    Scratch<double> one_area;
+    if (area.size == 1) {
+      one_area.assign(m, area[0]);
+      areas = one_area.data();
+    }
+    if (refused_at == m) {
+      try {
+        if (area.size == 1)
+          std::fill_n(brackets.get(), m, ladder_.bracket(area[0]));
+        else
+          ladder_.brackets(areas, m, brackets.get());
+      } catch (const std::invalid_argument&) {
+        // A level index beyond 16 bits: which row (bracket() throws on the same rows).
+        for (refused_at = 0; refused_at < m; ++refused_at) {
+          try {
+            ladder_.bracket(areas[refused_at]);
+          } catch (const std::invalid_argument&) { break; }
+        }
+      }
+    }
+    Scratch<double> t_lo(m), t_hi(m);
+    if (refused_at == m) rule_->trials_rows(density, areas, brackets.get(), m, t_lo.data(), t_hi.data());
+    const CountingLaw* law = inner_.law.get();
+    const double max_n = law ? law->max_n() : std::numeric_limits<double>::infinity();
+    for (std::size_t r = 0; r < m && refused_at == m; ++r) {
+      const double pi = p[i0 + r];
+      const auto trials = snap_trials({t_lo[r], t_hi[r]});
+      // CountingLaw::accepts (p was checked above), with & so that it compiles to selects.
+      const bool drawn[2] = {trials[0] > 0, trials[1] > 0};
+      if (law && ((drawn[0] & !(trials[0] <= max_n)) | (drawn[1] & !(trials[1] <= max_n)))) [[unlikely]] {
+        refused_at = r;
+        break;
+      }
+      // Compaction without a branch per row: every row is written, the slot advances when drawn.
       for (int j = 0; j < 2; ++j) {
-        if (!(trials[j] > 0)) continue;
-        const std::size_t q = drawn_at[j]++;
+        const std::size_t q = drawn_at[j];
         rows[j][q] = r;
         n[j][q] = trials[j];
-        pp[j][q] = p[i];
-        level_min = std::min(level_min, brackets[r].lo + j);
-        level_max = std::max(level_max, brackets[r].lo + j);
+        pp[j][q] = pi;
+        drawn_at[j] = q + static_cast<std::size_t>(drawn[j]);
+        const int level = brackets[r].lo + j;
+        level_min = drawn[j] ? std::min(level_min, level) : level_min;
+        level_max = drawn[j] ? std::max(level_max, level) : level_max;
       }
+    }
+    if (refused_at < m) {
+      record_refused(first_refused, i0 + refused_at);
+      return;
     }
     for (int j = 0; j < 2; ++j) {
       rows[j].resize(drawn_at[j]);
@@ -681,6 +739,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     detail::parallel_chunks(count, kChunk, kChunk, chunk_body);
   } else {
     for (std::size_t i0 = 0; i0 < count; i0 += kChunk) chunk_body(i0, std::min(count, i0 + kChunk));
+  }
+  if (const std::size_t i = first_refused.load(); i < count) {
+    check_sample(i);
+    throw std::logic_error(where + ": sample " + std::to_string(i) + " was refused but passes its checks");
   }
 }
 
