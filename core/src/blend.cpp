@@ -61,14 +61,17 @@ inline double round_half_away(double x) {
   if (!(std::abs(x) < 0x1p52)) return std::round(x);  // already an integer, or not finite
   const double t = static_cast<double>(static_cast<std::int64_t>(x));
   const double f = x - t;
-  return f >= 0.5 ? t + 1.0 : f <= -0.5 ? t - 1.0 : t;
+  // As arithmetic on the comparisons, not a branch: the fractional parts of per-sample trial counts
+  // (distributed) are random, so branches here mispredicted at every other sample. t + 1 - 0 and
+  // t + 0 - 1 are exact for |t| < 2^52; t + 0 - 0 only turns a -0 into +0, which snaps to the same 0.
+  return t + static_cast<double>(f >= 0.5) - static_cast<double>(f <= -0.5);
 }
 
 std::array<double, 2> snap_trials(std::array<double, 2> t) {
   const double tolerance = 4 * std::numeric_limits<double>::epsilon() * (std::abs(t[0]) + std::abs(t[1]));
   for (double& x : t) {
     const double r = round_half_away(x);
-    if (std::abs(x - r) <= tolerance) x = r;
+    x = std::abs(x - r) <= tolerance ? r : x;
   }
   return t;
 }
