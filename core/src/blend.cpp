@@ -107,6 +107,42 @@ class FixedEvaluatorCache {
   std::size_t next_ = 0;
 };
 
+// The per-chunk buffers of a blend call, kept per thread across chunks and calls: buffers allocated
+// per chunk cost page faults (glibc returns freed memory above its trim threshold to the kernel, and
+// takes it back zeroed), a quarter of a P-per-sample call's time. Every buffer is written before it
+// is read. A nested call on the same thread (a Python inner law that samples a blend) leases another.
+struct ChunkScratch {
+  Scratch<LevelBracket> brackets;
+  Scratch<std::size_t> rows[2], order;
+  Scratch<double> n[2], pp[2], u[2], kk[2], k_level[2], t_lo, t_hi, areas, block, counts, blocks, group_u, group_k,
+      first_blocks, gathered;
+  Scratch<std::uint8_t> group_of;
+};
+
+class ScratchLease {
+ public:
+  ScratchLease() {
+    auto& pool = free_list();
+    if (pool.empty()) {
+      held_ = std::make_unique<ChunkScratch>();
+    } else {
+      held_ = std::move(pool.back());
+      pool.pop_back();
+    }
+  }
+  ~ScratchLease() { free_list().push_back(std::move(held_)); }
+  ScratchLease(const ScratchLease&) = delete;
+  ScratchLease& operator=(const ScratchLease&) = delete;
+  ChunkScratch& operator*() { return *held_; }
+
+ private:
+  static std::vector<std::unique_ptr<ChunkScratch>>& free_list() {
+    thread_local std::vector<std::unique_ptr<ChunkScratch>> pool;
+    return pool;
+  }
+  std::unique_ptr<ChunkScratch> held_;
+};
+
 // Records sample i as refused: the lowest index wins, whatever the threads' order.
 void record_refused(std::atomic<std::size_t>& first, std::size_t i) {
   std::size_t seen = first.load();
@@ -362,13 +398,14 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   // The level counts into K; the facet streams only for rules that thin (roulette).
   // drawn: for one footprint area (bracket_step 0), which levels have trials (an undrawn level's
   // facets are never read).
-  auto combine_rows = [&](std::size_t i0, std::size_t m, const LevelBracket* brackets, std::size_t bracket_step,
+  auto combine_rows = [&](ChunkScratch& scratch, std::size_t i0, std::size_t m, const LevelBracket* brackets,
+                          std::size_t bracket_step,
                           const double* k_lo, const double* k_hi, std::array<bool, 2> drawn = {true, true}) {
     // sample()'s facet streams (index cells): the first Philox block of each row's stream at each
     // level, computed ahead as vectorized rows (one block per level the chunk spans; a scalar Philox
     // block per row and level was most of the roulette's cost). The same numbers.
     int level_min = 0, span = 0;
-    std::unique_ptr<double[]> first_blocks;
+    double* first_blocks = nullptr;
     constexpr int kMaxFacetLevels = 7;
     if constexpr (kIndexCells) {
       if (thins && m > 0) {
@@ -382,11 +419,12 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         if (lmax - lmin < kMaxFacetLevels) {
           level_min = lmin;
           span = lmax - lmin + 1;
-          first_blocks.reset(new double[static_cast<std::size_t>(span) * m * 2]);
+          scratch.first_blocks.resize(static_cast<std::size_t>(span) * m * 2);
+          first_blocks = scratch.first_blocks.data();
           for (int l = 0; l < span; ++l) {
             if (bracket_step == 0 && !drawn[static_cast<std::size_t>(level_min + l - brackets[0].lo)]) continue;
             detail::philox_uniform_rows_level(seed, level_key(level_min + l), kStreamLevelFacets, i0, m, 2,
-                                              first_blocks.get() + static_cast<std::size_t>(l) * m * 2);
+                                              first_blocks + static_cast<std::size_t>(l) * m * 2);
           }
         }
       }
@@ -399,7 +437,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         for (int j = 0; j < 2; ++j)
           if (drawn[static_cast<std::size_t>(j)])
             rows.first[static_cast<std::size_t>(j)] =
-                first_blocks.get() + static_cast<std::size_t>(b.lo + j - level_min) * m * 2;
+                first_blocks + static_cast<std::size_t>(b.lo + j - level_min) * m * 2;
       rows.stream = [&](std::size_t r, int j) {
         const auto [cx, cy] = cell_of(i0 + r, j == 0 ? b.area_lo : b.area_hi);
         const CounterRng rng(seed, cx, cy, level_key(b.lo + j), kStreamLevelFacets);
@@ -412,11 +450,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     // A bracket per row: each row's first blocks gathered into the layout of the one-bracket form, so
     // that a rule's combine_rows_each reads them as combine_rows does.
     BlendRule::FacetRows rows;
-    std::unique_ptr<double[]> gathered;
     if (first_blocks) {
-      gathered.reset(new double[4 * m]);
+      scratch.gathered.resize(4 * m);
       for (int j = 0; j < 2; ++j) {
-        double* dst = gathered.get() + static_cast<std::size_t>(j) * 2 * m;
+        double* dst = scratch.gathered.data() + static_cast<std::size_t>(j) * 2 * m;
         for (std::size_t r = 0; r < m; ++r) {
           const auto l = static_cast<std::size_t>(brackets[r].lo + j - level_min);
           dst[2 * r] = first_blocks[(l * m + r) * 2];
@@ -433,11 +470,9 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       return first ? FacetStream(first + 2 * r, rng) : FacetStream(rng);
     };
     const double* areas = area.data + i0;
-    std::unique_ptr<double[]> one_area;
     if (area.size == 1) {
-      one_area.reset(new double[m]);
-      std::fill_n(one_area.get(), m, area[0]);
-      areas = one_area.get();
+      scratch.areas.assign(m, area[0]);
+      areas = scratch.areas.data();
     }
     rule_->combine_rows_each(areas, brackets, m, k_lo, k_hi, rows, out + i0);
   };
@@ -456,20 +491,23 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       const std::size_t m = i1 - i0;
       // Uninitialized where every element is written (a zero fill per row and buffer showed in the
       // profile); an undrawn level's counts are zeros.
-      const std::unique_ptr<double[]> u(new double[std::max<std::size_t>(m * k, 1)]);
-      std::unique_ptr<double[]> k_level[2];
-      std::vector<double> n_rows, p_rows;
+      ScratchLease lease;
+      ChunkScratch& scratch = *lease;
+      Scratch<double>& u = scratch.block;
+      u.resize(std::max<std::size_t>(m * k, 1));
+      Scratch<double>* k_level = scratch.k_level;
+      Scratch<double>&n_rows = scratch.n[0], &p_rows = scratch.pp[0];
       for (int j = 0; j < 2; ++j) {
-        k_level[j].reset(new double[m]);
+        k_level[j].resize(m);
         if (!(trials[j] > 0)) {
-          std::fill_n(k_level[j].get(), m, 0.0);
+          std::fill_n(k_level[j].data(), m, 0.0);
           continue;
         }
         const int level = b.lo + j;
         if constexpr (kIndexCells) {
           if (k > 0)
             detail::philox_uniform_rows_level(seed, level_key(level), kStreamLevelCount, i0, m, static_cast<int>(k),
-                                              u.get());
+                                              u.data());
         } else {
           for (std::size_t r = 0; r < m; ++r) {
             const auto [cx, cy] = cell_of(i0 + r, j == 0 ? b.area_lo : b.area_hi);
@@ -478,16 +516,16 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
           }
         }
         if (evaluators[j]) {
-          evaluators[j]->evaluate(u.get(), m, k_level[j].get());
-          check_finite(k_level[j].get(), m, &trials[j], p.data, 0);
+          evaluators[j]->evaluate(u.data(), m, k_level[j].data());
+          check_finite(k_level[j].data(), m, &trials[j], p.data, 0);
         } else {
           n_rows.assign(m, trials[j]);
           p_rows.assign(m, p[0]);
-          inner_.evaluate(n_rows.data(), p_rows.data(), u.get(), m, k_level[j].get());
-          check_finite(k_level[j].get(), m, n_rows.data(), p_rows.data(), 1);
+          inner_.evaluate(n_rows.data(), p_rows.data(), u.data(), m, k_level[j].data());
+          check_finite(k_level[j].data(), m, n_rows.data(), p_rows.data(), 1);
         }
       }
-      combine_rows(i0, m, &b, 0, k_level[0].get(), k_level[1].get(), {trials[0] > 0, trials[1] > 0});
+      combine_rows(scratch, i0, m, &b, 0, k_level[0].data(), k_level[1].data(), {trials[0] > 0, trials[1] > 0});
     };
     if (inner_.thread_safe) {
       detail::parallel_chunks(count, kChunk, kChunk, chunk_body);
@@ -512,15 +550,23 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   auto chunk_body = [&](std::size_t i0, std::size_t i1) {
     if (first_refused.load(std::memory_order_relaxed) < i0) return;  // an earlier sample is refused
     const std::size_t m = i1 - i0;
-    const std::unique_ptr<LevelBracket[]> brackets(new LevelBracket[m]);  // every row written below
+    ScratchLease lease;
+    ChunkScratch& scratch = *lease;
+    scratch.brackets.resize(m);  // every row written below
+    LevelBracket* const brackets = scratch.brackets.data();
     // Per level slot: the rows it is drawn for (compacted), their trials, p, uniforms and counts.
-    Scratch<std::size_t> rows[2] = {Scratch<std::size_t>(m), Scratch<std::size_t>(m)};
-    Scratch<double> n[2], pp[2], u[2], kk[2];
-    std::vector<double> k_level[2] = {std::vector<double>(m, 0.0), std::vector<double>(m, 0.0)};
+    auto& rows = scratch.rows;
+    auto& n = scratch.n;
+    auto& pp = scratch.pp;
+    auto& u = scratch.u;
+    auto& kk = scratch.kk;
+    auto& k_level = scratch.k_level;
     std::size_t drawn_at[2] = {0, 0};
     for (int j = 0; j < 2; ++j) {
+      rows[j].resize(m);
       n[j].resize(m);
       pp[j].resize(m);
+      k_level[j].assign(m, 0.0);
     }
     int level_min = std::numeric_limits<int>::max(), level_max = std::numeric_limits<int>::min();
     // The checks, brackets and trial counts in passes over the chunk's rows (a per-row sequence of
@@ -534,17 +580,16 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       }
     }
     const double* areas = area.data + (area.size == 1 ? 0 : i0);
-    Scratch<double> one_area;
     if (area.size == 1) {
-      one_area.assign(m, area[0]);
-      areas = one_area.data();
+      scratch.areas.assign(m, area[0]);
+      areas = scratch.areas.data();
     }
     if (refused_at == m) {
       try {
         if (area.size == 1)
-          std::fill_n(brackets.get(), m, ladder_.bracket(area[0]));
+          std::fill_n(brackets, m, ladder_.bracket(area[0]));
         else
-          ladder_.brackets(areas, m, brackets.get());
+          ladder_.brackets(areas, m, brackets);
       } catch (const std::invalid_argument&) {
         // A level index beyond 16 bits: which row (bracket() throws on the same rows).
         for (refused_at = 0; refused_at < m; ++refused_at) {
@@ -554,8 +599,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         }
       }
     }
-    Scratch<double> t_lo(m), t_hi(m);
-    if (refused_at == m) rule_->trials_rows(density, areas, brackets.get(), m, t_lo.data(), t_hi.data());
+    Scratch<double>&t_lo = scratch.t_lo, &t_hi = scratch.t_hi;
+    t_lo.resize(m);
+    t_hi.resize(m);
+    if (refused_at == m) rule_->trials_rows(density, areas, brackets, m, t_lo.data(), t_hi.data());
     const CountingLaw* law = inner_.law.get();
     const double max_n = law ? law->max_n() : std::numeric_limits<double>::infinity();
     for (std::size_t r = 0; r < m && refused_at == m; ++r) {
@@ -620,13 +667,15 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         }
         if (one_pair) {
           const std::size_t stride = m * k;
-          const std::unique_ptr<double[]> block(new double[stride]);
-          const std::unique_ptr<double[]> counts(new double[span * m]);
+          scratch.block.resize(stride);
+          scratch.counts.resize(span * m);
+          double* const block = scratch.block.data();
+          double* const counts = scratch.counts.data();
           for (std::size_t l = 0; l < span; ++l) {
             if (level_n[l] != level_n[l]) continue;  // no row draws this level
             detail::philox_uniform_rows_level(seed, level_key(level_min + static_cast<int>(l)), kStreamLevelCount, i0,
-                                              m, static_cast<int>(k), block.get());
-            cache.get(inner_, level_n[l], level_p[l], count)->evaluate(block.get(), m, counts.get() + l * m);
+                                              m, static_cast<int>(k), block);
+            cache.get(inner_, level_n[l], level_p[l], count)->evaluate(block, m, counts + l * m);
           }
           for (int j = 0; j < 2; ++j) {
             const std::size_t drawn = rows[j].size();
@@ -638,7 +687,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
             check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data(), 1);
             for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
           }
-          combine_rows(i0, m, brackets.get(), 1, k_level[0].data(), k_level[1].data());
+          combine_rows(scratch, i0, m, brackets, 1, k_level[0].data(), k_level[1].data());
           return;
         }
       }
@@ -650,16 +699,17 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     if (kIndexCells && k > 0 && level_min <= level_max && level_max - level_min < kMaxVectorLevels) {
       const std::size_t stride = m * k;
       const auto span = static_cast<std::size_t>(level_max - level_min + 1);
-      const std::unique_ptr<double[]> blocks(new double[span * stride]);
+      scratch.blocks.resize(span * stride);
+      double* const blocks = scratch.blocks.data();
       for (std::size_t l = 0; l < span; ++l)
         detail::philox_uniform_rows_level(seed, level_key(level_min + static_cast<int>(l)), kStreamLevelCount, i0, m,
-                                          static_cast<int>(k), blocks.get() + l * stride);
+                                          static_cast<int>(k), blocks + l * stride);
       for (int j = 0; j < 2; ++j) {
         double* dst = u[j].data();
         for (std::size_t q = 0; q < rows[j].size(); ++q) {
           const std::size_t r = rows[j][q];
           const auto l = static_cast<std::size_t>(brackets[r].lo + j - level_min);
-          const double* src = blocks.get() + l * stride + r * k;
+          const double* src = blocks + l * stride + r * k;
           for (std::size_t d = 0; d < k; ++d) dst[q * k + d] = src[d];
         }
       }
@@ -674,9 +724,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         }
       }
     }
-    Scratch<std::uint8_t> group_of;
-    Scratch<std::size_t> order;
-    Scratch<double> group_u, group_k;
+    auto& group_of = scratch.group_of;
+    auto& order = scratch.order;
+    auto& group_u = scratch.group_u;
+    auto& group_k = scratch.group_k;
     for (int j = 0; j < 2; ++j) {
       const std::size_t drawn = rows[j].size();
       kk[j].resize(drawn);
@@ -736,7 +787,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data(), 1);
       for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
     }
-    combine_rows(i0, m, brackets.get(), 1, k_level[0].data(), k_level[1].data());
+    combine_rows(scratch, i0, m, brackets, 1, k_level[0].data(), k_level[1].data());
   };
   if (inner_.thread_safe) {
     detail::parallel_chunks(count, kChunk, kChunk, chunk_body);
