@@ -16,6 +16,7 @@
 #include "glintlab/binomial.hpp"
 #include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
+#include "level_brackets.hpp"
 #include "parallel.hpp"
 
 namespace glintlab {
@@ -220,43 +221,31 @@ void LevelLadder::brackets(const double* a, std::size_t m, LevelBracket* out) co
     for (std::size_t r = 0; r < m; ++r) out[r] = bracket(a[r]);
     return;
   }
-  // Pass 1: the level index, as bracket() finds it inside the table (its guess and two steps, as
-  // selects); a row whose area lies outside the table or whose guess is still off (ratios near 1)
-  // takes bracket() itself, rarely.
+  // Blocks of rows through the vector passes (detail::level_passes: bracket()'s guess and its two
+  // steps; detail::level_weights: bracket_at's weights), with the C library's logarithm between them.
+  const detail::LadderTable table{areas_.data() + kTabulated, kTabulated, base_area_, inv_log2_ratio_};
   const double front = areas_.front(), back = areas_.back();
-  const double* areas = areas_.data() + kTabulated;
-  for (std::size_t r = 0; r < m; ++r) {
-    const double x = a[r] / base_area_;
-    std::uint64_t bits;
-    std::memcpy(&bits, &x, sizeof bits);
-    const double rough_log2 = static_cast<double>(static_cast<std::int64_t>(bits >> 52) - 1023) +
-                              static_cast<double>(bits & ((std::uint64_t{1} << 52) - 1)) * 0x1p-52;
-    const double rough = std::floor(rough_log2 * inv_log2_ratio_);
-    int lo = static_cast<int>(std::clamp(rough, static_cast<double>(-kTabulated), static_cast<double>(kTabulated - 1)));
-    lo -= static_cast<int>(lo > -kTabulated && areas[lo] > a[r]);
-    lo += static_cast<int>(lo + 1 < kTabulated && areas[lo + 1] <= a[r]);
-    out[r].lo = lo;
-  }
-  // Pass 2: the areas and the ratio whose logarithm is the fractional LOD (bracket_at's expressions;
-  // the guess stays inside the table, so every row can be computed and the rare unsettled ones redone).
-  for (std::size_t r = 0; r < m; ++r) {
-    const int lo = out[r].lo;
-    out[r].area_lo = areas[lo];
-    out[r].area_hi = areas[lo + 1];
-    out[r].w_lod = a[r] / out[r].area_lo;
-  }
-  // Pass 3: the logarithms back to back (independent calls that the core overlaps), then the weights.
-  for (std::size_t r = 0; r < m; ++r) out[r].w_lod = std::log(out[r].w_lod);
-  for (std::size_t r = 0; r < m; ++r) {
-    LevelBracket& b = out[r];
-    b.w_lod = std::clamp(b.w_lod / log_ratio_, 0.0, kBelowOne);
-    b.w_area = std::clamp((a[r] - b.area_lo) / (b.area_hi - b.area_lo), 0.0, kBelowOne);
-  }
-  // Rows outside the table, or whose guess is still off (ratios near 1): bracket() itself.
-  for (std::size_t r = 0; r < m; ++r) {
-    const int lo = out[r].lo;
-    if (!(a[r] >= front && a[r] < back && areas[lo] <= a[r] && a[r] < areas[lo + 1])) [[unlikely]]
-      out[r] = bracket(a[r]);
+  constexpr std::size_t kBlock = 256;
+  int lo[kBlock];
+  double area_lo[kBlock], area_hi[kBlock], w_lod[kBlock], w_area[kBlock];
+  for (std::size_t r0 = 0; r0 < m; r0 += kBlock) {
+    const std::size_t rows = std::min(kBlock, m - r0);
+    const double* x = a + r0;
+    detail::level_passes(x, rows, table, lo, area_lo, area_hi, w_lod);
+    for (std::size_t r = 0; r < rows; ++r) w_lod[r] = std::log(w_lod[r]);
+    detail::level_weights(x, rows, log_ratio_, area_lo, area_hi, w_lod, w_area);
+    for (std::size_t r = 0; r < rows; ++r) {
+      LevelBracket& b = out[r0 + r];
+      b.lo = lo[r];
+      b.area_lo = area_lo[r];
+      b.area_hi = area_hi[r];
+      b.w_lod = w_lod[r];
+      b.w_area = w_area[r];
+    }
+    // Rows outside the table, or whose guess is still off (ratios near 1): bracket() itself.
+    for (std::size_t r = 0; r < rows; ++r)
+      if (!(x[r] >= front && x[r] < back && area_lo[r] <= x[r] && x[r] < area_hi[r])) [[unlikely]]
+        out[r0 + r] = bracket(x[r]);
   }
 }
 
@@ -399,8 +388,8 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   // drawn: for one footprint area (bracket_step 0), which levels have trials (an undrawn level's
   // facets are never read).
   auto combine_rows = [&](ChunkScratch& scratch, std::size_t i0, std::size_t m, const LevelBracket* brackets,
-                          std::size_t bracket_step,
-                          const double* k_lo, const double* k_hi, std::array<bool, 2> drawn = {true, true}) {
+                          std::size_t bracket_step, const double* k_lo, const double* k_hi,
+                          std::array<bool, 2> drawn = {true, true}) {
     // sample()'s facet streams (index cells): the first Philox block of each row's stream at each
     // level, computed ahead as vectorized rows (one block per level the chunk spans; a scalar Philox
     // block per row and level was most of the roulette's cost). The same numbers.
