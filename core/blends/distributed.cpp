@@ -20,6 +20,10 @@ class Distributed final : public BlendRule {
                    double* t_hi) const override {
     trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
   }
+  void combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
+                         const double* k_hi, const FacetRows&, double* out) const override {
+    combine_rows_each_of(*this, area, b, m, k_lo, k_hi, out);
+  }
   double combine(double, const LevelBracket&, double k_lo, double k_hi, std::array<FacetStream, 2>&) const override {
     return k_lo + k_hi;
   }

@@ -19,9 +19,14 @@ class Nearest final : public BlendRule {
                    double* t_hi) const override {
     trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
   }
+  void combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
+                         const double* k_hi, const FacetRows&, double* out) const override {
+    combine_rows_each_of(*this, area, b, m, k_lo, k_hi, out);
+  }
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                  std::array<FacetStream, 2>&) const override {
-    return upper(b) ? area / b.area_hi * k_hi : area / b.area_lo * k_lo;
+    const bool up = upper(b);  // selects of the operands, not a branch (as trials())
+    return area / (up ? b.area_hi : b.area_lo) * (up ? k_hi : k_lo);
   }
   Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo, const Distribution& hi,
                            std::size_t max_support) const override {

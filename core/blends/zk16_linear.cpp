@@ -19,6 +19,10 @@ class Zk16Linear final : public BlendRule {
                    double* t_hi) const override {
     trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
   }
+  void combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
+                         const double* k_hi, const FacetRows&, double* out) const override {
+    combine_rows_each_of(*this, area, b, m, k_lo, k_hi, out);
+  }
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                  std::array<FacetStream, 2>&) const override {
     return area * ((1.0 - b.w_lod) * k_lo / b.area_lo + b.w_lod * k_hi / b.area_hi);

@@ -561,13 +561,14 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     // The checks, brackets and trial counts in passes over the chunk's rows (a per-row sequence of
     // them mispredicted on random footprints); the first refused row stops the chunk.
     std::size_t refused_at = m;
-    for (std::size_t r = 0; r < m; ++r) {
+    auto refused = [&](std::size_t r) {
       const double a = area[i0 + r], pi = p[i0 + r];
-      if (!(a > 0.0) || !std::isfinite(a) || !(pi >= 0.0 && pi <= 1.0)) [[unlikely]] {
-        refused_at = r;
-        break;
-      }
-    }
+      return !(a > 0.0) | !(a <= std::numeric_limits<double>::max()) | !(pi >= 0.0) | !(pi <= 1.0);
+    };
+    bool any_refused = false;
+    for (std::size_t r = 0; r < m; ++r) any_refused |= refused(r);
+    if (any_refused) [[unlikely]]
+      for (refused_at = 0; !refused(refused_at);) ++refused_at;
     const double* areas = area.data + (area.size == 1 ? 0 : i0);
     if (area.size == 1) {
       scratch.areas.assign(m, area[0]);
@@ -594,36 +595,25 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
     if (refused_at == m) rule_->trials_rows(density, areas, brackets, m, t_lo.data(), t_hi.data());
     const CountingLaw* law = inner_.law.get();
     const double max_n = law ? law->max_n() : std::numeric_limits<double>::infinity();
+    // The trial counts snapped in place, the inner law's domain, and the span of levels drawn.
+    if (refused_at == m) detail::snap_trial_rows(t_lo.data(), t_hi.data(), m);
     for (std::size_t r = 0; r < m && refused_at == m; ++r) {
-      const double pi = p[i0 + r];
-      const auto trials = snap_trials({t_lo[r], t_hi[r]});
+      const std::array<double, 2> trials = {t_lo[r], t_hi[r]};
       // CountingLaw::accepts (p was checked above), with & so that it compiles to selects.
       const bool drawn[2] = {trials[0] > 0, trials[1] > 0};
       if (law && ((drawn[0] & !(trials[0] <= max_n)) | (drawn[1] & !(trials[1] <= max_n)))) [[unlikely]] {
         refused_at = r;
         break;
       }
-      // Compaction without a branch per row: every row is written, the slot advances when drawn.
-      for (int j = 0; j < 2; ++j) {
-        const std::size_t q = drawn_at[j];
-        rows[j][q] = r;
-        n[j][q] = trials[j];
-        pp[j][q] = pi;
-        drawn_at[j] = q + static_cast<std::size_t>(drawn[j]);
-        const int level = brackets[r].lo + j;
-        level_min = drawn[j] ? std::min(level_min, level) : level_min;
-        level_max = drawn[j] ? std::max(level_max, level) : level_max;
-      }
+      const int lo = brackets[r].lo;
+      level_min = drawn[0] ? std::min(level_min, lo) : drawn[1] ? std::min(level_min, lo + 1) : level_min;
+      level_max = drawn[1] ? std::max(level_max, lo + 1) : drawn[0] ? std::max(level_max, lo) : level_max;
     }
     if (refused_at < m) {
       record_refused(first_refused, i0 + refused_at);
       return;
     }
-    for (int j = 0; j < 2; ++j) {
-      rows[j].resize(drawn_at[j]);
-      n[j].resize(drawn_at[j]);
-      pp[j].resize(drawn_at[j]);
-    }
+    const double* trials_of[2] = {t_lo.data(), t_hi.data()};
     constexpr int kMaxVectorLevels = 6;
     // Level by level, without sorting rows (sample(), a built-in law, and every row that draws a
     // level doing so at one (n, p): the rules that draw N A_l trials, with one p or runs of equal p).
@@ -640,17 +630,21 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         level_n.fill(std::numeric_limits<double>::quiet_NaN());
         level_p.fill(std::numeric_limits<double>::quiet_NaN());
         bool one_pair = true;
-        for (int j = 0; j < 2 && one_pair; ++j) {
-          // In blocks of 64 rows, leaving at the first block with a second (n, p) (distributed).
-          for (std::size_t q0 = 0; q0 < rows[j].size() && one_pair; q0 += 64) {
-            const std::size_t q1 = std::min(rows[j].size(), q0 + 64);
-            for (std::size_t q = q0; q < q1; ++q) {
-              const auto l = static_cast<std::size_t>(brackets[rows[j][q]].lo + j - level_min);
-              if (level_n[l] != level_n[l]) [[unlikely]] {
-                level_n[l] = n[j][q];
-                level_p[l] = pp[j][q];
+        // In blocks of 64 rows, leaving at the first block with a second (n, p) (distributed).
+        for (std::size_t r0 = 0; r0 < m && one_pair; r0 += 64) {
+          const std::size_t r1 = std::min(m, r0 + 64);
+          for (int j = 0; j < 2; ++j) {
+            for (std::size_t r = r0; r < r1; ++r) {
+              // Without a branch on whether the row draws level j (nearest: a coin flip per row).
+              const double t = trials_of[j][r], pi = p[i0 + r];
+              const bool drawn = t > 0;
+              const auto l =
+                  static_cast<std::size_t>(std::clamp(brackets[r].lo + j - level_min, 0, level_max - level_min));
+              if (drawn && level_n[l] != level_n[l]) [[unlikely]] {
+                level_n[l] = t;
+                level_p[l] = pi;
               }
-              one_pair &= level_n[l] == n[j][q] && level_p[l] == pp[j][q];
+              one_pair &= drawn ? (level_n[l] == t) & (level_p[l] == pi) : true;
             }
           }
         }
@@ -667,19 +661,39 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
             cache.get(inner_, level_n[l], level_p[l], count)->evaluate(block, m, counts + l * m);
           }
           for (int j = 0; j < 2; ++j) {
-            const std::size_t drawn = rows[j].size();
-            kk[j].resize(drawn);
-            for (std::size_t q = 0; q < drawn; ++q) {
-              const std::size_t r = rows[j][q];
-              kk[j][q] = counts[static_cast<std::size_t>(brackets[r].lo + j - level_min) * m + r];
+            const double* t = trials_of[j];
+            double* kj = k_level[j].data();
+            for (std::size_t r = 0; r < m; ++r) {
+              // A row that does not draw level j reads a count of the span too (in range, dropped).
+              const auto l =
+                  static_cast<std::size_t>(std::clamp(brackets[r].lo + j - level_min, 0, level_max - level_min));
+              kj[r] = t[r] > 0 ? counts[l * m + r] : 0.0;
             }
-            check_finite(kk[j].data(), drawn, n[j].data(), pp[j].data(), 1);
-            for (std::size_t q = 0; q < drawn; ++q) k_level[j][rows[j][q]] = kk[j][q];
+            for (std::size_t r = 0; r < m; ++r)
+              if (!std::isfinite(kj[r])) [[unlikely]]
+                check_finite(kj + r, 1, t + r, p.data + (p.size == 1 ? 0 : i0 + r), 0);
           }
           combine_rows(scratch, i0, m, brackets, 1, k_level[0].data(), k_level[1].data());
           return;
         }
       }
+    }
+    // Per level slot: the rows it is drawn for (compacted, without a branch per row: every row is
+    // written, the slot advances when drawn), their trials and p.
+    for (std::size_t r = 0; r < m; ++r) {
+      const double pi = p[i0 + r];
+      for (int j = 0; j < 2; ++j) {
+        const std::size_t q = drawn_at[j];
+        rows[j][q] = r;
+        n[j][q] = trials_of[j][r];
+        pp[j][q] = pi;
+        drawn_at[j] = q + static_cast<std::size_t>(trials_of[j][r] > 0);
+      }
+    }
+    for (int j = 0; j < 2; ++j) {
+      rows[j].resize(drawn_at[j]);
+      n[j].resize(drawn_at[j]);
+      pp[j].resize(drawn_at[j]);
     }
     for (int j = 0; j < 2; ++j) u[j].resize(drawn_at[j] * k);
     // A chunk whose levels span a few indices (footprints within a few levels of each other): one

@@ -21,4 +21,11 @@ void level_weights(const double* a, std::size_t m, double log_ratio, const doubl
   level_weights_baseline(a, m, log_ratio, area_lo, area_hi, w_lod, w_area);
 }
 
+void snap_trial_rows(double* t_lo, double* t_hi, std::size_t m) {
+  const int level = simd_level();
+  if (level >= 2) return snap_trial_rows_avx512(t_lo, t_hi, m);
+  if (level >= 1) return snap_trial_rows_avx2(t_lo, t_hi, m);
+  snap_trial_rows_baseline(t_lo, t_hi, m);
+}
+
 }  // namespace glintlab::detail

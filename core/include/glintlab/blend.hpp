@@ -185,6 +185,15 @@ void trials_rows_of(const Rule& rule, double density, const double* area, const 
   }
 }
 
+// combine_rows_each by a rule's own combine(), for rules that read no facet stream (!thins()),
+// without virtual dispatch (Rule is final), so that the loop inlines it.
+template <class Rule>
+void combine_rows_each_of(const Rule& rule, const double* area, const LevelBracket* b, std::size_t m,
+                          const double* k_lo, const double* k_hi, double* out) {
+  std::array<FacetStream, 2> unused;
+  for (std::size_t r = 0; r < m; ++r) out[r] = rule.Rule::combine(area[r], b[r], k_lo[r], k_hi[r], unused);
+}
+
 using BlendFactory = std::function<std::unique_ptr<BlendRule>(const LawParams&)>;
 struct BlendInfo {
   std::string name;
