@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -29,7 +30,7 @@ __attribute__((noinline)) static void blend_call(const BlendedLaw& b, double P, 
 }
 int main(int argc, char** argv) {
   if (argc != 4) {
-    std::fprintf(stderr, "usage: %s RULE P SAMPLES (P = 0: log-uniform footprints over [1, 16])\n", argv[0]);
+    std::fprintf(stderr, "usage: %s RULE P SAMPLES (P = 0: random log-uniform footprints over [1, 16])\n", argv[0]);
     return 2;
   }
   const std::string rule = argv[1];
@@ -40,11 +41,17 @@ int main(int argc, char** argv) {
   BlendedLaw b(make_blend(rule), InnerLaw::from_law(law), LevelLadder(4, 1));
   std::vector<double> out(m), Ps;
   const double samples = static_cast<double>(m);
-  if (P == 0) {  // a golden-ratio sequence of log P over [0, log 16): deterministic, spread over 2 levels
+  if (P == 0) {  // log P uniform over [0, log 16) (two levels), from a fixed-seed hash: as random as
+    // numpy's footprints in bench_paths.py (a golden-ratio sequence let the branch predictor learn the
+    // level pattern, hiding mispredictions the random footprints pay)
     Ps.resize(m);
+    std::uint64_t state = 12345;
     for (std::size_t i = 0; i < m; ++i) {
-      const double x = static_cast<double>(i) * 0.6180339887498949;
-      Ps[i] = std::exp(std::log(16.0) * (x - std::floor(x)));
+      std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+      z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+      z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+      z ^= z >> 31;
+      Ps[i] = std::exp(std::log(16.0) * (static_cast<double>(z >> 11) * 0x1p-53));
     }
   }
   auto now = [] { return std::chrono::steady_clock::now(); };

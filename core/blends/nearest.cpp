@@ -13,7 +13,7 @@ class Nearest final : public BlendRule {
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
     // Selects, not a branch: per-sample footprints make round(w) a coin flip for the branch predictor.
     const bool up = upper(b);
-    return {up ? 0.0 : density * b.area_lo, up ? density * b.area_hi : 0.0};
+    return {select(up, 0.0, density * b.area_lo), select(up, density * b.area_hi, 0.0)};
   }
   void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
                    double* t_hi) const override {
@@ -26,7 +26,7 @@ class Nearest final : public BlendRule {
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                  std::array<FacetStream, 2>&) const override {
     const bool up = upper(b);  // selects of the operands, not a branch (as trials())
-    return area / (up ? b.area_hi : b.area_lo) * (up ? k_hi : k_lo);
+    return area / select(up, b.area_hi, b.area_lo) * select(up, k_hi, k_lo);
   }
   Distribution combine_pmf(double area, const LevelBracket& b, const Distribution& lo, const Distribution& hi,
                            std::size_t max_support) const override {

@@ -605,9 +605,12 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         refused_at = r;
         break;
       }
+      // The lowest level a row draws is lo unless it draws only the upper one; the highest is lo + 1
+      // if it draws the upper one (a row drawing neither widens the span harmlessly: no level is
+      // evaluated that no row draws). Arithmetic, not a branch per row.
       const int lo = brackets[r].lo;
-      level_min = drawn[0] ? std::min(level_min, lo) : drawn[1] ? std::min(level_min, lo + 1) : level_min;
-      level_max = drawn[1] ? std::max(level_max, lo + 1) : drawn[0] ? std::max(level_max, lo) : level_max;
+      level_min = std::min(level_min, lo + static_cast<int>(!drawn[0]));
+      level_max = std::max(level_max, lo + static_cast<int>(drawn[1]));
     }
     if (refused_at < m) {
       record_refused(first_refused, i0 + refused_at);
@@ -629,22 +632,31 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
         std::array<double, kMaxVectorLevels> level_n, level_p;
         level_n.fill(std::numeric_limits<double>::quiet_NaN());
         level_p.fill(std::numeric_limits<double>::quiet_NaN());
+        // Each level's (n, p) from the first row that draws it (a few rows), then every row checked
+        // against them, reading only: no store in the loop, no branch per row (nearest's levels are a
+        // coin flip per row), in blocks of 64 rows, leaving at the first block with a second (n, p)
+        // (distributed).
+        std::size_t found = 0;
+        for (std::size_t r = 0; r < m && found < span; ++r) {
+          for (int j = 0; j < 2; ++j) {
+            const double t = trials_of[j][r];
+            const int l = brackets[r].lo + j - level_min;
+            if (t > 0 && level_n[static_cast<std::size_t>(l)] != level_n[static_cast<std::size_t>(l)]) {
+              level_n[static_cast<std::size_t>(l)] = t;
+              level_p[static_cast<std::size_t>(l)] = p[i0 + r];
+              ++found;
+            }
+          }
+        }
         bool one_pair = true;
-        // In blocks of 64 rows, leaving at the first block with a second (n, p) (distributed).
         for (std::size_t r0 = 0; r0 < m && one_pair; r0 += 64) {
           const std::size_t r1 = std::min(m, r0 + 64);
           for (int j = 0; j < 2; ++j) {
             for (std::size_t r = r0; r < r1; ++r) {
-              // Without a branch on whether the row draws level j (nearest: a coin flip per row).
               const double t = trials_of[j][r], pi = p[i0 + r];
-              const bool drawn = t > 0;
               const auto l =
                   static_cast<std::size_t>(std::clamp(brackets[r].lo + j - level_min, 0, level_max - level_min));
-              if (drawn && level_n[l] != level_n[l]) [[unlikely]] {
-                level_n[l] = t;
-                level_p[l] = pi;
-              }
-              one_pair &= drawn ? (level_n[l] == t) & (level_p[l] == pi) : true;
+              one_pair &= (!(t > 0)) | ((level_n[l] == t) & (level_p[l] == pi));
             }
           }
         }
@@ -667,7 +679,7 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
               // A row that does not draw level j reads a count of the span too (in range, dropped).
               const auto l =
                   static_cast<std::size_t>(std::clamp(brackets[r].lo + j - level_min, 0, level_max - level_min));
-              kj[r] = t[r] > 0 ? counts[l * m + r] : 0.0;
+              kj[r] = select(t[r] > 0, counts[l * m + r], 0.0);
             }
             for (std::size_t r = 0; r < m; ++r)
               if (!std::isfinite(kj[r])) [[unlikely]]

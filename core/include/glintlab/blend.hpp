@@ -19,6 +19,7 @@
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -172,6 +173,14 @@ class BlendRule {
     return std::numeric_limits<double>::quiet_NaN();
   }
 };
+
+// c ? a : b by bit masks: a select the compiler cannot turn back into a branch (it did, for the
+// ternaries of the per-sample loops, where a coin-flip condition such as nearest's round(w) made the
+// branch mispredict at every other sample). Both operands are evaluated.
+inline double select(bool c, double a, double b) {
+  const std::uint64_t mask = std::uint64_t{0} - static_cast<std::uint64_t>(c);
+  return std::bit_cast<double>((std::bit_cast<std::uint64_t>(a) & mask) | (std::bit_cast<std::uint64_t>(b) & ~mask));
+}
 
 // trials_rows by a rule's own trials(), called without virtual dispatch (Rule is final) so that the
 // compiler inlines it into the loop.
