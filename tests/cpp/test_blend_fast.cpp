@@ -252,3 +252,64 @@ TEST_CASE("the roulette keeps nothing of the upper level at w = 0, so it need no
       }
   }
 }
+
+TEST_CASE("LevelLadder::brackets gives bracket()'s bits for every row, at every SIMD level", "[blend][fast]") {
+  // The vector passes (level guess, two steps, weights) and the rows they leave to bracket():
+  // areas inside and outside the tabulated levels, on a level's area and one ulp either side, and
+  // ratios near 1 where the guess is more than one level off.
+  SimdLevelGuard guard;
+  std::vector<double> areas;
+  std::uint64_t state = 7;
+  auto uniform = [&state] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) * 0x1p-53;
+  };
+  for (int i = 0; i < 3000; ++i) areas.push_back(std::exp(-700.0 + 1400.0 * uniform()));  // far outside too
+  for (int i = 0; i < 3000; ++i) areas.push_back(std::exp(-5.0 + 10.0 * uniform()));
+  for (double ratio : {4.0, 2.0, 1.5, 1.01, 10.0}) {
+    for (double base : {1.0, 0.3, 1e-3}) {
+      const LevelLadder ladder(ratio, base);
+      std::vector<double> a = areas;
+      for (int l = -300; l <= 300; l += 7)
+        for (double v : {ladder.area(l), std::nextafter(ladder.area(l), 0.0), std::nextafter(ladder.area(l), 1e308)})
+          if (v > 0 && std::isfinite(v)) a.push_back(v);
+      // Keep the level index within 16 bits (bracket() refuses the rest, tested elsewhere).
+      std::erase_if(a, [&](double v) { return !(std::abs(std::log(v / base) / std::log(ratio)) < 30000); });
+      for (int level : {0, 1, 2}) {
+        detail::set_simd_level(level);
+        std::vector<LevelBracket> got(a.size());
+        ladder.brackets(a.data(), a.size(), got.data());
+        std::size_t differ = 0;
+        for (std::size_t r = 0; r < a.size(); ++r) {
+          const LevelBracket want = ladder.bracket(a[r]);
+          differ += want.lo != got[r].lo || std::memcmp(&want.area_lo, &got[r].area_lo, sizeof(double)) != 0 ||
+                    std::memcmp(&want.area_hi, &got[r].area_hi, sizeof(double)) != 0 ||
+                    std::memcmp(&want.w_lod, &got[r].w_lod, sizeof(double)) != 0 ||
+                    std::memcmp(&want.w_area, &got[r].w_area, sizeof(double)) != 0;
+        }
+        INFO("ratio " << ratio << " base " << base << " simd " << level);
+        CHECK(differ == 0);
+      }
+    }
+  }
+}
+
+TEST_CASE("a blend with P per sample stops at its lowest refused sample; earlier chunks may be written",
+          "[blend][fast]") {
+  // The checks are fused into the draws: the error names the lowest bad sample whatever the thread
+  // count, and samples of chunks before it are drawn (the documented partial output).
+  ThreadsGuard threads_guard;
+  const BlendedLaw law(make_blend("zk16_linear"),
+                       InnerLaw::from_law(std::shared_ptr<const CountingLaw>(make_law("gated"))), LevelLadder(4, 1));
+  std::vector<double> P(50000, 3.0), p(P.size(), 0.1);
+  P[41000] = -1.0;
+  p[30000] = 1.5;
+  for (int threads : {1, 2}) {
+    set_num_threads(threads);
+    std::vector<double> out(P.size(), -7.0);
+    CHECK_THROWS_WITH(law.sample(1e3, {P.data(), P.size()}, {p.data(), p.size()}, P.size(), 1, out.data()),
+                      Catch::Contains("p[30000] = 1.5"));
+    CHECK(out[0] != -7.0);      // the first chunk is drawn (it precedes the refused sample)
+    CHECK(out[30000] == -7.0);  // the refused sample's chunk is not
+  }
+}
