@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 import glintlab as gl
+from glintlab.validation.store import STORE_FORMAT
 from glintlab.validation.rows import row_seed, tv_noise
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -123,6 +124,15 @@ def test_store_resumes_and_refuses_another_sweep(tmp_path):
     with pytest.raises(ValueError, match="different sweep.*seed"):
         gl.sweep(["gated", "head_cf"], n=[16, 1e3, 1e5], p=[0.01, 0.3], metrics=["tv", "mean_rel_err"],
                  samples=5000, seed=3, store=store)
+
+    # A store of an older format (whose rows this version would not reproduce) is refused, saying why.
+    header = json.loads(store.read_text().splitlines()[0])
+    assert header["glintlab_store"] == STORE_FORMAT
+    old = tmp_path / "old.jsonl"
+    old.write_text(json.dumps(dict(header, glintlab_store=2)) + "\n")
+    with pytest.raises(ValueError, match="store format 2.*roulette"):
+        gl.sweep(["gated", "head_cf"], n=[16, 1e3, 1e5], p=[0.01, 0.3], metrics=["tv", "mean_rel_err"],
+                 samples=5000, seed=2, store=old)
 
 
 SLOW_LAW = '''

@@ -244,7 +244,9 @@ class BlendedLaw {
   Distribution pmf(double density, double area, double p, std::size_t max_support = kDefaultMaxSupport) const;
 
   // Independent samples: sample i sits in cell (i mod 2^32, i >> 32) at every level. density is a
-  // scalar; area and p are arrays of 1 or `count` values.
+  // scalar; area and p are arrays of 1 or `count` values. Bad input throws std::invalid_argument
+  // naming the lowest bad sample, on any thread count; with an array of P or p the checks are fused
+  // into the draws, so out may then be partly written (as sample_many's with two arrays).
   void sample(double density, ParamArray area, ParamArray p, std::size_t count, std::uint64_t seed, double* out) const;
   // Counts at texture positions (x[i], y[i]): the cell of level l is (floor(x / s_l), floor(y / s_l))
   // with s_l = sqrt(A_l), so nearby pixels and successive frames share cells (coherence).

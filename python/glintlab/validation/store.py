@@ -14,7 +14,13 @@ from .._core import __version__ as _version
 from ..api import checks as V
 
 # 2: the configuration holds each law's identity (format 1 keyed custom laws by name only).
-STORE_FORMAT = 2
+# 3: the mollified roulette blend's keep moments in closed form (format 2 used Gauss-Kronrod
+#    quadrature, an ulp or so away): its samples differ in their last bits, so rows of a format-2
+#    store would not be reproduced by this version.
+STORE_FORMAT = 3
+_FORMAT_CHANGE = {2: "the mollified roulette's samples changed in their last bits",
+                  1: "the configuration records each law's identity, and the mollified roulette's samples "
+                     "changed in their last bits"}
 
 
 class SweepStore:
@@ -47,8 +53,9 @@ class SweepStore:
             header = None
         if isinstance(header, dict) and isinstance(header.get("glintlab_store"), int) \
                 and header["glintlab_store"] != STORE_FORMAT:
+            why = _FORMAT_CHANGE.get(header["glintlab_store"], "a different layout")
             raise ValueError(f"store = {str(self.path)!r} was written in store format {header['glintlab_store']} "
-                             f"(this glintlab writes format {STORE_FORMAT}, which records each law's identity); "
+                             f"(this glintlab writes format {STORE_FORMAT}: {why}); "
                              "use another store path, or delete it to start over")
         if not isinstance(header, dict) or header.get("glintlab_store") != STORE_FORMAT:
             V.fail("store", str(self.path), "a glintlab sweep store (a JSON-lines file written by sweep(store=...))")
