@@ -13,6 +13,7 @@ namespace {
 class Distributed final : public BlendRule {
  public:
   std::string name() const override { return "distributed"; }
+  bool reads_lod_weight() const override { return false; }  // DB23 eq. 10 weighs by area
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
     return {(1.0 - b.w_area) * density * b.area_lo, b.w_area * density * b.area_hi};
   }

@@ -216,9 +216,19 @@ LevelBracket LevelLadder::bracket_at(double a, int lo, double w_lod) const {
   return b;
 }
 
-void LevelLadder::brackets(const double* a, std::size_t m, LevelBracket* out) const {
+void LevelLadder::brackets(const double* a, std::size_t m, LevelBracket* out) const { fill_brackets(a, m, out, true); }
+
+void LevelLadder::brackets_without_lod(const double* a, std::size_t m, LevelBracket* out) const {
+  fill_brackets(a, m, out, false);
+}
+
+void LevelLadder::fill_brackets(const double* a, std::size_t m, LevelBracket* out, bool with_lod) const {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   if (!increasing_) {
-    for (std::size_t r = 0; r < m; ++r) out[r] = bracket(a[r]);
+    for (std::size_t r = 0; r < m; ++r) {
+      out[r] = bracket(a[r]);
+      if (!with_lod) out[r].w_lod = kNaN;
+    }
     return;
   }
   // Blocks of rows through the vector passes (detail::level_passes: bracket()'s guess and its two
@@ -232,8 +242,10 @@ void LevelLadder::brackets(const double* a, std::size_t m, LevelBracket* out) co
     const std::size_t rows = std::min(kBlock, m - r0);
     const double* x = a + r0;
     detail::level_passes(x, rows, table, lo, area_lo, area_hi, w_lod);
-    for (std::size_t r = 0; r < rows; ++r) w_lod[r] = std::log(w_lod[r]);
+    if (with_lod)
+      for (std::size_t r = 0; r < rows; ++r) w_lod[r] = std::log(w_lod[r]);
     detail::level_weights(x, rows, log_ratio_, area_lo, area_hi, w_lod, w_area);
+    if (!with_lod) std::fill_n(w_lod, rows, kNaN);
     for (std::size_t r = 0; r < rows; ++r) {
       LevelBracket& b = out[r0 + r];
       b.lo = lo[r];
@@ -244,8 +256,10 @@ void LevelLadder::brackets(const double* a, std::size_t m, LevelBracket* out) co
     }
     // Rows outside the table, or whose guess is still off (ratios near 1): bracket() itself.
     for (std::size_t r = 0; r < rows; ++r)
-      if (!(x[r] >= front && x[r] < back && area_lo[r] <= x[r] && x[r] < area_hi[r])) [[unlikely]]
+      if (!(x[r] >= front && x[r] < back && area_lo[r] <= x[r] && x[r] < area_hi[r])) [[unlikely]] {
         out[r0 + r] = bracket(x[r]);
+        if (!with_lod) out[r0 + r].w_lod = kNaN;
+      }
   }
 }
 
@@ -578,8 +592,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
       try {
         if (area.size == 1)
           std::fill_n(brackets, m, ladder_.bracket(area[0]));
-        else
+        else if (rule_->reads_lod_weight())
           ladder_.brackets(areas, m, brackets);
+        else
+          ladder_.brackets_without_lod(areas, m, brackets);
       } catch (const std::invalid_argument&) {
         // A level index beyond 16 bits: which row (bracket() throws on the same rows).
         for (refused_at = 0; refused_at < m; ++refused_at) {

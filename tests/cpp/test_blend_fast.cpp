@@ -287,8 +287,17 @@ TEST_CASE("LevelLadder::brackets gives bracket()'s bits for every row, at every 
                     std::memcmp(&want.w_lod, &got[r].w_lod, sizeof(double)) != 0 ||
                     std::memcmp(&want.w_area, &got[r].w_area, sizeof(double)) != 0;
         }
+        // Without the fractional LOD (rules that weigh by area): the same but w_lod, which is NaN.
+        std::vector<LevelBracket> no_lod(a.size());
+        ladder.brackets_without_lod(a.data(), a.size(), no_lod.data());
+        std::size_t differ_no_lod = 0;
+        for (std::size_t r = 0; r < a.size(); ++r)
+          differ_no_lod += no_lod[r].lo != got[r].lo || no_lod[r].area_lo != got[r].area_lo ||
+                           no_lod[r].area_hi != got[r].area_hi || !(no_lod[r].w_area == got[r].w_area) ||
+                           !std::isnan(no_lod[r].w_lod);
         INFO("ratio " << ratio << " base " << base << " simd " << level);
         CHECK(differ == 0);
+        CHECK(differ_no_lod == 0);
       }
     }
   }

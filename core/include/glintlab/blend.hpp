@@ -69,10 +69,14 @@ class LevelLadder {
   // random footprints made bracket()'s branches mispredict and serialize its logarithm, about 20 ns
   // a sample against 6 here. Throws as bracket() does (a level index beyond 16 bits).
   void brackets(const double* a, std::size_t m, LevelBracket* out) const;
+  // The same without the fractional LOD (w_lod is NaN; no logarithm): for rules that do not read it
+  // (BlendRule::reads_lod_weight).
+  void brackets_without_lod(const double* a, std::size_t m, LevelBracket* out) const;
 
  private:
   // area(l) for |l| <= kTabulated, computed once by the same expression (a per-sample bracket then
   // costs two logarithms instead of three and four pow calls; the same bits).
+  void fill_brackets(const double* a, std::size_t m, LevelBracket* out, bool with_lod) const;
   static constexpr int kTabulated = 256;
   double ratio_, base_area_, log_ratio_, inv_log2_ratio_ = 1;
   std::vector<double> areas_;
@@ -133,6 +137,9 @@ class BlendRule {
                            double* t_hi) const;
   // Whether combine() reads the per-facet streams (roulette), and needs integer level counts.
   virtual bool thins() const { return false; }
+  // Whether trials() and combine() read LevelBracket::w_lod (the fractional LOD, a logarithm per
+  // footprint); a rule that answers false gets brackets whose w_lod is NaN when P varies per sample.
+  virtual bool reads_lod_weight() const { return true; }
   // K from the level counts; `facets[j]` is level j's stream for per-facet decisions (thins() only).
   virtual double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                          std::array<FacetStream, 2>& facets) const = 0;
