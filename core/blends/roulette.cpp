@@ -60,59 +60,11 @@ std::array<double, 2> roulette_moments_quadrature(double weight, double eps) {
   return m;
 }
 
-namespace {
-
-// The three pieces of E[R] and E[R^2] (docs/math/blends.md, "roulette"), for weight w in (0, 1) and
-// eps in (0, 1/2]. R's window [max(0, r - eps), min(1, r + eps)] is clipped at 0 for r < eps, whole
-// for r in [eps, 1 - eps], clipped at 1 for r > 1 - eps.
-//
-// r in [0, eps]: t = w / s with s = r + eps in [eps, 2 eps]; R = 1 where s <= w. Substituting t for s
-// (ds = -w dt / t^2) turns the rational integrand into a polynomial:
-//   int_c^{2 eps} S(w / s)^j ds = w int_{w / 2eps}^{w / c} S(t)^j / t^2 dt,  c = clamp(w, eps, 2 eps),
-// with S(t) / t^2 = 3 - 2t and S(t)^2 / t^2 = 9t^2 - 12t^3 + 4t^4. Every t here is in [0, 1].
-std::array<double, 2> left_end(double w, double eps) {
-  if (!(w > 0)) return {0.0, 0.0};
-  const double c = std::min(std::max(w, eps), 2.0 * eps);
-  const double t0 = w / (2.0 * eps), t1 = w / c;
-  const auto g1 = [](double t) { return t * (3.0 - t); };
-  const auto g2 = [](double t) { return t * t * t * (3.0 + t * (-3.0 + 0.8 * t)); };
-  // c - eps: the saturated part (R = 1), exact (Sterbenz); t1 = t0 when w >= 2 eps (no ramp).
-  return {(c - eps) + w * (g1(t1) - g1(t0)), (c - eps) + w * (g2(t1) - g2(t0))};
-}
-
-// r in [eps, 1 - eps]: t = (w - r + eps) / (2 eps), linear in r: R = 1 for r <= w - eps, 0 for
-// r >= w + eps, and between them 2 eps times the integral of S^j over t, whose antiderivatives are
-// t^3 - t^4/2 and 9t^5/5 - 2t^6 + 4t^7/7.
-std::array<double, 2> middle(double w, double eps) {
-  const double lo = eps, hi = 1.0 - eps;
-  if (!(hi > lo)) return {0.0, 0.0};  // eps = 1/2: no middle
-  const double r1 = std::clamp(w - eps, lo, hi), r2 = std::clamp(w + eps, lo, hi);
-  const auto t_at = [&](double r) { return std::clamp(((w - r) + eps) / (2.0 * eps), 0.0, 1.0); };
-  const double ta = t_at(r1), tb = t_at(r2);  // ta >= tb
-  const auto p1 = [](double t) { return t * t * t * (1.0 - 0.5 * t); };
-  const auto p2 = [](double t) {
-    const double t2 = t * t;
-    return t2 * t2 * t * (1.8 + t * (-2.0 + t * (4.0 / 7.0)));
-  };
-  return {(r1 - lo) + 2.0 * eps * (p1(ta) - p1(tb)), (r1 - lo) + 2.0 * eps * (p2(ta) - p2(tb))};
-}
-
-}  // namespace
-
-std::array<std::array<double, 2>, 3> roulette_moment_pieces(double weight, double eps) {
-  // r in [1 - eps, 1]: R(r, w) = 1 - R(1 - r, 1 - w) (the smoothstep's symmetry), so with
-  // (a1, a2) = the left end at 1 - w: int R = eps - a1 and int R^2 = eps - 2 a1 + a2.
-  const std::array<double, 2> a = left_end(1.0 - weight, eps);
-  return {left_end(weight, eps), middle(weight, eps), std::array<double, 2>{eps - a[0], (eps - 2.0 * a[0]) + a[1]}};
-}
-
 std::array<double, 2> roulette_moments(double weight, double eps) {
   if (eps <= 0) return {weight, weight};
-  // R is 0 everywhere at weight 0 and 1 everywhere at weight 1: exact moments (a zero variance).
-  if (!(weight > 0)) return {0.0, 0.0};
-  if (!(weight < 1)) return {1.0, 1.0};
-  const auto p = roulette_moment_pieces(weight, eps);
-  return {(p[0][0] + p[1][0]) + p[2][0], (p[0][1] + p[1][1]) + p[2][1]};
+  std::array<double, 2> m;
+  roulette_moments_at(weight, RouletteEps(eps), m[0], m[1]);
+  return m;
 }
 
 }  // namespace blend_detail
