@@ -151,6 +151,33 @@ class Roulette final : public BlendRule {
     }
   }
 
+  // A bracket per row (P per sample): each row's two weights' moments by the closed form (a few
+  // dozen flops), and the first uniforms from the gathered blocks. The same operations as combine()
+  // per row, so the same bits.
+  void combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
+                         const double* k_hi, const FacetRows& facets, double* out) const override {
+    const double* counts[2] = {k_lo, k_hi};
+    for (std::size_t r = 0; r < m; ++r) {
+      const double weight[2] = {1.0 - b[r].w_lod, b[r].w_lod};
+      double level[2];
+      for (int j = 0; j < 2; ++j) {
+        const double k = counts[j][r];
+        const double* first = facets.first[static_cast<std::size_t>(j)];
+        if (k <= 0) {
+          level[j] = 0.0;
+        } else if (first && eps_ == 0) {
+          level[j] = hard_kept(k, weight[j], first[2 * r], first[2 * r + 1]);
+        } else if (first && k > kExplicitFacets) {
+          level[j] = normal_kept(k, blend_detail::roulette_moments(weight[j], eps_), first[2 * r]);
+        } else {
+          FacetStream stream = facets.stream(r, j);
+          level[j] = kept(k, weight[j], stream);
+        }
+      }
+      out[r] = area[r] / b[r].area_lo * level[0] + area[r] / b[r].area_hi * level[1];
+    }
+  }
+
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                  std::array<FacetStream, 2>& facets) const override {
     return area / b.area_lo * kept(k_lo, 1.0 - b.w_lod, facets[0]) + area / b.area_hi * kept(k_hi, b.w_lod, facets[1]);

@@ -1,15 +1,21 @@
 // The mollified roulette's fast paths (core/blends/roulette.cpp): its closed-form moments against
-// Gauss-Kronrod quadrature.
+// Gauss-Kronrod quadrature, and its batch forms (combine_rows, combine_rows_each, with their vector
+// kernels at every SIMD level) against combine() per row, bit for bit.
 #include <algorithm>
 #include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <vector>
 
 #include "glintlab/blend.hpp"
 #include "glintlab/detail/roulette.hpp"
+#include "glintlab/detail/uniform_rows.hpp"
+#include "glintlab/law.hpp"
+#include "glintlab/rng.hpp"
 
 using namespace glintlab;
 
@@ -79,5 +85,97 @@ TEST_CASE("the roulette's closed-form moments agree with quadrature", "[blend][r
     });
     INFO("piece " << dropped << " dropped: largest difference " << wrong);
     CHECK(wrong > 1e3 * kTolerance);
+  }
+}
+
+namespace {
+
+struct SimdGuard {
+  ~SimdGuard() { detail::set_simd_level(2); }
+};
+
+bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+// Uniforms for the rows' first blocks: Philox draws, with AS 241's region boundaries (1/2 +- 0.425),
+// the far tails and 1/2 itself planted among them (and their neighbouring doubles).
+std::vector<double> first_blocks(std::uint64_t seed, std::size_t rows) {
+  std::vector<double> u(2 * rows);
+  fill_uniforms(seed, kStreamSample, 0, rows, 2, u.data());
+  const double planted[] = {0.075, 0.925, 0.5, 1e-300, 1e-20, 1 - 1e-16, 0.0, 1.0};
+  std::size_t at = 0;
+  for (double x : planted)
+    for (double v : {x, std::nextafter(x, 0.0), std::nextafter(x, 1.0)}) {
+      u[2 * at] = v;
+      at += 7;
+    }
+  return u;
+}
+
+}  // namespace
+
+TEST_CASE("the roulette's combine_rows and combine_rows_each are combine() per row, bit for bit", "[blend][roulette]") {
+  SimdGuard guard;
+  // A base area that is not a power of 2: P / A_l then rounds, so the order of operations shows.
+  const LevelLadder ladder(4, 1.3);
+  const std::size_t m = 1500;  // several of the rule's row blocks
+  std::vector<double> w(m);
+  fill_uniforms(3, kStreamSample, 0, m, 1, w.data());
+  // Footprints over three levels, some at a level's area (w = 0: the upper weight 0, R = 0).
+  std::vector<double> area(m);
+  std::vector<LevelBracket> brackets(m);
+  for (std::size_t r = 0; r < m; ++r) {
+    area[r] = r % 11 == 0 ? ladder.area(static_cast<int>(r % 3)) : 1.3 * std::exp(std::log(64.0) * w[r]);
+    brackets[r] = ladder.bracket(area[r]);
+  }
+  // Counts on every path: none, explicit facets (whole and fractional), the normal sum.
+  const double counts[] = {0.0, 3.0, 40.5, 64.0, 64.5, 65.0, 400.0, 400.25, 2.5e3, 1e5, 7e2, 1.2e3};
+  std::vector<double> k_lo(m), k_hi(m);
+  for (std::size_t r = 0; r < m; ++r) {
+    k_lo[r] = counts[(r * 5) % 12];
+    k_hi[r] = counts[(r * 7 + 3) % 12];
+  }
+  const std::array<std::vector<double>, 2> first = {first_blocks(1, m), first_blocks(2, m)};
+  for (double eps : {0.1, 0.0, 1e-3, 0.3, 0.5}) {
+    const auto rule = make_blend("roulette", {{"epsilon", eps}});
+    for (const bool with_first : {true, false}) {
+      // Row r's level-j stream: its first block from `first` (as the drivers' prefetched blocks),
+      // then Philox.
+      const auto stream = [&](std::size_t r, int j) {
+        const CounterRng rng(9, static_cast<std::uint32_t>(r), 0, static_cast<std::uint16_t>(brackets[r].lo + j),
+                             kStreamLevelFacets);
+        return with_first ? FacetStream(first[static_cast<std::size_t>(j)].data() + 2 * r, rng) : FacetStream(rng);
+      };
+      BlendRule::FacetRows rows;
+      if (with_first) rows.first = {first[0].data(), first[1].data()};
+      rows.stream = stream;
+      std::vector<double> expected(m), each(m);
+      for (std::size_t r = 0; r < m; ++r) {
+        std::array<FacetStream, 2> streams = {stream(r, 0), stream(r, 1)};
+        expected[r] = rule->combine(area[r], brackets[r], k_lo[r], k_hi[r], streams);
+      }
+      // One bracket for every row (brackets[1]: not at a level's area).
+      std::vector<double> one_expected(m), one(m);
+      const auto one_stream = [&](std::size_t r, int j) {
+        const CounterRng rng(9, static_cast<std::uint32_t>(r), 0, static_cast<std::uint16_t>(brackets[1].lo + j),
+                             kStreamLevelFacets);
+        return with_first ? FacetStream(first[static_cast<std::size_t>(j)].data() + 2 * r, rng) : FacetStream(rng);
+      };
+      BlendRule::FacetRows one_rows = rows;
+      one_rows.stream = one_stream;
+      for (std::size_t r = 0; r < m; ++r) {
+        std::array<FacetStream, 2> streams = {one_stream(r, 0), one_stream(r, 1)};
+        one_expected[r] = rule->combine(area[1], brackets[1], k_lo[r], k_hi[r], streams);
+      }
+      for (int level : {2, 1, 0}) {
+        detail::set_simd_level(level);
+        rule->combine_rows_each(area.data(), brackets.data(), m, k_lo.data(), k_hi.data(), rows, each.data());
+        rule->combine_rows(area[1], brackets[1], m, k_lo.data(), k_hi.data(), one_rows, one.data());
+        INFO("eps " << eps << " first blocks " << with_first << " simd " << level);
+        CHECK(same_bits(each, expected));
+        CHECK(same_bits(one, one_expected));
+      }
+    }
   }
 }
