@@ -120,62 +120,21 @@ class Roulette final : public BlendRule {
     return normal_kept(k, blend_detail::roulette_moments(weight, eps_), facets.uniform());
   }
 
-  // One bracket for all rows: the weights' moments once, and the first uniforms straight from the
-  // prefetched blocks; only the explicit facets (eps > 0, k <= 64) read a whole stream. The same
-  // operations as combine(), so the same bits.
+  // One bracket for all rows (the scales P / A_l once), and a bracket per row (P per sample): both
+  // by rows(), the same operations as combine() per row, so the same bits.
   void combine_rows(double area, const LevelBracket& b, std::size_t m, const double* k_lo, const double* k_hi,
                     const FacetRows& facets, double* out) const override {
-    const double weight[2] = {1.0 - b.w_lod, b.w_lod};
     const double scale[2] = {area / b.area_lo, area / b.area_hi};
-    const double* counts[2] = {k_lo, k_hi};
-    std::array<double, 2> moments[2] = {{0, 0}, {0, 0}};
-    if (eps_ > 0)
-      for (int j = 0; j < 2; ++j) moments[j] = blend_detail::roulette_moments(weight[j], eps_);
-    for (std::size_t r = 0; r < m; ++r) {
-      double level[2];
-      for (int j = 0; j < 2; ++j) {
-        const double k = counts[j][r];
-        const double* first = facets.first[static_cast<std::size_t>(j)];
-        if (k <= 0) {
-          level[j] = 0.0;
-        } else if (first && eps_ == 0) {
-          level[j] = hard_kept(k, weight[j], first[2 * r], first[2 * r + 1]);
-        } else if (first && k > kExplicitFacets) {
-          level[j] = normal_kept(k, moments[j], first[2 * r]);
-        } else {
-          FacetStream stream = facets.stream(r, j);
-          level[j] = kept(k, weight[j], stream);
-        }
-      }
-      out[r] = scale[0] * level[0] + scale[1] * level[1];
-    }
+    rows(
+        m, true, [&](std::size_t) -> const LevelBracket& { return b; }, [&](std::size_t, int j) { return scale[j]; },
+        k_lo, k_hi, facets, out);
   }
-
-  // A bracket per row (P per sample): each row's two weights' moments by the closed form (a few
-  // dozen flops), and the first uniforms from the gathered blocks. The same operations as combine()
-  // per row, so the same bits.
   void combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
                          const double* k_hi, const FacetRows& facets, double* out) const override {
-    const double* counts[2] = {k_lo, k_hi};
-    for (std::size_t r = 0; r < m; ++r) {
-      const double weight[2] = {1.0 - b[r].w_lod, b[r].w_lod};
-      double level[2];
-      for (int j = 0; j < 2; ++j) {
-        const double k = counts[j][r];
-        const double* first = facets.first[static_cast<std::size_t>(j)];
-        if (k <= 0) {
-          level[j] = 0.0;
-        } else if (first && eps_ == 0) {
-          level[j] = hard_kept(k, weight[j], first[2 * r], first[2 * r + 1]);
-        } else if (first && k > kExplicitFacets) {
-          level[j] = normal_kept(k, blend_detail::roulette_moments(weight[j], eps_), first[2 * r]);
-        } else {
-          FacetStream stream = facets.stream(r, j);
-          level[j] = kept(k, weight[j], stream);
-        }
-      }
-      out[r] = area[r] / b[r].area_lo * level[0] + area[r] / b[r].area_hi * level[1];
-    }
+    rows(
+        m, false, [&](std::size_t r) -> const LevelBracket& { return b[r]; },
+        [&](std::size_t r, int j) { return area[r] / (j == 0 ? b[r].area_lo : b[r].area_hi); }, k_lo, k_hi, facets,
+        out);
   }
 
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
@@ -195,6 +154,66 @@ class Roulette final : public BlendRule {
   }
 
  private:
+  // out[r] = scale(r, 0) kept_lo + scale(r, 1) kept_hi for rows r < m, bracket(r) the row's bracket. The hard roulette
+  // and the explicit facets as kept() does; the normal sums (eps > 0, k > 64, first block given) by the vector kernel a
+  // block of rows at a time, each row's moments and, where its quantile is central (85 % of rows), its kept sum; the
+  // scalar normal_kept finishes the rows in the quantile's tails (it needs a logarithm) from the kernel's moments.
+  template <class BracketOf, class ScaleOf>
+  void rows(std::size_t m, bool one_bracket, BracketOf bracket, ScaleOf scale, const double* k_lo, const double* k_hi,
+            const FacetRows& facets, double* out) const {
+    const double* counts[2] = {k_lo, k_hi};
+    constexpr std::size_t kBlock = 256;
+    alignas(64) double batch[2][3][kBlock];  // per level: kept sum (NaN: scalar), E[R], E[R^2]
+    alignas(64) double w_lod[kBlock];        // the rows' w_lod side by side, for the kernel
+    const bool normal_kernel = eps_ > 0 && (facets.first[0] || facets.first[1]);
+    for (std::size_t r0 = 0; r0 < m; r0 += kBlock) {
+      const std::size_t n = std::min(kBlock, m - r0);
+      if (normal_kernel) {
+        detail::RouletteRows block;
+        block.m = n;
+        if (one_bracket) {
+          block.w_lod = &bracket(0).w_lod;
+          block.w_step = 0;
+        } else {
+          for (std::size_t i = 0; i < n; ++i) w_lod[i] = bracket(r0 + i).w_lod;
+          block.w_lod = w_lod;
+          block.w_step = 1;
+        }
+        block.eps = eps_;
+        for (std::size_t j = 0; j < 2; ++j) {
+          block.k[j] = counts[j] + r0;
+          block.first[j] = facets.first[j] ? facets.first[j] + 2 * r0 : nullptr;
+          block.level[j] = batch[j][0];
+          block.mom0[j] = batch[j][1];
+          block.mom1[j] = batch[j][2];
+        }
+        detail::roulette_normal_rows(block);
+      }
+      for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t r = r0 + i;
+        const LevelBracket& b = bracket(r);
+        double level[2];
+        for (std::size_t j = 0; j < 2; ++j) {
+          const double k = counts[j][r];
+          const double* first = facets.first[j];
+          const double weight = j == 0 ? 1.0 - b.w_lod : b.w_lod;
+          if (k <= 0) {
+            level[j] = 0.0;
+          } else if (first && eps_ == 0) {
+            level[j] = hard_kept(k, weight, first[2 * r], first[2 * r + 1]);
+          } else if (first && k > kExplicitFacets) {
+            const double v = batch[j][0][i];
+            level[j] = v == v ? v : normal_kept(k, {batch[j][1][i], batch[j][2][i]}, first[2 * r]);
+          } else {
+            FacetStream stream = facets.stream(r, static_cast<int>(j));
+            level[j] = kept(k, weight, stream);
+          }
+        }
+        out[r] = scale(r, 0) * level[0] + scale(r, 1) * level[1];
+      }
+    }
+  }
+
   double eps_;
 };
 

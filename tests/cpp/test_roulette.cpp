@@ -15,6 +15,7 @@
 #include "glintlab/detail/roulette.hpp"
 #include "glintlab/detail/uniform_rows.hpp"
 #include "glintlab/law.hpp"
+#include "glintlab/normal.hpp"
 #include "glintlab/rng.hpp"
 
 using namespace glintlab;
@@ -178,4 +179,61 @@ TEST_CASE("the roulette's combine_rows and combine_rows_each are combine() per r
       }
     }
   }
+}
+
+TEST_CASE("the vector central quantile is normal::quantile bit for bit (AS 241's central region)",
+          "[roulette][normal]") {
+  SimdGuard guard;
+  // Philox uniforms, then sweeps of consecutive doubles across the region's ends 1/2 -+ 0.425 and
+  // around 1/2, and the ends of (0, 1).
+  std::vector<double> u(200000);
+  fill_uniforms(8, kStreamSample, 0, u.size(), 1, u.data());
+  for (double c : {0.075, 0.925, 0.5, 0.0, 1.0}) {
+    double below = c, above = c;
+    for (int i = 0; i < 2000; ++i) {
+      below = std::nextafter(below, -1.0);
+      above = std::nextafter(above, 2.0);
+      u.push_back(below);
+      u.push_back(above);
+    }
+    u.push_back(c);
+  }
+  std::vector<double> expected(u.size());
+  std::size_t central = 0;
+  for (std::size_t i = 0; i < u.size(); ++i) {
+    const bool is_central = std::abs(u[i] - 0.5) <= 0.425;
+    central += is_central;
+    expected[i] = is_central ? normal::quantile(u[i]) : std::numeric_limits<double>::quiet_NaN();
+  }
+  // Both region ends were crossed: central and tail values on either side of each.
+  REQUIRE(central > 100000);
+  REQUIRE(central < u.size() - 8000);
+  const auto same = [](const std::vector<double>& a, const std::vector<double>& b) {
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const bool both_nan = std::isnan(a[i]) && std::isnan(b[i]);
+      if (!both_nan && std::memcmp(&a[i], &b[i], sizeof(double)) != 0) return false;
+    }
+    return true;
+  };
+  for (int level : {2, 1, 0}) {
+    detail::set_simd_level(level);
+    std::vector<double> got(u.size());
+    detail::normal_quantile_central(u.data(), u.size(), got.data());
+    INFO("simd level " << level);
+    CHECK(same(got, expected));
+  }
+  // The comparison sees a single rounding: the same rational function with its Horner steps fused
+  // (what FMA contraction would compile) differs from normal::quantile on some of these uniforms.
+  std::vector<double> fused(u.size());
+  const auto horner_fma = [](const double(&c)[8], double x) {
+    double s = c[7];
+    for (int i = 6; i >= 0; --i) s = std::fma(s, x, c[i]);
+    return s;
+  };
+  for (std::size_t i = 0; i < u.size(); ++i) {
+    const double q = u[i] - 0.5, r = 0.180625 - q * q;
+    fused[i] = std::abs(q) <= 0.425 ? q * horner_fma(normal::detail::kA, r) / horner_fma(normal::detail::kB, r)
+                                    : std::numeric_limits<double>::quiet_NaN();
+  }
+  CHECK_FALSE(same(fused, expected));
 }
