@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 
 #include "glintlab/blend.hpp"
 #include "glintlab/detail/roulette.hpp"
@@ -188,6 +189,49 @@ class Roulette final : public BlendRule {
           block.mom1[j] = batch[j][2];
         }
         detail::roulette_normal_rows(block);
+        // The rows whose quantile is in a tail (NaN), listed without branches, then finished by the
+        // scalar normal_kept in a tight loop: independent rows, so their logarithms overlap, and the
+        // row loop below has no unpredictable branch.
+        for (std::size_t j = 0; j < 2; ++j) {
+          if (!facets.first[j]) continue;
+          std::uint16_t tail[kBlock];
+          std::size_t tails = 0;
+          for (std::size_t i = 0; i < n; ++i) {
+            tail[tails] = static_cast<std::uint16_t>(i);
+            tails += batch[j][0][i] != batch[j][0][i];
+          }
+          for (std::size_t t = 0; t < tails; ++t) {
+            const std::size_t i = tail[t];
+            const double k = counts[j][r0 + i];
+            if (k > kExplicitFacets)
+              batch[j][0][i] = normal_kept(k, {batch[j][1][i], batch[j][2][i]}, facets.first[j][2 * (r0 + i)]);
+          }
+        }
+      }
+      // The usual block: every level of every row either empty or a normal sum (as the row loop below
+      // would decide): K straight from the batch, without the per-row branches.
+      if (normal_kernel) {
+        bool all_normal = true;
+        for (std::size_t j = 0; j < 2; ++j) {
+          const double* k = counts[j] + r0;
+          int other = 0;
+          if (facets.first[j])
+            for (std::size_t i = 0; i < n; ++i) other |= !(k[i] <= 0) && !(k[i] > kExplicitFacets);
+          else
+            for (std::size_t i = 0; i < n; ++i) other |= !(k[i] <= 0);
+          all_normal = all_normal && other == 0;
+        }
+        if (all_normal) {
+          const double* k0 = counts[0] + r0;
+          const double* k1 = counts[1] + r0;
+          const bool has[2] = {facets.first[0] != nullptr, facets.first[1] != nullptr};
+          for (std::size_t i = 0; i < n; ++i) {
+            const double lo = has[0] && !(k0[i] <= 0) ? batch[0][0][i] : 0.0;
+            const double hi = has[1] && !(k1[i] <= 0) ? batch[1][0][i] : 0.0;
+            out[r0 + i] = scale(r0 + i, 0) * lo + scale(r0 + i, 1) * hi;
+          }
+          continue;
+        }
       }
       for (std::size_t i = 0; i < n; ++i) {
         const std::size_t r = r0 + i;
@@ -202,8 +246,7 @@ class Roulette final : public BlendRule {
           } else if (first && eps_ == 0) {
             level[j] = hard_kept(k, weight, first[2 * r], first[2 * r + 1]);
           } else if (first && k > kExplicitFacets) {
-            const double v = batch[j][0][i];
-            level[j] = v == v ? v : normal_kept(k, {batch[j][1][i], batch[j][2][i]}, first[2 * r]);
+            level[j] = batch[j][0][i];
           } else {
             FacetStream stream = facets.stream(r, static_cast<int>(j));
             level[j] = kept(k, weight, stream);

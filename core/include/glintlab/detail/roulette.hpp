@@ -92,8 +92,8 @@ namespace glintlab::detail {
 //   level[j][r] = the rule's normal_kept(k[j][r], moments, first[j][2 r]) when its normal quantile is
 //   central (|u - 1/2| <= 0.425) or not needed (sd = 0), else NaN (the caller evaluates those rows
 //   with the scalar code, from the moments given).
-// Bit for bit the scalar rule's values; rows the caller routes elsewhere (k <= 64) are computed and
-// ignored.
+// Bit for bit the scalar rule's values for rows with k > 0; rows the caller routes elsewhere
+// (k <= 64) are computed and ignored. w_step = 0: one weight for every row (its moments once).
 struct RouletteRows {
   std::size_t m = 0;
   const double* w_lod = nullptr;
