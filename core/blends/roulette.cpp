@@ -23,7 +23,12 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <functional>
+#include <memory>
+#include <unordered_map>
 
+#include "glintlab/binomial.hpp"
 #include "glintlab/blend.hpp"
 #include "glintlab/detail/roulette.hpp"
 #include "glintlab/errors.hpp"
@@ -74,6 +79,51 @@ namespace {
 
 constexpr double kExplicitFacets = 64;
 
+// blend_detail::thin(n, q, u) = binomial::quantile(u, n, q) for integer n > 0 and q in (0, 1), from
+// this thread's tables of the (n, q) pairs met often: a batch at one footprint area thins every row
+// of a level with one weight q and a few hundred distinct counts n, each a full CDF inversion
+// (about 20 incomplete-beta evaluations) otherwise. binomial::QuantileTable is quantile bit for bit,
+// so the bits do not depend on the cache's state (nor on the thread). A pair gets a table at its
+// kTableAfter-th use, when its cost (two tail functions per count of the window) is paid back; the
+// cache is emptied past kMaxTables pairs (weights that vary per row fill it with pairs used once).
+class ThinTables {
+ public:
+  double operator()(double n, double q, double u) {
+    const Key key{bits(n), bits(q)};
+    auto it = tables_.find(key);
+    if (it == tables_.end()) {
+      if (tables_.size() >= kMaxTables) tables_.clear();
+      it = tables_.emplace(key, Entry{}).first;
+    }
+    Entry& e = it->second;
+    if (!e.table) {
+      if (++e.uses < kTableAfter) return binomial::quantile(u, n, q);
+      e.table = std::make_unique<binomial::QuantileTable>(n, q, std::size_t{1} << 16);
+    }
+    return (*e.table)(u);
+  }
+
+ private:
+  static constexpr std::size_t kTableAfter = 16, kMaxTables = 8192;
+  struct Key {
+    std::uint64_t n, q;
+    bool operator==(const Key& o) const { return n == o.n && q == o.q; }
+  };
+  struct KeyHash {
+    std::size_t operator()(const Key& k) const { return std::hash<std::uint64_t>()(k.n * 0x9E3779B97F4A7C15ull ^ k.q); }
+  };
+  struct Entry {
+    std::size_t uses = 0;
+    std::unique_ptr<binomial::QuantileTable> table;
+  };
+  static std::uint64_t bits(double x) {
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    return b;
+  }
+  std::unordered_map<Key, Entry, KeyHash> tables_;
+};
+
 class Roulette final : public BlendRule {
  public:
   explicit Roulette(double eps) : eps_(eps) {}
@@ -96,6 +146,20 @@ class Roulette final : public BlendRule {
   static double hard_kept(double k, double weight, double u, double u_part) {
     const double whole = std::floor(k), part = k - whole;
     return blend_detail::thin(whole, weight, u) + (part > 0 && u_part < weight ? part : 0.0);
+  }
+  // hard_kept with thin's binomial quantiles from this thread's tables: the same bits.
+  static double hard_kept_cached(double k, double weight, double u, double u_part) {
+    const double whole = std::floor(k), part = k - whole;
+    double kept;
+    if (whole <= 0 || weight <= 0) {
+      kept = 0.0;
+    } else if (weight >= 1) {
+      kept = whole;
+    } else {
+      thread_local ThinTables tables;
+      kept = tables(whole, weight, u);
+    }
+    return kept + (part > 0 && u_part < weight ? part : 0.0);
   }
   // Above kExplicitFacets: the normal with the kept sum's exact moments, from one uniform.
   static double normal_kept(double k, const std::array<double, 2>& m, double u) {
@@ -244,7 +308,10 @@ class Roulette final : public BlendRule {
           if (k <= 0) {
             level[j] = 0.0;
           } else if (first && eps_ == 0) {
-            level[j] = hard_kept(k, weight, first[2 * r], first[2 * r + 1]);
+            // One weight for every row: its counts recur, so thin from this thread's tables. (A weight
+            // per row, P per sample, would only fill them with pairs used once.)
+            level[j] = one_bracket ? hard_kept_cached(k, weight, first[2 * r], first[2 * r + 1])
+                                   : hard_kept(k, weight, first[2 * r], first[2 * r + 1]);
           } else if (first && k > kExplicitFacets) {
             level[j] = batch[j][0][i];
           } else {
