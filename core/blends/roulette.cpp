@@ -77,7 +77,7 @@ std::array<double, 2> roulette_moments(double weight, double eps) {
 
 namespace {
 
-constexpr double kExplicitFacets = 64;
+constexpr double kExplicitFacets = detail::kRouletteExplicitFacets;
 
 // blend_detail::thin(n, q, u) = binomial::quantile(u, n, q) for integer n > 0 and q in (0, 1), from
 // this thread's tables of the (n, q) pairs met often: a batch at one footprint area thins every row
@@ -230,6 +230,7 @@ class Roulette final : public BlendRule {
     constexpr std::size_t kBlock = 256;
     alignas(64) double batch[2][3][kBlock];  // per level: kept sum (NaN: scalar), E[R], E[R^2]
     alignas(64) double w_lod[kBlock];        // the rows' w_lod side by side, for the kernel
+    std::uint32_t tail[2][kBlock + 16];      // the kernel's lists of tail rows
     const bool normal_kernel = eps_ > 0 && (facets.first[0] || facets.first[1]);
     for (std::size_t r0 = 0; r0 < m; r0 += kBlock) {
       const std::size_t n = std::min(kBlock, m - r0);
@@ -251,40 +252,30 @@ class Roulette final : public BlendRule {
           block.level[j] = batch[j][0];
           block.mom0[j] = batch[j][1];
           block.mom1[j] = batch[j][2];
+          block.tail[j] = tail[j];
         }
         detail::roulette_normal_rows(block);
-        // The rows whose quantile is in a tail (NaN), listed without branches, then finished by the
+        // The rows whose quantile is in a tail (NaN), as the kernel listed them, finished by the
         // scalar normal_kept in a tight loop: independent rows, so their logarithms overlap, and the
-        // row loop below has no unpredictable branch.
+        // row loops below have no unpredictable branch.
         for (std::size_t j = 0; j < 2; ++j) {
-          if (!facets.first[j]) continue;
-          std::uint16_t tail[kBlock];
-          std::size_t tails = 0;
-          for (std::size_t i = 0; i < n; ++i) {
-            tail[tails] = static_cast<std::uint16_t>(i);
-            tails += batch[j][0][i] != batch[j][0][i];
-          }
-          for (std::size_t t = 0; t < tails; ++t) {
-            const std::size_t i = tail[t];
+          for (std::size_t t = 0; t < block.tails[j]; ++t) {
+            const std::size_t i = tail[j][t];
             const double k = counts[j][r0 + i];
             if (k > kExplicitFacets)
               batch[j][0][i] = normal_kept(k, {batch[j][1][i], batch[j][2][i]}, facets.first[j][2 * (r0 + i)]);
           }
         }
-      }
-      // The usual block: every level of every row either empty or a normal sum (as the row loop below
-      // would decide): K straight from the batch, without the per-row branches.
-      if (normal_kernel) {
-        bool all_normal = true;
-        for (std::size_t j = 0; j < 2; ++j) {
-          const double* k = counts[j] + r0;
-          int other = 0;
-          if (facets.first[j])
-            for (std::size_t i = 0; i < n; ++i) other |= !(k[i] <= 0) && !(k[i] > kExplicitFacets);
-          else
+        // The usual block: every level of every row either empty or a normal sum (as the row loop
+        // below would decide): K straight from the batch, without the per-row branches.
+        bool all_normal = !block.explicit_rows;
+        for (std::size_t j = 0; j < 2 && all_normal; ++j)
+          if (!facets.first[j]) {
+            const double* k = counts[j] + r0;
+            int other = 0;
             for (std::size_t i = 0; i < n; ++i) other |= !(k[i] <= 0);
-          all_normal = all_normal && other == 0;
-        }
+            all_normal = other == 0;
+          }
         if (all_normal) {
           const double* k0 = counts[0] + r0;
           const double* k1 = counts[1] + r0;

@@ -9,7 +9,7 @@
 
 namespace glintlab::detail {
 
-void roulette_normal_rows(const RouletteRows& rows) {
+void roulette_normal_rows(RouletteRows& rows) {
   const int level = simd_level();
   if (level >= 2) return roulette_normal_rows_avx512(rows);
   if (level >= 1) return roulette_normal_rows_avx2(rows);

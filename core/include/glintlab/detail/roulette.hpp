@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 
 namespace glintlab::blend_detail {
 
@@ -94,6 +95,10 @@ namespace glintlab::detail {
 //   with the scalar code, from the moments given).
 // Bit for bit the scalar rule's values for rows with k > 0; rows the caller routes elsewhere
 // (k <= 64) are computed and ignored. w_step = 0: one weight for every row (its moments once).
+// Also: tail[j][0 .. tails[j]) the rows r (ascending) whose level[j][r] is NaN (room for m + 16),
+// and explicit_rows, whether some row of such a level has a count that is neither <= 0 nor above
+// kRouletteExplicitFacets (explicit facets, or NaN).
+inline constexpr double kRouletteExplicitFacets = 64;
 struct RouletteRows {
   std::size_t m = 0;
   const double* w_lod = nullptr;
@@ -102,11 +107,14 @@ struct RouletteRows {
   std::array<const double*, 2> first{nullptr, nullptr};
   double eps = 0.1;
   std::array<double*, 2> level{nullptr, nullptr}, mom0{nullptr, nullptr}, mom1{nullptr, nullptr};
+  std::array<std::uint32_t*, 2> tail{nullptr, nullptr};
+  std::array<std::size_t, 2> tails{0, 0};
+  bool explicit_rows = false;
 };
-void roulette_normal_rows(const RouletteRows& rows);  // at detail::simd_level()
-void roulette_normal_rows_avx512(const RouletteRows& rows);
-void roulette_normal_rows_avx2(const RouletteRows& rows);
-void roulette_normal_rows_portable(const RouletteRows& rows);
+void roulette_normal_rows(RouletteRows& rows);  // at detail::simd_level()
+void roulette_normal_rows_avx512(RouletteRows& rows);
+void roulette_normal_rows_avx2(RouletteRows& rows);
+void roulette_normal_rows_portable(RouletteRows& rows);
 
 // out[i] = normal::quantile(u[i]) where |u[i] - 1/2| <= 0.425 (AS 241's central region: the same
 // operations, so the same bits), NaN elsewhere; at detail::simd_level().
