@@ -83,28 +83,37 @@ constexpr double kExplicitFacets = detail::kRouletteExplicitFacets;
 // this thread's tables of the (n, q) pairs met often: a batch at one footprint area thins every row
 // of a level with one weight q and a few hundred distinct counts n, each a full CDF inversion
 // (about 20 incomplete-beta evaluations) otherwise. binomial::QuantileTable is quantile bit for bit,
-// so the bits do not depend on the cache's state (nor on the thread). A pair gets a table at its
-// kTableAfter-th use, when its cost (two tail functions per count of the window) is paid back; the
-// cache is emptied past kMaxTables pairs (weights that vary per row fill it with pairs used once).
+// so the bits do not depend on the cache's state (nor on the thread).
+// A pair gets its table once it has been used about window / 8 times (at least 16), the window being
+// the ~17 sd + 40 counts the table evaluates two tail functions at: by then the quantiles it saves
+// have paid for it. The cache is emptied past kMaxPairs pairs (weights that vary per row fill it with
+// pairs used once) or kMaxCounts tabulated counts in all (~50 bytes each: 50 MB a thread at most).
 class ThinTables {
  public:
   double operator()(double n, double q, double u) {
     const Key key{bits(n), bits(q)};
     auto it = tables_.find(key);
     if (it == tables_.end()) {
-      if (tables_.size() >= kMaxTables) tables_.clear();
-      it = tables_.emplace(key, Entry{}).first;
+      if (tables_.size() >= kMaxPairs) clear();
+      const double window = 17.0 * std::sqrt(n * q * (1.0 - q)) + 40.0;
+      it = tables_.emplace(key, Entry{0, std::max(16.0, window / 8.0), window, nullptr}).first;
     }
     Entry& e = it->second;
     if (!e.table) {
-      if (++e.uses < kTableAfter) return binomial::quantile(u, n, q);
+      if (static_cast<double>(++e.uses) < e.table_after) return binomial::quantile(u, n, q);
+      if (counts_ + e.window > kMaxCounts) {
+        clear();  // e is gone with the rest; this call answers directly, the pair starts over
+        return binomial::quantile(u, n, q);
+      }
+      counts_ += e.window;
       e.table = std::make_unique<binomial::QuantileTable>(n, q, std::size_t{1} << 16);
     }
     return (*e.table)(u);
   }
 
  private:
-  static constexpr std::size_t kTableAfter = 16, kMaxTables = 8192;
+  static constexpr std::size_t kMaxPairs = 8192;
+  static constexpr double kMaxCounts = 1e6;
   struct Key {
     std::uint64_t n, q;
     bool operator==(const Key& o) const { return n == o.n && q == o.q; }
@@ -113,7 +122,8 @@ class ThinTables {
     std::size_t operator()(const Key& k) const { return std::hash<std::uint64_t>()(k.n * 0x9E3779B97F4A7C15ull ^ k.q); }
   };
   struct Entry {
-    std::size_t uses = 0;
+    std::size_t uses;
+    double table_after, window;
     std::unique_ptr<binomial::QuantileTable> table;
   };
   static std::uint64_t bits(double x) {
@@ -121,7 +131,12 @@ class ThinTables {
     std::memcpy(&b, &x, sizeof b);
     return b;
   }
+  void clear() {
+    tables_.clear();
+    counts_ = 0;
+  }
   std::unordered_map<Key, Entry, KeyHash> tables_;
+  double counts_ = 0;  // the tables' windows, in counts
 };
 
 class Roulette final : public BlendRule {
