@@ -41,6 +41,8 @@ namespace blend_detail {
 double roulette_keep(double r, double weight, double eps) {
   if (eps <= 0) return r < weight ? 1.0 : 0.0;
   const double e0 = std::max(0.0, r - eps), e1 = std::min(1.0, r + eps);
+  // An eps below half an ulp of r leaves no window (e1 = e0): the step it tends to (0 / 0 otherwise).
+  if (!(e1 > e0)) return r < weight ? 1.0 : 0.0;
   const double t = std::clamp((weight - e0) / (e1 - e0), 0.0, 1.0);
   return t * t * (3.0 - 2.0 * t);
 }

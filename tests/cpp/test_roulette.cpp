@@ -29,7 +29,8 @@ using Moments = std::function<std::array<double, 2>(double, double)>;
 std::vector<double> test_weights(double eps) {
   std::vector<double> w;
   for (int i = 0; i <= 2000; ++i) w.push_back(i / 2000.0);
-  for (double c : {0.0, eps, 2 * eps, 3 * eps, 0.5 * eps, 0.5, 1 - 3 * eps, 1 - 2 * eps, 1 - eps, 1.0, 1e-300, 1e-12}) {
+  for (double c :
+       {0.0, eps, 2 * eps, 3 * eps, 0.5 * eps, 0.5, 1 - 3 * eps, 1 - 2 * eps, 1 - eps, 1.0, 1e-300, 1e-12, 1e-320}) {
     for (double x : {c, std::nextafter(c, -1.0), std::nextafter(c, 2.0)})
       if (x >= 0 && x <= 1) w.push_back(x);
   }
@@ -37,7 +38,9 @@ std::vector<double> test_weights(double eps) {
 }
 
 std::vector<double> test_epsilons() {
-  std::vector<double> e = {1e-9, 1e-6, 1e-3, 0.01, 0.1, 0.25, 0.49, std::nextafter(0.5, 0.0), 0.5};
+  // Tiny ones too: w / 2eps then overflows its fifth power (1e-70) or 1 / 2eps itself (subnormals).
+  std::vector<double> e = {1e-9, 1e-6,  1e-3,   0.01,   0.1,    0.25,  0.49, std::nextafter(0.5, 0.0),
+                           0.5,  1e-70, 1e-200, 1e-300, 1e-310, 5e-324};
   for (int i = 1; i <= 40; ++i) e.push_back(i / 80.0);
   return e;
 }
@@ -72,6 +75,9 @@ TEST_CASE("the roulette's closed-form moments agree with quadrature", "[blend][r
     for (double w : test_weights(eps))
       CHECK(blend_detail::roulette_moments(w, eps)[0] + blend_detail::roulette_moments(1 - w, eps)[0] ==
             Approx(1.0).margin(1e-15));
+  // An eps below half an ulp of r leaves R no window: the step, never 0 / 0.
+  CHECK(blend_detail::roulette_keep(0.5, 0.5, 5e-324) == 0.0);
+  CHECK(blend_detail::roulette_keep(0.5, std::nextafter(0.5, 1.0), 5e-324) == 1.0);
   // The comparison catches a closed form with a piece missing (each of the three in turn).
   for (int dropped = 0; dropped < 3; ++dropped) {
     const double wrong = largest_difference([dropped](double w, double eps) {

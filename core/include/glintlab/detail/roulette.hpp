@@ -13,10 +13,16 @@
 
 namespace glintlab::blend_detail {
 
-// eps's derived constants, by the same expressions wherever the moments are computed.
+// eps's derived constants, by the same expressions wherever the moments are computed. Below
+// kRouletteVanishingEps (where 1 / (2 eps) nears overflow) the moments are their eps -> 0 limit, the
+// hard roulette's (w, w): off by O(eps) < 1e-300.
+inline constexpr double kRouletteVanishingEps = 1e-300;
 struct RouletteEps {
   double eps, two_eps, inv_two_eps, one_minus_eps;
-  explicit RouletteEps(double e) : eps(e), two_eps(2.0 * e), inv_two_eps(1.0 / (2.0 * e)), one_minus_eps(1.0 - e) {}
+  bool vanishing;
+  explicit RouletteEps(double e)
+      : eps(e), two_eps(2.0 * e), inv_two_eps(1.0 / (2.0 * e)), one_minus_eps(1.0 - e),
+        vanishing(!(e >= kRouletteVanishingEps)) {}
 };
 
 // std::clamp's comparisons, written out so that vector loops see a select.
@@ -33,8 +39,12 @@ inline void roulette_left_end(double w, const RouletteEps& c, double& a1, double
   const double t0 = w * c.inv_two_eps;
   const double t1 = w <= c.eps ? 2.0 * t0 : (w < c.two_eps ? 1.0 : t0);
   const double saturated = (w <= c.eps ? c.eps : (w < c.two_eps ? w : c.two_eps)) - c.eps;
-  const double g1 = t1 * (3.0 - t1) - t0 * (3.0 - t0);
-  const double g2 = t1 * t1 * t1 * (3.0 + t1 * (-3.0 + 0.8 * t1)) - t0 * t0 * t0 * (3.0 + t0 * (-3.0 + 0.8 * t0));
+  // No ramp at w >= 2 eps (t1 = t0): 0, written as a select because t0 = w / 2eps may be so large
+  // there that its powers overflow (inf - inf).
+  const bool ramp = w < c.two_eps;
+  const double g1 = ramp ? t1 * (3.0 - t1) - t0 * (3.0 - t0) : 0.0;
+  const double g2 =
+      ramp ? t1 * t1 * t1 * (3.0 + t1 * (-3.0 + 0.8 * t1)) - t0 * t0 * t0 * (3.0 + t0 * (-3.0 + 0.8 * t0)) : 0.0;
   a1 = saturated + w * g1;
   a2 = saturated + w * g2;
 }
@@ -69,10 +79,12 @@ inline std::array<std::array<double, 2>, 3> roulette_moment_pieces(double w, con
 }
 
 // E[R(r, w)] and E[R(r, w)^2] for r ~ U(0, 1), eps in (0, 1/2]: exactly 0 at w <= 0 and 1 at w >= 1
-// (R is constant there: the kept sum's variance is exactly 0).
+// (R is constant there: the kept sum's variance is exactly 0); (w, w) for a vanishing eps.
 inline void roulette_moments_at(double w, const RouletteEps& c, double& e1, double& e2) {
   const auto p = roulette_moment_pieces(w, c);
-  const double s1 = (p[0][0] + p[1][0]) + p[2][0], s2 = (p[0][1] + p[1][1]) + p[2][1];
+  double s1 = (p[0][0] + p[1][0]) + p[2][0], s2 = (p[0][1] + p[1][1]) + p[2][1];
+  s1 = c.vanishing ? w : s1;
+  s2 = c.vanishing ? w : s2;
   e1 = w > 0.0 ? (w < 1.0 ? s1 : 1.0) : 0.0;
   e2 = w > 0.0 ? (w < 1.0 ? s2 : 1.0) : 0.0;
 }
