@@ -89,7 +89,7 @@ constexpr double kExplicitFacets = detail::kRouletteExplicitFacets;
 // A pair gets its table once it has been used about window / 8 times (at least 16), the window being
 // the ~17 sd + 40 counts the table evaluates two tail functions at: by then the quantiles it saves
 // have paid for it. The cache is emptied past kMaxPairs pairs (weights that vary per row fill it with
-// pairs used once) or kMaxCounts tabulated counts in all (~50 bytes each: 50 MB a thread at most).
+// pairs used once) or kMaxCounts tabulated counts in all (32-48 bytes each: under 20 MB a thread).
 class ThinTables {
  public:
   double operator()(double n, double q, double u) {
@@ -115,7 +115,7 @@ class ThinTables {
 
  private:
   static constexpr std::size_t kMaxPairs = 8192;
-  static constexpr double kMaxCounts = 1e6;
+  static constexpr double kMaxCounts = 4e5;
   struct Key {
     std::uint64_t n, q;
     bool operator==(const Key& o) const { return n == o.n && q == o.q; }
