@@ -17,6 +17,9 @@
 // eps = 0.1.
 // A non-integer level count k (a law with continuous output) is floor(k) facets plus one facet of
 // weight frac(k).
+// The moments E[R], E[R^2] are a closed form (detail/roulette.hpp; docs/math/blends.md, "Moments of R
+// in closed form"); the batch forms compute the rows' normal sums in vector kernels
+// (core/src/roulette_rows*.cpp) with the scalar code's operations, so every path gives the same bits.
 #include <boost/math/quadrature/gauss_kronrod.hpp>
 
 #include <algorithm>
