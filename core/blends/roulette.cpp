@@ -251,6 +251,7 @@ class Roulette final : public BlendRule {
     alignas(64) double batch[2][3][kBlock];  // per level: kept sum (NaN: scalar), E[R], E[R^2]
     alignas(64) double w_lod[kBlock];        // the rows' w_lod side by side, for the kernel
     std::uint32_t tail[2][kBlock + 16];      // the kernel's lists of tail rows
+    alignas(64) double gathered[6][kBlock];  // a level's tail rows: k, E[R], E[R^2], u, log, kept
     const bool normal_kernel = eps_ > 0 && (facets.first[0] || facets.first[1]);
     for (std::size_t r0 = 0; r0 < m; r0 += kBlock) {
       const std::size_t n = std::min(kBlock, m - r0);
@@ -275,16 +276,26 @@ class Roulette final : public BlendRule {
           block.tail[j] = tail[j];
         }
         detail::roulette_normal_rows(block);
-        // The rows whose quantile is in a tail (NaN), as the kernel listed them, finished by the
-        // scalar normal_kept in a tight loop: independent rows, so their logarithms overlap, and the
-        // row loops below have no unpredictable branch.
+        // The rows whose quantile is in a tail (NaN), as the kernel listed them: gathered, each with
+        // quantile's own logarithm (std::log, the one scalar step: the bits), then normal_kept of
+        // them all in a vector kernel, and scattered back (rows on other paths are computed and
+        // not read). No branch per row.
         for (std::size_t j = 0; j < 2; ++j) {
-          for (std::size_t t = 0; t < block.tails[j]; ++t) {
+          const std::size_t tails = block.tails[j];
+          if (tails == 0) continue;
+          const double* first = facets.first[j] + 2 * r0;
+          for (std::size_t t = 0; t < tails; ++t) {
             const std::size_t i = tail[j][t];
-            const double k = counts[j][r0 + i];
-            if (k > kExplicitFacets)
-              batch[j][0][i] = normal_kept(k, {batch[j][1][i], batch[j][2][i]}, facets.first[j][2 * (r0 + i)]);
+            const double u = first[2 * i];
+            gathered[0][t] = counts[j][r0 + i];
+            gathered[1][t] = batch[j][1][i];
+            gathered[2][t] = batch[j][2][i];
+            gathered[3][t] = u;
+            gathered[4][t] = std::log(u - 0.5 < 0.0 ? u : 1.0 - u);
           }
+          detail::roulette_normal_kept(gathered[0], gathered[1], gathered[2], gathered[3], gathered[4], tails,
+                                       gathered[5]);
+          for (std::size_t t = 0; t < tails; ++t) batch[j][0][tail[j][t]] = gathered[5][t];
         }
         // The usual block: every level of every row either empty or a normal sum (as the row loop
         // below would decide): K straight from the batch, without the per-row branches.

@@ -231,6 +231,25 @@ TEST_CASE("the vector central quantile is normal::quantile bit for bit (AS 241's
     INFO("simd level " << level);
     CHECK(same(got, expected));
   }
+  // The whole quantile given its logarithm from std::log: the same bits everywhere, the tails (and
+  // the far tails, r > 5) included. A logarithm one ulp off (a vector log's error) shows.
+  std::vector<double> all = u;
+  for (double x : {1e-12, 1e-20, 1e-100, 1e-300, 5e-324, 1 - 1e-12, 1 - 1e-16, 0.0, 1.0, -0.5, 1.5}) all.push_back(x);
+  std::vector<double> exact(all.size()), lt(all.size()), lt_off(all.size());
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    exact[i] = normal::quantile(all[i]);
+    lt[i] = std::log(all[i] - 0.5 < 0.0 ? all[i] : 1.0 - all[i]);
+    lt_off[i] = std::nextafter(lt[i], 0.0);
+  }
+  for (int level : {2, 1, 0}) {
+    detail::set_simd_level(level);
+    std::vector<double> got(all.size()), off(all.size());
+    detail::normal_quantile_with_log(all.data(), lt.data(), all.size(), got.data());
+    detail::normal_quantile_with_log(all.data(), lt_off.data(), all.size(), off.data());
+    INFO("simd level " << level);
+    CHECK(same(got, exact));
+    CHECK_FALSE(same(off, exact));
+  }
   // The comparison sees a single rounding: the same rational function with its Horner steps fused
   // (what FMA contraction would compile) differs from normal::quantile on some of these uniforms.
   std::vector<double> fused(u.size());

@@ -135,4 +135,21 @@ void normal_quantile_central_avx512(const double* u, std::size_t count, double* 
 void normal_quantile_central_avx2(const double* u, std::size_t count, double* out);
 void normal_quantile_central_portable(const double* u, std::size_t count, double* out);
 
+// out[i] = normal::quantile(u[i]) bit for bit, given log_tail[i] = std::log(u[i] < 1/2 ? u[i] : 1 - u[i])
+// as quantile computes it (any value where u[i] is central or outside (0, 1): unused there). The
+// caller's scalar logarithm keeps the bits; the rest (the tails' rational functions) runs in vectors.
+void normal_quantile_with_log(const double* u, const double* log_tail, std::size_t count, double* out);
+void normal_quantile_with_log_avx512(const double* u, const double* log_tail, std::size_t count, double* out);
+void normal_quantile_with_log_avx2(const double* u, const double* log_tail, std::size_t count, double* out);
+void normal_quantile_with_log_portable(const double* u, const double* log_tail, std::size_t count, double* out);
+// out[i] = the roulette's normal_kept(k[i], {mom0[i], mom1[i]}, u[i]) with the quantile as above.
+void roulette_normal_kept(const double* k, const double* mom0, const double* mom1, const double* u,
+                          const double* log_tail, std::size_t count, double* out);
+void roulette_normal_kept_avx512(const double* k, const double* mom0, const double* mom1, const double* u,
+                                 const double* log_tail, std::size_t count, double* out);
+void roulette_normal_kept_avx2(const double* k, const double* mom0, const double* mom1, const double* u,
+                               const double* log_tail, std::size_t count, double* out);
+void roulette_normal_kept_portable(const double* k, const double* mom0, const double* mom1, const double* u,
+                                   const double* log_tail, std::size_t count, double* out);
+
 }  // namespace glintlab::detail
