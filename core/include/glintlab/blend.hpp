@@ -279,7 +279,7 @@ Distribution thinned(const Distribution& counts, double q, std::size_t max_suppo
 // KPT25 eq. 8: how much of a facet with roulette number r is kept at level weight `weight`
 // (eps = 0: the hard roulette [r < weight]).
 double roulette_keep(double r, double weight, double eps);
-// E[R(r, weight)] and E[R(r, weight)^2] for r ~ U(0, 1) (Gauss-Kronrod between R's breakpoints).
+// E[R(r, weight)] and E[R(r, weight)^2] for r ~ U(0, 1), in closed form (detail/roulette.hpp).
 std::array<double, 2> roulette_moments(double weight, double eps);
 }  // namespace blend_detail
 
