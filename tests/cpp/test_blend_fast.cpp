@@ -303,8 +303,7 @@ TEST_CASE("LevelLadder::brackets gives bracket()'s bits for every row, at every 
   }
 }
 
-TEST_CASE("a blend with P per sample stops at its lowest refused sample; earlier chunks may be written",
-          "[blend][fast]") {
+TEST_CASE("a blend with P per sample stops at its lowest refused sample, earlier chunks drawn", "[blend][fast]") {
   // The checks are fused into the draws: the error names the lowest bad sample whatever the thread
   // count, and samples of chunks before it are drawn (the documented partial output).
   ThreadsGuard threads_guard;
