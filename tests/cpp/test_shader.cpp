@@ -97,12 +97,14 @@ TEST_CASE("shader runner: a kernel past its timeout throws, and the device serve
   const Kernel slow(
       spec("float count(float n, float p, vec4 u) { float a = u.x;\n"
            "  for (int i = 0; i < int(n); ++i) a = sin(a * 1.0001 + float(i) * 1e-7 + p);\n  return a; }"));
+  // The fast kernel is compiled before the slow one runs: compiling it after (seconds in a Debug
+  // ASan build) let the slow kernel finish first on a fast CPU, and the device was no longer busy.
+  const Kernel fast(spec("float count(float n, float p, vec4 u) { return n; }"));
   const std::size_t rows = 5000;
   std::vector<double> u(2 * rows, 0.5);
   std::vector<float> out(rows);
   const double n = 60000, p = 0.5;
   CHECK_THROWS_AS(slow.run(&n, 1, &p, 1, u.data(), rows, out.data(), 0.05), ShaderTimeout);
-  const Kernel fast(spec("float count(float n, float p, vec4 u) { return n; }"));
   float one = 0;
   // Behind the slow kernel, a short timeout says the device is busy (this kernel never ran).
   CHECK_THROWS_AS(fast.run(&n, 1, &p, 1, u.data(), 1, &one, 0.001), ShaderDeviceBusy);
