@@ -10,20 +10,12 @@
 namespace glintlab {
 namespace {
 
-class Distributed final : public BlendRule {
+class Distributed final : public RowwiseRule<Distributed> {
  public:
   std::string name() const override { return "distributed"; }
   bool reads_lod_weight() const override { return false; }  // DB23 eq. 10 weighs by area
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
     return {(1.0 - b.w_area) * density * b.area_lo, b.w_area * density * b.area_hi};
-  }
-  void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
-                   double* t_hi) const override {
-    trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
-  }
-  void combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
-                         const double* k_hi, const FacetRows&, double* out) const override {
-    combine_rows_each_of(*this, area, b, m, k_lo, k_hi, out);
   }
   double combine(double, const LevelBracket&, double k_lo, double k_hi, std::array<FacetStream, 2>&) const override {
     return k_lo + k_hi;

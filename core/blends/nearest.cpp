@@ -6,7 +6,7 @@
 namespace glintlab {
 namespace {
 
-class Nearest final : public BlendRule {
+class Nearest final : public RowwiseRule<Nearest> {
  public:
   std::string name() const override { return "nearest"; }
   static bool upper(const LevelBracket& b) { return b.w_lod >= 0.5; }
@@ -14,14 +14,6 @@ class Nearest final : public BlendRule {
     // Selects, not a branch: per-sample footprints make round(w) a coin flip for the branch predictor.
     const bool up = upper(b);
     return {select(up, 0.0, density * b.area_lo), select(up, density * b.area_hi, 0.0)};
-  }
-  void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
-                   double* t_hi) const override {
-    trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
-  }
-  void combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
-                         const double* k_hi, const FacetRows&, double* out) const override {
-    combine_rows_each_of(*this, area, b, m, k_lo, k_hi, out);
   }
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                  std::array<FacetStream, 2>&) const override {

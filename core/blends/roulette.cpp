@@ -144,7 +144,7 @@ class ThinTables {
   double counts_ = 0;  // the tables' windows, in counts
 };
 
-class Roulette final : public BlendRule {
+class Roulette final : public RowwiseRule<Roulette> {
  public:
   explicit Roulette(double eps) : eps_(eps) {}
   std::string name() const override { return "roulette"; }
@@ -154,10 +154,6 @@ class Roulette final : public BlendRule {
   // The same K, bit for bit.
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
     return {density * b.area_lo, b.w_lod > 0 ? density * b.area_hi : 0.0};
-  }
-  void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
-                   double* t_hi) const override {
-    trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
   }
   bool thins() const override { return true; }
   bool has_pmf() const override { return eps_ == 0; }

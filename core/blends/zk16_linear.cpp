@@ -9,19 +9,11 @@
 namespace glintlab {
 namespace {
 
-class Zk16Linear final : public BlendRule {
+class Zk16Linear final : public RowwiseRule<Zk16Linear> {
  public:
   std::string name() const override { return "zk16_linear"; }
   std::array<double, 2> trials(double density, double, const LevelBracket& b) const override {
     return {density * b.area_lo, density * b.area_hi};
-  }
-  void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
-                   double* t_hi) const override {
-    trials_rows_of(*this, density, area, b, m, t_lo, t_hi);
-  }
-  void combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
-                         const double* k_hi, const FacetRows&, double* out) const override {
-    combine_rows_each_of(*this, area, b, m, k_lo, k_hi, out);
   }
   double combine(double area, const LevelBracket& b, double k_lo, double k_hi,
                  std::array<FacetStream, 2>&) const override {

@@ -189,26 +189,29 @@ inline double select(bool c, double a, double b) {
   return std::bit_cast<double>((std::bit_cast<std::uint64_t>(a) & mask) | (std::bit_cast<std::uint64_t>(b) & ~mask));
 }
 
-// trials_rows by a rule's own trials(), called without virtual dispatch (Rule is final) so that the
-// compiler inlines it into the loop.
+// The row forms of a rule (trials_rows; combine_rows_each for a rule that reads no facet stream) by
+// its own trials() and combine(), called on Rule (final) without virtual dispatch, so that the loops
+// inline them. A rule that thins (roulette) overrides combine_rows_each itself.
 template <class Rule>
-void trials_rows_of(const Rule& rule, double density, const double* area, const LevelBracket* b, std::size_t m,
-                    double* t_lo, double* t_hi) {
-  for (std::size_t r = 0; r < m; ++r) {
-    const std::array<double, 2> t = rule.Rule::trials(density, area[r], b[r]);
-    t_lo[r] = t[0];
-    t_hi[r] = t[1];
+class RowwiseRule : public BlendRule {
+ public:
+  void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
+                   double* t_hi) const override {
+    const Rule& rule = static_cast<const Rule&>(*this);
+    for (std::size_t r = 0; r < m; ++r) {
+      const std::array<double, 2> t = rule.Rule::trials(density, area[r], b[r]);
+      t_lo[r] = t[0];
+      t_hi[r] = t[1];
+    }
   }
-}
-
-// combine_rows_each by a rule's own combine(), for rules that read no facet stream (!thins()),
-// without virtual dispatch (Rule is final), so that the loop inlines it.
-template <class Rule>
-void combine_rows_each_of(const Rule& rule, const double* area, const LevelBracket* b, std::size_t m,
-                          const double* k_lo, const double* k_hi, double* out) {
-  std::array<FacetStream, 2> unused;
-  for (std::size_t r = 0; r < m; ++r) out[r] = rule.Rule::combine(area[r], b[r], k_lo[r], k_hi[r], unused);
-}
+  void combine_rows_each(const double* area, const LevelBracket* b, std::size_t m, const double* k_lo,
+                         const double* k_hi, const FacetRows& facets, double* out) const override {
+    if (thins()) return BlendRule::combine_rows_each(area, b, m, k_lo, k_hi, facets, out);
+    const Rule& rule = static_cast<const Rule&>(*this);
+    std::array<FacetStream, 2> unused;
+    for (std::size_t r = 0; r < m; ++r) out[r] = rule.Rule::combine(area[r], b[r], k_lo[r], k_hi[r], unused);
+  }
+};
 
 using BlendFactory = std::function<std::unique_ptr<BlendRule>(const LawParams&)>;
 struct BlendInfo {
