@@ -132,7 +132,7 @@ class BlendRule {
   // Trials handed to the inner law at the lower and upper level; 0 means the level is not drawn.
   virtual std::array<double, 2> trials(double density, double area, const LevelBracket& b) const = 0;
   // trials() of rows r < m into t_lo[r], t_hi[r] (the default calls trials() per row; the built-in
-  // rules override it with trials_rows_of, the same bits without a virtual call per row).
+  // rules override it through RowwiseRule, the same bits without a virtual call per row).
   virtual void trials_rows(double density, const double* area, const LevelBracket* b, std::size_t m, double* t_lo,
                            double* t_hi) const;
   // Whether combine() reads the per-facet streams (roulette), and needs integer level counts.
