@@ -1,6 +1,9 @@
-// The pybind11 module glintlab._core is one module assembled from one file per topic: module.cpp (laws,
-// blends, grids, statistics, documents, plugins) calls each topic's bind_* function declared here. A new
-// topic is a new bindings/<topic>.cpp defining its bind_* and one call in module.cpp.
+// The pybind11 module glintlab._core is one module assembled from one binding file per core or validation
+// module: module.cpp calls each file's bind_* function declared here, and a file's bind_* calls a few
+// short functions (each under 80 lines, tests/python/test_limits.py). A new topic is a new
+// bindings/<topic>.cpp defining its bind_* (CMake globs the folder) and one call in module.cpp. The
+// conversions several files share (numpy arrays, law parameters, a Python inner law) are in
+// conversions.hpp.
 #pragma once
 
 #include <pybind11/pybind11.h>
@@ -50,6 +53,19 @@ class LongCall {
   bool installed_;
   pybind11::gil_scoped_release release_;  // last: released after the handler is in place, taken back last
 };
+
+void bind_errors(pybind11::module_& m);                // errors.cpp: NotImplementedError, Ctrl-C, interrupts
+void bind_documents(pybind11::module_& m);             // documents.cpp: experiment and bounds documents
+void bind_distribution(pybind11::module_& m);          // distribution.cpp: Distribution
+void bind_laws(pybind11::module_& m);                  // law.cpp: CoreLaw, the law registry and traits
+void bind_uniforms_and_threads(pybind11::module_& m);  // law.cpp: batch uniforms, threads, SIMD level
+void bind_plugins(pybind11::module_& m);               // plugin.cpp: C++ plugin laws
+void bind_metrics(pybind11::module_& m);               // metrics.cpp: distances between distributions
+void bind_chi2(pybind11::module_& m);                  // chi2.cpp: the chi-square test and its result
+void bind_binomial(pybind11::module_& m);              // binomial.cpp: exact binomial and Poisson functions
+void bind_spatial(pybind11::module_& m);               // spatial.cpp: footprints and the ground truth
+void bind_blends(pybind11::module_& m);                // blend.cpp: BlendedLaw and the blend registry
+void bind_aniso(pybind11::module_& m);                 // aniso.cpp: grid schemes and AnisoCounter
 
 void bind_scene_images(pybind11::module_& m);     // scene_images.cpp: the glint images' ground truth
 void bind_glinty_ndf(pybind11::module_& m);       // glinty_ndf.cpp: KPT25's glinty NDF
