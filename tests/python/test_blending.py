@@ -1,4 +1,4 @@
-"""Blended laws from Python: the API.md surface, exact laws, custom inner laws, errors."""
+"""Blended laws from Python: the public blend surface, exact laws, custom inner laws, errors."""
 import numpy as np
 import pytest
 

@@ -7,7 +7,7 @@ import pytest
 
 import glintlab as gl
 
-from glintlab.api.glinty_ndf import IMAGE_METHODS, register_image_method
+from glintlab.api.glinty_ndf import DENSITY_MAPPINGS, IMAGE_METHODS, register_image_method
 from glintlab.api.ndf import ndf as smooth_ndf
 from glintlab.validation import scene_images as si
 from glintlab.validation.scene import table1_scenes
@@ -182,7 +182,7 @@ def test_aliasing_table_separates_a_filtered_method_from_a_point_sampled_one():
 
 
 def test_a_density_mapping_is_applied_and_stated():
-    from glintlab.api.glinty_ndf import DENSITY_MAPPINGS, method_density
+    from glintlab.api.glinty_ndf import method_density
     from glintlab.studies.scene_images import density_statement
     mat = si.Material(density=1e4, target="beckmann", alpha=0.5, R=0.5)
     # KPT25's registered mapping: the point density with DB23's expected visible glints per pixel.
@@ -198,3 +198,17 @@ def test_a_density_mapping_is_applied_and_stated():
         DENSITY_MAPPINGS["kpt25"] = saved
     with pytest.raises(ValueError, match="nope"):
         method_density("nope", mat)
+
+
+# ---------------------------------------------------------------------------------------------- isolation
+# tests/python/conftest.py restores every registry after each test: the first test registers an image
+# method and leaves it, the second (run after it, in file order) must not see it.
+
+def test_isolation_a_test_may_leave_a_registration_behind():
+    register_image_method("x_left_behind", lambda m: _Dots(), returns="intensity")
+    DENSITY_MAPPINGS["x_left_behind"] = lambda m: 1.0
+    assert "x_left_behind" in gl.image_methods()
+
+
+def test_isolation_the_next_test_does_not_see_it():
+    assert "x_left_behind" not in gl.image_methods() and "x_left_behind" not in DENSITY_MAPPINGS

@@ -4,6 +4,8 @@ methods, the GlintInput contract field by field, gl.render, WB16's shader agains
 broken WB16 that the comparison catches), and `glintlab images --method`."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -116,11 +118,12 @@ def test_frame_inputs_carry_the_world_fields_and_render_is_nan_off_the_surface()
         rows, cols = np.nonzero(~np.isnan(img))
         np.testing.assert_array_equal(img[rows, cols], cols + 1000.0 * rows + 1.5)
         assert "test_pixels" in gl.image_methods()
-        colour = gl.shader_method("vec3 glint(GlintInput g) { return vec3(g.uv, float(g.seed)); }", language="glsl",
-                                  name="test_colour")
+        # uv is negative on part of the sphere, and an intensity must be >= 0: |uv| per channel.
+        colour = gl.shader_method("vec3 glint(GlintInput g) { return vec3(abs(g.uv), float(g.seed)); }",
+                                  language="glsl", name="test_colour")
         img = gl.render(colour, sc, seed=5)
         assert img.shape == (sc.height, sc.width, 3) and np.array_equal(np.isnan(img).all(-1), ~hit)
-        np.testing.assert_array_equal(img[hit][:, :2], inp.uv[hit].astype(np.float32))
+        np.testing.assert_array_equal(img[hit][:, :2], np.abs(inp.uv[hit].astype(np.float32)))
         assert (img[hit][:, 2] == 5).all()
     finally:
         IMAGE_METHODS._items.pop("test_pixels")
@@ -131,12 +134,13 @@ def test_frame_inputs_carry_the_world_fields_and_render_is_nan_off_the_surface()
 
 @needs_vulkan
 def test_bad_method_shaders_are_refused_with_the_compilers_words():
-    with pytest.raises(ValueError, match=r"does not compile.*\n.*error"):
+    with pytest.raises(ValueError, match=r"^method shader does not compile \(hlsl\): <string>:1: error: 'nope'") as e:
         gl.shader_method("float glint(GlintInput g) { return nope; }", language="hlsl", register=False)
+    assert "\n" not in str(e.value) and "unknown variable" in e.value.messages  # one line; the compiler's text kept
     with pytest.raises(ValueError, match=r"GlintInput"):
         gl.shader_method("float glint(float x) { return x; }", language="glsl", register=False)
-    with pytest.raises(ValueError, match="name"):
-        gl.shader_method("float glint(GlintInput g) { return 0.0; }", name="truth", register=False)
+    with pytest.raises(ValueError, match="name = 'truth' is invalid; expected a name of your own"):
+        gl.shader_method("float glint(GlintInput g) { return 0.0; }", name="truth")
     with pytest.raises(ValueError, match="language"):
         gl.shader_method("float glint(GlintInput g) { return 0.0; }", language="cuda")
     with pytest.raises(ValueError, match="unknown image method"):
@@ -310,3 +314,156 @@ def test_a_user_ndf_shader_refuses_bad_switches():
     with pytest.raises(ValueError, match="GLINTLAB_ALPHA"):
         gl.shader_method(_USER_NDF, language="glsl", name="user_bad", returns="ndf",
                          defines={"COS4": "c2", "GLINTLAB_ALPHA": 0.5})
+
+
+# ---------------------------------------------------------------------------------------------- issue 37 edges
+# Each test below fails on the code before issue 37: seeds >= 2^32 aliased onto smaller ones, negative and
+# later frames' faulty outputs passed, shipped names were replaced silently, False became text.
+
+# The seed's low and high 16 bits as two channels (float32 holds each exactly).
+_SEED_PROBE = "float3 glint(GlintInput g) { return float3(float(g.seed & 65535u), float(g.seed >> 16u), 0.0); }"
+
+
+def _seed_of(img):
+    lit = ~np.isnan(img).any(-1)
+    low, high = img[lit][:, 0], img[lit][:, 1]
+    assert (low == low[0]).all() and (high == high[0]).all()
+    return int(low[0]) + 65536 * int(high[0])
+
+
+@needs_vulkan
+def test_seeds_reach_the_shader_whole_or_are_refused():
+    """GlintInput's seed is 32 bits: seeds below 2^32 arrive as they are (the images of the seeds accepted
+    before are unchanged); 2^32 and 2^64 - 1 are refused by name instead of rendering seed 0's and seed
+    2^32 - 1's image."""
+    gl.shader_method(_SEED_PROBE, language="hlsl", name="test_seed_probe")
+    for seed in (0, 5, 2**31 + 3, 2**32 - 1):
+        assert _seed_of(gl.render("test_seed_probe", "sphere", seed=seed, scale=0.02)) == seed
+    for seed in (2**32, 2**32 + 5, 2**64 - 1):
+        with pytest.raises(ValueError, match=r"seed = \d+ is invalid; expected an integer in \[0, 2\^32\) for method "
+                                             r"shader 'test_seed_probe'"):
+            gl.render("test_seed_probe", "sphere", seed=seed, scale=0.02)
+    assert 0 <= _seed_of(gl.render("test_seed_probe", "sphere", seed=None, scale=0.02)) < 2**32  # the OS's seed
+    # An NDF shader too, and a path of several methods refuses before rendering any frame.
+    gl.shader_method("float glint(GlintInput g) { return 1.0; }", language="hlsl", name="test_seed_ndf", returns="ndf")
+    with pytest.raises(ValueError, match="seed = 4294967296 is invalid.*'test_seed_ndf'"):
+        gl.render("test_seed_ndf", "sphere", seed=2**32, scale=0.02)
+    sc = load_scene(data_path("scenes", "sphere.json")).scaled(0.02, keep_n=True)
+    with pytest.raises(ValueError, match="seed = 4294967296 is invalid.*'test_seed_probe'"):
+        si.render_path(sc, ["smooth", "test_seed_probe"], frames=2, seed=2**32)
+
+
+@needs_vulkan
+def test_faulty_outputs_fail_on_every_frame():
+    """A negative intensity, a negative D, or a NaN on a frame after the first is a failed check naming
+    the method, the frame and the pixels (before: negative values passed, and only frame 0 was looked at)."""
+    later = "float glint(GlintInput g) { return g.frame == 3u ? (g.pixel.x % 2u == 0u ? -1.0 : 0.5) : 0.5; }"
+    gl.shader_method(later, language="hlsl", name="test_neg_later")
+    assert np.nanmin(gl.render("test_neg_later", "sphere", frame=2, scale=0.02)) == 0.5
+    with pytest.raises(gl.ShaderOutputError,
+                       match=r"method shader 'test_neg_later' returned \d+ negative intensity values on \d+ of \d+ "
+                             r"pixels of frame 3"):
+        gl.render("test_neg_later", "sphere", frame=3, scale=0.02)
+    gl.shader_method("float glint(GlintInput g) { return -2.0; }", language="hlsl", name="test_neg_d", returns="ndf")
+    with pytest.raises(ValueError, match=r"'test_neg_d' returned \d+ negative NDF values .* frame 0"):
+        gl.render("test_neg_d", "sphere", scale=0.02)
+    nan = "float glint(GlintInput g) { return g.frame == 1u ? uintBitsToFloat(0x7fc00000u) : 0.0; }"
+    gl.shader_method(nan, language="glsl", name="test_nan_later")
+    with pytest.raises(ValueError, match=r"'test_nan_later' returned \d+ non-finite intensity values .* frame 1"):
+        gl.render("test_nan_later", "sphere", frame=1, scale=0.02)
+
+
+@needs_vulkan
+def test_images_fails_a_method_that_goes_wrong_after_the_first_frame(tmp_path, capsys):
+    from glintlab.cli.main import main
+    neg = tmp_path / "neg.hlsl"
+    neg.write_text("float glint(GlintInput g) { return g.frame == 1u ? -1.0 : 0.5; }\n")
+    common = ["plane_90", "--scale", "0.03", "--frames", "2", "--timing-scale", "0.03", "--quiet"]
+    assert main(["images", *common, "--method", str(neg), "--out", str(tmp_path / "a")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "method shader 'neg' returned" in err and "negative" in err and "frame 1" in err
+
+
+@needs_vulkan
+def test_images_refuses_seeds_beyond_32_bits_and_two_files_of_one_name(tmp_path, capsys):
+    from glintlab.cli.main import main
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "mine.hlsl").write_text("float glint(GlintInput g) { return 0.5; }\n")
+    common = ["plane_90", "--scale", "0.03", "--frames", "2", "--timing-scale", "0.03", "--quiet"]
+    one = str(tmp_path / "a" / "mine.hlsl")
+    assert main(["images", *common, "--method", one, "--seed", "4294967296", "--out", str(tmp_path / "o1")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "seed = 4294967296 is invalid" in err
+    two = str(tmp_path / "b" / "mine.hlsl")
+    assert main(["images", *common, "--method", one, "--method", two, "--out", str(tmp_path / "o2")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--method" in err and "'mine'" in err and "a/mine.hlsl" in err.replace("\\", "/")
+
+
+def test_images_without_a_vulkan_device_is_one_line(tmp_path):
+    """As `glintlab shader`: no device is the environment, exit 2 with one line (before: a traceback, exit 1)."""
+    import os
+    import subprocess
+    import sys
+    src = tmp_path / "mine.hlsl"
+    src.write_text("float glint(GlintInput g) { return 0.5; }\n")
+    env = {**os.environ, "VK_ICD_FILENAMES": "/nonexistent.json", "VK_DRIVER_FILES": "/nonexistent.json"}
+    r = subprocess.run([sys.executable, "-m", "glintlab.cli.main", "images", "plane_90", "--scale", "0.03",
+                        "--frames", "2", "--timing-scale", "0.03", "--quiet", "--method", str(src),
+                        "--out", str(tmp_path / "out")], capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 2, r.stderr
+    assert "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "glintlab images:" in r.stderr and "Vulkan" in r.stderr
+
+
+@needs_vulkan
+def test_method_shader_names_replace_only_the_users_own():
+    """One's own method shader may be registered again under its name (either kind); a shipped method
+    ("wb16" was replaced silently, "truth" refused with a misleading message) never is."""
+    ndf = "float glint(GlintInput g) { return 1.0; }"
+    for returns in ("ndf", "ndf", "intensity", "ndf"):
+        gl.shader_method(ndf, language="hlsl", name="test_mine_again", returns=returns)
+        assert IMAGE_METHODS.get("test_mine_again").returns == returns
+    wb16 = IMAGE_METHODS.get("wb16")
+    for shipped in ("wb16", "wb16_star", "truth", "kpt25_shader", "db23_shader", "smooth"):
+        for returns in ("intensity", "ndf"):
+            with pytest.raises(ValueError, match=f"name = '{re.escape(shipped)}' is invalid; expected a name of your "
+                                                 "own: .* glintlab ships"):
+                gl.shader_method(ndf, language="hlsl", name=shipped, returns=returns)
+    assert IMAGE_METHODS.get("wb16") is wb16
+    si.register_image_method("test_python_method", lambda m: gl.glinty_ndf("smooth"))
+    with pytest.raises(ValueError, match="registered by register_image_method"):
+        gl.shader_method(ndf, language="hlsl", name="test_python_method")
+    assert "wb16" in gl.api.glinty_ndf.shipped_image_methods() and "test_mine_again" not in \
+        gl.api.glinty_ndf.shipped_image_methods()
+
+
+@needs_vulkan
+def test_method_shader_defines_are_numbers_or_refused():
+    """True/False are 1/0 (before: the text "False", a compile error); None is refused by name."""
+    src = "float glint(GlintInput g) { return FLAG ? 1.0 : 0.25; }"
+    for flag, value in ((False, 0.25), (True, 1.0), (0, 0.25), (np.bool_(True), 1.0)):
+        m = gl.shader_method(src, language="hlsl", name="test_flag", defines={"FLAG": flag})
+        assert np.nanmax(gl.render(m, "sphere", scale=0.02)) == value
+    with pytest.raises(ValueError, match=r"defines\['FLAG'\] = None is invalid"):
+        gl.shader_method(src, language="hlsl", name="test_flag", defines={"FLAG": None})
+    with pytest.raises(ValueError, match=r"defines\['FLAG'\] = nan is invalid"):
+        gl.shader_method(src, language="hlsl", name="test_flag", defines={"FLAG": float("nan")})
+
+
+@needs_vulkan
+@pytest.mark.parametrize("language", ["hlsl", "glsl"])
+def test_unfinished_method_shaders_say_what_they_are(language):
+    """A prototype without a body and a declaration left unfinished were both "no function glint with the
+    expected signature"; now each is named, in one line (the sampler path's wording, one implementation)."""
+    with pytest.raises(ValueError, match=r"^method shader does not compile \(\w+\): function glint is declared in "
+                                         r"<string> but has no body \(a prototype without its definition; define "
+                                         r"float glint\(GlintInput g\)") as e:
+        gl.shader_method("float glint(GlintInput g);", language=language, register=False)
+    assert "\n" not in str(e.value)
+    with pytest.raises(ValueError, match=r"in glintlab's wrapper, after the end of <string> \(a declaration left "
+                                         r"unfinished\?\)"):
+        gl.shader_method("float glint(GlintInput g", language=language, register=False)
+    with pytest.raises(ValueError, match=r"no function glint with the expected signature float glint\(GlintInput g\)"):
+        gl.shader_method("float glint(float x) { return x; }", language=language, register=False)

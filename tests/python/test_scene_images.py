@@ -1,6 +1,7 @@
 """Glint images of the scenes (docs/math/glint_images.md): the facet ground truth against a brute-force
 count, the image methods' common signature and registry, determinism, the camera path, and the flicker
 metric on synthetic sequences whose answers are known."""
+import json
 import math
 
 import numpy as np
@@ -264,8 +265,7 @@ def test_report_page_opens_on_the_first_sections_picture(tmp_path):
 
 def test_images_command_writes_figures_and_refuses_bad_input(tmp_path, capsys):
     from glintlab.cli.main import main
-    from glintlab.resources import data_path
-    scene = str(data_path("scenes", "sphere.json"))
+    scene = "sphere"  # a shipped scene's name, as gl.render takes it (before: "no such file")
     out = tmp_path / "img"
     assert main(["images", scene, "--scale", "0.04", "--frames", "3", "--timing-scale", "0.04", "--quiet",
                  "--methods", "truth,db23_tetrahedral[head_cf]", "--out", str(out)]) == 0
@@ -276,3 +276,39 @@ def test_images_command_writes_figures_and_refuses_bad_input(tmp_path, capsys):
     assert "methods = 'truth,nope'" in capsys.readouterr().err
     assert main(["images", scene, "--zoom", "5", "--quiet", "--out", str(out)]) == 2
     assert "zoom = 5.0" in capsys.readouterr().err
+    assert main(["images", "sphre", "--quiet", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "scene = 'sphre' is invalid" in err and "plane_25" in err and "sphere" in err
+
+
+def test_one_scene_resolution_for_render_and_the_command(tmp_path, monkeypatch):
+    from glintlab.resources import data_path
+    by_name, by_path = si.resolve_scene("plane_25"), si.resolve_scene(data_path("scenes", "plane_25.json"))
+    assert by_name.spec == by_path.spec and by_name.name == by_path.name
+    mine = tmp_path / "plane_25"  # a file of that name wins over the shipped scene
+    mine.write_text(json.dumps({**by_path.spec, "name": "mine"}))
+    monkeypatch.chdir(tmp_path)
+    assert si.resolve_scene("plane_25").name == "mine"
+    with pytest.raises(ValueError, match="shipped scene's name"):
+        gl.render("smooth", "no_such_scene")
+
+
+def test_render_builds_only_the_camera_it_renders(monkeypatch):
+    """gl.render(frames=F) built all F cameras of the path (deep copies and scenes) to render one."""
+    sc = table1_scenes()[0].scaled(1 / 40, keep_n=True)
+    for k in range(6):  # camera_at is camera_path's camera, bit for bit
+        assert si.camera_at(sc, 6, k, 0.25, 0.9).spec == si.camera_path(sc, 6, 0.25, 0.9)[k].spec
+    built = []  # every camera of a path is a deep copy of the scene's document
+    real_deepcopy = si.copy.deepcopy
+
+    def counting_deepcopy(*args, **kwargs):
+        built.append(1)
+        return real_deepcopy(*args, **kwargs)
+
+    monkeypatch.setattr(si.copy, "deepcopy", counting_deepcopy)
+    img = gl.render("smooth", sc, frame=3, frames=100_000)
+    assert len(built) <= 3 and np.isfinite(img).any()  # the light, the camera: not 100,000 copies
+    monkeypatch.undo()
+    assert np.array_equal(img, gl.render("smooth", sc, frame=3, frames=100_000), equal_nan=True)
+    with pytest.raises(ValueError, match="frame = 99999 is invalid; expected a frame whose camera has not reached"):
+        gl.render("smooth", sc, frame=99_999, frames=100_000)

@@ -13,6 +13,7 @@ import functools
 import json
 import os
 import pickle
+import re
 import subprocess
 import sys
 import textwrap
@@ -167,6 +168,24 @@ def test_wrong_signature_shows_the_expected_one(language, code, expected):
     with pytest.raises(ValueError, match="expected signature") as e:
         shader_law(code, language=language, entry=entry, name="test_shader_signature")
     assert expected in str(e.value)
+
+
+@pytest.mark.parametrize("language,vec4", [("hlsl", "float4"), ("glsl", "vec4")])
+def test_unfinished_declarations_say_what_they_are(language, vec4):
+    """Before: both were "no function count with the expected signature", which the code has."""
+    sig = f"float count(float n, float p, {vec4} u)"
+    with pytest.raises(S.ShaderCompileError, match=r"^shader law does not compile \(\w+\): function count is "
+                                                    r"declared in <string> but has no body \(a prototype without its "
+                                                    r"definition; define " + re.escape(sig) + r"\)$") as e:
+        shader_law(sig + ";", language=language, register=False)
+    assert "\n" not in str(e.value) and "No function definition" in e.value.messages
+    helper = f"float twice(float x);\n{sig} {{ return twice(n); }}\n"  # a helper's prototype: named too
+    with pytest.raises(ValueError, match=r"function twice is declared in <string> but has no body"):
+        shader_law(helper, language=language, register=False)
+    with pytest.raises(ValueError, match=r"after the end of <string> \(a declaration left unfinished\?\)"):
+        shader_law(sig[:-1], language=language, register=False)
+    with pytest.raises(ValueError, match=r"after the end of <string> \(a declaration left unfinished\?\)"):
+        shader_law(sig + " { return n;", language=language, register=False)
 
 
 def test_bad_arguments():

@@ -30,12 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import _core
 from ..resources import data_path
 from . import checks as V
 from .glinty_ndf import (DB23, DENSITY_MAPPINGS, KPT25, GlintyNDF, Material, matched_density, pixel_arrays,
                          register_image_method)
-from .method_shaders import ShaderMethod, frame_rows, pack_inputs, register_ndf_shader_factory, unpack_inputs
+from .method_shaders import (ShaderMethod, check_output, frame_rows, method_kernel, pack_inputs, register_ndf_shader_factory,
+                             shader_seed, unpack_inputs)
 from .shaders import DEFAULT_TIMEOUT_S, _read_source
 
 #: Each method shader is one body (<name>_method_body.h) with a thin .glsl and .hlsl wrapper.
@@ -110,10 +110,7 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
     def _kernel(self):
         # Compiled on first use: registering or making the method (a scene's material) needs no Vulkan.
         if self._compiled is None:
-            s = self._spec
-            self._compiled = _core.MethodKernel(s["code"], s["source_name"], s["entry"], s["language"],
-                                                [(k, str(val)) for k, val in s["defines"]],
-                                                list(s["include_dirs"]), s["device"])
+            self._compiled = method_kernel(self._spec)
         return self._compiled
 
     def __reduce__(self):
@@ -133,23 +130,27 @@ class NdfShaderMethod(ShaderMethod, GlintyNDF):
 
     def image(self, inputs, seed: int = 0, frame: int = 0) -> np.ndarray:
         """D on the pixels of ``inputs.mask`` (those that see the lit surface), 0 elsewhere."""
-        rows, mask = frame_rows(dataclasses.replace(inputs, hit=inputs.mask), seed, frame)
+        rows, mask = frame_rows(dataclasses.replace(inputs, hit=inputs.mask), seed, frame,
+                                f"method shader {self.name!r}")
+        values = self.shade(rows)
+        check_output(self.name, values, f"frame {frame}", "NDF")
         img = np.zeros(mask.shape)
-        img[mask] = self.shade(rows)
+        img[mask] = values
         return img
 
     def evaluate(self, uv, J, h, seed: int = 0) -> np.ndarray:
         """D per pixel from tangent-frame inputs (uv (..., 2), J (..., 4), h (..., 3)), checked as every
         glinty NDF's (NaN, infinities, zero h and singular J refused by element); ``seed`` < 2^32 (GlintInput's
-        seed is one 32-bit word)."""
+        seed is one 32-bit word: :func:`~glintlab.api.method_shaders.shader_seed`). A NaN, infinite or
+        negative D raises ``ShaderOutputError``."""
         uv, J, h, shape = pixel_arrays(uv, J, h, unit_h=True)
-        seed = V.seed(seed)
-        if seed > 0xFFFFFFFF:
-            V.fail("seed", seed, "an integer in [0, 2^32) (GlintInput's seed is 32 bits)")
+        seed = shader_seed(seed, f"method shader {self.name!r}")
         m = int(np.prod(shape)) if shape else 1
         rows = pack_inputs(m, uv=uv.reshape(m, 2), J=J.reshape(m, 4), h=h.reshape(m, 3), n=[0.0, 0.0, 1.0],
                            t=[1.0, 0.0, 0.0], b=[0.0, 1.0, 0.0], seed=np.uint32(seed))
-        return self.shade(rows).astype(np.float64).reshape(shape)
+        values = self.shade(rows)
+        check_output(self.name, values, "the evaluated pixels", "NDF")
+        return values.astype(np.float64).reshape(shape)
 
 
 # The sphere scene's material (data/scenes/sphere.json), what a user's NDF shader is built for by default.

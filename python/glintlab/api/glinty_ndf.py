@@ -837,12 +837,15 @@ class ImageMethod:
     "self" (the method is the facet ground truth), "facets" (the stratified facet truth), "reference"
     (the evaluator's ``reference(uv, J, h, seed)``: the exact model on the same realization) or
     "supersampled" (the same method box-filtered over 4 x 4 sub-pixels); ``returns`` is "ndf" (an NDF
-    value per pixel) or "intensity" (a method shader's output)."""
+    value per pixel) or "intensity" (a method shader's output); ``origin`` says who registered it
+    (``ORIGINS``): "glintlab" (a method glintlab ships), "shader_method" (a user's method shader, which a
+    later ``shader_method`` of the same name replaces) or "user" (any other registration)."""
     name: str
     label: str
     factory: Callable
     truth: str = "facets"
     returns: str = "ndf"
+    origin: str = "user"
 
     @property
     def is_truth(self) -> bool:
@@ -854,15 +857,27 @@ IMAGE_METHODS: Registry = Registry("image method")
 
 
 TRUTH_KINDS = ("self", "facets", "reference", "supersampled")
+ORIGINS = ("glintlab", "shader_method", "user")
+
+
+def _defined_in_glintlab(factory) -> bool:
+    """Whether ``factory`` (a function, a lambda or a functools.partial of one) is glintlab's own code."""
+    func = getattr(factory, "func", factory)
+    return (getattr(func, "__module__", None) or "").split(".")[0] == "glintlab"
 
 
 def register_image_method(name: str, factory: Callable, label: str | None = None, truth=None,
-                          replace: bool = False, returns: str = "ndf") -> ImageMethod:
+                          replace: bool = False, returns: str = "ndf", origin: str | None = None) -> ImageMethod:
     """Adds an image method: ``factory(material)`` -> a glinty NDF; returns its entry. ``truth``: the
     kind of its own truth (``TRUTH_KINDS``; True means "self", the ground truth itself); default
-    "facets" for an NDF method, "supersampled" for an intensity method."""
+    "facets" for an NDF method, "supersampled" for an intensity method. ``origin`` (``ORIGINS``): who
+    registers it; default "glintlab" for a factory defined in glintlab's package (its shipped methods),
+    "user" otherwise. A name registered before is refused unless ``replace``."""
     if not callable(factory):
         V.fail("factory", factory, "a callable material -> evaluator")
+    if origin is None:
+        origin = "glintlab" if _defined_in_glintlab(factory) else "user"
+    V.choice("origin", origin, ORIGINS)
     V.choice("returns", returns, ("ndf", "intensity"), "'ndf' or 'intensity'")
     if truth is None or truth is False:
         truth = "facets" if returns == "ndf" else "supersampled"
@@ -870,7 +885,14 @@ def register_image_method(name: str, factory: Callable, label: str | None = None
         truth = "self"
     if truth not in TRUTH_KINDS:
         V.fail("truth", truth, f"one of {', '.join(TRUTH_KINDS)} (or True for the ground truth itself)")
-    return IMAGE_METHODS.register(name, ImageMethod(name, label or name, factory, truth, returns), replace=replace)
+    return IMAGE_METHODS.register(name, ImageMethod(name, label or name, factory, truth, returns, origin),
+                                  replace=replace)
+
+
+def shipped_image_methods() -> list[str]:
+    """The image methods glintlab ships (``origin`` "glintlab"): the glinty NDFs, WB16's and the counting
+    method shaders, WWH18; no method shader may take one of these names."""
+    return [n for n in IMAGE_METHODS.names() if IMAGE_METHODS.get(n).origin == "glintlab"]
 
 
 def image_methods(returns: str | None = None) -> list[str]:

@@ -30,8 +30,8 @@ from .. import _core
 from ..resources import data_path
 from . import checks as V
 from . import fpmath
-from .glinty_ndf import BUILTIN_IMAGE_METHODS, IMAGE_METHODS, GlintyNDF, register_image_method
-from .shaders import DEFAULT_TIMEOUT_S, LANGUAGES, _read_source
+from .glinty_ndf import IMAGE_METHODS, GlintyNDF, register_image_method
+from .shaders import DEFAULT_TIMEOUT_S, LANGUAGES, ShaderOutputError, _define_value, _read_source, compiled
 
 #: The fields of GlintInput in the order of the 32-word row the wrapper reads: (name, first word, words).
 GLINT_INPUT_FIELDS = (("world_pos", 0, 3), ("uv", 3, 2), ("J", 5, 4), ("n", 9, 3), ("t", 12, 3), ("b", 15, 3),
@@ -77,9 +77,27 @@ def unpack_inputs(rows: np.ndarray) -> dict:
     return out
 
 
-def frame_rows(inputs, seed: int = 0, frame: int = 0):
+#: GlintInput's ``seed`` and ``frame`` are one 32-bit word each: a method shader takes seeds and frames
+#: below 2^32 and refuses larger ones by name (docs/guide/shaders.md#shaders-methods). Wrapped to their
+#: low 32 bits, seed 2^32 would render seed 0's image.
+SEED_LIMIT = 2**32
+
+
+def shader_seed(seed, method: str = "a method shader", what: str = "seed") -> int:
+    """``seed`` (``checks.seed``: an int, None, a SeedSequence or a Generator) as GlintInput's 32-bit
+    word; a value >= 2^32 is refused naming ``method`` (ValueError), never wrapped onto another seed."""
+    s = V.seed(seed)
+    if s >= SEED_LIMIT:
+        V.fail(what, seed, f"an integer in [0, 2^32) for {method} (GlintInput's {what} is one 32-bit word: a "
+                           f"larger {what} would reach the shader as its low 32 bits, another {what}'s image)")
+    return s
+
+
+def frame_rows(inputs, seed: int = 0, frame: int = 0, method: str = "a method shader"):
     """(rows, mask): the packed rows of the pixels of one frame's inputs (``FrameInputs`` of the scene
-    images) where the surface is hit, and that (H, W) mask."""
+    images) where the surface is hit, and that (H, W) mask. ``seed`` and ``frame`` must be < 2^32
+    (:func:`shader_seed`; ``method`` names the shader in the message)."""
+    seed, frame = shader_seed(seed, method), shader_seed(frame, method, "frame")
     hit = inputs.hit if inputs.hit is not None else inputs.mask
     if inputs.world_pos is None:
         V.fail("inputs", "frame inputs without world-space fields", "FrameInputs from frame_inputs(scene)")
@@ -91,8 +109,19 @@ def frame_rows(inputs, seed: int = 0, frame: int = 0):
     rows = np.zeros((row.size, _core.METHOD_INPUT_WORDS), np.uint32)
     rows[:, :27] = floats.view(np.uint32)
     rows[:, 27], rows[:, 28] = col, row
-    rows[:, 29], rows[:, 30] = V.seed(frame), V.seed(seed)
+    rows[:, 29], rows[:, 30] = frame, seed
     return rows, hit
+
+
+def method_kernel(spec: dict):
+    """A method shader's compiled kernel (``_core.MethodKernel``) from its spec; a compile failure is one
+    line (``shaders.compile_error``: a prototype without a body, an unfinished declaration and a missing
+    or mistyped ``glint`` named as such), the compiler's text in its ``messages``."""
+    s = spec
+    return compiled(lambda: _core.MethodKernel(s["code"], s["source_name"], s["entry"], s["language"],
+                                               [(k, str(val)) for k, val in s["defines"]], list(s["include_dirs"]),
+                                               s["device"]),
+                    s["source_name"], s["language"], "method shader")
 
 
 class ShaderMethod(GlintyNDF):
@@ -109,9 +138,7 @@ class ShaderMethod(GlintyNDF):
         self.params = {"source": s["source_name"], "entry": s["entry"], "language": s["language"],
                        **dict(s["defines"])}
         self.target, self.alpha, self.density = None, None, None
-        self._kernel = _core.MethodKernel(s["code"], s["source_name"], s["entry"], s["language"],
-                                          [(k, str(val)) for k, val in s["defines"]], list(s["include_dirs"]),
-                                          s["device"])
+        self._kernel = method_kernel(s)
 
     device = property(lambda self: self._kernel.device, doc="The Vulkan device's name.")
     language = property(lambda self: self._spec["language"])
@@ -145,13 +172,33 @@ class ShaderMethod(GlintyNDF):
 
     def image(self, inputs, seed: int = 0, frame: int = 0) -> np.ndarray:
         """One frame's image: (H, W), or (H, W, 3) for a colour method, the shader's output where the
-        surface is hit, 0 elsewhere."""
-        rows, hit = frame_rows(inputs, seed, frame)
+        surface is hit, 0 elsewhere. A NaN, infinite or negative value raises ``ShaderOutputError``
+        naming the method, the frame and the number of pixels (``run`` returns the raw output)."""
+        rows, hit = frame_rows(inputs, seed, frame, f"method shader {self.name!r}")
         out = self.run(rows)
         colour = out.shape[0] > 0 and out[0, 3] == 3.0
+        values = out[:, :3] if colour else out[:, 0]
+        check_output(self.name, values, f"frame {frame}", "intensity")
         img = np.zeros(hit.shape + ((3,) if colour else ()))
-        img[hit] = out[:, :3] if colour else out[:, 0]
+        img[hit] = values
         return img
+
+
+def check_output(name: str, values, where: str, what: str = "intensity") -> None:
+    """Refuses a method shader's faulty output (``ShaderOutputError``): NaN, infinite or negative values
+    (an intensity or an NDF value D is >= 0), counted per kind, naming the method and ``where`` (e.g.
+    "frame 3") so that a verdict counts it as a failed check, not bad input."""
+    values = np.asarray(values)
+    with np.errstate(invalid="ignore"):
+        nonfinite = ~np.isfinite(values)
+        negative = values < 0
+    if values.ndim > 1:  # a colour method: a pixel is faulty when one of its channels is
+        nonfinite, negative = nonfinite.any(axis=-1), negative.any(axis=-1)
+    faults = [f"{int(c.sum())} {kind}" for c, kind in ((nonfinite, "non-finite"), (negative, "negative")) if c.any()]
+    if faults:
+        raise ShaderOutputError(f"method shader {name!r} returned {' and '.join(faults)} {what} values on "
+                                f"{int((nonfinite | negative).sum())} of {len(values)} pixels of {where} "
+                                f"({what} values must be finite and >= 0)")
 
 
 # What builds a user's shader that returns D, ``factory(spec, material)``: counting_shaders.user_ndf_method,
@@ -164,6 +211,33 @@ def register_ndf_shader_factory(factory) -> None:
     _NDF_SHADER_FACTORY[0] = factory
 
 
+def _check_method_name(name: str) -> None:
+    """A method shader may take a new name or replace the user's own earlier method shader of that name
+    (either kind); never a method glintlab ships nor one registered by ``register_image_method``."""
+    if name not in IMAGE_METHODS:
+        return
+    entry = IMAGE_METHODS.get(name)
+    if entry.origin == "glintlab":
+        V.fail("name", name, f"a name of your own: {name!r} is an image method glintlab ships ({entry.label}), "
+                             "which a method shader never replaces")
+    if entry.origin != "shader_method":
+        V.fail("name", name, f"a name no other image method uses: {name!r} was registered by register_image_method, "
+                             "which a method shader does not replace")
+
+
+def _method_defines(defines) -> list:
+    """A method shader's defines as sorted (name, text) pairs: True/False as 1/0 (what the C preprocessor
+    reads), numbers and strings as written (``shaders._define_value``); None is refused (it is no value:
+    "" defines a name without one)."""
+    defines = dict(defines or {})
+    for key, value in defines.items():
+        if not isinstance(key, str) or not key.isidentifier():
+            V.fail("defines", key, "macro names that are identifiers")
+        if value is None:
+            V.fail(f"defines[{key!r}]", value, "a string, a number or True/False (\"\" for a define without a value)")
+    return sorted((k, _define_value(k, val)) for k, val in defines.items())
+
+
 def shader_method(source, language: str | None = None, entry: str = "glint", name: str | None = None,
                   defines: dict | None = None, include_dirs=(), device: str = "auto",
                   timeout: float = DEFAULT_TIMEOUT_S, register: bool = True, returns: str = "intensity",
@@ -173,11 +247,17 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
     ``source``: a file path (``.hlsl``, ``.glsl``, ...) or the code as a string, defining
     ``float <entry>(GlintInput g)`` (or float3 / vec3). ``language``: "hlsl" or "glsl" (default: from
     the extension; "hlsl" for code in a string). ``defines`` ({"NAME": value}) are passed as
-    ``-D NAME=value``; ``include_dirs`` are searched after the file's folder and glintlab's shader
+    ``-D NAME=value``: True/False as 1/0, numbers and strings as written, "" a define without a value;
+    None is refused. ``include_dirs`` are searched after the file's folder and glintlab's shader
     folder. Unless ``register`` is False the method is registered as the image method ``name``
-    (default: the file's stem, or "shader_method"), replacing an earlier method shader of that name
-    (never a built-in method). A shader that does not compile raises ``ValueError`` with the compiler's
-    messages (file:line); no Vulkan device raises ``RuntimeError``.
+    (default: the file's stem, or "shader_method"), replacing the user's own earlier method shader of
+    that name; a name glintlab ships (``shipped_image_methods()``: "truth", "wb16", ...) or one registered
+    by ``register_image_method`` is refused. A shader that does not compile raises ``ShaderCompileError``
+    (a ``ValueError``) in one line saying what and where (file:line; a prototype without a body; a
+    declaration left unfinished; no ``glint`` of the contract's signature), the compiler's text in its
+    ``messages``; no Vulkan device raises ``NoVulkanDevice`` (a ``RuntimeError``). ``image()`` refuses
+    seeds >= 2^32 (GlintInput's seed is 32 bits) and NaN, infinite or negative outputs
+    (``ShaderOutputError``).
 
     ``returns``: "intensity" (the shader's value is the pixel's intensity, shown as is) or "ndf" (the
     shader returns a glinty NDF value D, and the scene images shade it with the microfacet BRDF as every
@@ -195,30 +275,28 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
         name = Path(source_name).stem if source_name != "<string>" else "shader_method"
     if not isinstance(name, str) or not name:
         V.fail("name", name, "a non-empty string")
-    if name in BUILTIN_IMAGE_METHODS or (name in IMAGE_METHODS and IMAGE_METHODS.get(name).returns != "intensity"):
-        V.fail("name", name, "a name that no built-in image method uses")
-    defines = dict(defines or {})
-    for key in defines:
-        if not isinstance(key, str) or not key.isidentifier():
-            V.fail("defines", key, "macro names that are identifiers")
+    if register:
+        _check_method_name(name)
+    define_list = _method_defines(defines)
     if isinstance(include_dirs, (str, Path)):
         include_dirs = [include_dirs]
     V.positive("timeout", timeout, "a number of seconds > 0")
     if not isinstance(device, str):
         V.fail("device", device, "'auto', 'gpu', 'cpu', a device index or part of a device name")
     spec = {"code": code, "source_name": source_name, "entry": entry, "language": language, "name": name,
-            "defines": sorted((k, "1" if val is True else str(val)) for k, val in defines.items()),
+            "defines": define_list,
             "include_dirs": [str(d) for d in include_dirs] + [str(data_path("shaders"))], "device": device,
             "timeout": float(timeout)}
     if returns == "ndf":
         factory = _NDF_SHADER_FACTORY[0]
         if register:
             register_image_method(name, lambda m, spec=spec: factory(spec, m), label=name, replace=True,
-                                  returns="ndf")
+                                  returns="ndf", origin="shader_method")
         return factory(spec, material)
     method = ShaderMethod(spec)
     if register:
-        register_image_method(name, lambda m, method=method: method, label=name, replace=True, returns="intensity")
+        register_image_method(name, lambda m, method=method: method, label=name, replace=True, returns="intensity",
+                              origin="shader_method")
     return method
 
 

@@ -1,6 +1,8 @@
 """A registry of named things (report sections, custom laws): one name, one object, in registration order."""
 from __future__ import annotations
 
+import weakref
+
 from . import checks as V
 
 
@@ -15,9 +17,46 @@ class Registry:
     ValueError: unknown colour 'blue'; known: red
     """
 
+    # Every live registry, for snapshot_all / restore_all (a registry built and dropped, as a report's
+    # discovery may do, leaves the set by itself).
+    _instances: "weakref.WeakSet[Registry]" = weakref.WeakSet()
+
     def __init__(self, kind: str):
         self.kind = kind
         self._items: dict = {}
+        Registry._instances.add(self)
+
+    def snapshot(self) -> dict:
+        """The registry's entries (a copy, in order), for :meth:`restore`."""
+        return dict(self._items)
+
+    def restore(self, snapshot: dict) -> None:
+        """Puts back the entries of an earlier :meth:`snapshot`: names registered since are removed,
+        names replaced or removed since get their earlier objects back."""
+        self._items = dict(snapshot)
+
+    @classmethod
+    def snapshot_all(cls) -> list[tuple]:
+        """A snapshot of every live registry (image methods, glinty NDFs, custom laws, samplers, report
+        sections, ...): what a test suite restores after each test so that one test's registrations
+        never reach another (tests/python/conftest.py).
+
+        >>> r = Registry("colour")
+        >>> saved = Registry.snapshot_all()
+        >>> r.register("red", 1)
+        1
+        >>> Registry.restore_all(saved)
+        >>> r.names()
+        []
+        """
+        return [(registry, registry.snapshot()) for registry in list(cls._instances)]
+
+    @classmethod
+    def restore_all(cls, snapshots: list[tuple]) -> None:
+        """Restores each registry of :meth:`snapshot_all`'s result (registries created since are left as
+        they are)."""
+        for registry, snapshot in snapshots:
+            registry.restore(snapshot)
 
     def register(self, name: str, obj, replace: bool = False):
         """Adds ``obj`` under ``name`` and returns it. A name registered before is refused (ValueError)

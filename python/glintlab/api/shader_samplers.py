@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import hashlib
 import os
-import re
 from pathlib import Path
 
 import numpy as np
@@ -35,8 +34,8 @@ from .. import _core
 from ..resources import data_path
 from . import checks as V
 from .samplers import SAMPLER_LOADERS, Sampler, _points, _size, _unit
-from .shaders import (_EXTENSIONS, DEFAULT_TIMEOUT_S, LANGUAGES, LAVAPIPE_LOOP_CAP, ShaderOutputError,
-                      _define_value, _device_request, _read_source, _utf8)
+from .shaders import (_EXTENSIONS, DEFAULT_TIMEOUT_S, LANGUAGES, LAVAPIPE_LOOP_CAP, ShaderCompileError,
+                      ShaderOutputError, _define_value, _device_request, _read_source, _utf8, compile_error)
 
 SAMPLE_ENTRY, PDF_ENTRY = "sample_h", "pdf_h"
 #: The shipped example: GGX visible normals, ``ggx_vndf.hlsl`` / ``ggx_vndf.glsl`` (one body).
@@ -48,45 +47,11 @@ DEFAULT_UV = (0.0, 0.0)
 DEFAULT_J = (1e-3, 0.0, 0.0, 1e-3)
 
 
-class ShaderCompileError(ValueError):
-    """A shader sampler that does not compile (or lacks a function of the contract). ``str()`` is one
-    line naming the file and line of the first error; ``messages`` holds the compiler's full text."""
-
-    def __init__(self, line: str, messages: str):
-        super().__init__(line)
-        self.messages = messages
-
-
-_ERROR_LINE = re.compile(r"^(?P<loc>.+?:\d+):\s*error:?\s*(?P<msg>.*)$")
-
-
 def _compile_error(exc: ValueError, source_name: str, language: str) -> ShaderCompileError:
-    """The runner's compile failure as one line: the first error the compiler reports in the user's
-    files (file:line: message), or, when every error is inside glintlab's wrapper, the function of the
-    contract that is missing or has another signature."""
-    text = str(exc)
-    head, _, messages = text.partition("\n")
-    errors = [m for m in (_ERROR_LINE.match(ln.strip()) for ln in messages.splitlines()) if m]
-    user = [m for m in errors if not m.group("loc").startswith("glintlab_kernel.")]
-    wrapper_text = " ".join(m.group("msg") for m in errors)
-    named = [e for e in (SAMPLE_ENTRY, PDF_ENTRY) if f"'{e}'" in wrapper_text]
-    if "no function" in head and not user and named:
-        missing = named[0]
-        sig = _core.sampler_signature(language, SAMPLE_ENTRY, PDF_ENTRY).split(" and ")
-        expected = sig[0] if missing == SAMPLE_ENTRY else sig[1]
-        first = f" ({errors[0].group('msg')})" if errors else ""
-        return ShaderCompileError(f"shader {source_name}: no function {missing} with the expected signature "
-                                  f"{expected} ({language}){first}", text)
-    if user:
-        m = user[0]
-        more = f" (+{len(errors) - 1} more: see .messages)" if len(errors) > 1 else ""
-        return ShaderCompileError(f"shader sampler does not compile ({language}): {m.group('loc')}: "
-                                  f"{m.group('msg')}{more}", text)
-    if errors:  # every error inside glintlab's wrapper, none naming a function: code left unfinished
-        m = errors[0]
-        return ShaderCompileError(f"shader sampler does not compile ({language}): {m.group('msg')} in glintlab's "
-                                  f"wrapper, after the end of {source_name} (a declaration left unfinished?)", text)
-    return ShaderCompileError(head if head.strip() else text, text)
+    """The runner's compile failure as one line: ``shaders.compile_error``, the one wording of shader laws,
+    method shaders and shader samplers, with the two functions of the sampler's contract."""
+    sig = _core.sampler_signature(language, SAMPLE_ENTRY, PDF_ENTRY).split(" and ")
+    return compile_error(exc, source_name, language, "shader sampler", {SAMPLE_ENTRY: sig[0], PDF_ENTRY: sig[1]})
 
 
 class ShaderSampler(Sampler):

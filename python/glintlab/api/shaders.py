@@ -204,6 +204,83 @@ def _device_request(device) -> str:
     return _utf8("device", device)
 
 
+class ShaderCompileError(ValueError):
+    """A shader that does not compile, or lacks a function of its contract (a shader law, a method
+    shader, a shader sampler). ``str()`` is one line saying what is wrong where (:func:`compile_error`);
+    ``messages`` holds the compiler's full text."""
+
+    def __init__(self, line: str, messages: str):
+        super().__init__(line)
+        self.messages = messages
+
+
+_ERROR_LINE = re.compile(r"^(?P<loc>.+?:\d+):\s*error:?\s*(?P<msg>.*)$")
+_NO_BODY = re.compile(r"No function definition \(body\) found:\s*(?:\S+:)?\s*(?P<fn>[A-Za-z_]\w*)\(")
+_SIGNATURE = re.compile(r"with the expected signature (?P<sig>.+?) \((?:hlsl|glsl)\); the compiler says")
+_WRAPPER_FILE = "glintlab_kernel."
+
+
+def is_compile_failure(exc: ValueError) -> bool:
+    """Whether the runner's ValueError is a compile failure (not a refused resource, an include cycle, ...)."""
+    head = str(exc).split("\n", 1)[0]
+    return "does not compile" in head or "no function" in head
+
+
+def compile_error(exc: ValueError, source_name: str, language: str, kind: str,
+                  signatures: dict | None = None) -> ShaderCompileError:
+    """The runner's compile failure as one line, the one wording of shader laws, method shaders and shader
+    samplers (``kind``: "shader law", "method shader", "shader sampler"):
+
+    - a function declared without a body (a prototype whose definition is missing) is named as such;
+    - an error in the user's files: the first one (file:line: message, with how many more);
+    - every error inside glintlab's wrapper, naming a function of the contract (``signatures``: entry ->
+      expected signature; default: the one the runner's message states): that function is missing or
+      has another signature;
+    - every error inside the wrapper, none naming a function: a declaration left unfinished at the end
+      of the user's code (an unclosed parameter list or body), whose errors the compiler reports after it.
+    """
+    text = str(exc)
+    head, _, messages = text.partition("\n")
+    lines = [ln.strip() for ln in messages.splitlines()]
+    errors = [m for m in (_ERROR_LINE.match(ln) for ln in lines) if m]
+    user = [m for m in errors if not m.group("loc").startswith(_WRAPPER_FILE)]
+    if signatures is None:
+        found = _SIGNATURE.search(head)
+        entry = re.search(r"no function (\w+) with", head)
+        signatures = {entry.group(1): found.group("sig")} if found and entry else {}
+    no_body = _NO_BODY.search(" ".join(lines))
+    if no_body and not user:
+        fn = no_body.group("fn")
+        define = f"; define {signatures[fn]}" if fn in signatures else ""
+        return ShaderCompileError(f"{kind} does not compile ({language}): function {fn} is declared in {source_name} "
+                                  f"but has no body (a prototype without its definition{define})", text)
+    wrapper_text = " ".join(m.group("msg") for m in errors)
+    named = [e for e in signatures if f"'{e}'" in wrapper_text]
+    if "no function" in head and not user and named:
+        first = f" ({errors[0].group('msg')})" if errors else ""
+        return ShaderCompileError(f"shader {source_name}: no function {named[0]} with the expected signature "
+                                  f"{signatures[named[0]]} ({language}){first}", text)
+    if user:
+        m = user[0]
+        more = f" (+{len(errors) - 1} more: see .messages)" if len(errors) > 1 else ""
+        return ShaderCompileError(f"{kind} does not compile ({language}): {m.group('loc')}: error: "
+                                  f"{m.group('msg')}{more}", text)
+    if errors:  # every error inside glintlab's wrapper, none naming a function: code left unfinished
+        return ShaderCompileError(f"{kind} does not compile ({language}): {errors[0].group('msg')} in glintlab's "
+                                  f"wrapper, after the end of {source_name} (a declaration left unfinished?)", text)
+    return ShaderCompileError(head if head.strip() else text, text)
+
+
+def compiled(make, source_name: str, language: str, kind: str, signatures: dict | None = None):
+    """``make()`` (a kernel's constructor), its compile failure raised as :func:`compile_error`'s one line."""
+    try:
+        return make()
+    except ValueError as exc:
+        if is_compile_failure(exc):
+            raise compile_error(exc, source_name, language, kind, signatures) from None
+        raise
+
+
 class ShaderOutputError(ValueError):
     """A shader returned a NaN, infinite or negative count (``sample`` and ``evaluate``): the shader is
     faulty, not the caller's input, so a verdict counts it as a failed check (exit 1), not bad input."""
@@ -212,6 +289,9 @@ class ShaderOutputError(ValueError):
 # A call that could not start within its timeout because the device still ran an earlier kernel that
 # had passed its own timeout (a TimeoutError; this call's kernel never ran).
 ShaderDeviceBusy = _core.ShaderDeviceBusy
+# No Vulkan device (or none of the kind asked for): a RuntimeError naming the package to install. The
+# commands report it on one line, exit 2 (the environment, not the shader).
+NoVulkanDevice = _core.NoVulkanDevice
 LAVAPIPE_LOOP_CAP = 65535
 
 
@@ -230,9 +310,10 @@ class ShaderLaw(CustomLaw):
         # A spec from a pickle carries the included files as they were at the first compile ("includes");
         # a new law reads them from the disk and records them for its pickles.
         sealed = [(path, content) for path, content in s.get("includes", ())]
-        self._kernel = _core.ShaderKernel(s["code"], s["source_name"], s["entry"], s["language"], s["n_uniforms"],
-                                          [(k, str(val)) for k, val in s["defines"]], list(s["include_dirs"]),
-                                          s["device"], sealed)
+        self._kernel = compiled(lambda: _core.ShaderKernel(s["code"], s["source_name"], s["entry"], s["language"],
+                                                           s["n_uniforms"], [(k, str(val)) for k, val in s["defines"]],
+                                                           list(s["include_dirs"]), s["device"], sealed),
+                                s["source_name"], s["language"], "shader law")
         if "includes" not in s:
             s["includes"] = [(path, bytes(content)) for path, content in self._kernel.included_files]
         super().__init__(self._run, s["n_uniforms"], s["name"], s["binning"])

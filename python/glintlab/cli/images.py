@@ -3,16 +3,15 @@ from __future__ import annotations
 
 import sys
 import time
-
-import numpy as np
+from pathlib import Path
 
 from ..api.method_shaders import shader_method
+from ..api.shaders import NoVulkanDevice, ShaderOutputError
 from ..api import checks as V
 from ..report.runner import write_section_files
 from ..studies import scene_images as image_study
 from ..studies.base import Context
-from ..validation.scene import load_scene
-from ..validation.scene_images import Material, frame_inputs, make_method, with_directional_light
+from ..validation.scene_images import Material, frame_inputs, make_method, resolve_scene, with_directional_light
 from .common import add_outputs, add_scale, add_scenes, add_seed, print_table
 
 
@@ -22,7 +21,8 @@ def add_parser(sub):
                                    "image (NDF term) of each image method along a camera path of sub-pixel pans and "
                                    "zoom steps, the flicker of each against the facet ground truth "
                                    "(docs/math/glint_images.md), a PNG panel, a flicker plot, a GIF of the first scene "
-                                   "and seconds per image. Writes CSV tables and the figures.")
+                                   "and seconds per image. Writes CSV tables and the figures. A scene is a file or a "
+                                   "shipped scene's name (sphere, plane_25, ...), as gl.render takes it.")
     add_scenes(p)
     add_scale(p, 0.2, "resolution factor per side; the density follows so n per pixel is kept (default: 0.2)")
     p.add_argument("--frames", type=int, default=8, help="frames of the camera path (default: 8)")
@@ -48,19 +48,24 @@ def add_parser(sub):
 
 
 def run(args) -> int:
-    scenes = [load_scene(path) for path in args.scenes]  # all validated before any work
+    scenes = [resolve_scene(name) for name in args.scenes]  # all validated before any work
     params = {"scale": args.scale, "frames": args.frames, "pan_px": args.pan_px, "zoom": args.zoom,
               "density_factor": args.density_factor, "tau": args.tau, "timing_scale": args.timing_scale}
     if args.methods:
         params["methods"] = args.methods
         params["animation_methods"] = args.methods
-    if args.method:
-        bad = check_method_shaders(args, scenes, params)
-        if bad:
-            return bad
-    t0 = time.perf_counter()
-    ctx = Context(args.out, V.seed(args.seed))
-    tables = image_study.compute_scenes(scenes, image_study.command_params(scenes, **params), ctx)
+    try:
+        if args.method:
+            add_method_shaders(args, scenes, params)
+        t0 = time.perf_counter()
+        ctx = Context(args.out, V.seed(args.seed))
+        tables = image_study.compute_scenes(scenes, image_study.command_params(scenes, **params), ctx)
+    except NoVulkanDevice as exc:  # the environment, not the input's content: one line, as `glintlab shader`
+        print(f"glintlab images: {exc}", file=sys.stderr)
+        return 2
+    except ShaderOutputError as exc:  # a method shader's NaN, infinite or negative value: a failed check
+        print(f"glintlab images: FAIL {exc}", file=sys.stderr)
+        return 1
     paths = write_section_files(tables, image_study.figures, ctx)
     if not args.quiet:
         print_table(tables["scene_images_flicker"][["scene", "method", "std_ratio", "pop_rate", "change_rate",
@@ -71,22 +76,25 @@ def run(args) -> int:
     return 0
 
 
-def check_method_shaders(args, scenes, params) -> int:
-    """``images --method FILE``: compiles each user method shader (a compile error is bad input, exit 2),
-    adds it to the methods (beside the truth and the smooth image unless --methods names others) and
-    checks that it returns finite values on the first frame of every scene (exit 1 otherwise)."""
-    names = []
+def add_method_shaders(args, scenes, params) -> None:
+    """``images --method FILE``: compiles each user method shader (a compile error is bad input, exit 2;
+    two files with one stem, which would take one name, too) and adds it to the methods (beside the
+    truth and the smooth image unless --methods names others). Its first frame of every scene is
+    rendered here, so that a shader returning NaN, infinite or negative values fails (exit 1) before the
+    path is rendered; every later frame is checked as it is rendered (``ShaderMethod.image``)."""
+    by_name = {}
     for path in args.method:
-        names.append(shader_method(path, returns=args.method_returns).name)
+        stem = Path(path).stem
+        if stem in by_name:
+            V.fail("--method", path, f"files with distinct names: {by_name[stem]} has the name {stem!r} too "
+                                     "(a method shader is named after its file's stem; rename one)")
+        by_name[stem] = path
+    names = [shader_method(Path(path), returns=args.method_returns).name for path in args.method]
     base = args.methods or "truth,smooth"
     params["methods"] = params["animation_methods"] = ",".join(dict.fromkeys(base.split(",") + names))
+    seed = V.seed(args.seed)
     for sc in scenes:
         small = with_directional_light(sc.scaled(args.scale, keep_n=True))
         inp = frame_inputs(small)
         for name in names:
-            vals = make_method(name, Material.of(small)).image(inp, seed=args.seed)[inp.hit]
-            if not np.isfinite(vals).all():
-                print(f"method {name}: non-finite values on {int((~np.isfinite(vals)).sum())} of {vals.size} "
-                      f"hit pixel values of scene {sc.name} (frame 0)", file=sys.stderr)
-                return 1
-    return 0
+            make_method(name, Material.of(small)).image(inp, seed=seed, frame=0)

@@ -26,8 +26,11 @@ from __future__ import annotations
 
 import copy
 import math
+import os
+import secrets
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -35,6 +38,7 @@ import pandas as pd
 from ..api import checks as V
 from ..api.glinty_ndf import (ANGULAR_TEXEL, BUILTIN_IMAGE_METHODS, IMAGE_METHODS, ImageMethod, Material,  # noqa: F401
                               SmoothNDF, image_methods, make_method, register_image_method)
+from ..api.method_shaders import ShaderMethod, shader_seed
 from .scene import SCENES_DIR, Scene, _unit, load_scene
 
 TAU = 2.0             # a pixel shows a glint when its NDF value exceeds TAU x D(h) (docs/math/glint_images.md#glint-pops)
@@ -73,8 +77,16 @@ def with_density(scene: Scene, factor: float) -> Scene:
 def camera_path(scene: Scene, frames: int, pan_px: float = 0.25, zoom: float = 0.99) -> list[Scene]:
     """``frames`` cameras: the first half pans by ``pan_px`` pixel per frame (sub-pixel steps, along the
     image's x axis, measured at the look-at distance), the second half then moves the camera towards
-    its look-at point by the factor ``zoom`` per frame (a dolly: footprints shrink, the LOD moves)."""
-    V.integer("frames", frames, minimum=2)
+    its look-at point by the factor ``zoom`` per frame (a dolly: footprints shrink, the LOD moves).
+    :func:`camera_at` builds one of them alone."""
+    return [camera_at(scene, frames, k, pan_px, zoom) for k in range(V.integer("frames", frames, minimum=2))]
+
+
+def camera_at(scene: Scene, frames: int, frame: int, pan_px: float = 0.25, zoom: float = 0.99) -> Scene:
+    """Camera ``frame`` of :func:`camera_path` (the same scene, bit for bit), without building the others:
+    a path of any length costs one camera per frame rendered."""
+    frames = V.integer("frames", frames, minimum=2)
+    k = V.integer("frame", frame, 0, frames - 1, expected=f"an integer in [0, {frames - 1}] (frames = {frames})")
     pan_px, zoom = V.real("pan_px", pan_px), V.real("zoom", zoom)
     if not (math.isfinite(pan_px) and abs(pan_px) <= 8):
         V.fail("pan_px", pan_px, "a number of pixels in [-8, 8]")
@@ -84,16 +96,16 @@ def camera_path(scene: Scene, frames: int, pan_px: float = 0.25, zoom: float = 0
     pos, look = np.asarray(cam["position"], float), np.asarray(cam["look_at"], float)
     step = pan_px * np.linalg.norm(look - pos) / scene.focal * scene.right
     pans = frames // 2
-    out = []
-    for k in range(frames):
-        spec = copy.deepcopy(scene.spec)
-        shift = step * min(k, pans)
-        p, lk = pos + shift, look + shift
-        if k > pans:
-            p = lk + (p - lk) * zoom ** (k - pans)
-        spec["camera"]["position"], spec["camera"]["look_at"] = [float(x) for x in p], [float(x) for x in lk]
-        out.append(Scene(spec, name=scene.name, source=scene.source))
-    return out
+    spec = copy.deepcopy(scene.spec)
+    shift = step * min(k, pans)
+    p, lk = pos + shift, look + shift
+    if k > pans:
+        p = lk + (p - lk) * zoom ** (k - pans)
+        if not np.linalg.norm(p - lk) > 1e-9 * np.linalg.norm(look - pos):  # zoom^(k - pans) underflowed
+            V.fail("frame", frame, f"a frame whose camera has not reached its look-at point (zoom {zoom:g} per frame "
+                                   f"over {k - pans} zoom steps leaves {zoom ** (k - pans):.3g} of the distance)")
+    spec["camera"]["position"], spec["camera"]["look_at"] = [float(x) for x in p], [float(x) for x in lk]
+    return Scene(spec, name=scene.name, source=scene.source)
 
 
 @dataclass
@@ -186,13 +198,25 @@ def render(method, inputs: FrameInputs, seed: int = 0, frame: int = 0) -> np.nda
     return img
 
 
-def _scene_of(scene) -> Scene:
+def resolve_scene(scene) -> Scene:
+    """A :class:`Scene` from what a user names a scene by, the one resolution of ``gl.render`` and
+    ``glintlab images``: a Scene; a path to a scene file; a shipped scene's name ("sphere", "plane_25",
+    ...: ``data/scenes/<name>.json``) when no file of that name exists; or the JSON document (text or
+    dict). A name that is neither a file nor a shipped scene is refused listing the shipped ones."""
     if isinstance(scene, Scene):
         return scene
-    if isinstance(scene, str) and "\n" not in scene and "{" not in scene:
-        named = SCENES_DIR / f"{scene}.json"
-        return load_scene(named if named.is_file() else scene)
+    if isinstance(scene, (str, os.PathLike)) and not (isinstance(scene, str) and ("\n" in scene or "{" in scene)):
+        path = Path(scene)
+        if not path.exists():
+            shipped = sorted(f.stem for f in Path(SCENES_DIR).glob("*.json"))
+            if str(scene) in shipped:
+                return load_scene(Path(SCENES_DIR) / f"{scene}.json")
+            V.fail("scene", str(scene), f"a scene file or a shipped scene's name ({', '.join(shipped)}); no file "
+                                        "of that name exists")
     return load_scene(scene)
+
+
+_scene_of = resolve_scene  # the name method_twins and older callers use
 
 
 def render_image(method, scene, frame: int = 0, seed: int = 0, scale: float = 1.0, frames: int = 8,
@@ -203,11 +227,14 @@ def render_image(method, scene, frame: int = 0, seed: int = 0, scale: float = 1.
     (density scaled to keep the facets per pixel). ``method``: an image method's name
     (``image_methods()``), or a glinty NDF / method shader object; ``scene``: a :class:`Scene`, a
     shipped scene's name ("sphere", "plane_25", ...), a path or a JSON document. Returns (rows, columns)
-    or (rows, columns, 3) for a colour method shader; NaN where no surface is hit."""
-    scene = _scene_of(scene)
+    or (rows, columns, 3) for a colour method shader; NaN where no surface is hit. Only the rendered
+    frame's camera is built (:func:`camera_at`), whatever ``frames``. A method shader takes seeds below
+    2^32 (GlintInput's seed is one 32-bit word) and refuses larger ones; ``seed=None`` draws one below
+    2^32 from the operating system."""
+    scene = resolve_scene(scene)
     V.integer("frames", frames, minimum=1)
     V.integer("frame", frame, 0, frames - 1, expected=f"an integer in [0, {frames - 1}] (frames = {frames})")
-    seed = V.seed(seed)
+    seed = secrets.randbits(32) if seed is None else V.seed(seed)
     if scale != 1.0:
         scene = scene.scaled(scale, keep_n=True)
     if directional:
@@ -220,7 +247,7 @@ def render_image(method, scene, frame: int = 0, seed: int = 0, scale: float = 1.
         evaluator = method
     else:
         V.fail("method", method, "an image method's name, an ImageMethod or a glinty NDF / method shader")
-    cam = camera_path(scene, max(int(frames), 2))[int(frame)]
+    cam = camera_at(scene, max(int(frames), 2), int(frame))
     inp = frame_inputs(cam)
     img = render(evaluator, inp, seed, frame=int(frame)).astype(np.float64)
     miss = ~inp.hit
@@ -360,7 +387,11 @@ def _path_setup(scene: Scene, methods, seed, angular_texel: float, directional: 
     if directional:
         scene = with_directional_light(scene)
     mat = Material.of(scene, angular_texel)
-    return seed, scene, mat, {name: make_method(name, mat) for name in methods}
+    evaluators = {name: make_method(name, mat) for name in methods}
+    for name, ev in evaluators.items():  # GlintInput's seed is 32 bits: refused before any frame is rendered
+        if isinstance(ev, ShaderMethod):
+            shader_seed(seed, f"method shader {name!r}")
+    return seed, scene, mat, evaluators
 
 
 def render_path(scene: Scene, methods=DEFAULT_METHODS, frames: int = 8, pan_px: float = 0.25, zoom: float = 0.99,

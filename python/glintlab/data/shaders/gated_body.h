@@ -1,7 +1,10 @@
 // DB23's gated Gaussian as their published renderer computes it (glintlab's C++ twin: the law
 // "gated_shader"; docs/math/laws.md#law-gated-shader). Written for glintlab from the paper and the
 // description of the public shader's arithmetic, in its float32 and half-float steps:
-//   P1 = 1 - pow(|1 - p|, n); m = max(n, 1) - 1, mu = m p, sd = sqrt(m p (1 - p));
+//   P1 = 1 - pow(|1 - p|, n); m = max(n, 1) - 1, mu = m p, sd = sqrt(m p (1 - p)) (the public ports
+//   write (n - 1) p: for n < 1 their sd is sqrt of a negative, NaN, and J is what the device's clamp
+//   makes of NaN; max(n, 1) gives J = 0, what a NaN-dropping clamp gives, on every device:
+//   docs/math/laws.md#law-gated-shader);
 //   a soft gate of half-width w = 0.1 saturate(10 P1) saturate(10 (1 - P1)) around P1;
 //   both randoms stored as 16-bit floats, the Gaussian one already transformed (Giles' erfinv);
 //   K = gate (1 + clamp(floor(z sd + mu), 0, n)), which can reach n + 1 (a defect kept on purpose).
