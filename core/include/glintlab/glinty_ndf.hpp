@@ -16,6 +16,8 @@
 
 namespace glintlab {
 
+class CounterRng;
+
 enum class GlintTarget { beckmann, ggx };
 
 // How the points outside B(k) are accounted for (eq. 9 and 10).
@@ -212,9 +214,11 @@ class Kpt25Ndf {
   double disk_D(double x, double y) const;  // D(T^-1(x, y)), the target at a point of U
   double level_pdf(const GlintPixel& px, int level, double u, double v, std::uint64_t seed, double x, double y) const;
   double pixel_pdf(const GlintPixel& px, double u, double v, std::uint64_t seed, double x, double y) const;
+  bool draw_from_block(const GlintPixel& px, int li, double u, double v, std::uint64_t seed, double xa, double ya,
+                       CounterRng& rng, double& x, double& y) const;
   // dx dy / dOmega of T at h: (pi / 4) D(h)(h.n) for the maps that uniformise D(h)(h.n), (pi / 8) D(h)
   // for the Lambert map (which uniformises D(h) dOmega, of mass 2 for GGX).
-  double jacobian(double D, double hz) const;
+  double jacobian(double D, const double h[3]) const;
   // The maps and D for alpha_x != alpha_y (the isotropic code paths stay as they were, bit for bit).
   std::array<double, 3> map_aniso(const double h[3]) const;
   std::array<double, 3> inverse_map_aniso(double dx, double dy, double r2) const;
