@@ -50,6 +50,8 @@ Kpt25Ndf::Kpt25Ndf(const Kpt25Params& params) : p_(params) {
   glint_aniso_ = !(p_.glint_ax == 1.0 && p_.glint_ay == 1.0);
   if (glint_aniso_ && p_.compensation == GlintCompensation::disk)
     throw_invalid(kWhere, "compensation", std::string("disk"), "\"square\" or \"none\" with anisotropic glints");
+  if (p_.lambert_printed_jacobian && !(p_.ggx_lambert && p_.target == GlintTarget::ggx))
+    throw_invalid(kWhere, "lambert_jacobian", std::string("printed"), "\"map\" unless ggx_map is \"lambert\"");
   if (!(p_.triplanar_sharpness > 0.0 && p_.triplanar_sharpness <= 64.0))
     throw_invalid(kWhere, "triplanar_sharpness", p_.triplanar_sharpness, "a number in (0, 64]");
   res_ = std::sqrt(p_.density);
@@ -239,8 +241,15 @@ double Kpt25Ndf::disk_D(double x, double y) const {
 }
 
 double Kpt25Ndf::jacobian(double D, const double h[3]) const {
-  if (p_.target == GlintTarget::ggx && p_.ggx_lambert) return 0.125 * kPi * D;
-  return 0.25 * kPi * D * h[2];
+  if (!(p_.target == GlintTarget::ggx && p_.ggx_lambert)) return 0.25 * kPi * D * h[2];
+  // T = (1/2, 1/2) + L(M~(h)) / 2: M~(h) = M^T h / |M^T h| has the solid-angle Jacobian |det M| / |M^T h|^3
+  // = pi D(h) |M^T h| (GGX: D = |det M| / (pi |M^T h|^4), M = diag(1 / alpha_x, 1 / alpha_y, 1)); Lambert's
+  // L sends the hemisphere (area 2 pi) onto the unit disk (area pi), 1/2; the affine step scales by 1/4.
+  // Eq. 6 prints the exponent 4 (the NDF's own transformation law), which gives (pi / 8) D(h).
+  if (p_.lambert_printed_jacobian) return 0.125 * kPi * D;
+  const double ay = aniso_ ? p_.alpha_y : p_.alpha;
+  const double sx = h[0] / p_.alpha, sy = h[1] / ay;
+  return 0.125 * kPi * D * std::sqrt(sx * sx + sy * sy + h[2] * h[2]);
 }
 
 void Kpt25Ndf::map_points(const double* h, std::size_t m, double* xy) const {

@@ -240,8 +240,12 @@ void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std
       unit_vector(H, hu);
       pdf_out[i] = t[2] > 0.0 ? jacobian(t[2], hu) * pixel_pdf(px, u, v, seed, t[0], t[1]) : 0.0;
       if (Wi) {
-        const double d = 2.0 * (o[0] * hv[0] + o[1] * hv[1] + o[2] * hv[2]);
-        for (int c = 0; c < 3; ++c) Wi[c] = d * hv[c] - o[c];
+        // A half vector facing away from wo (wo.h <= 0) reflects wo off the back of its facet: no wi
+        // (NaN; policy, docs/math/glinty_ndf.md#glinty-sampling). The other draws' wi are exactly the
+        // directions whose half vector normalise(wi + wo) has wo.h > 0, so the density of wi is
+        // pdf(h) / (4 wo.h) at that h, with nothing else mapped onto the same wi.
+        const double dot = o[0] * hv[0] + o[1] * hv[1] + o[2] * hv[2];
+        for (int c = 0; c < 3; ++c) Wi[c] = dot > 0.0 ? 2.0 * dot * hv[c] - o[c] : kNaN;
       }
     }
   });
