@@ -18,11 +18,17 @@ namespace glintlab {
 
 namespace kpt25 {
 
-void check_uv(const double* uv, std::size_t i) {
-  for (int c = 0; c < 2; ++c) {
-    const double x = uv[2 * i + c];
-    if (!std::isfinite(x) || std::abs(x) > 1e9)
-      throw_invalid(kWhere, element("uv", i, c), x, "a finite position, |uv| <= 1e9");
+void check_position(const char* name, const double* x, std::size_t i, int n, double cells_per_unit) {
+  // The filter's box adds a few cells at the level in use: a margin of 2^-10 of the range is ample.
+  const double limit = std::min(1e9, kMaxCellIndex * (1.0 - 0x1p-10) / cells_per_unit);
+  for (int c = 0; c < n; ++c) {
+    const double v = x[n * i + c];
+    if (std::isfinite(v) && std::abs(v) <= limit) continue;
+    if (limit == 1e9 || !std::isfinite(v))
+      throw_invalid(kWhere, element(name, i, c), v, std::string("a finite position, |") + name + "| <= 1e9");
+    throw_invalid(kWhere, element(name, i, c), v,
+                  std::string("a position within 2^38 spatial cells of the origin (|") + name +
+                      "| <= " + short_value(limit) + " at this density)");
   }
 }
 
@@ -62,6 +68,8 @@ Kpt25Ndf::Kpt25Ndf(const Kpt25Params& params) : p_(params) {
   // so that E = D(h); K_P as printed (then E = D(h) / det(A_*)^2 with the printed resolution).
   kp_ = p_.density;
   if (glint_aniso_ && !p_.glint_printed_density) kp_ = p_.density / (p_.glint_ax * p_.glint_ay);
+  // Level-0 spatial cells per unit of uv (x_s = A_* uv): the range the cells' random numbers cover.
+  cells_per_uv_ = res_ * (glint_aniso_ ? std::max(p_.glint_ax, p_.glint_ay) : 1.0);
 }
 
 void Kpt25Ndf::refuse_glint_anisotropy(const char* what) const {
@@ -423,7 +431,7 @@ void Kpt25Ndf::evaluate(const double* uv, const double* jac, const double* h, st
   detail::parallel_chunks(m, 64, 128, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       const double u = uv[2 * i], v = uv[2 * i + 1];
-      check_uv(uv, i);
+      check_position("uv", uv, i, 2, cells_per_uv_);
       const GlintPixel px = pixel(jac, h, i);
       if (px.D == 0.0) {
         out[i] = 0.0;
@@ -461,7 +469,7 @@ void Kpt25Ndf::reference(const double* uv, const double* jac, const double* h, s
   detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       const double u = uv[2 * i], v = uv[2 * i + 1];
-      check_uv(uv, i);
+      check_position("uv", uv, i, 2, cells_per_uv_);
       GlintPixel px = pixel(jac, h, i);
       px.reach = reference_reach(px, tol);
       double points = 0.0, sum = 0.0;
@@ -537,7 +545,7 @@ void Kpt25Ndf::visible_counts(const double* uv, const double* jac, const double*
   if (!(radius > 0.0 && radius <= 10.0)) throw_invalid(kWhere, "radius", radius, "a number of lobe stds in (0, 10]");
   detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
-      check_uv(uv, i);
+      check_position("uv", uv, i, 2, cells_per_uv_);
       const GlintPixel px = pixel(jac, h, i);
       double count = 0.0;
       if (px.D > 0.0) {
@@ -566,7 +574,7 @@ void Kpt25Ndf::evaluate_rgb(const double* uv, const double* jac, const double* h
     for (int c = 0; c < 3; ++c) mean[c] += palette[3 * k + c] / n_colors;
   detail::parallel_chunks(m, 64, 128, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
-      check_uv(uv, i);
+      check_position("uv", uv, i, 2, cells_per_uv_);
       const GlintPixel px = pixel(jac, h, i);
       double* o = out3 + 3 * i;
       o[0] = o[1] = o[2] = 0.0;
@@ -587,7 +595,7 @@ void Kpt25Ndf::reference_rgb(const double* uv, const double* jac, const double* 
   if (n_colors < 1) throw_invalid(kWhere, "colors", static_cast<double>(n_colors), "at least one RGB colour");
   detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
-      check_uv(uv, i);
+      check_position("uv", uv, i, 2, cells_per_uv_);
       const GlintPixel px = pixel(jac, h, i);
       double rgb[3] = {0.0, 0.0, 0.0};
       if (px.D > 0.0)

@@ -58,16 +58,28 @@ inline double mass_1d(double c, double sigma, double lo, double hi) {
   return normal_mass((lo - c) / sigma, (hi - c) / sigma);
 }
 
-// One Philox block of a point: counter (2 a + block, i, j, stream << 24 | level << 20 | tag << 16 | b),
-// key = seed. a, b < 2^15 and level <= 15 fit (kGlintMaxLevel); tag < 4 selects the point process of a
-// triplanar plane (0: the uv-mapped process, and every plane when they share one).
+// Spatial cells are keyed by their full indices: positions must lie within this many cells (of level 0)
+// of the origin, where the indices' bits above 32 fit point_block's counter (docs/math/glinty_ndf.md#glinty-process).
+inline constexpr double kMaxCellIndex = 274877906944.0;  // 2^38
+
+// The bits of a spatial cell index above its low 32, offset by 2^31 (cells in [-2^31, 2^31) give 0: the
+// counters of the 32-bit layout before issue 37) and masked to 8 bits: distinct within 2^38 cells.
+inline std::uint32_t cell_high_bits(std::int64_t i) {
+  return static_cast<std::uint32_t>((i + (std::int64_t{1} << 31)) >> 32) & 0xffu;
+}
+
+// One Philox block of a point: counter (2 a + block | hi(i) << 16 | hi(j) << 24, i, j, stream << 24 |
+// level << 20 | tag << 16 | b), key = seed; hi() the index bits above 32 (cell_high_bits). a, b < 2^15 and
+// level <= 15 fit (kGlintMaxLevel); tag < 4 selects the point process of a triplanar plane (0: the
+// uv-mapped process, and every plane when they share one).
 inline std::array<std::uint32_t, 4> point_block(std::uint64_t seed, int level, std::int64_t i, std::int64_t j,
                                                 std::int64_t a, std::int64_t b, std::uint32_t block,
                                                 std::uint32_t tag = 0) {
-  const std::array<std::uint32_t, 4> counter = {static_cast<std::uint32_t>(2 * a) + block,
-                                                static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j),
-                                                (kStreamGlintPoints << 24) | (static_cast<std::uint32_t>(level) << 20) |
-                                                    (tag << 16) | static_cast<std::uint32_t>(b)};
+  const std::array<std::uint32_t, 4> counter = {
+      (static_cast<std::uint32_t>(2 * a) + block) | (cell_high_bits(i) << 16) | (cell_high_bits(j) << 24),
+      static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j),
+      (kStreamGlintPoints << 24) | (static_cast<std::uint32_t>(level) << 20) | (tag << 16) |
+          static_cast<std::uint32_t>(b)};
   return CounterRng::block(counter, {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)});
 }
 
@@ -198,7 +210,9 @@ inline std::string row_value(const double* x, int n) {
   return s + "]";
 }
 
-void check_uv(const double* uv, std::size_t i);
+// A finite position whose cells (cells_per_unit of level 0 per unit) lie within kMaxCellIndex of the
+// origin, and |x| <= 1e9; name[i, c] in the message.
+void check_position(const char* name, const double* x, std::size_t i, int n, double cells_per_unit);
 
 // A unit vector from any nonzero finite vector: scaled by its largest component first, so that neither
 // 1e160 (whose squared length overflows) nor 1e-160 (whose squared length underflows) changes the

@@ -149,7 +149,7 @@ void Kpt25Ndf::pdf(const double* uv, const double* jac, const double* h, std::si
   refuse_glint_anisotropy("pdf");
   detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
-      check_uv(uv, i);
+      check_position("uv", uv, i, 2, cells_per_uv_);
       const GlintPixel px = pixel(jac, h, i);
       if (px.D == 0.0) {
         out[i] = 0.0;
@@ -203,7 +203,7 @@ void Kpt25Ndf::sample(const double* uv, const double* jac, const double* wo, std
   refuse_glint_anisotropy("sample");
   detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
-      check_uv(uv, i);
+      check_position("uv", uv, i, 2, cells_per_uv_);
       double o[3] = {0.0, 0.0, 1.0};
       if (wo) {
         for (int c = 0; c < 3; ++c)

@@ -73,9 +73,7 @@ int Kpt25Ndf::triplanar_planes(const double* P, const double* dP, const double* 
   static constexpr double kOrigin[3] = {0.0, 0.0, 0.0};  // P = nullptr: positions not needed (expectations)
   const double* p = P ? P + 3 * i : kOrigin;
   const double* d = dP + 6 * i;
-  for (int c = 0; c < 3; ++c)
-    if (!std::isfinite(p[c]) || std::abs(p[c]) > 1e9)
-      throw_invalid(kWhere, element("position", i, c), p[c], "a finite position, |P| <= 1e9");
+  if (P) check_position("position", P, i, 3, cells_per_uv_);
   for (int c = 0; c < 6; ++c)
     if (!std::isfinite(d[c]) || std::abs(d[c]) > 1e12)
       throw_invalid(kWhere, element("dP", i, c), d[c], "a finite derivative, |dP| <= 1e12");

@@ -496,3 +496,24 @@ def test_error_messages_name_the_element_and_its_value():
     Jr[3] = [5e-3, 0, 0, 5e-3]
     with pytest.raises(ValueError, match=r"J\[3\] = \[0\.005, 0, 0, 0\.005\].*reference sums at most"):
         gl.glinty_ndf("kpt25", density=1e12, alpha_star=0.5).reference(uv, Jr, h)
+
+
+def test_cells_beyond_32_bits_have_their_own_points_and_far_uv_is_refused():
+    # Issue 37: spatial cells 2^32 apart shared their points (the indices were hashed in 32 bits) while
+    # |uv| <= 1e9 was accepted; every bit is hashed now (cells in [-2^31, 2^31) keep their numbers), and
+    # positions beyond 2^38 cells of the origin are refused by name (docs/math/glinty_ndf.md#glinty-process).
+    nd = gl.glinty_ndf("kpt25", density=1e4, alpha=0.5, alpha_star=0.05, k=1)  # 100 cells per unit uv
+    rng = np.random.default_rng(6)
+    n = 400
+    uv = rng.uniform(0, 1, (n, 2))
+    J = np.tile([0.02, 0.0, 0.0, 0.02], (n, 1))
+    h = np.column_stack([rng.normal(0, 0.2, (n, 2)), np.ones(n)])
+    base = nd.reference(uv, J, h, seed=2)
+    assert base.std() > 0
+    for shift in ([2.0**32 / 100, 0.0], [0.0, -(2.0**32) / 100]):  # 4.3e7 uv units: 2^32 cells
+        far = nd.reference(uv + shift, J, h, seed=2)  # the same points would agree to rounding (corr 1)
+        assert np.corrcoef(base, far)[0, 1] < 0.5
+    dense = gl.glinty_ndf("kpt25", density=1e12)  # 1e6 cells per unit uv: the limit is 2^38 / 1e6 = 2.7e5
+    with pytest.raises(ValueError, match=r"uv\[0, 0\] = 300000 .*2\^38 spatial cells"):
+        dense.evaluate([[3e5, 0.0]], [[1e-6, 0, 0, 1e-6]], [[0.0, 0.0, 1.0]])
+    assert np.isfinite(dense.evaluate([[2.5e5, -2.5e5]], [[1e-6, 0, 0, 1e-6]], [[0.0, 0.0, 1.0]])).all()

@@ -233,8 +233,9 @@ class Kpt25Ndf {
   bool glint_aniso_ = false;  // A_* != identity
   void refuse_glint_anisotropy(const char* what) const;
   Kpt25Params p_;
-  double res_ = 0.0;  // sqrt(K_P): cells per unit uv at level 0 (per unit of x_s = A_* uv)
-  double kp_ = 0.0;   // the density line 19 divides by (K_P; K_P / det A_* with anisotropic glints)
+  double res_ = 0.0;           // sqrt(K_P): cells per unit uv at level 0 (per unit of x_s = A_* uv)
+  double kp_ = 0.0;            // the density line 19 divides by (K_P; K_P / det A_* with anisotropic glints)
+  double cells_per_uv_ = 0.0;  // level-0 spatial cells per unit uv along the most stretched axis
 };
 
 // The integral over the rectangle [x0, x1] x [y0, y1] intersected with the disk U (centre (1/2, 1/2),
