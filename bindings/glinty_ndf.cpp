@@ -50,123 +50,86 @@ std::size_t pixels(const Array& uv, const Array* jac, const Array& h) {
   return m;
 }
 
-}  // namespace
+using Kpt25Class = py::class_<Kpt25Ndf>;
 
-void bind_glinty_ndf(py::module_& m) {
-  py::class_<Kpt25Ndf>(m, "Kpt25Ndf")
-      .def(
-          py::init([](double density, const std::string& target, double alpha, double alpha_star, int k, double epsilon,
+// The constructor's arguments, parsed into the core's parameters (each bad value named).
+Kpt25Params kpt25_params(double density, const std::string& target, double alpha, double alpha_star, int k,
+                         double epsilon, double filter, const std::string& compensation, const std::string& blend,
+                         double sample_smooth, const std::string& sample_weight, const std::string& ggx_map,
+                         double alpha_y, double glint_ax, double glint_ay, bool glint_printed_density,
+                         const std::string& triplanar_weights, double triplanar_sharpness,
+                         const std::string& plane_seeds, const std::string& lambert_jacobian) {
+  Kpt25Params p;
+  p.density = density;
+  p.target = parse_target(target);
+  p.alpha = alpha;
+  p.alpha_star = alpha_star;
+  p.k = k;
+  p.epsilon = epsilon;
+  p.filter = filter;
+  p.compensation = parse_compensation(compensation);
+  p.blend = parse_blend(blend);
+  p.sample_smooth = sample_smooth;
+  static constexpr std::pair<std::string_view, bool> kWeights[] = {{"lobe_mass", true}, {"printed", false}};
+  p.sample_lobe_mass = parse_enum(kWhere, "sample_weight", sample_weight, kWeights);
+  p.alpha_y = alpha_y;
+  p.glint_ax = glint_ax;
+  p.glint_ay = glint_ay;
+  p.glint_printed_density = glint_printed_density;
+  static constexpr std::pair<std::string_view, TriplanarWeights> kPlaneWeights[] = {
+      {"normalized", TriplanarWeights::normalized},
+      {"printed", TriplanarWeights::printed},
+      {"missing_xy", TriplanarWeights::missing_xy}};
+  p.triplanar_weights = parse_enum(kWhere, "triplanar_weights", triplanar_weights, kPlaneWeights);
+  p.triplanar_sharpness = triplanar_sharpness;
+  static constexpr std::pair<std::string_view, bool> kSeeds[] = {{"distinct", false}, {"shared", true}};
+  p.triplanar_shared_seeds = parse_enum(kWhere, "plane_seeds", plane_seeds, kSeeds);
+  if (ggx_map == "orthographic")
+    p.ggx_lambert = false;
+  else if (ggx_map == "lambert" && p.target == GlintTarget::ggx)
+    p.ggx_lambert = true;
+  else
+    throw_invalid(kWhere, "ggx_map", ggx_map, "\"orthographic\", or \"lambert\" with target \"ggx\"");
+  static constexpr std::pair<std::string_view, bool> kJacobians[] = {{"map", false}, {"printed", true}};
+  p.lambert_printed_jacobian = parse_enum(kWhere, "lambert_jacobian", lambert_jacobian, kJacobians);
+  return p;
+}
+
+void bind_kpt25_init(Kpt25Class& cls) {
+  cls.def(py::init([](double density, const std::string& target, double alpha, double alpha_star, int k, double epsilon,
                       double filter, const std::string& compensation, const std::string& blend, double sample_smooth,
                       const std::string& sample_weight, const std::string& ggx_map, double alpha_y, double glint_ax,
                       double glint_ay, bool glint_printed_density, const std::string& triplanar_weights,
-                      double triplanar_sharpness, const std::string& plane_seeds) {
-            Kpt25Params p;
-            p.density = density;
-            p.target = parse_target(target);
-            p.alpha = alpha;
-            p.alpha_star = alpha_star;
-            p.k = k;
-            p.epsilon = epsilon;
-            p.filter = filter;
-            p.compensation = parse_compensation(compensation);
-            p.blend = parse_blend(blend);
-            p.sample_smooth = sample_smooth;
-            if (sample_weight == "lobe_mass")
-              p.sample_lobe_mass = true;
-            else if (sample_weight == "printed")
-              p.sample_lobe_mass = false;
-            else
-              throw_invalid(kWhere, "sample_weight", sample_weight, "\"lobe_mass\" or \"printed\"");
-            p.alpha_y = alpha_y;
-            p.glint_ax = glint_ax;
-            p.glint_ay = glint_ay;
-            p.glint_printed_density = glint_printed_density;
-            static constexpr std::pair<std::string_view, TriplanarWeights> kWeights[] = {
-                {"normalized", TriplanarWeights::normalized},
-                {"printed", TriplanarWeights::printed},
-                {"missing_xy", TriplanarWeights::missing_xy}};
-            p.triplanar_weights = parse_enum(kWhere, "triplanar_weights", triplanar_weights, kWeights);
-            p.triplanar_sharpness = triplanar_sharpness;
-            if (plane_seeds == "distinct")
-              p.triplanar_shared_seeds = false;
-            else if (plane_seeds == "shared")
-              p.triplanar_shared_seeds = true;
-            else
-              throw_invalid(kWhere, "plane_seeds", plane_seeds, "\"distinct\" or \"shared\"");
-            if (ggx_map == "orthographic")
-              p.ggx_lambert = false;
-            else if (ggx_map == "lambert" && p.target == GlintTarget::ggx)
-              p.ggx_lambert = true;
-            else
-              throw_invalid(kWhere, "ggx_map", ggx_map, "\"orthographic\", or \"lambert\" with target \"ggx\"");
-            return Kpt25Ndf(p);
+                      double triplanar_sharpness, const std::string& plane_seeds, const std::string& lambert_jacobian) {
+            return Kpt25Ndf(kpt25_params(density, target, alpha, alpha_star, k, epsilon, filter, compensation, blend,
+                                         sample_smooth, sample_weight, ggx_map, alpha_y, glint_ax, glint_ay,
+                                         glint_printed_density, triplanar_weights, triplanar_sharpness, plane_seeds,
+                                         lambert_jacobian));
           }),
           py::arg("density"), py::arg("target"), py::arg("alpha"), py::arg("alpha_star"), py::arg("k"),
           py::arg("epsilon"), py::arg("filter"), py::arg("compensation"), py::arg("blend"),
           py::arg("sample_smooth") = 0.0, py::arg("sample_weight") = "lobe_mass", py::arg("ggx_map") = "orthographic",
           py::arg("alpha_y") = 0.0, py::arg("glint_ax") = 1.0, py::arg("glint_ay") = 1.0,
           py::arg("glint_printed_density") = false, py::arg("triplanar_weights") = "normalized",
-          py::arg("triplanar_sharpness") = 1.0, py::arg("plane_seeds") = "distinct")
-      .def(
-          "evaluate_triplanar",
-          [](const Kpt25Ndf& g, const Array& P, const Array& dP, const Array& n, const Array& h, std::uint64_t seed,
-             bool reference) {
-            const auto rows = static_cast<std::size_t>(h.size() / 3);
-            if (static_cast<std::size_t>(h.size()) != 3 * rows || static_cast<std::size_t>(P.size()) != 3 * rows ||
-                static_cast<std::size_t>(n.size()) != 3 * rows || static_cast<std::size_t>(dP.size()) != 6 * rows)
-              glintlab::throw_invalid_message(
-                  "glinty_ndf: position, dP, n and h must hold 3, 6, 3 and 3 numbers per pixel");
-            py::array_t<double> out(static_cast<py::ssize_t>(rows)), pts(static_cast<py::ssize_t>(rows));
-            double* o = out.mutable_data();
-            double* q = pts.mutable_data();
-            {
-              glintlab::bindings::LongCall release;
-              if (reference)
-                g.reference_triplanar(P.data(), dP.data(), n.data(), h.data(), rows, seed, o, q);
-              else
-                g.evaluate_triplanar(P.data(), dP.data(), n.data(), h.data(), rows, seed, o);
-            }
-            return py::make_tuple(out, pts);
-          },
-          py::arg("position"), py::arg("dP"), py::arg("n"), py::arg("h"), py::arg("seed"), py::arg("reference"))
-      .def(
-          "expected_triplanar",
-          [](const Kpt25Ndf& g, const Array& dP, const Array& n, const Array& h) {
-            const auto rows = static_cast<std::size_t>(h.size() / 3);
-            if (static_cast<std::size_t>(h.size()) != 3 * rows || static_cast<std::size_t>(n.size()) != 3 * rows ||
-                static_cast<std::size_t>(dP.size()) != 6 * rows)
-              glintlab::throw_invalid_message("glinty_ndf: dP, n and h must hold 6, 3 and 3 numbers per pixel");
-            py::array_t<double> er(static_cast<py::ssize_t>(rows)), ea(static_cast<py::ssize_t>(rows));
-            double* a = er.mutable_data();
-            double* b = ea.mutable_data();
-            {
-              glintlab::bindings::LongCall release;
-              g.expected_triplanar(dP.data(), n.data(), h.data(), rows, a, b);
-            }
-            return py::make_tuple(er, ea);
-          },
-          py::arg("dP"), py::arg("n"), py::arg("h"))
-      .def(
-          "triplanar_weights",
-          [](const Kpt25Ndf& g, const Array& n) {
-            if (n.size() != 3) glintlab::throw_invalid_message("glinty_ndf: triplanar_weights takes one normal");
-            return g.triplanar_weights(n.data());
-          },
-          py::arg("n"))
-      .def("keep_rate", &Kpt25Ndf::keep_rate, py::arg("w"))
-      .def(
-          "evaluate",
-          [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
-            const std::size_t n = pixels(uv, &jac, h);
-            py::array_t<double> out(static_cast<py::ssize_t>(n));
-            double* o = out.mutable_data();
-            {
-              glintlab::bindings::LongCall release;
-              g.evaluate(uv.data(), jac.data(), h.data(), n, seed, o);
-            }
-            return out;
-          },
-          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
+          py::arg("triplanar_sharpness") = 1.0, py::arg("plane_seeds") = "distinct",
+          py::arg("lambert_jacobian") = "map");
+}
+
+// Algorithm 1, the reference, their expectations and the visible glints.
+void bind_kpt25_evaluation(Kpt25Class& cls) {
+  cls.def(
+         "evaluate",
+         [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
+           const std::size_t n = pixels(uv, &jac, h);
+           py::array_t<double> out(static_cast<py::ssize_t>(n));
+           double* o = out.mutable_data();
+           {
+             glintlab::bindings::LongCall release;
+             g.evaluate(uv.data(), jac.data(), h.data(), n, seed, o);
+           }
+           return out;
+         },
+         py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
       .def(
           "reference",
           [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed, double tol) {
@@ -209,40 +172,99 @@ void bind_glinty_ndf(py::module_& m) {
             }
             return out;
           },
-          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("radius"))
+          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("radius"));
+}
+
+// Per-facet colour (RGB evaluate and reference).
+void bind_kpt25_colour(Kpt25Class& cls) {
+  cls.def(
+      "evaluate_rgb",
+      [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed, const Array& palette,
+         bool reference) {
+        const std::size_t n = pixels(uv, &jac, h);
+        if (palette.size() % 3 != 0)
+          glintlab::throw_invalid_message("glinty_ndf: colors must hold 3 numbers per colour");
+        const int nc = static_cast<int>(palette.size() / 3);
+        py::array_t<double> out(static_cast<py::ssize_t>(3 * n));
+        double* o = out.mutable_data();
+        {
+          glintlab::bindings::LongCall release;
+          if (reference)
+            g.reference_rgb(uv.data(), jac.data(), h.data(), n, seed, palette.data(), nc, o);
+          else
+            g.evaluate_rgb(uv.data(), jac.data(), h.data(), n, seed, palette.data(), nc, o);
+        }
+        return out;
+      },
+      py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("palette"), py::arg("reference"));
+}
+
+// UV-free glints: the three planes and their roulette.
+void bind_kpt25_triplanar(Kpt25Class& cls) {
+  cls.def(
+         "evaluate_triplanar",
+         [](const Kpt25Ndf& g, const Array& P, const Array& dP, const Array& n, const Array& h, std::uint64_t seed,
+            bool reference) {
+           const auto rows = static_cast<std::size_t>(h.size() / 3);
+           if (static_cast<std::size_t>(h.size()) != 3 * rows || static_cast<std::size_t>(P.size()) != 3 * rows ||
+               static_cast<std::size_t>(n.size()) != 3 * rows || static_cast<std::size_t>(dP.size()) != 6 * rows)
+             glintlab::throw_invalid_message(
+                 "glinty_ndf: position, dP, n and h must hold 3, 6, 3 and 3 numbers per pixel");
+           py::array_t<double> out(static_cast<py::ssize_t>(rows)), pts(static_cast<py::ssize_t>(rows));
+           double* o = out.mutable_data();
+           double* q = pts.mutable_data();
+           {
+             glintlab::bindings::LongCall release;
+             if (reference)
+               g.reference_triplanar(P.data(), dP.data(), n.data(), h.data(), rows, seed, o, q);
+             else
+               g.evaluate_triplanar(P.data(), dP.data(), n.data(), h.data(), rows, seed, o);
+           }
+           return py::make_tuple(out, pts);
+         },
+         py::arg("position"), py::arg("dP"), py::arg("n"), py::arg("h"), py::arg("seed"), py::arg("reference"))
       .def(
-          "evaluate_rgb",
-          [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed,
-             const Array& palette, bool reference) {
-            const std::size_t n = pixels(uv, &jac, h);
-            if (palette.size() % 3 != 0)
-              glintlab::throw_invalid_message("glinty_ndf: colors must hold 3 numbers per colour");
-            const int nc = static_cast<int>(palette.size() / 3);
-            py::array_t<double> out(static_cast<py::ssize_t>(3 * n));
-            double* o = out.mutable_data();
+          "expected_triplanar",
+          [](const Kpt25Ndf& g, const Array& dP, const Array& n, const Array& h) {
+            const auto rows = static_cast<std::size_t>(h.size() / 3);
+            if (static_cast<std::size_t>(h.size()) != 3 * rows || static_cast<std::size_t>(n.size()) != 3 * rows ||
+                static_cast<std::size_t>(dP.size()) != 6 * rows)
+              glintlab::throw_invalid_message("glinty_ndf: dP, n and h must hold 6, 3 and 3 numbers per pixel");
+            py::array_t<double> er(static_cast<py::ssize_t>(rows)), ea(static_cast<py::ssize_t>(rows));
+            double* a = er.mutable_data();
+            double* b = ea.mutable_data();
             {
               glintlab::bindings::LongCall release;
-              if (reference)
-                g.reference_rgb(uv.data(), jac.data(), h.data(), n, seed, palette.data(), nc, o);
-              else
-                g.evaluate_rgb(uv.data(), jac.data(), h.data(), n, seed, palette.data(), nc, o);
+              g.expected_triplanar(dP.data(), n.data(), h.data(), rows, a, b);
             }
-            return out;
+            return py::make_tuple(er, ea);
           },
-          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("palette"), py::arg("reference"))
+          py::arg("dP"), py::arg("n"), py::arg("h"))
       .def(
-          "pdf",
-          [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
-            const std::size_t n = pixels(uv, &jac, h);
-            py::array_t<double> out(static_cast<py::ssize_t>(n));
-            double* o = out.mutable_data();
-            {
-              glintlab::bindings::LongCall release;
-              g.pdf(uv.data(), jac.data(), h.data(), n, seed, o);
-            }
-            return out;
+          "triplanar_weights",
+          [](const Kpt25Ndf& g, const Array& n) {
+            if (n.size() != 3) glintlab::throw_invalid_message("glinty_ndf: triplanar_weights takes one normal");
+            return g.triplanar_weights(n.data());
           },
-          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
+          py::arg("n"))
+      .def("keep_rate", &Kpt25Ndf::keep_rate, py::arg("w"));
+}
+
+// Algorithm 2: sample and pdf.
+void bind_kpt25_sampling(Kpt25Class& cls) {
+  cls.def(
+         "pdf",
+         [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
+           const std::size_t n = pixels(uv, &jac, h);
+           py::array_t<double> out(static_cast<py::ssize_t>(n));
+           double* o = out.mutable_data();
+           {
+             glintlab::bindings::LongCall release;
+             g.pdf(uv.data(), jac.data(), h.data(), n, seed, o);
+           }
+           return out;
+         },
+         py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
       .def(
           "sample",
           [](const Kpt25Ndf& g, const Array& uv, const Array& jac, std::uint64_t seed, std::uint64_t draw_seed,
@@ -263,22 +285,26 @@ void bind_glinty_ndf(py::module_& m) {
             }
             return py::make_tuple(h, pdf, wi);
           },
-          py::arg("uv"), py::arg("J"), py::arg("seed"), py::arg("draw_seed"), py::arg("wo"))
-      .def(
-          "map",
-          [](const Kpt25Ndf& g, const Array& h) {
-            const auto n = static_cast<std::size_t>(h.size() / 3);
-            if (static_cast<std::size_t>(h.size()) != 3 * n)
-              glintlab::throw_invalid_message("glinty_ndf: h must hold 3 numbers per row");
-            py::array_t<double> xy(static_cast<py::ssize_t>(2 * n));
-            double* o = xy.mutable_data();
-            {
-              glintlab::bindings::LongCall release;
-              g.map_points(h.data(), n, o);
-            }
-            return xy;
-          },
-          py::arg("h"))
+          py::arg("uv"), py::arg("J"), py::arg("seed"), py::arg("draw_seed"), py::arg("wo"));
+}
+
+// The map T and the pixel set-up.
+void bind_kpt25_geometry(Kpt25Class& cls) {
+  cls.def(
+         "map",
+         [](const Kpt25Ndf& g, const Array& h) {
+           const auto n = static_cast<std::size_t>(h.size() / 3);
+           if (static_cast<std::size_t>(h.size()) != 3 * n)
+             glintlab::throw_invalid_message("glinty_ndf: h must hold 3 numbers per row");
+           py::array_t<double> xy(static_cast<py::ssize_t>(2 * n));
+           double* o = xy.mutable_data();
+           {
+             glintlab::bindings::LongCall release;
+             g.map_points(h.data(), n, o);
+           }
+           return xy;
+         },
+         py::arg("h"))
       .def(
           "pixel",
           [](const Kpt25Ndf& g, const Array& jac, const Array& h) {
@@ -303,6 +329,18 @@ void bind_glinty_ndf(py::module_& m) {
             return d;
           },
           py::arg("J"), py::arg("h"));
+}
+
+}  // namespace
+
+void bind_glinty_ndf(py::module_& m) {
+  Kpt25Class cls(m, "Kpt25Ndf");
+  bind_kpt25_init(cls);
+  bind_kpt25_evaluation(cls);
+  bind_kpt25_colour(cls);
+  bind_kpt25_triplanar(cls);
+  bind_kpt25_sampling(cls);
+  bind_kpt25_geometry(cls);
   m.def("rect_disk_area", &rect_disk_area, py::arg("x0"), py::arg("x1"), py::arg("y0"), py::arg("y1"));
   m.def("kpt25_roulette", &kpt25_roulette, py::arg("r"), py::arg("w"), py::arg("eps"));
   m.def("gaussian_in_disk_rect", &gaussian_in_disk_rect, py::arg("cx"), py::arg("cy"), py::arg("sigma"), py::arg("x0"),

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <boost/math/quadrature/gauss_kronrod.hpp>
 #include <cmath>
 #include <limits>
@@ -23,8 +24,11 @@ constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180.0;
 // Random numbers: stream ids of their own in the top byte of the last Philox counter word (KPT25's
 // points use 8, rng.hpp's streams stay in the low 16 bits), so no other user of a seed shares them.
-constexpr std::uint32_t kStreamFlakes = 9;   // counter (block, i, j, 9 << 24): block 0 = count, 1 + k = flake k
-constexpr std::uint32_t kStreamLambda = 10;  // counter (k, i, j, 10 << 24 | level << 16)
+// Cell and node indices enter with all their bits: the low 32 bits as counter words, the bits above as
+// high_bits() in the last word (docs/math/wwh18.md#wwh18-truth).
+constexpr std::uint32_t kStreamFlakes = 9;        // (block, i, j, 9 << 24 | hi12(i) << 12 | hi12(j)): block 0 = count
+constexpr std::uint32_t kStreamLambda = 10;       // (k, i, j, 10 << 24 | level << 16 | hi8(i) << 8 | hi8(j))
+constexpr std::uint32_t kStreamPixelLambda = 11;  // eq. 8's lambda(x) per pixel, keyed by the bits of uv
 // A pixel whose footprint's bounding box covers more base cells than this is refused (the cost of the
 // truth and of the traversal grows with the flakes in the footprint; an unbounded call would seem to hang).
 constexpr double kMaxCells = 1e8;
@@ -35,8 +39,16 @@ inline double unit53(std::uint32_t hi, std::uint32_t lo) {
   return (static_cast<double>(bits >> 11) + 0.5) * 0x1.0p-53;
 }
 
+// The bits of a cell index above its low 32, offset so that every index in [-2^31, 2^31) gives 0 (those
+// cells keep the counters of the 32-bit layout before issue 37), masked to `bits` bits: with the low 32
+// bits, distinct for every index within 2^(30 + bits) of the origin (2^38 for the 8 bits of lambda).
+std::uint32_t high_bits(std::int64_t i, int bits) {
+  return static_cast<std::uint32_t>((i + (std::int64_t{1} << 31)) >> 32) & ((std::uint32_t{1} << bits) - 1u);
+}
+
 std::array<std::uint32_t, 4> flake_block(std::uint64_t seed, std::int64_t i, std::int64_t j, std::uint32_t block) {
-  return CounterRng::block({block, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j), kStreamFlakes << 24},
+  return CounterRng::block({block, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j),
+                            (kStreamFlakes << 24) | (high_bits(i, 12) << 12) | high_bits(j, 12)},
                            {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)});
 }
 
@@ -160,8 +172,12 @@ struct Wwh18Ndf::Footprint {
 Wwh18Ndf::Wwh18Ndf(const Wwh18Params& params) : p_(params) {
   if (!(p_.density > 0.0 && p_.density <= 1e18)) throw_invalid(kWhere, "density", p_.density, "a number in (0, 1e18]");
   if (!(p_.alpha > 0.0 && p_.alpha <= 10.0)) throw_invalid(kWhere, "alpha", p_.alpha, "a number in (0, 10]");
-  if (!(p_.gamma_deg > 0.0 && p_.gamma_deg <= 90.0))
-    throw_invalid(kWhere, "gamma", p_.gamma_deg, "a cone half-angle in (0, 90] degrees");
+  // Below 1e-100 degrees the cone's solid angle, about 1e-203, nears the end of the double range.
+  if (!(p_.gamma_deg >= 1e-100 && p_.gamma_deg <= 90.0))
+    throw_invalid(kWhere, "gamma", p_.gamma_deg, "a cone half-angle in [1e-100, 90] degrees");
+  if (p_.cone == WwhCone::outgoing && p_.dpf == WwhDpf::table)
+    throw_invalid(kWhere, "cone", std::string("outgoing"),
+                  "\"half_vector\" with dpf \"table\" (the outgoing cone's table is not built: dpf \"exact\")");
   if (!(p_.flakes_per_cell > 0.0 && p_.flakes_per_cell <= 64.0))
     throw_invalid(kWhere, "flakes_per_cell", p_.flakes_per_cell, "a number in (0, 64]");
   if (!(p_.tea_rounds >= 1 && p_.tea_rounds <= 64))
@@ -178,7 +194,10 @@ Wwh18Ndf::Wwh18Ndf(const Wwh18Params& params) : p_(params) {
     throw_invalid(kWhere, "lod", p_.lod_deg, "0 (no blur) or one of 1, 2, 5, 10, 20, 30, 45, 60, 90 degrees");
   s0_ = std::sqrt(p_.flakes_per_cell / p_.density);
   cos_gamma_ = std::cos(p_.gamma_deg * kDeg);
-  cone_solid_angle_ = 2.0 * kPi * (1.0 - cos_gamma_);
+  // 2 pi (1 - cos gamma) written without its cancellation: 1 - cos gamma rounds to 0 below 1e-7 degrees.
+  const double half = std::sin(0.5 * p_.gamma_deg * kDeg);
+  chord2_ = 4.0 * half * half;
+  cone_solid_angle_ = kPi * chord2_;
   build_cells();
   if (p_.dpf == WwhDpf::table) {
     build_table();
@@ -214,6 +233,35 @@ double Wwh18Ndf::cone_mass(const double hin[3]) const {
     return 2.0 * sb * GK::integrate(inner, 0.0, psi_max, 12, 1e-11);
   };
   return std::clamp(GK::integrate(outer, 0.0, gamma, 12, 1e-11), 0.0, 1.0);
+}
+
+double Wwh18Ndf::outgoing_cone_mass(const double wiin[3], const double woin[3]) const {
+  double wi[3], wo[3];
+  normalise(wiin, wi);
+  normalise(woin, wo);
+  // A frame (t1, t2) around wo; w(beta, psi) = cos(beta) wo + sin(beta) (cos(psi) t1 + sin(psi) t2), the
+  // outgoing directions of the cone, and h' = normalise(wi + w) the normal that reflects wi into w:
+  // dOmega_h' = dOmega_w / (4 wi.h'), so the normals' mass is the cone's integral of D(h')(h'.n) / (4 wi.h').
+  const double a[3] = {std::abs(wo[0]) < 0.9 ? 1.0 : 0.0, std::abs(wo[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+  double t1[3] = {a[1] * wo[2] - a[2] * wo[1], a[2] * wo[0] - a[0] * wo[2], a[0] * wo[1] - a[1] * wo[0]};
+  normalise(t1, t1);
+  const double t2[3] = {wo[1] * t1[2] - wo[2] * t1[1], wo[2] * t1[0] - wo[0] * t1[2], wo[0] * t1[1] - wo[1] * t1[0]};
+  using GK = boost::math::quadrature::gauss_kronrod<double, 31>;
+  auto outer = [&](double beta) {
+    const double cb = std::cos(beta), sb = std::sin(beta);
+    if (sb == 0.0) return 0.0;
+    auto inner = [&](double psi) {
+      const double cp = std::cos(psi), sp = std::sin(psi);
+      double h[3];
+      for (int c = 0; c < 3; ++c) h[c] = wi[c] + cb * wo[c] + sb * (cp * t1[c] + sp * t2[c]);
+      const double len = std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+      if (!(len > 1e-12)) return 0.0;  // w = -wi: no normal reflects wi there
+      const double d = (wi[0] * h[0] + wi[1] * h[1] + wi[2] * h[2]) / len;
+      return projected_d(p_.target, p_.alpha, h[2] / len) / (4.0 * d);
+    };
+    return sb * GK::integrate(inner, 0.0, 2.0 * kPi, 12, 1e-11);
+  };
+  return std::clamp(GK::integrate(outer, 0.0, p_.gamma_deg * kDeg, 12, 1e-11), 0.0, 1.0);
 }
 
 void Wwh18Ndf::build_cells() {
@@ -376,30 +424,48 @@ double Wwh18Ndf::model_p(const double hin[3], const double* wiin) const {
   double h[3];
   normalise(hin, h);
   if (!(h[2] > 0.0)) return 0.0;
-  if (p_.dpf == WwhDpf::exact) return cone_mass(h);
-  if (!wiin) return dpf(h, h);  // no light direction given: wi = wo = h (theta_i = theta_o, dphi = 0)
+  if (p_.dpf == WwhDpf::exact && p_.cone == WwhCone::half_vector) return cone_mass(h);
+  if (!wiin && p_.cone == WwhCone::half_vector)
+    return dpf(h, h);  // no light direction given: wi = wo = h (theta_i = theta_o, dphi = 0)
   double wi[3];
-  normalise(wiin, wi);
+  normalise(wiin ? wiin : h, wi);
   const double d = wi[0] * h[0] + wi[1] * h[1] + wi[2] * h[2];
   const double wo[3] = {2 * d * h[0] - wi[0], 2 * d * h[1] - wi[1], 2 * d * h[2] - wi[2]};
+  if (p_.cone == WwhCone::outgoing) return outgoing_cone_mass(wi, wo);  // dpf exact (the constructor)
   return dpf(wi, wo);
 }
 
 double Wwh18Ndf::lambda(std::uint64_t seed, int level, std::int64_t i, std::int64_t j, std::uint32_t k) const {
   if (p_.rng == WwhRng::tea) {
     // TEA as JHY14 and WWH18 use it: a 32-bit node id and the flake index as the 64-bit block, the seed
-    // and the level as the key. The node id packs (i, j) as i + 2^16 j (wrapping: nodes 2^16 apart may
-    // share an id, as with a renderer's 32-bit ids), so horizontally adjacent nodes have adjacent ids.
+    // and the level as the key. The node id packs (i, j) as i + 2^16 j, so horizontally adjacent nodes
+    // have adjacent ids; that id alone repeats for nodes 2^16 apart, so the key also carries the bits
+    // of i and j above their low 16 (offset by 2^15: nodes in [-2^15, 2^15)^2 keep the key of the 32-bit
+    // id, 0x9e3779b9), and every node within 2^38 of the origin has its own (id, key).
+    const auto upper = [](std::int64_t x) {
+      return static_cast<std::uint32_t>((x + (std::int64_t{1} << 15)) >> 16) & 0xffffffu;
+    };
     std::uint32_t v0 = static_cast<std::uint32_t>(i) + (static_cast<std::uint32_t>(j) << 16), v1 = k;
     const std::uint32_t key[4] = {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32),
-                                  static_cast<std::uint32_t>(level), 0x9e3779b9u};
+                                  static_cast<std::uint32_t>(level) | (upper(j) << 8), 0x9e3779b9u ^ upper(i)};
     tea_encrypt(v0, v1, key, p_.tea_rounds);
     return unit32(v0);
   }
-  const auto r = CounterRng::block({k, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j),
-                                    (kStreamLambda << 24) | (static_cast<std::uint32_t>(level) << 16)},
-                                   {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)});
+  const auto r = CounterRng::block(
+      {k, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j),
+       (kStreamLambda << 24) | (static_cast<std::uint32_t>(level) << 16) | (high_bits(i, 8) << 8) | high_bits(j, 8)},
+      {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)});
   return unit32(r[0]);
+}
+
+double Wwh18Ndf::pixel_lambda(std::uint64_t seed, double u, double v) const {
+  // Two Philox blocks: the 128 bits of (u, v) hashed, then the hash with this stream's id (whatever rng).
+  const std::array<std::uint32_t, 2> key = {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)};
+  const auto bu = std::bit_cast<std::uint64_t>(u), bv = std::bit_cast<std::uint64_t>(v);
+  const auto r = CounterRng::block({static_cast<std::uint32_t>(bu), static_cast<std::uint32_t>(bu >> 32),
+                                    static_cast<std::uint32_t>(bv), static_cast<std::uint32_t>(bv >> 32)},
+                                   key);
+  return unit32(CounterRng::block({r[0], r[1], r[2], kStreamPixelLambda << 24}, key)[0]);
 }
 
 std::uint32_t Wwh18Ndf::cell_count(std::uint64_t seed, std::int64_t i, std::int64_t j) const {
@@ -417,12 +483,21 @@ std::uint32_t Wwh18Ndf::cell_count(std::uint64_t seed, std::int64_t i, std::int6
   return k;
 }
 
+bool Wwh18Ndf::passes(double psi, double p) const {
+  // eq. 8-9: H(lambda - P) as printed, H(P - lambda) flipped; H(0) = 0.
+  return p_.threshold_test == WwhThresholdTest::printed ? psi > p : p > psi;
+}
+
 double Wwh18Ndf::node_pass(const Footprint&, std::uint64_t seed, int level, std::int64_t i, std::int64_t j,
                            double p) const {
-  const bool printed = p_.threshold_test == WwhThresholdTest::printed;
-  auto counts = [&](double psi) { return printed ? psi > p : p > psi; };  // eq. 9: H(0) = 0
+  auto counts = [&](double psi) { return passes(psi, p); };
   const std::int64_t side = std::int64_t{1} << level;
   double pass = 0.0;
+  if (p_.lambda_seeding == WwhLambdaSeeding::pixel) {  // the pixel's one lambda was tested by counts()
+    for (std::int64_t a = 0; a < side; ++a)
+      for (std::int64_t b = 0; b < side; ++b) pass += cell_count(seed, i * side + a, j * side + b);
+    return pass;
+  }
   if (p_.lambda_seeding == WwhLambdaSeeding::node) {
     // As printed: psi <- lambda(k) with k the node, so all |node| flakes pass or none does.
     double n = 0.0;
@@ -496,6 +571,15 @@ void check_pixel(const double* uv, const double* h, std::size_t i) {
     throw_invalid(kWhere, indexed_name("h", 3 * i, true), H[0], "a nonzero half vector");
 }
 
+void check_direction(const double* w, std::size_t i, const char* name) {
+  for (int c = 0; c < 3; ++c)
+    if (!std::isfinite(w[3 * i + c]))
+      throw_invalid(kWhere, indexed_name(name, 3 * i + c, true), w[3 * i + c], "a finite direction");
+  const double* W = w + 3 * i;
+  if (!(W[0] * W[0] + W[1] * W[1] + W[2] * W[2] > 1e-300))
+    throw_invalid(kWhere, indexed_name(name, 3 * i, true), W[0], "a nonzero direction");
+}
+
 void check_cells(double cells, std::size_t i) {
   if (!(cells <= kMaxCells))
     throw_invalid(kWhere, indexed_name("J", 4 * i, true), cells,
@@ -504,19 +588,52 @@ void check_cells(double cells, std::size_t i) {
 
 }  // namespace
 
+void Wwh18Ndf::check_range(const Footprint& fp, std::size_t index) const {
+  // The cells' random numbers carry their indices' bits within 2^38 base cells of the origin
+  // (high_bits); a footprint beyond would see the cells of another place again.
+  const double limit = kWwhMaxCellIndex * s0_;
+  if (!(std::max({-fp.xmin, fp.xmax, -fp.ymin, fp.ymax}) < limit)) {
+    const int c = std::max(-fp.xmin, fp.xmax) >= limit ? 0 : 1;
+    throw_invalid(kWhere, indexed_name("uv", 2 * index + c, true), c == 0 ? fp.u : fp.v,
+                  "a footprint within 2^38 base cells of the origin (|uv| < " + format_value(limit) +
+                      " at this density; a lower density or uv nearer the origin)");
+  }
+}
+
+bool Wwh18Ndf::flake_counts(const double m[3], const double h[3], const double wi[3], const double wo[3]) const {
+  // The angle test as a chord, |a - b|^2 <= 4 sin^2(gamma / 2): no cancellation for small gamma, where
+  // a.b >= cos(gamma) would compare numbers that round to 1.
+  double a[3];
+  const double* b = h;
+  if (p_.cone == WwhCone::outgoing) {  // the reflection of wi about m, against wo
+    const double d = 2.0 * (wi[0] * m[0] + wi[1] * m[1] + wi[2] * m[2]);
+    for (int c = 0; c < 3; ++c) a[c] = d * m[c] - wi[c];
+    b = wo;
+  } else {
+    for (int c = 0; c < 3; ++c) a[c] = m[c];
+  }
+  const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+  return dx * dx + dy * dy + dz * dz <= chord2_;
+}
+
 void Wwh18Ndf::reference_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
-                                double* out) const {
+                                double* out, const double* wi) const {
   const double a2 = p_.alpha * p_.alpha;
   detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
     for (std::size_t px = first; px < last; ++px) {
       check_pixel(uv, h, px);
+      if (wi) check_direction(wi, px, "wi");
       const Footprint fp(uv[2 * px], uv[2 * px + 1], jac + 4 * px, px);
-      double hn[3];
+      check_range(fp, px);
+      double hn[3], wn[3], wo[3];
       normalise(h + 3 * px, hn);
       if (!(hn[2] > 0.0)) {
         out[px] = 0.0;
         continue;
       }
+      normalise(wi ? wi + 3 * px : hn, wn);  // the light direction (wi = h: wo = h)
+      const double d = 2.0 * (wn[0] * hn[0] + wn[1] * hn[1] + wn[2] * hn[2]);
+      for (int c = 0; c < 3; ++c) wo[c] = d * hn[c] - wn[c];
       const auto i0 = static_cast<std::int64_t>(std::floor(fp.xmin / s0_)),
                  i1 = static_cast<std::int64_t>(std::floor(fp.xmax / s0_));
       const auto j0 = static_cast<std::int64_t>(std::floor(fp.ymin / s0_)),
@@ -535,8 +652,8 @@ void Wwh18Ndf::reference_counts(const double* uv, const double* jac, const doubl
             const double u1 = unit32(r[2]), phi = 2.0 * kPi * unit32(r[3]);
             const double tan2 = p_.target == GlintTarget::beckmann ? -a2 * std::log(u1) : a2 * u1 / (1.0 - u1);
             const double ct = 1.0 / std::sqrt(1.0 + tan2), st = std::sqrt(tan2) * ct;
-            const double dot = st * std::cos(phi) * hn[0] + st * std::sin(phi) * hn[1] + ct * hn[2];
-            if (dot >= cos_gamma_) count += 1.0;
+            const double mv[3] = {st * std::cos(phi), st * std::sin(phi), ct};
+            if (flake_counts(mv, hn, wn, wo)) count += 1.0;
           }
         }
       out[px] = count;
@@ -549,11 +666,9 @@ void Wwh18Ndf::counts(const double* uv, const double* jac, const double* h, cons
   detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
     for (std::size_t px = first; px < last; ++px) {
       check_pixel(uv, h, px);
-      if (wi)
-        for (int c = 0; c < 3; ++c)
-          if (!std::isfinite(wi[3 * px + c]))
-            throw_invalid(kWhere, indexed_name("wi", 3 * px + c, true), wi[3 * px + c], "a finite direction");
+      if (wi) check_direction(wi, px, "wi");
       const Footprint fp(uv[2 * px], uv[2 * px + 1], jac + 4 * px, px);
+      check_range(fp, px);
       const double p = model_p(h + 3 * px, wi ? wi + 3 * px : nullptr);
       if (p_out) p_out[px] = p;
       const double mean = p_.density * fp.area * p;  // eq. 10's expected glint count N a(A) P
@@ -565,7 +680,10 @@ void Wwh18Ndf::counts(const double* uv, const double* jac, const double* h, cons
         if (mode) mode[px] = kWwhFiltered;
       } else {
         check_cells((fp.xmax - fp.xmin) * (fp.ymax - fp.ymin) / (s0_ * s0_), px);
-        out[px] = traverse(fp, seed, p);
+        // lambda per pixel (eq. 8's lambda(x)): one test for the whole footprint, all flakes or none.
+        const bool pass =
+            p_.lambda_seeding != WwhLambdaSeeding::pixel || passes(pixel_lambda(seed, uv[2 * px], uv[2 * px + 1]), p);
+        out[px] = pass ? traverse(fp, seed, p) : 0.0;
         if (mode) mode[px] = kWwhTraversal;
       }
     }

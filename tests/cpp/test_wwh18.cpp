@@ -130,3 +130,31 @@ TEST_CASE("WWH18 rejects bad parameters and footprints", "[wwh18]") {
   double out = 0;
   CHECK_THROWS_AS(w.reference_counts(uv, jac, h, 1, 0, &out), std::invalid_argument);  // det J = 0
 }
+
+TEST_CASE("WWH18's cone solid angle and cell indices beyond 32 bits", "[wwh18]") {
+  Wwh18Params p;
+  p.dpf = WwhDpf::exact;
+  for (double g : {1e-9, 1e-3, 6.0, 90.0}) {
+    p.gamma_deg = g;
+    const Wwh18Ndf w(p);
+    const double half = std::sin(0.5 * g * std::numbers::pi / 180);
+    CHECK(w.cone_solid_angle() > 0.0);
+    CHECK(w.cone_solid_angle() == Approx(4 * std::numbers::pi * half * half).epsilon(1e-15));
+  }
+  p.gamma_deg = 6.0;
+  for (WwhRng rng : {WwhRng::philox, WwhRng::tea}) {
+    p.rng = rng;
+    const Wwh18Ndf w(p);
+    const std::int64_t big = std::int64_t{1} << 32, wrap = std::int64_t{1} << 16;
+    for (std::int64_t i : {-7, 0, 12345}) {
+      CHECK(w.lambda(3, 0, i, 5, 0) != w.lambda(3, 0, i + big, 5, 0));
+      CHECK(w.lambda(3, 0, 5, i, 0) != w.lambda(3, 0, 5, i - big, 0));
+      CHECK(w.lambda(3, 1, i, 5, 0) != w.lambda(3, 1, i + wrap, 4, 0));  // TEA's id i + 2^16 j repeats there
+    }
+  }
+  // A footprint beyond 2^38 base cells of the origin is refused.
+  const Wwh18Ndf w(p);
+  const double uv[2] = {0.0, 1.01 * kWwhMaxCellIndex * w.cell_side()}, jac[4] = {1e-3, 0, 0, 1e-3}, h[3] = {0, 0, 1};
+  double out = 0.0;
+  CHECK_THROWS_AS(w.reference_counts(uv, jac, h, 1, 1, &out), std::invalid_argument);
+}

@@ -39,10 +39,13 @@ def inverse_map(nd, y):
 
 
 def t_jacobian(nd, h):
-    """dy / dOmega of T at h: (pi / 4) D(h)(h.n), or (pi / 8) D(h) for the Lambert map (which makes D(h) dOmega,
-    of mass 2, uniform on U; docs/math/glinty_ndf.md#glinty-lambert)."""
+    """dy / dOmega of T at unit h: (pi / 4) D(h)(h.n), or (pi / 8) D(h) abs(M^T h) for the Lambert map, M =
+    diag(1 / alpha_x, 1 / alpha_y, 1) (docs/math/glinty_ndf.md#glinty-lambert). The T-space checks below
+    divide the pdf by it and cannot see an error the core shares: test_kpt25_jacobian.py checks the
+    Jacobian independently (a hemisphere quadrature of the pdf, finite differences of T)."""
     if getattr(nd, "ggx_map", "orthographic") == "lambert":
-        return 0.125 * math.pi * nd.smooth(h)
+        a, b = nd.alpha, getattr(nd, "alpha_y", nd.alpha)
+        return 0.125 * math.pi * nd.smooth(h) * np.sqrt((h[:, 0] / a) ** 2 + (h[:, 1] / b) ** 2 + h[:, 2] ** 2)
     return 0.25 * math.pi * nd.smooth(h) * h[:, 2]
 
 
@@ -226,9 +229,13 @@ def test_sampling_is_deterministic_whatever_the_threads():
         np.testing.assert_array_equal(a, b)
     ok = np.isfinite(h1[:, 0])
     assert ok.mean() > 0.99
-    # wi is the mirror of wo about h; the draws depend on draw_seed and on the realization.
+    # wi is the mirror of wo about h, NaN where h faces away from wo (test_kpt25_jacobian.py); the draws
+    # depend on draw_seed and on the realization.
     won = wo / np.linalg.norm(wo, axis=1, keepdims=True)
-    np.testing.assert_allclose(w1[ok], 2 * np.sum(won[ok] * h1[ok], axis=1)[:, None] * h1[ok] - won[ok], atol=1e-12)
+    facing = ok & (np.sum(won * np.where(ok[:, None], h1, 0.0), axis=1) > 0)
+    np.testing.assert_array_equal(np.isfinite(w1[:, 0]), facing)
+    np.testing.assert_allclose(w1[facing], 2 * np.sum(won[facing] * h1[facing], axis=1)[:, None] * h1[facing]
+                               - won[facing], atol=1e-12)
     assert not np.array_equal(nd.sample(uv, J, seed=3, draw_seed=5)[0][ok], h1[ok])
     assert not np.array_equal(nd.sample(uv, J, seed=4, draw_seed=4)[0][ok], h1[ok])
     img_h, img_p = nd.sample(uv.reshape(20, 100, 2), J.reshape(20, 100, 4), seed=3, draw_seed=4)
@@ -295,7 +302,8 @@ def ring_sector_p(y):
 def inversion_draws(target, alpha, n, seed, weight="projected"):
     """Half vectors drawn by inverting the CDF of theta (phi uniform): from D(h)(h.n) dOmega ("projected":
     tan^2 theta = -alpha^2 log u for Beckmann, alpha^2 u / (1 - u) for GGX, Walter et al. 2007) or, for
-    GGX, from D(h) dOmega / 2 ("area": the GGX mass of D itself is 2; tan^2 theta = alpha^2 (1 - u^2) / u^2)."""
+    GGX, from D(h) abs(M^T h) dOmega / 2 ("stretched": the uniform hemisphere of the stretched normal,
+    cos theta' = u, unstretched: tan^2 theta = alpha^2 (1 - u^2) / u^2)."""
     rng = np.random.default_rng(seed)
     u = rng.uniform(size=n)
     if target == "beckmann":
@@ -330,14 +338,15 @@ def lambert_ring_probabilities():
     return np.diff(2 * e - e * e)
 
 
-def test_lambert_map_uniformises_d_not_d_cos_and_its_departure_is_exact():
-    # The paper's T = L o M~ (eq. 6-7) for GGX makes D(h) dOmega (the NDF's own mass, 2 for GGX)
-    # uniform on U, not D(h)(h.n) dOmega: glintlab's orthographic map is the exact one for the latter.
+def test_lambert_map_uniformises_the_stretched_hemisphere_not_d_cos_and_its_departure_is_exact():
+    # The paper's T = L o M~ (eq. 6-7) for GGX makes D(h) abs(M^T h) dOmega / 2 (the uniform hemisphere of
+    # the stretched normal) uniform on U, not D(h)(h.n) dOmega: glintlab's orthographic map is the exact
+    # one for the latter.
     n = 40000
     for alpha in (0.3, 1.6):
         lam = gl.glinty_ndf("kpt25", target="ggx", alpha=alpha, ggx_map="lambert")
         ortho = gl.glinty_ndf("kpt25", target="ggx", alpha=alpha)
-        area = inversion_draws("ggx", alpha, n, seed=22, weight="area")
+        area = inversion_draws("ggx", alpha, n, seed=22, weight="stretched")
         proj = inversion_draws("ggx", alpha, n, seed=23)
         assert ring_sector_p(lam.map(area)) > ALPHA_P
         assert ring_sector_p(ortho.map(area)) < ALPHA_P
@@ -487,3 +496,24 @@ def test_error_messages_name_the_element_and_its_value():
     Jr[3] = [5e-3, 0, 0, 5e-3]
     with pytest.raises(ValueError, match=r"J\[3\] = \[0\.005, 0, 0, 0\.005\].*reference sums at most"):
         gl.glinty_ndf("kpt25", density=1e12, alpha_star=0.5).reference(uv, Jr, h)
+
+
+def test_cells_beyond_32_bits_have_their_own_points_and_far_uv_is_refused():
+    # Issue 37: spatial cells 2^32 apart shared their points (the indices were hashed in 32 bits) while
+    # |uv| <= 1e9 was accepted; every bit is hashed now (cells in [-2^31, 2^31) keep their numbers), and
+    # positions beyond 2^38 cells of the origin are refused by name (docs/math/glinty_ndf.md#glinty-process).
+    nd = gl.glinty_ndf("kpt25", density=1e4, alpha=0.5, alpha_star=0.05, k=1)  # 100 cells per unit uv
+    rng = np.random.default_rng(6)
+    n = 400
+    uv = rng.uniform(0, 1, (n, 2))
+    J = np.tile([0.02, 0.0, 0.0, 0.02], (n, 1))
+    h = np.column_stack([rng.normal(0, 0.2, (n, 2)), np.ones(n)])
+    base = nd.reference(uv, J, h, seed=2)
+    assert base.std() > 0
+    for shift in ([2.0**32 / 100, 0.0], [0.0, -(2.0**32) / 100]):  # 4.3e7 uv units: 2^32 cells
+        far = nd.reference(uv + shift, J, h, seed=2)  # the same points would agree to rounding (corr 1)
+        assert np.corrcoef(base, far)[0, 1] < 0.5
+    dense = gl.glinty_ndf("kpt25", density=1e12)  # 1e6 cells per unit uv: the limit is 2^38 / 1e6 = 2.7e5
+    with pytest.raises(ValueError, match=r"uv\[0, 0\] = 300000 .*2\^38 spatial cells"):
+        dense.evaluate([[3e5, 0.0]], [[1e-6, 0, 0, 1e-6]], [[0.0, 0.0, 1.0]])
+    assert np.isfinite(dense.evaluate([[2.5e5, -2.5e5]], [[1e-6, 0, 0, 1e-6]], [[0.0, 0.0, 1.0]])).all()

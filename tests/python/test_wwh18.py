@@ -53,7 +53,8 @@ def test_registered_and_parameters():
     w = make()
     assert isinstance(w, WWH18)
     assert w.cell_side == pytest.approx(S0)
-    for bad in (dict(gamma=0), dict(gamma=91), dict(lambda_seeding="pixel"), dict(threshold_test="up"),
+    for bad in (dict(gamma=0), dict(gamma=91), dict(gamma=1e-101), dict(lambda_seeding="cell"),
+                dict(cone="sphere"), dict(cone="outgoing", dpf="table"), dict(threshold_test="up"),
                 dict(rng="mt"), dict(table_res=7, dpf="table"), dict(lod=3), dict(T=-1), dict(storage="half"),
                 dict(density=-1), dict(target="phong"), dict(flakes_per_cell=0), dict(tea_rounds=1.5)):
         with pytest.raises(ValueError, match=next(iter(bad))):
@@ -278,3 +279,113 @@ def test_deterministic_per_seed():
     assert np.array_equal(a, w.counts(uv, J, h, seed=4))
     assert not np.array_equal(a, w.counts(uv, J, h, seed=5))
     assert np.array_equal(w.reference_counts(uv, J, h, seed=4), w.reference_counts(uv[::-1], J, h, seed=4)[::-1])
+
+
+# ---------------------------------------------------------------------------------------------------
+# Issue 37: the cone's solid angle at small gamma, cell indices beyond 32 bits, and the readings of
+# eq. 8's lambda(x) (one per pixel) and of Sec. 4.1's cone around the outgoing direction.
+
+@pytest.mark.parametrize("gamma", [1e-8, 1e-3, 0.5, 6.0, 90.0])
+def test_cone_solid_angle_has_no_cancellation(gamma):
+    w = make(gamma=gamma, T=1e-30)  # filtered everywhere: counts are N |A| p_gamma(h) exactly
+    g = math.radians(gamma)
+    assert w.cone_solid_angle == pytest.approx(4 * math.pi * math.sin(g / 2) ** 2, rel=1e-15)
+    J = np.array([[1.0, 0, 0, 1.0]])
+    h = np.array([[0.3, 0.1, 1.0]])
+    d = float(w.smooth(h)[0])
+    e = w.evaluate([[0.5, 0.5]], J, h, seed=1)[0]
+    assert math.isfinite(e)
+    if gamma <= 1e-3:  # D-hat's mean is D(h) to O(gamma^2) and the quadrature's 1e-11
+        assert e == pytest.approx(d, rel=1e-8)
+    # The wrong variant: the cancelling 2 pi (1 - cos gamma) (0 at 1e-8 degrees: D-hat infinite; a
+    # relative error of 7e-8 at 1e-3 degrees, which the 1e-8 check above rejects).
+    old = 2 * math.pi * (1 - math.cos(g))
+    if gamma == 1e-8:
+        assert old == 0.0
+    if gamma == 1e-3:
+        assert abs(old / w.cone_solid_angle - 1) > 1e-8
+
+
+def test_cells_beyond_32_bits_have_their_own_flakes_and_far_uv_is_refused():
+    # Base cells 2^32 apart (S0 = 1/64: 6.7e7 uv units) used to share their flakes and lambdas (the
+    # indices were hashed in 32 bits); every bit of the index is hashed now, within 2^38 cells.
+    uv, J = pixel_grid(3.3, 12, offset=(0.2, 0.4), angle=0.3)
+    h = np.tile(H, (len(uv), 1))
+    shift = 2.0**32 * S0
+    for w in (make(), make(rng="tea", lambda_seeding="node", threshold_test="printed")):
+        near = w.reference_counts(uv, J, h, seed=3)
+        assert not np.array_equal(near, w.reference_counts(uv + [shift, 0], J, h, seed=3))
+        assert not np.array_equal(near, w.reference_counts(uv + [0, -shift], J, h, seed=3))
+        c = w.counts(uv, J, h, seed=3)
+        assert not np.array_equal(c, w.counts(uv + [shift, shift], J, h, seed=3))
+    i = np.arange(-100, 100, dtype=np.int64)
+    j = 3 * i
+    lam = make().lambdas(5, 0, i, j)
+    assert not np.array_equal(lam, make().lambdas(5, 0, i + 2**32, j))
+    assert not np.array_equal(lam, make().lambdas(5, 0, i, j - 2**32))
+    # TEA's 32-bit node id i + 2^16 j repeats for (i + 2^16, j - 1): the key now tells them apart.
+    tea = make(rng="tea")
+    assert not np.array_equal(tea.lambdas(5, 2, i, j), tea.lambdas(5, 2, i + 2**16, j - 1))
+    # The layout keeps the 32-bit one's numbers near the origin (the images there are unchanged):
+    # lambda is a function of (i, j), so (i, j) and (i + 2^16, j - 1) near the origin already differed.
+    assert len(set(tea.lambdas(5, 2, i, j))) == len(i)
+    # Beyond 2^38 base cells of the origin the index bits no longer fit: uv is refused by name.
+    far = gl.glinty_ndf("wwh18", density=1e8, alpha=0.3, gamma=6, dpf="exact")  # s0 = 2e-4: limit 5.5e7
+    with pytest.raises(ValueError, match=r"uv.*2\^38 base cells"):
+        far.reference_counts([[6e7, 0.0]], [[1e-3, 0, 0, 1e-3]], [H])
+    with pytest.raises(ValueError, match=r"uv.*2\^38 base cells"):
+        far.counts([[0.0, -6e7]], [[1e-3, 0, 0, 1e-3]], [H])
+    assert far.reference_counts([[5e7, -5e7]], [[1e-3, 0, 0, 1e-3]], [H]).shape == (1,)
+
+
+def test_lambda_per_pixel_reading():
+    # eq. 8's lambda(x) with x the query's position: one lambda per pixel, so a footprint of whole cells
+    # counts all its flakes or none; with the flipped test, all with probability P: the mean N |A| P is
+    # kept, the spread is that of n Bernoulli(P) with one draw (variance ~ n^2 P (1 - P)).
+    uv, J = pixel_grid(3, 45, offset=(1.5, 1.5))
+    h = np.tile(H, (len(uv), 1))
+    w = make(lambda_seeding="pixel")
+    k = w.counts(uv, J, h, seed=5)
+    every = make(gamma=90).counts(uv, J, np.tile([0.0, 0.0, 1.0], (len(uv), 1)), seed=5)  # every flake counts
+    assert np.all((k == 0) | (k == every))
+    p = float(w.p(H[None])[0])
+    lit = k > 0
+    assert abs(lit.mean() - p) < 4.5 * math.sqrt(p * (1 - p) / len(k))
+    mu = float(w.expected_count(J[:1], h[:1])[0])
+    assert abs(k.mean() - mu) < 4.5 * math.sqrt(k.var() / len(k))
+    assert k.var() > 5 * mu  # far above the truth's Poisson variance mu
+    # lambda(x) is a pure function of (seed, uv): the same pixel twice, the same draw.
+    assert w.pixel_lambda(5, 0.25, 0.5) == w.pixel_lambda(5, 0.25, 0.5) != w.pixel_lambda(6, 0.25, 0.5)
+    with pytest.raises(ValueError, match="lambda_seeding"):
+        make(lambda_seeding="pixels")
+
+
+def test_outgoing_cone_reading():
+    # Sec. 4.1: "reflects light incoming from omega_i into a cone centered around omega_o". A flake
+    # counts when its reflection of wi lies within gamma of wo. With wi = h (so wo = h) that is the cone
+    # of half-angle gamma / 2 around h, exactly; the truth's count is Poisson with the quadrature's mean.
+    w = make(cone="outgoing", gamma=10)
+    half = make(gamma=5)
+    hs = np.array([[0.0, 0.0, 1.0], [0.4, -0.2, 1.0], [1.2, 0.3, 1.0]])
+    hn = hs / np.linalg.norm(hs, axis=1, keepdims=True)
+    np.testing.assert_allclose(w.outgoing_cone_mass(hn, hn), half.cone_mass(hn), rtol=1e-8)
+    # A light off the half vector: wo its reflection; the truth's mean count against the quadrature.
+    uv, J = pixel_grid(5.3, 50, offset=(0.37, 0.81), angle=0.4)
+    h = np.tile(H, (len(uv), 1))
+    wi = np.tile([-0.6, 0.1, 0.8], (len(uv), 1))
+    k = w.reference_counts(uv, J, h, seed=11, wi=wi)
+    mu = float(w.expected_count(J[:1], h[:1], wi=wi[:1])[0])
+    assert 3 < mu < 60
+    assert gl.chi2_test(k, poisson_dist(mu)).pvalue > ALPHA_P
+    # The half-vector cone of the same gamma is another law on the same flakes (rejected).
+    mu_h = float(make(gamma=10).expected_count(J[:1], h[:1])[0])
+    assert gl.chi2_test(k, poisson_dist(mu_h)).pvalue < ALPHA_P
+    # The model with the exact P of the outgoing cone, per-flake lambda and the flipped test: the same law.
+    km = w.counts(uv, J, h, seed=11, wi=wi)
+    assert abs(km.mean() - mu) < 4.5 * math.sqrt(mu / len(km))
+    # D-hat: counts / (N |A| sigma(gamma) h.n / (4 wi.h)) -> D(h) as gamma -> 0.
+    small = make(cone="outgoing", gamma=0.05, T=1e-30)
+    d = small.evaluate([[0.5, 0.5]], [[1.0, 0, 0, 1.0]], H[None], seed=1, wi=wi[:1])[0]
+    assert d == pytest.approx(float(small.smooth(H[None])[0]), rel=1e-4)
+    with pytest.raises(ValueError, match="cone"):
+        make(cone="outgoing", dpf="table")

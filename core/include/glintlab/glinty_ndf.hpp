@@ -16,6 +16,8 @@
 
 namespace glintlab {
 
+class CounterRng;
+
 enum class GlintTarget { beckmann, ggx };
 
 // How the points outside B(k) are accounted for (eq. 9 and 10).
@@ -62,9 +64,13 @@ struct Kpt25Params {
   // Gaussian at x_a - x, the same for every point), lobes with no mass in B left out.
   bool sample_lobe_mass = true;
   // GGX only: T = L o M~ with the Lambert projection of eq. 7 (true, the paper as printed: it makes
-  // D(h) dOmega uniform on U, not D(h)(h.n) dOmega) instead of the orthographic one (false, the default:
-  // exact for D(h)(h.n) dOmega). docs/math/glinty_ndf.md#glinty-lambert.
+  // D(h) |M^T h| dOmega uniform on U, not D(h)(h.n) dOmega) instead of the orthographic one (false, the
+  // default: exact for D(h)(h.n) dOmega). docs/math/glinty_ndf.md#glinty-lambert.
   bool ggx_lambert = false;
+  // With ggx_lambert, the Jacobian pdf() uses: false = the Lambert map's own, (pi / 8) D(h) |M^T h| (the
+  // sampler's density); true = eq. 6 read with its printed exponent 4, (pi / 8) D(h): not the density of
+  // the draws (a reading kept so that the tests show the pdf's integral rejecting it).
+  bool lambert_printed_jacobian = false;
   // Anisotropic roughness (eq. 6's stretch M = diag(1 / alpha, 1 / alpha_y, 1), Atanasov et al.): alpha is
   // then alpha_x; 0 = isotropic (alpha_y = alpha). docs/math/glinty_ndf.md#glinty-anisotropy.
   double alpha_y = 0.0;
@@ -147,7 +153,9 @@ class Kpt25Ndf {
   // of pixel (uv[2i..], J[4i..]) for realization `seed`; the draw's random numbers are a pure function
   // of (draw_seed, i). h_out[3i..] the half vector (NaN when the drawn lobe point falls outside the
   // disk U: a lost sample, pdf 0), pdf_out[i] its density per steradian of h (exactly pdf() below), and
-  // if wo is not null (3 numbers per row, normalised here), wi_out[3i..] = reflect(wo, h).
+  // if wo is not null (3 numbers per row, normalised here), wi_out[3i..] = reflect(wo, h) = 2 (wo.h) h - wo,
+  // NaN where wo.h <= 0 (a facet facing away from wo reflects nothing: policy, so that the density of wi
+  // is pdf(h) / (4 wo.h) at the one h = normalise(wi + wo) with wo.h > 0).
   void sample(const double* uv, const double* jac, const double* wo, std::size_t m, std::uint64_t seed,
               std::uint64_t draw_seed, double* h_out, double* pdf_out, double* wi_out) const;
   // The density per steradian of h with which sample() draws h at pixel i (0 below the horizon).
@@ -212,9 +220,11 @@ class Kpt25Ndf {
   double disk_D(double x, double y) const;  // D(T^-1(x, y)), the target at a point of U
   double level_pdf(const GlintPixel& px, int level, double u, double v, std::uint64_t seed, double x, double y) const;
   double pixel_pdf(const GlintPixel& px, double u, double v, std::uint64_t seed, double x, double y) const;
-  // dx dy / dOmega of T at h: (pi / 4) D(h)(h.n) for the maps that uniformise D(h)(h.n), (pi / 8) D(h)
-  // for the Lambert map (which uniformises D(h) dOmega, of mass 2 for GGX).
-  double jacobian(double D, double hz) const;
+  bool draw_from_block(const GlintPixel& px, int li, double u, double v, std::uint64_t seed, double xa, double ya,
+                       CounterRng& rng, double& x, double& y) const;
+  // dx dy / dOmega of T at the unit half vector h: (pi / 4) D(h)(h.n) for the maps that uniformise
+  // D(h)(h.n) dOmega, (pi / 8) D(h) |M^T h| for the Lambert map (docs/math/glinty_ndf.md#glinty-lambert).
+  double jacobian(double D, const double h[3]) const;
   // The maps and D for alpha_x != alpha_y (the isotropic code paths stay as they were, bit for bit).
   std::array<double, 3> map_aniso(const double h[3]) const;
   std::array<double, 3> inverse_map_aniso(double dx, double dy, double r2) const;
@@ -223,8 +233,9 @@ class Kpt25Ndf {
   bool glint_aniso_ = false;  // A_* != identity
   void refuse_glint_anisotropy(const char* what) const;
   Kpt25Params p_;
-  double res_ = 0.0;  // sqrt(K_P): cells per unit uv at level 0 (per unit of x_s = A_* uv)
-  double kp_ = 0.0;   // the density line 19 divides by (K_P; K_P / det A_* with anisotropic glints)
+  double res_ = 0.0;           // sqrt(K_P): cells per unit uv at level 0 (per unit of x_s = A_* uv)
+  double kp_ = 0.0;            // the density line 19 divides by (K_P; K_P / det A_* with anisotropic glints)
+  double cells_per_uv_ = 0.0;  // level-0 spatial cells per unit uv along the most stretched axis
 };
 
 // The integral over the rectangle [x0, x1] x [y0, y1] intersected with the disk U (centre (1/2, 1/2),

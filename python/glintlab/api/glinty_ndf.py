@@ -331,7 +331,9 @@ class KPT25(GlintyNDF):
     which does not sample the compensation term) and ``sample_weight`` (Algorithm 2's reservoir weight
     of a point: "lobe_mass", its lobe's mass in the block, or "printed", the filter and roulette weight
     alone; docs/math/glinty_ndf.md#glinty-sampling) and ``ggx_map`` (GGX only: "orthographic", the exact
-    uniformising map, or "lambert", the paper's eq. 7; docs/math/glinty_ndf.md#glinty-lambert) and
+    uniformising map, or "lambert", the paper's eq. 7; docs/math/glinty_ndf.md#glinty-lambert) with
+    ``lambert_jacobian`` ("map": the pdf uses the Lambert map's own Jacobian (pi / 8) D(h) abs(M^T h);
+    "printed": eq. 6's printed exponent, (pi / 8) D(h), which is not the sampler's density) and
     ``reference_tol`` (the tolerance :meth:`reference` uses when called without one; 0 = the exact sum).
 
     ``mapping="triplanar"`` (KPT25 §3.3.6, UV-free glints; docs/math/glinty_ndf.md#glinty-triplanar):
@@ -366,7 +368,7 @@ class KPT25(GlintyNDF):
                  sample_weight: str = "lobe_mass", ggx_map: str = "orthographic", colors=None,
                  anisotropy=(1.0, 1.0), anisotropy_density: str = "preserved", mapping: str = "uv",
                  triplanar_weights: str = "normalized", triplanar_sharpness: float = 1.0,
-                 plane_seeds: str = "distinct", reference_tol: float = 0.0):
+                 plane_seeds: str = "distinct", reference_tol: float = 0.0, lambert_jacobian: str = "map"):
         alpha_y = 0.0
         if isinstance(alpha, (tuple, list, np.ndarray)):  # (alpha_x, alpha_y): anisotropic roughness
             pair = np.asarray(alpha, dtype=object).reshape(-1)
@@ -378,6 +380,9 @@ class KPT25(GlintyNDF):
         self.alpha_y = alpha_y or self.alpha
         if ggx_map not in ("orthographic", "lambert") or (ggx_map == "lambert" and target != "ggx"):
             V.fail("ggx_map", ggx_map, "'orthographic', or 'lambert' with target 'ggx'")
+        V.choice("lambert_jacobian", lambert_jacobian, ("map", "printed"), "'map' or 'printed'")
+        if lambert_jacobian == "printed" and ggx_map != "lambert":
+            V.fail("lambert_jacobian", lambert_jacobian, "'map' unless ggx_map='lambert'")
         V.choice("k", V.integer("k", k, expected="1, 4, 9 or 16"), (1, 4, 9, 16), "1, 4, 9 or 16")
         for pname, value in (("compensation", compensation), ("blend", blend), ("sample_weight", sample_weight)):
             if not isinstance(value, str):
@@ -402,7 +407,8 @@ class KPT25(GlintyNDF):
                                     V.real("epsilon", epsilon), V.real("filter", filter), compensation, blend,
                                     V.real("sample_smooth", sample_smooth), sample_weight, ggx_map, alpha_y,
                                     float(aniso[0]), float(aniso[1]), anisotropy_density == "printed",
-                                    triplanar_weights, V.real("triplanar_sharpness", triplanar_sharpness), plane_seeds)
+                                    triplanar_weights, V.real("triplanar_sharpness", triplanar_sharpness), plane_seeds,
+                                    lambert_jacobian)
         self.params = {"density": self.density, "target": target,
                        "alpha": (self.alpha, self.alpha_y) if alpha_y else self.alpha,
                        "alpha_star": float(alpha_star), "k": int(k), "epsilon": float(epsilon),
@@ -414,6 +420,8 @@ class KPT25(GlintyNDF):
         self.ggx_map = ggx_map
         if ggx_map != "orthographic":
             self.params["ggx_map"] = ggx_map
+        if lambert_jacobian != "map":
+            self.params["lambert_jacobian"] = lambert_jacobian
         self.mapping = mapping
         if mapping == "triplanar":
             self.params.update(mapping=mapping, triplanar_weights=triplanar_weights,
@@ -597,7 +605,9 @@ class KPT25(GlintyNDF):
         Returns ``(h, pdf)``: half vectors (..., 3) and their density per steradian of h (the value
         ``pdf`` returns for them); a draw whose lobe point falls outside the disk U is lost: h = NaN
         and pdf = 0. With ``wo`` (3,) or (..., 3) (normalised here), returns ``(h, pdf, wi)`` with
-        wi = 2 (wo.h) h - wo the reflected directions; the density of wi is pdf / (4 |wo.h|)."""
+        wi = 2 (wo.h) h - wo the reflected directions, NaN where wo.h <= 0 (a facet facing away from wo
+        reflects nothing; h and its pdf are still returned); the density of wi is pdf / (4 wo.h)
+        (docs/math/glinty_ndf.md#glinty-sampling)."""
         self._uv_only("sample")
         uv = np.ascontiguousarray(V.as_float_array("uv", uv))
         if uv.ndim < 1 or uv.shape[-1] != 2:
@@ -702,14 +712,22 @@ class PixelSampler:
         return np.tile(self.uv, (n, 1)), np.tile(self.J, (n, 1))
 
     def sample(self, size: int, seed=0):
-        """``size`` independent draws: (directions (size, 3), pdf (size,)); lost draws are NaN with pdf 0."""
+        """``size`` independent draws: (directions (size, 3), pdf (size,)); lost draws are NaN with pdf 0
+        (with ``wo``, also the draws whose half vector faces away from wo)."""
         size = int(size)
         uv, J = self._tile(size)
         if self.wo is None:
             return self.ndf.sample(uv, J, seed=self.seed, draw_seed=seed)
-        h, pdf, wi = self.ndf.sample(uv, J, seed=self.seed, draw_seed=seed, wo=self.wo)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return wi, np.where(pdf > 0, pdf / (4 * np.abs(h @ self.wo)), 0.0)
+        _, _, wi = self.ndf.sample(uv, J, seed=self.seed, draw_seed=seed, wo=self.wo)
+        # wi is NaN where the draw is lost or its half vector faces away from wo (wo.h <= 0): pdf 0. The
+        # others' density is computed from wi itself, as pdf(wi) does (h = normalise(wi + wo), which has
+        # wo.h > 0), so that both agree to the bit: near grazing, wi fixes h only to about
+        # 1e-16 / (wo.h), and pdf(h) / (4 wo.h) of the drawn h would differ from it by that much.
+        reflected = np.isfinite(wi).all(axis=1)
+        pdf = np.zeros(size)
+        if reflected.any():
+            pdf[reflected] = self.pdf(wi[reflected])
+        return wi, pdf
 
     def pdf(self, directions) -> np.ndarray:
         """The density at ``directions`` (..., 3): per steradian of h, or of wi with ``wo``."""

@@ -11,13 +11,16 @@ threshold_test="printed", T=16)``:
   traversal over the same flakes' cells (eq. 8-9), and the filtered count N abs(det J) P above ``T``
   (eq. 10). Real valued (fractional overlaps).
 - ``evaluate`` / ``reference``: the same counts as D-hat, count / (N abs(det J) sigma(gamma) h.n), which
-  converges to the target D(h) as gamma -> 0 (docs/math/wwh18.md#wwh18-normalisation).
+  converges to the target D(h) as gamma -> 0 (docs/math/wwh18.md#wwh18-normalisation); sigma(gamma) =
+  4 pi sin^2(gamma / 2), the cone's solid angle.
 
-Every reading of the printed text is an option: ``lambda_seeding`` ("node" as printed, or "flake"),
+Every reading of the printed text is an option: ``lambda_seeding`` ("node" as printed, "flake", or
+"pixel": eq. 8's lambda(x) as one lambda per pixel), ``cone`` ("half_vector": the normal within gamma of
+h, eq. 4's Omega_h; "outgoing": the reflection of wi within gamma of wo, Sec. 4.1's cone, dpf="exact"),
 ``threshold_test`` ("printed": H(lambda - P); "flipped": H(P - lambda)), ``error_eps`` (the error
 criterion), ``rng`` ("tea" as the paper, or "philox"), ``dpf`` ("table" or "exact": p_gamma by quadrature),
 ``table_res`` (degrees), ``lod`` ("table2": the level of the paper's Table 2 for alpha; "none"; or a
-level in degrees) and ``storage`` ("float32" as the paper's 5.7 MB, or "float64").
+level in degrees) and ``storage`` ("float32": 6.00 MB at 1 degree, the paper's 5.7 read in MiB; or "float64").
 
 >>> import glintlab as gl
 >>> w = gl.glinty_ndf("wwh18", density=1e4, alpha=0.3, gamma=6, dpf="exact", threshold_test="flipped")
@@ -79,9 +82,14 @@ class WWH18(GlintyNDF):
     def __init__(self, density: float = 1e6, target: str = "beckmann", alpha: float = 0.5, gamma: float = 6.0,
                  lambda_seeding: str = "node", threshold_test: str = "printed", T: float = 16.0,
                  rng: str = "tea", tea_rounds: int = 4, error_eps: float = 0.0, flakes_per_cell: float = 4.0,
-                 dpf: str = "table", table_res: float = 1.0, lod="table2", storage: str = "float32"):
+                 dpf: str = "table", table_res: float = 1.0, lod="table2", storage: str = "float32",
+                 cone: str = "half_vector"):
         super().__init__(target, alpha, density)
-        V.choice("lambda_seeding", lambda_seeding, ("node", "flake"))
+        V.choice("lambda_seeding", lambda_seeding, ("node", "flake", "pixel"))
+        V.choice("cone", cone, ("half_vector", "outgoing"))
+        if cone == "outgoing" and dpf != "exact":
+            V.fail("cone", cone, "'half_vector' with dpf='table' (the outgoing cone's table is not built: "
+                   "dpf='exact'; docs/math/wwh18.md#wwh18-cone)")
         V.choice("threshold_test", threshold_test, ("printed", "flipped"))
         V.choice("rng", rng, ("tea", "philox"))
         V.choice("dpf", dpf, ("table", "exact"))
@@ -101,20 +109,32 @@ class WWH18(GlintyNDF):
         self.lod_deg = lod_deg
         self._core = _core.Wwh18Ndf(self.density, target, self.alpha, self.gamma, V.real("flakes_per_cell", flakes_per_cell),
                                     lambda_seeding, threshold_test, rng, int(tea_rounds), V.real("error_eps", error_eps),
-                                    T, dpf, V.real("table_res", table_res), lod_deg, storage == "float32")
-        # sigma(Omega_h) of eq. 3-4: the cone's solid angle.
-        self.cone_solid_angle = 2 * math.pi * (1 - math.cos(math.radians(self.gamma)))
+                                    T, dpf, V.real("table_res", table_res), lod_deg, storage == "float32", cone)
+        # sigma(Omega) of eq. 3: the cone's solid angle, 4 pi sin^2(gamma / 2) (2 pi (1 - cos gamma)
+        # without its cancellation, which made it 0 below 1e-7 degrees).
+        self.cone_solid_angle = self._core.cone_solid_angle
+        self.cone = cone
         self.params = {"density": self.density, "target": target, "alpha": self.alpha, "gamma": self.gamma,
                        "lambda_seeding": lambda_seeding, "threshold_test": threshold_test, "T": T, "rng": rng,
                        "tea_rounds": int(tea_rounds), "error_eps": float(error_eps),
                        "flakes_per_cell": float(flakes_per_cell), "dpf": dpf, "table_res": float(table_res),
-                       "lod": lod, "storage": storage}
+                       "lod": lod, "storage": storage, "cone": cone}
 
     # --- counts -------------------------------------------------------------------------------------
-    def reference_counts(self, uv, J, h, seed: int = 0) -> np.ndarray:
-        """The discrete-flake truth's count per pixel (integers; law Poisson(``expected_count``))."""
+    def _wi(self, wi, shape):
+        if wi is None:
+            return None
+        w = _directions("wi", wi)
+        if w.shape != shape + (3,):
+            V.fail("wi", f"an array of shape {w.shape}", f"an array of shape {shape + (3,)}")
+        return w.reshape(-1)
+
+    def reference_counts(self, uv, J, h, seed: int = 0, wi=None) -> np.ndarray:
+        """The discrete-flake truth's count per pixel (integers; law Poisson(``expected_count``)). ``wi``
+        (..., 3): the light direction, used by ``cone="outgoing"`` (default wi = h, so wo = h)."""
         uv, J, h, shape = pixel_arrays(uv, J, h)
-        return self._core.reference_counts(uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed)).reshape(shape)
+        return self._core.reference_counts(uv.reshape(-1), J.reshape(-1), h.reshape(-1), V.seed(seed),
+                                           self._wi(wi, shape)).reshape(shape)
 
     def counts(self, uv, J, h, seed: int = 0, wi=None) -> np.ndarray:
         """The model's count per pixel: Algorithm 1 below ``T``, N abs(det J) P above. ``wi`` (..., 3): the
@@ -124,33 +144,35 @@ class WWH18(GlintyNDF):
     def counts_detail(self, uv, J, h, seed: int = 0, wi=None) -> dict:
         """``counts`` with, per pixel, ``mode`` (0 zero, 1 traversal, 2 filtered) and the ``p`` used."""
         uv, J, h, shape = pixel_arrays(uv, J, h)
-        w = None
-        if wi is not None:
-            w = _directions("wi", wi)
-            if w.shape != shape + (3,):
-                V.fail("wi", f"an array of shape {w.shape}", f"an array of shape {shape + (3,)}")
-            w = w.reshape(-1)
-        c, mode, p = self._core.counts(uv.reshape(-1), J.reshape(-1), h.reshape(-1), w, V.seed(seed))
+        c, mode, p = self._core.counts(uv.reshape(-1), J.reshape(-1), h.reshape(-1), self._wi(wi, shape), V.seed(seed))
         return {"count": c.reshape(shape), "mode": mode.reshape(shape), "p": p.reshape(shape)}
 
-    def _norm(self, J, h):
+    def _norm(self, J, h, wi=None):
+        """N abs(det J) sigma(gamma) h.n, over 4 wi.h with the outgoing cone (the Jacobian that takes the
+        cone of outgoing directions to its normals: its normals' mass is D(h)(h.n) sigma / (4 wi.h))."""
         area = np.abs(J[..., 0] * J[..., 3] - J[..., 1] * J[..., 2])
-        hz = h[..., 2] / np.linalg.norm(h, axis=-1)
-        return self.density * area * self.cone_solid_angle * hz, hz
+        hn = h / np.linalg.norm(h, axis=-1, keepdims=True)
+        norm = self.density * area * self.cone_solid_angle * hn[..., 2]
+        if self.cone == "outgoing":
+            w = hn if wi is None else np.asarray(wi, float) / np.linalg.norm(wi, axis=-1, keepdims=True)
+            norm = norm / (4 * np.abs(np.sum(w * hn, axis=-1)))
+        return norm, hn[..., 2]
 
     def evaluate(self, uv, J, h, seed: int = 0, wi=None) -> np.ndarray:
-        """The model's D-hat: ``counts`` / (N abs(det J) sigma(gamma) h.n); 0 below the horizon."""
+        """The model's D-hat: ``counts`` / (N abs(det J) sigma(gamma) h.n) (times 4 wi.h with the outgoing
+        cone); 0 below the horizon."""
         _, Jc, hc, _ = pixel_arrays(uv, J, h)
-        norm, hz = self._norm(Jc, hc)
+        norm, hz = self._norm(Jc, hc, wi)
         c = self.counts(uv, J, h, seed, wi)
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.where(hz > 0, c / norm, 0.0)
 
-    def reference(self, uv, J, h, seed: int = 0) -> np.ndarray:
-        """The truth's D-hat: ``reference_counts`` / (N abs(det J) sigma(gamma) h.n); 0 below the horizon."""
+    def reference(self, uv, J, h, seed: int = 0, wi=None) -> np.ndarray:
+        """The truth's D-hat: ``reference_counts`` / (N abs(det J) sigma(gamma) h.n) (times 4 wi.h with the
+        outgoing cone); 0 below the horizon."""
         _, Jc, hc, _ = pixel_arrays(uv, J, h)
-        norm, hz = self._norm(Jc, hc)
-        c = self.reference_counts(uv, J, h, seed)
+        norm, hz = self._norm(Jc, hc, wi)
+        c = self.reference_counts(uv, J, h, seed, wi)
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.where(hz > 0, c / norm, 0.0)
 
@@ -160,12 +182,30 @@ class WWH18(GlintyNDF):
         h = _directions("h", h)
         return self._core.cone_mass(h.reshape(-1)).reshape(h.shape[:-1])
 
-    def expected_count(self, J, h) -> np.ndarray:
-        """The truth's exact mean N abs(det J) p_gamma(h) (its law is Poisson with this mean)."""
+    def outgoing_cone_mass(self, wi, wo) -> np.ndarray:
+        """The outgoing-cone reading's P: the mass of D(m)(m.n) over the normals that reflect ``wi`` into
+        the cone of half-angle gamma around ``wo`` (quadrature over that cone; docs/math/wwh18.md#wwh18-cone)."""
+        wi = _directions("wi", wi)
+        wo = _directions("wo", wo)
+        if wi.shape != wo.shape:
+            V.fail("wo", f"an array of shape {wo.shape}", f"the shape of wi, {wi.shape}, ending in 3")
+        return self._core.outgoing_cone_mass(wi.reshape(-1), wo.reshape(-1)).reshape(wi.shape[:-1])
+
+    def expected_count(self, J, h, wi=None) -> np.ndarray:
+        """The truth's exact mean N abs(det J) p_gamma(h) (its law is Poisson with this mean); with
+        ``cone="outgoing"``, p is the outgoing cone's mass for the light ``wi`` (default h) and wo its
+        reflection about h."""
         _, J, h, shape = pixel_arrays(None, J, h)
         area = np.abs(J[..., 0] * J[..., 3] - J[..., 1] * J[..., 2])
         hz = h[..., 2]
-        return np.where(hz > 0, self.density * area * self.cone_mass(h), 0.0)
+        if self.cone == "outgoing":
+            hn = h / np.linalg.norm(h, axis=-1, keepdims=True)
+            w = hn if wi is None else _directions("wi", wi) / np.linalg.norm(wi, axis=-1, keepdims=True)
+            wo = 2 * np.sum(w * hn, axis=-1, keepdims=True) * hn - w
+            p = self.outgoing_cone_mass(np.broadcast_to(w, hn.shape), wo)
+        else:
+            p = self.cone_mass(h)
+        return np.where(hz > 0, self.density * area * p, 0.0)
 
     def p(self, h) -> np.ndarray:
         """The P the model uses for half vectors ``h`` (table look-up with wi = h, or p_gamma)."""
@@ -184,6 +224,10 @@ class WWH18(GlintyNDF):
         """Sec. 4.2's accumulation at h itself: the table cells' masses within gamma of h (no interpolation)."""
         h = _directions("h", h)
         return self._core.accumulated(h.reshape(-1)).reshape(h.shape[:-1])
+
+    def pixel_lambda(self, seed: int, u: float, v: float) -> float:
+        """lambda(x) of the pixel at (u, v) with ``lambda_seeding="pixel"`` (Philox on the bits of u, v)."""
+        return float(self._core.pixel_lambda(V.seed(seed), V.real("u", u), V.real("v", v)))
 
     def lambdas(self, seed: int, level: int, i, j, k: int = 0) -> np.ndarray:
         """lambda of nodes (level, i, j) and flake index k as the model draws it (TEA or Philox)."""

@@ -3,7 +3,8 @@
 Four tables, every model configuration on the same flakes as the truth:
 
 - ``wwh18_readings``: for each reading of the printed text (threshold test printed / flipped, lambda per
-  node / per flake, P from the table / exact, the error criterion, the filtered model alone), over
+  node / per flake / per pixel, P from the table / exact, the error criterion, the filtered model alone,
+  the cone around h or around wo), over
   ``pixels`` independent footprints of two kinds (rotated squares that straddle base cells, and squares
   of whole cells): the mean ratio model / truth's exact mean (the bias), the variance ratio, the TV
   distance and the chi-square p-value of the model's counts (rounded) against the truth's exact
@@ -61,6 +62,11 @@ READINGS = [
      dict(threshold_test="printed", lambda_seeding="node", dpf="table", rng="tea")),
     ("filtered model everywhere (T -> 0), exact P", {**_EXACT, "T": 1e-12}),
     ("filtered model everywhere (T -> 0), table P", {**_EXACT, "T": 1e-12, "dpf": "table"}),
+    # The readings issue 37 added: eq. 8's lambda(x) as one lambda per pixel; Sec. 4.1's cone around the
+    # outgoing direction (with wi = h: the cone of half-angle gamma / 2 around h), against the truth of
+    # the half-vector cone (docs/math/wwh18.md#wwh18-lambda, #wwh18-cone).
+    ("lambda per pixel (eq. 8's lambda(x)), exact P", {**_EXACT, "lambda_seeding": "pixel"}),
+    ("cone around wo (Sec. 4.1), wi = h, exact P", {**_EXACT, "cone": "outgoing"}),
 ]
 
 
