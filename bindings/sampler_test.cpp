@@ -78,6 +78,12 @@ void bind_sampler_test(py::module_& m) {
           },
           py::arg("domain"), py::arg("total"), py::arg("max_sub_depth"), py::arg("rel_tol"), py::arg("max_nodes"),
           py::arg("s_edges"), py::arg("t_edges"), py::arg("shift_tol") = 0.0, py::arg("min_expected") = 5.0)
+      .def_static(
+          "regrid",
+          [](const Bins& resolved, std::vector<double> s_edges, std::vector<double> t_edges) {
+            return Bins(resolved, std::move(s_edges), std::move(t_edges));
+          },
+          py::arg("resolved"), py::arg("s_edges"), py::arg("t_edges"))
       .def_property_readonly("done", &Bins::done)
       .def("nodes",
            [](const Bins& b) {
@@ -114,6 +120,8 @@ void bind_sampler_test(py::module_& m) {
       .def_property_readonly("shift_limit", &Bins::shift_limit)
       .def_property_readonly("mass_error", &Bins::mass_error)
       .def_property_readonly("mass_limit", &Bins::mass_limit)
+      .def_property_readonly("unresolved_peaks", &Bins::unresolved_peaks)
+      .def_property_readonly("unresolved_reach", &Bins::unresolved_reach)
       .def(
           "locate",
           [](const Bins& b, const Array& s, const Array& t) {
