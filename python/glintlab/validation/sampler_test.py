@@ -592,8 +592,6 @@ def _result(o: _Options, b, rows, tally: _Tally, repeat, notes, name, bins_kind,
     """The statistics, the combined p-value and the verdict (docs/math/sampling.md#lost-sample-bin)."""
     integral, error = np.asarray(b.integral), np.asarray(b.error)
     chi = _core.sampler_chi_square(tally.counts, integral, error, tally.lost, float(o.samples), o.min_expected)
-    if chi["note"]:
-        notes.append(chi["note"])
     p_chi2, trusted = _part(chi, b, o.cubature_tol)
     p_rows, rows_trusted, rchi = math.nan, True, None
     if rows is not None:
@@ -612,7 +610,7 @@ def _result(o: _Options, b, rows, tally: _Tally, repeat, notes, name, bins_kind,
     # the integrals and their error estimates are then not to be trusted at the harness's resolution.
     unresolved = b.unresolved_peaks > 0 and float(b.unresolved_reach) > max(1.0, float(b.mass_limit))
     if not unresolved:  # (when the pdf is unresolved, its own note says why the numbers below mean nothing)
-        notes += _cubature_notes(o, b, rows)
+        notes += ([chi["note"]] if chi["note"] else []) + _cubature_notes(o, b, rows)
     seed_ignored = repeat is not None
     if unresolved:
         notes.append(f"the cubature cannot resolve the pdf: in {b.unresolved_peaks} bin(s) the pdf at a pilot point "
