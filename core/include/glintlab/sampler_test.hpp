@@ -197,8 +197,10 @@ struct ChiSquare {
 
 // Pearson chi-square of counts per bin against total * integral per bin, bins merged as chi2_test
 // merges (merge_starts), and the lost bin: expected total * (1 - sum integral), tested by an exact
-// two-sided Poisson test against the range of losses the cubature error allows; the two p-values are
-// combined by a weighted Bonferroni rule (95 % chi-square, 5 % lost samples).
+// two-sided Poisson test against the range of losses the cubature error allows (a mass above 1 beyond
+// its error fails as a "too few lost" side: P = exp(total (1 - M + e))); the two p-values are combined
+// by a weighted Bonferroni rule (95 % chi-square, 5 % lost samples) in `pvalue` (the Python harness
+// recombines them with its rows' chi-square, docs/math/sampling.md#lost-sample-bin).
 ChiSquare chi_square(const std::vector<double>& observed, const std::vector<double>& integral,
                      const std::vector<double>& error, double lost, double total, double min_expected);
 
