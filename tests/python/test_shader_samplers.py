@@ -174,9 +174,25 @@ def test_bad_input_and_compile_errors_name_the_problem(tmp_path):
     assert "\n" not in str(err.value) and isinstance(err.value, SS.ShaderCompileError) and err.value.messages
     with pytest.raises(ValueError, match=r"no function pdf_h with the expected signature float pdf_h\(float2 uv"):
         gl.shader_sampler(ok)
-    with pytest.raises(ValueError, match=r"no function sample_h with the expected signature float4 sample_h"):
+    # A declaration that is not the contract's is named with its line and the expected signature, before
+    # the compiler blames glintlab's wrapper (or HLSL converts a float4 to a float2 without a word).
+    expected = r"expected float4 sample_h\(float2 uv, float4 J, float3 wo, float4 u\) \(hlsl\)"
+    with pytest.raises(ValueError, match=r"<string>:1: float4 sample_h\(float2 uv, float3 wo, float4 u\) is not the "
+                                         r"contract's sample_h: " + expected):
         gl.shader_sampler(ok.replace("float4 J, ", "") + pdf)
-    with pytest.raises(ValueError, match=r"no function pdf_h .*vec3 h\) \(glsl\)"):
+    for wrong in ("float3 sample_h(float2 uv, float4 J, float3 wo, float4 u) { return float3(0.0, 0.0, 1.0); }\n",
+                  ok.replace("float4 u)", "float2 u)")):   # HLSL would truncate the uniforms silently
+        with pytest.raises(ValueError, match=r"is not the contract's sample_h: " + expected):
+            gl.shader_sampler(wrong + pdf)
+    with pytest.raises(ValueError, match=r"<string>:2: float2 pdf_h\(.*is not the contract's pdf_h"):
+        gl.shader_sampler(ok + pdf.replace("float pdf_h", "float2 pdf_h").replace("return 1.0", "return float2(1, 1)"))
+    # A type the check cannot read (a macro) is left to the compiler, whose error at glintlab's call of
+    # sample_h names the function and the signature, not "a declaration left unfinished".
+    with pytest.raises(ValueError, match=r"sample_h does not have the contract's signature: " + expected):
+        gl.shader_sampler("#define RET float3\n" + ok.replace("float4 sample_h", "RET sample_h").replace(
+            "float4(0.0, 0.0, 1.0, 1.0)", "float3(0.0, 0.0, 1.0)") + pdf)
+    with pytest.raises(ValueError, match=r"float pdf_h\(vec3 h\) is not the contract's pdf_h: expected .*vec3 h\) "
+                                         r"\(glsl\)"):
         gl.shader_sampler(ok.replace("float4", "vec4").replace("float2", "vec2").replace("float3", "vec3") +
                           "float pdf_h(vec3 h) { return 1.0; }\n", language="glsl")
     with pytest.raises(ValueError, match=r"after the end of <string> \(a declaration left unfinished\?\)"):
@@ -196,6 +212,16 @@ def test_bad_input_and_compile_errors_name_the_problem(tmp_path):
         s.pdf([[0.0, 0.6, 0.8], [1.0, 0.0, 0.0]])
     with pytest.raises(ValueError, match="points"):
         s.pdf([[0.0, 1.0]])
+    # A NaN direction is the caller's input, not the shader's NaN pdf.
+    with pytest.raises(ValueError, match=r"points = 'row 1 = \(nan, 0.0, 1.0\)' is invalid; expected finite"):
+        s.pdf([[0.0, 0.6, 0.8], [np.nan, 0.0, 1.0]])
+    with pytest.raises(ValueError, match="include_dirs = .*missing.* expected existing folders"):
+        gl.shader_sampler(ok + pdf, include_dirs=[tmp_path / "missing"])
+    # A define the code never mentions changes nothing: refused, with the name the code does read.
+    with pytest.raises(ValueError, match=r"defines = 'alpha' .*never mentions changes nothing \(the code reads ALPHA\)"):
+        gl.shader_sampler(gl.shipped_sampler("ggx_vndf"), defines={"alpha": 0.9})
+    with pytest.raises(ValueError, match=r"defines = 'UNUSED'"):
+        gl.shader_sampler(ok + pdf, defines={"UNUSED": 1})
 
 
 def test_timeout_is_an_error_and_the_device_recovers():
@@ -234,3 +260,45 @@ def test_cli_runs_shader_files_with_exit_codes(tmp_path, capsys):
     assert main(["sampler", str(nan), "--quiet", "--samples", "1000", "--out", str(tmp_path)]) == 1
     assert "FAIL" in capsys.readouterr().err
     assert main(["sampler", path, "--param", "wo=0,0,-1"]) == 2
+    # Shader samplers declare their wrong variants: alpha+2% is not one (its alpha is a define).
+    capsys.readouterr()
+    assert main(["sampler", path, "--wrong", "alpha+2%", "--samples", "1000"]) == 2
+    assert main(["sampler", path, "--param", "alpha=0.9", "--samples", "1000"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 2 and "Traceback" not in err and "declares: drop_0.1%" in err and "reads ALPHA" in err
+
+
+def test_a_nan_pdf_from_sample_h_is_a_failed_check(tmp_path, capsys):
+    # sample_h returns a NaN pdf on every draw while pdf_h is fine: the consistency check used to keep
+    # only finite pdfs, and glintlab sampler printed "verdict: pass".
+    from glintlab.cli.main import main
+    nan = tmp_path / "nan_pdf.hlsl"
+    nan.write_text("#define GLINTLAB_HLSL\n#include \"glintlab_prelude.h\"\n"
+                   "#define GGX_VNDF_HELPERS_ONLY\n#include \"ggx_vndf_body.h\"\n"
+                   "float4 sample_h(float2 uv, float4 J, float3 wo, float4 u) {\n"
+                   "  float4 r = ggx_vndf_sample(0.3, wo, u.xy); return float4(r.xyz, sqrt(-1.0 - u.x)); }\n"
+                   "float pdf_h(float2 uv, float4 J, float3 wo, float3 h) { return ggx_vndf_pdf(0.3, wo, h); }\n")
+    res = gl.sampler_test(gl.shader_sampler(nan, wo=WO), samples=20_000, seed=SEED)
+    assert not res.passed and res.mismatches == res.invalid_pdfs == 20_000 and "NaN 20000" in res.note, res
+    assert main(["sampler", str(nan), "--samples", "2e4", "--out", str(tmp_path)]) == 1
+    out = capsys.readouterr()
+    assert "verdict: pass" not in out.out and "FAIL" in out.err
+
+
+def test_the_loop_caveat_is_shown(tmp_path, capsys):
+    # A loop whose trip count depends on the uniforms: lavapipe cuts every loop at 65535 iterations, so
+    # what it computes may not be what a GPU computes; glintlab sampler says so, as glintlab shader does.
+    from glintlab.cli.main import main
+    loop = tmp_path / "loop.hlsl"
+    loop.write_text("float4 sample_h(float2 uv, float4 J, float3 wo, float4 u) {\n"
+                    "  float z = u.x; for (int i = 0; i < int(u.y * 3.0); ++i) { if (u.w < 0.0) z = 0.0; }\n"
+                    "  float r = sqrt(max(0.0, 1.0 - z * z)), phi = 2.0 * GLINTLAB_PI * u.z;\n"
+                    "  return float4(r * cos(phi), r * sin(phi), z, 1.0 / (2.0 * GLINTLAB_PI)); }\n"
+                    "float pdf_h(float2 uv, float4 J, float3 wo, float3 h) { return 1.0 / (2.0 * GLINTLAB_PI); }\n")
+    s = gl.shader_sampler(loop)
+    if not s.loop_caveat:
+        pytest.skip("not on lavapipe: no loop caveat")
+    res = gl.sampler_test(s, samples=20_000, seed=SEED)
+    assert "not what a GPU would compute" in res.note and "65535" in res.note
+    assert main(["sampler", str(loop), "--samples", "2e4", "--quiet", "--out", str(tmp_path)]) == 0
+    assert "NOTE not what a GPU would compute" in capsys.readouterr().err

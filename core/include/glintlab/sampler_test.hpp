@@ -72,6 +72,12 @@ class Bins {
   Bins(Domain d, const BinOptions& options, const double* pilot_s, const double* pilot_t, std::size_t pilot_count,
        const double* pilot_pdf = nullptr);
   Bins(Domain d, const BinOptions& options, std::vector<double> s_edges, std::vector<double> t_edges);
+  // The grid s_edges x t_edges over the square of `resolved` (complete), its integration starting from
+  // resolved's own integration cells: a cell inside one grid cell keeps its integral, error and largest
+  // value; one across the grid's edges is cut along them and the pieces integrated afresh. So the grid
+  // inherits the resolution the adaptive tree found (pilot-guided, peaks included) instead of searching
+  // its wide cells for them again; then it refines by the same rules (docs/math/sampling.md#polar-rows).
+  Bins(const Bins& resolved, std::vector<double> s_edges, std::vector<double> t_edges);
 
   bool done() const { return pending_.empty(); }
   // The points (domain coordinates, domain_dim(d) per node) where the pdf is wanted next.
@@ -97,6 +103,14 @@ class Bins {
   // The total mass's cubature error in samples, N sum_b error_b, and its limit shift_tol sqrt(N).
   double mass_error() const { return mass_error_; }
   double mass_limit() const { return mass_limit_; }
+  // Peaks the cubature could not resolve: bins where the pdf at a pilot point showed a peak the tree
+  // wanted to split for but could not (max_depth or the evaluation budget), and whose integral after
+  // refinement is still far below that peak times the bin's area (the peak test of the tree). Their
+  // count, and the samples those peaks could hold, total * sum of peak x area (an upper bound on the
+  // mass the cubature may have missed there, in samples). While it is large, the integrals and their
+  // error estimates cannot be trusted (docs/math/sampling.md#unresolved-pdf).
+  std::size_t unresolved_peaks() const { return unresolved().first; }
+  double unresolved_reach() const { return unresolved().second; }
 
   // Bin index of each point given by its square coordinates (s < 0: lost, index -1).
   void locate(const double* s, const double* t, std::size_t count, std::int64_t* bin) const;
@@ -121,6 +135,7 @@ class Bins {
     double value, err, top;  // integral, error, largest node value (density on the square)
   };
 
+  void init_grid();
   void emit_nodes();
   void finish_tree_round(const std::vector<double>& value, const std::vector<double>& err,
                          const std::vector<double>& top);
@@ -155,6 +170,11 @@ class Bins {
   double shift_bound_ = 0.0, shift_limit_ = 0.0, mass_error_ = 0.0, mass_limit_ = 0.0;
   std::size_t shift_met_at_ = 0;  // evaluations when the global rule's bound first met its limit
   int rounds_ = 0;
+  // Tree cells that wanted a split for a peak at a pilot point and could not: (node, peak density) in the
+  // tree phase, (bin, peak density) once the leaves are numbered.
+  std::vector<std::pair<std::int64_t, double>> stuck_;
+  // (count, samples) of the stuck bins whose peak the refinement has not resolved either.
+  std::pair<std::size_t, double> unresolved() const;
 };
 
 // Genz-Malik's degree-7 rule with its embedded degree-5 rule on a rectangle of the square, 17 nodes:
@@ -177,8 +197,10 @@ struct ChiSquare {
 
 // Pearson chi-square of counts per bin against total * integral per bin, bins merged as chi2_test
 // merges (merge_starts), and the lost bin: expected total * (1 - sum integral), tested by an exact
-// two-sided Poisson test against the range of losses the cubature error allows; the two p-values are
-// combined by a weighted Bonferroni rule (95 % chi-square, 5 % lost samples).
+// two-sided Poisson test against the range of losses the cubature error allows (a mass above 1 beyond
+// its error fails as a "too few lost" side: P = exp(total (1 - M + e))); the two p-values are combined
+// by a weighted Bonferroni rule (95 % chi-square, 5 % lost samples) in `pvalue` (the Python harness
+// recombines them with its rows' chi-square, docs/math/sampling.md#lost-sample-bin).
 ChiSquare chi_square(const std::vector<double>& observed, const std::vector<double>& integral,
                      const std::vector<double>& error, double lost, double total, double min_expected);
 

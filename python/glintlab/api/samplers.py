@@ -60,14 +60,27 @@ def _unit(name, value) -> np.ndarray:
 
 
 class Sampler:
-    """Common surface: ``name``, ``domain``, ``params``, ``sample(size, seed)``, ``pdf(points)``."""
+    """Common surface: ``name``, ``domain``, ``params``, ``sample(size, seed)``, ``pdf(points)``, and
+    ``wrong_variants``: the deliberately wrong variants ``wrong_sampler(s, kind)`` builds of this sampler,
+    declared by its class (the tests, ``glintlab sampler --wrong`` and the report run exactly these).
+    Losing samples (``"drop_0.1%"``) wraps any sampler; a class adds the variants its parameters allow
+    (``"alpha+2%"`` needs ``with_params(alpha=...)``, ``"no_jacobian"`` a microfacet pdf with its (h . n))."""
 
     name = ""
     domain = "hemisphere"
     summary = ""
+    wrong_variants: tuple = ("drop_0.1%",)
 
     def __init__(self):
         self.params: dict = {}
+
+    def with_params(self, **changes) -> "Sampler":
+        """The same sampler with some parameters changed (``alpha+2%`` draws from one). By default the
+        class is called with ``params`` updated, which holds where ``params`` are its constructor's."""
+        try:
+            return type(self)(**{**self.params, **changes})
+        except TypeError as exc:  # a class whose params are not its constructor's arguments
+            raise ValueError(f"sampler {self.name!r} cannot be rebuilt with {changes}: {exc}") from None
 
     def sample(self, size, seed=0):
         raise NotImplementedError
@@ -95,6 +108,7 @@ def _cos(h):
 
 class _Microfacet(Sampler):
     ndf_name = ""
+    wrong_variants = ("alpha+2%", "no_jacobian", "drop_0.1%")
 
     def __init__(self, alpha: float = 0.3):
         super().__init__()
@@ -390,12 +404,19 @@ def samplers() -> dict:
 class WrongSampler(Sampler):
     """A deliberately wrong variant of a sampler (``wrong_sampler``)."""
 
+    wrong_variants = ()
+
     def __init__(self, base: Sampler, kind: str, sample_from: Sampler | None = None):
         super().__init__()
         self.base, self.kind, self.sample_from = base, kind, sample_from
         self.domain = base.domain
         self.name = f"{base.name}~{kind}"
         self.params = dict(base.params)
+
+    @property
+    def loop_caveat(self):
+        """The base sampler's (a shader sampler's loops on lavapipe), or None."""
+        return getattr(self.base, "loop_caveat", None)
 
     def sample(self, size, seed=0):
         src = self.sample_from or self.base
@@ -419,20 +440,23 @@ class WrongSampler(Sampler):
         return p
 
 
+#: Every kind of wrong variant ``wrong_sampler`` knows how to build; each sampler declares which apply to it
+#: (``Sampler.wrong_variants``).
 WRONG_KINDS = ("alpha+2%", "no_jacobian", "drop_0.1%")
 
 
 def wrong_sampler(base: Sampler, kind: str) -> WrongSampler:
-    """The wrong variants of a microfacet sampler the harness must reject: ``"alpha+2%"`` (samples drawn
-    with alpha 2 % larger, pdf at the true alpha), ``"no_jacobian"`` (pdf without the (h . n) factor)
-    and ``"drop_0.1%"`` (one sample in a thousand lost)."""
-    if kind not in WRONG_KINDS:
-        V.fail("kind", kind, "one of " + ", ".join(WRONG_KINDS))
+    """A deliberately wrong variant the harness must reject, one of ``base.wrong_variants``: ``"alpha+2%"``
+    (samples drawn with alpha 2 % larger, pdf at the true alpha), ``"no_jacobian"`` (pdf without the
+    (h . n) factor) and ``"drop_0.1%"`` (one sample in a thousand lost)."""
+    declared = tuple(getattr(base, "wrong_variants", ()))
+    if not isinstance(kind, str) or kind not in declared:
+        label = getattr(base, "name", "") or type(base).__name__
+        V.fail("kind", kind, f"one of the wrong variants {label} declares: " + (", ".join(declared) or "none"))
     if kind == "alpha+2%":
         if "alpha" not in base.params:
             V.fail("base", base, "a sampler with an alpha parameter")
-        params = dict(base.params, alpha=base.params["alpha"] * 1.02)
-        return WrongSampler(base, kind, sample_from=type(base)(**params))
+        return WrongSampler(base, kind, sample_from=base.with_params(alpha=base.params["alpha"] * 1.02))
     if kind == "no_jacobian" and base.domain != "hemisphere":
         V.fail("base", base, "a hemisphere sampler")
     return WrongSampler(base, kind)

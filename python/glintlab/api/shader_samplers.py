@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -34,8 +35,9 @@ from .. import _core
 from ..resources import data_path
 from . import checks as V
 from .samplers import SAMPLER_LOADERS, Sampler, _points, _size, _unit
-from .shaders import (_EXTENSIONS, DEFAULT_TIMEOUT_S, LANGUAGES, LAVAPIPE_LOOP_CAP, ShaderCompileError,
-                      ShaderOutputError, _define_value, _device_request, _read_source, _utf8, compile_error)
+from .shaders import (_ERROR_LINE, _EXTENSIONS, _WRAPPER_FILE, DEFAULT_TIMEOUT_S, LANGUAGES, LAVAPIPE_LOOP_CAP,
+                      ShaderCompileError, ShaderOutputError, _define_value, _device_request, _read_source, _utf8,
+                      compile_error)
 
 SAMPLE_ENTRY, PDF_ENTRY = "sample_h", "pdf_h"
 #: The shipped example: GGX visible normals, ``ggx_vndf.hlsl`` / ``ggx_vndf.glsl`` (one body).
@@ -49,9 +51,110 @@ DEFAULT_J = (1e-3, 0.0, 0.0, 1e-3)
 
 def _compile_error(exc: ValueError, source_name: str, language: str) -> ShaderCompileError:
     """The runner's compile failure as one line: ``shaders.compile_error``, the one wording of shader laws,
-    method shaders and shader samplers, with the two functions of the sampler's contract."""
+    method shaders and shader samplers, with the two functions of the sampler's contract; except where
+    every error is in glintlab's wrapper at its call of one of the two functions without naming it (a
+    result or argument the call cannot convert): that function is named with its expected signature,
+    not the wrapper blamed."""
+    text = str(exc)
+    errors = [m for m in (_ERROR_LINE.match(ln.strip()) for ln in text.partition("\n")[2].splitlines()) if m]
+    in_wrapper = errors and all(m.group("loc").startswith(_WRAPPER_FILE) for m in errors)
+    named = any(f"'{e}'" in m.group("msg") for m in errors for e in (SAMPLE_ENTRY, PDF_ENTRY))
+    called = _called_function(errors, language) if in_wrapper and not named else None
+    if called:
+        return ShaderCompileError(_signature_message(called, source_name, language, errors[0].group("msg")), text)
     sig = _core.sampler_signature(language, SAMPLE_ENTRY, PDF_ENTRY).split(" and ")
     return compile_error(exc, source_name, language, "shader sampler", {SAMPLE_ENTRY: sig[0], PDF_ENTRY: sig[1]})
+
+
+def _expected_signature(function: str, language: str) -> str:
+    both = _core.sampler_signature(language, SAMPLE_ENTRY, PDF_ENTRY).split(" and ")
+    return both[0] if function == SAMPLE_ENTRY else both[1]
+
+
+def _called_function(errors, language: str) -> str | None:
+    """The contract's function whose call in glintlab's wrapper the first wrapper error is on, if any (the
+    wrapper calls sample_h on one line and pdf_h on another)."""
+    wrapper = _core.sampler_wrapper_source(language, SAMPLE_ENTRY, PDF_ENTRY, "x").splitlines()
+    for m in errors:
+        loc = m.group("loc")
+        if not loc.startswith(_WRAPPER_FILE):
+            continue
+        line = int(loc.rsplit(":", 1)[1])
+        text = wrapper[line - 1] if 0 < line <= len(wrapper) else ""
+        for function in (SAMPLE_ENTRY, PDF_ENTRY):
+            if f" {function}(" in text:
+                return function
+    return None
+
+
+def _signature_message(function: str, source_name: str, language: str, compiler: str) -> str:
+    return (f"shader {source_name}: {function} does not have the contract's signature: expected "
+            f"{_expected_signature(function, language)} ({language}); the compiler, at glintlab's call of "
+            f"{function}: {compiler}")
+
+
+# Declarations of the contract's functions in the user's code, and the type names a check can judge
+# (a macro or typedef standing for a type is left to the compiler).
+_DECLARATION = re.compile(r"(?P<ret>\b[A-Za-z_]\w*)\s+(?P<name>sample_h|pdf_h)\s*\((?P<params>[^()]*)\)\s*(?=[{;])")
+_KNOWN_TYPES = re.compile(r"^(?:float|half|double|int|uint|bool|min16float|min16int|min16uint)[1-4]?$|"
+                          r"^(?:[iudb]?vec[2-4])$")
+_QUALIFIERS = {"in", "const", "uniform", "precise", "highp", "mediump", "lowp", "inout", "out"}
+
+
+def _strip_comments(code: str) -> str:
+    return re.sub(r"//[^\n]*|/\*.*?\*/", lambda m: re.sub(r"[^\n]", " ", m.group()), code, flags=re.S)
+
+
+def _check_declarations(code: str, source_name: str, language: str) -> None:
+    """Refuses, before compiling, a declaration of sample_h or pdf_h whose types are all plain type names
+    and none of which is the contract's: HLSL converts a float4 argument to a float2 parameter, or a
+    float2 result to float, without an error, and the sampler would run on what is left."""
+    text = _strip_comments(code)
+    for function in (SAMPLE_ENTRY, PDF_ENTRY):
+        expected = _types(_DECLARATION.search(_expected_signature(function, language) + ";"))
+        found = [m for m in _DECLARATION.finditer(text) if m.group("name") == function]
+        judged = [(m, _types(m)) for m in found]
+        judged = [(m, t) for m, t in judged if t is not None]
+        if not judged or len(judged) < len(found) or any(t == expected for _, t in judged):
+            continue
+        m = judged[0][0]
+        line = text.count("\n", 0, m.start()) + 1
+        declared = " ".join(m.group().split())
+        raise ShaderCompileError(f"shader {source_name}:{line}: {declared} is not the contract's {function}: expected "
+                                 f"{_expected_signature(function, language)} ({language})", declared)
+
+
+def _types(m) -> tuple | None:
+    """(return type, parameter types) of a declaration, each in GLSL's spelling (glintlab's prelude lets
+    GLSL code write float4 for vec4), or None when a type is not a plain type name."""
+    types = [m.group("ret")]
+    params = m.group("params").strip()
+    for param in (params.split(",") if params and params != "void" else []):
+        words = [w for w in param.split() if w not in _QUALIFIERS]
+        if len(words) != 2:
+            return None
+        types.append(words[0])
+    if not all(_KNOWN_TYPES.match(t) for t in types):
+        return None
+    return tuple(_GLSL_VECTORS.sub(lambda v: _VECTOR_PREFIX[v.group(1)] + "vec" + v.group(2), t) for t in types)
+
+
+_GLSL_VECTORS = re.compile(r"^(float|int|uint|bool|double)([2-4])$")
+_VECTOR_PREFIX = {"float": "", "int": "i", "uint": "u", "bool": "b", "double": "d"}
+
+
+def _check_defines(code: str, included: list, defines: list, source_name: str) -> None:
+    """Refuses a define whose name the code and the files it includes never mention: it changes nothing,
+    and a run at the code's own default would pass as if it had been tested at the value given."""
+    words = set(re.findall(r"[A-Za-z_]\w*", _strip_comments(code)))
+    for _, content in included:
+        words |= set(re.findall(r"[A-Za-z_]\w*", _strip_comments(bytes(content).decode("utf-8", "replace"))))
+    for key, _ in defines:
+        if key not in words:
+            like = sorted(w for w in words if w.lower() == key.lower())
+            hint = f" (the code reads {', '.join(like)})" if like else ""
+            V.fail("defines", key, f"a name the code ({source_name} and the files it includes) mentions; a define "
+                                   f"it never mentions changes nothing{hint}")
 
 
 class ShaderSampler(Sampler):
@@ -61,6 +164,9 @@ class ShaderSampler(Sampler):
     infinite or negative raises ``ShaderOutputError``. Pickles carry the code and its included files."""
 
     summary = "a sampler written as a shader (sample_h, pdf_h)"
+    # Its parameters are defines fixed at compile time, so the variants that redraw with another alpha are
+    # not built; losing samples is a Python-side wrapper of any sampler.
+    wrong_variants = ("drop_0.1%",)
 
     def __init__(self, spec: dict):
         super().__init__()
@@ -157,7 +263,12 @@ class ShaderSampler(Sampler):
 
     def pdf(self, points):
         """pdf_h at each direction (size, 3), evaluated on float32(points), returned as float64."""
-        h = np.ascontiguousarray(_points(points, 3), dtype=np.float32)
+        points = _points(points, 3)
+        finite = np.isfinite(points).all(axis=1)
+        if not finite.all():  # the caller's input, not the shader's fault
+            i = int(np.argmin(finite))
+            V.fail("points", f"row {i} = {tuple(float(x) for x in points[i])}", "finite directions")
+        h = np.ascontiguousarray(points, dtype=np.float32)
         out = self.run(self._rows(_MODE_PDF, h.view(np.uint32)))[:, 0].astype(np.float64)
         bad = ~np.isfinite(out) | (out < 0)
         if bad.any():
@@ -211,12 +322,18 @@ def shader_sampler(source, language: str | None = None, name: str | None = None,
     if isinstance(include_dirs, (str, os.PathLike)):
         include_dirs = [include_dirs]
     include_dirs = [_utf8("include_dirs", os.fspath(d)) for d in include_dirs]
+    for d in include_dirs:
+        if not os.path.isdir(d):
+            V.fail("include_dirs", d, "existing folders")
     V.positive("timeout", timeout, "a number of seconds > 0")
+    _check_declarations(code, source_name, language)
     spec = {"code": code, "source_name": source_name, "language": language, "name": name, "defines": define_list,
             "wo": tuple(float(x) for x in _unit("wo", wo)), "uv": _vector("uv", uv, 2), "J": _vector("J", J, 4),
             "domain": domain, "include_dirs": include_dirs + [str(data_path("shaders"))],
             "device": _device_request(device), "timeout": float(timeout)}
-    return ShaderSampler(spec)
+    sampler = ShaderSampler(spec)
+    _check_defines(code, sampler._spec["includes"], define_list, source_name)
+    return sampler
 
 
 def shipped_sampler(name: str = "ggx_vndf", language: str = "hlsl") -> Path:
