@@ -100,12 +100,22 @@ std::size_t bracket_rows(const LevelLadder& ladder, bool with_lod, bool one_area
     const double area = a[one_area ? 0 : r], pi = p[i0 + r];
     return !(area > 0.0) | !(area <= std::numeric_limits<double>::max()) | !(pi >= 0.0) | !(pi <= 1.0);
   };
+  // The first refused row, of the checks above or of the ladder's (a level index beyond 16 bits, which
+  // bracket() throws on): rows before the first row the checks refuse may still be refused by the ladder.
+  auto first_beyond_ladder = [&](std::size_t end) {
+    for (std::size_t r = 0; r < end; ++r) {
+      try {
+        ladder.bracket(a[one_area ? 0 : r]);
+      } catch (const std::invalid_argument&) { return r; }
+    }
+    return end;
+  };
   bool any_refused = false;
   for (std::size_t r = 0; r < m; ++r) any_refused |= refused(r);
   if (any_refused) [[unlikely]] {
     std::size_t r = 0;
     while (!refused(r)) ++r;
-    return r;
+    return first_beyond_ladder(r);
   }
   try {
     if (one_area)
@@ -114,14 +124,7 @@ std::size_t bracket_rows(const LevelLadder& ladder, bool with_lod, bool one_area
       ladder.brackets(a, m, out);
     else
       ladder.brackets_without_lod(a, m, out);
-  } catch (const std::invalid_argument&) {
-    // A level index beyond 16 bits: which row (bracket() throws on the same rows).
-    for (std::size_t r = 0; r < m; ++r) {
-      try {
-        ladder.bracket(a[one_area ? 0 : r]);
-      } catch (const std::invalid_argument&) { return r; }
-    }
-  }
+  } catch (const std::invalid_argument&) { return first_beyond_ladder(m); }
   return m;
 }
 
