@@ -229,7 +229,8 @@ std::unique_ptr<BlendRule> make_blend(const std::string& name, const LawParams& 
 }
 
 BlendedLaw::BlendedLaw(std::unique_ptr<BlendRule> rule, InnerLaw inner, LevelLadder ladder)
-    : rule_(std::move(rule)), inner_(std::move(inner)), ladder_(ladder) {
+    : rule_(std::move(rule)), inner_(std::move(inner)), ladder_(ladder),
+      evaluators_(std::make_shared<detail::blend_stages::LevelEvaluators>()) {
   if (!inner_.evaluate) throw std::logic_error("BlendedLaw: inner law without evaluate");
   if (inner_.n_uniforms < 0 || inner_.n_uniforms > 64)
     throw_invalid("blended_law", "inner.n_uniforms", inner_.n_uniforms, "0 to 64 uniforms");
@@ -291,10 +292,10 @@ void BlendedLaw::run(double density, ParamArray area, ParamArray p, std::size_t 
   check_n(where, density, "N");
   check_length(where, "P", area.size, count);
   check_length(where, "p", p.size, count);
-  stages::LevelEvaluators evaluators;
+  stages::LevelEvaluators& evaluators = *evaluators_;
   // One footprint area and one p for the whole call (a flat patch, a study at one P): stages 1 and 2 once,
   // after the sample's own checks and before anything is drawn, and each drawn level's evaluator prepared
-  // for the call's rows (a table built once where the law has one).
+  // for the call's rows (a table where the law has one, kept for later calls at the same footprint).
   const bool one_footprint = area.size == 1 && p.size == 1;
   LevelBracket bracket{};
   double trials[2] = {0, 0};

@@ -78,15 +78,25 @@ std::shared_ptr<const FixedEvaluator> LevelEvaluators::get(const InnerLaw& inner
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& e : entries_)
-      if (e.n == n && e.p == p) return e.evaluator;
+      if (e.n == n && e.p == p && e.rows >= rows) return e.evaluator;
   }
   std::shared_ptr<const FixedEvaluator> made = inner.fixed_evaluator(n, p, rows);
   const std::lock_guard<std::mutex> lock(mutex_);
+  for (auto& e : entries_)
+    if (e.n == n && e.p == p) {  // built for fewer rows (perhaps without a table): replaced
+      if (e.rows < rows) e = {n, p, rows, made};
+      return made;
+    }
   if (entries_.size() < kEntries)
-    entries_.push_back({n, p, made});
+    entries_.push_back({n, p, rows, made});
   else
-    entries_[next_++ % kEntries] = {n, p, made};
+    entries_[next_++ % kEntries] = {n, p, rows, made};
   return made;
+}
+
+std::size_t LevelEvaluators::size() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return entries_.size();
 }
 
 // ---------------------------------------------------------------------------------------------

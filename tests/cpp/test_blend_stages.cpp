@@ -343,3 +343,35 @@ TEST_CASE("a call names its lowest bad sample, a level index beyond 16 bits befo
   CHECK_THROWS_WITH(blend.sample(10, {P.data(), P.size()}, {&p, 1}, P.size(), 1, out.data()),
                     Catch::Contains("32767 levels"));
 }
+
+TEST_CASE("stage 3's evaluators are kept across calls without changing a bit", "[blend][stages]") {
+  // LevelEvaluators: an (n, p) kept for as many rows or more is reused; one built for fewer rows (perhaps without a
+  // step table) is replaced.
+  const auto law = law_named("gated");
+  const InnerLaw inner = InnerLaw::from_law(law);
+  stages::LevelEvaluators kept;
+  const auto big = kept.get(inner, 2.56e6, 0.01, 1000000);
+  CHECK(kept.get(inner, 2.56e6, 0.01, 1000) == big);
+  CHECK(kept.get(inner, 2.56e6, 0.01, 1000000) == big);
+  const auto small = kept.get(inner, 4e4, 0.01, 100);
+  const auto larger = kept.get(inner, 4e4, 0.01, 100000);
+  CHECK(larger != small);
+  CHECK(kept.get(inner, 4e4, 0.01, 5000) == larger);
+  CHECK(kept.get(inner, 4e4, 0.02, 5000) != larger);
+  CHECK(kept.size() == 3);
+  // A blend called again (at hundreds of base cells: two 2^18-cell tables), with fewer and with more rows, draws what
+  // a fresh blend draws.
+  for (const std::string name : {"roulette", "zk16_linear", "distributed"}) {
+    const BlendedLaw reused(make_blend(name), inner, LevelLadder(4, 1));
+    const double p = 0.01;
+    for (const double P : {409.0, 8.0, 409.0})
+      for (const std::size_t count : {std::size_t{200000}, std::size_t{3000}, std::size_t{100}, std::size_t{300000}}) {
+        const BlendedLaw fresh(make_blend(name), inner, LevelLadder(4, 1));
+        std::vector<double> a(count), b(count);
+        reused.sample(1e4, {&P, 1}, {&p, 1}, count, 5, a.data());
+        fresh.sample(1e4, {&P, 1}, {&p, 1}, count, 5, b.data());
+        INFO(name << " P " << P << " count " << count);
+        CHECK(std::memcmp(a.data(), b.data(), count * sizeof(double)) == 0);
+      }
+  }
+}

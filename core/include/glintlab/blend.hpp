@@ -40,6 +40,7 @@ namespace detail {
 class FixedEvaluator;     // detail/law_kernel.hpp
 namespace blend_stages {  // detail/blend_stages.hpp
 class RowStreams;
+class LevelEvaluators;
 struct ChunkRows;
 struct ChunkScratch;
 }  // namespace blend_stages
@@ -282,6 +283,8 @@ class BlendedLaw {
   std::unique_ptr<BlendRule> rule_;
   InnerLaw inner_;
   LevelLadder ladder_;
+  // The inner law's step tables of the levels drawn whole, kept across calls (detail::blend_stages::LevelEvaluators).
+  std::shared_ptr<detail::blend_stages::LevelEvaluators> evaluators_;
 };
 
 // Parameters shared by the blend rules' implementations.

@@ -136,21 +136,27 @@ class ScratchLease {
   std::unique_ptr<ChunkScratch> held_;
 };
 
-// The inner law's fixed evaluators (detail::FixedEvaluator: a step table where the law has one) of the (n, p)
-// pairs whole levels share, kept for the chunks that follow: a run of equal P usually spans several chunks. Shared
-// by the threads of one call; a few entries, the oldest replaced. Every evaluator gives evaluate()'s bits.
+// The inner law's fixed evaluators (detail::FixedEvaluator: a step table where the law has one) of the (n, p) pairs
+// whole levels share, kept by the BlendedLaw across chunks and calls: a run of equal P spans several chunks, and a
+// renderer or a study calls again at the same footprint, where rebuilding a level's step table cost as much as
+// drawing it (at 409 base cells, N = 1e4, p = 0.01: two tables of 2^18 cells, ~2 ms a call). Shared by threads
+// and calls (a mutex); a few entries, the oldest replaced. Every evaluator gives evaluate()'s bits, so what the
+// cache holds never changes an output.
 class LevelEvaluators {
  public:
-  // The evaluator of (n, p) prepared for about `rows` rows (built on first use).
+  // The evaluator of (n, p) prepared for at least `rows` rows: a kept one built for as many rows or more (a
+  // table serves fewer rows as well), else a new one.
   std::shared_ptr<const FixedEvaluator> get(const InnerLaw& inner, double n, double p, std::size_t rows);
+  std::size_t size() const;
 
  private:
   static constexpr std::size_t kEntries = 8;
   struct Entry {
     double n, p;
+    std::size_t rows;
     std::shared_ptr<const FixedEvaluator> evaluator;
   };
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::vector<Entry> entries_;
   std::size_t next_ = 0;
 };
