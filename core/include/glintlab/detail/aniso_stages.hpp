@@ -1,4 +1,4 @@
-// The stages of AnisoCounter::count_pixels and sample (core/src/aniso.cpp; docs/math/grids.md#counter-stages):
+// The stages of AnisoCounter::count_pixels and sample (core/src/aniso.cpp; docs/math/grids.md#grid-realizations):
 // internal to the library and its tests. A call cuts its pixels into chunks; each pixel goes through
 //
 //   1. footprint terms  footprint_terms  the scheme's terms of the pixel's footprint (or the call's shared ones)
