@@ -42,12 +42,10 @@ NOT_MEASURED: dict[str, str] = {}
 # BEGIN EXCEPTIONS
 EXCEPTIONS: dict[str, int] = {
     'bench/bench_binomial.py::main': 147,
-    'bench/bench_paths.py::main': 220,
+    'bench/bench_paths.py::main': 184,
     'bindings/glinty_ndf.cpp::bind_glinty_ndf': 256,
     'bindings/sampler_test.cpp::bind_sampler_test': 141,
     'bindings/wwh18.cpp::bind_wwh18': 133,
-    'core/src/aniso.cpp::AnisoCounter::run': 168,
-    'core/src/blend.cpp::BlendedLaw::run': 466,
     'core/src/glinty_ndf.cpp': 1333,
     'python/glintlab/studies/wwh18.py::compute': 138,
     'python/glintlab/validation/sampler_test.py::sampler_test': 183,
