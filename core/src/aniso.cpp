@@ -7,6 +7,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "glintlab/detail/aniso_stages.hpp"
 #include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/rng.hpp"
@@ -14,6 +15,8 @@
 #include "splitmix.hpp"
 
 namespace glintlab::aniso {
+
+namespace stages = glintlab::detail::aniso_stages;
 
 const char* status_name(ShapeStatus status) {
   switch (status) {
@@ -236,31 +239,34 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void cell_un
   }
 }
 constexpr std::size_t kChunk = 256;
-// The requests a chunk gathers for the inner law: per thread, kept between chunks and calls, so a
-// chunk neither zero-fills nor page-faults fresh buffers. Only grows (a chunk's rows are filled in
-// order, so growing keeps what was gathered).
-struct Gathered {
-  std::vector<double> n, p, u, coef, k;
-  std::vector<std::size_t> owner;
-  std::vector<std::uint64_t> cell;  // CellUniforms::cell_input of each row
-  std::vector<std::uint32_t> term;  // the row's term index in its pixel (used with fixed evaluators)
-  bool in_use = false;
-  void ensure_rows(std::size_t rows, std::size_t nu) {
-    if (n.size() < rows) {
-      rows = std::max(rows, 2 * n.size());
-      n.resize(rows), p.resize(rows), coef.resize(rows), k.resize(rows), owner.resize(rows), cell.resize(rows);
-      term.resize(rows);
-    }
-    if (u.size() < n.size() * nu) u.resize(n.size() * nu);
-  }
-};
 // Beyond this many rows a thread gives its buffers back after the chunk (a wide scheme's one-off).
 constexpr std::size_t kKeptRows = std::size_t{1} << 16;
-Gathered& thread_gathered() {
-  thread_local Gathered gathered;
-  return gathered;
-}
-constexpr std::size_t kMaxRows = 16;  // 4 spatial x 4 angular
+// The rows a chunk gathers: per thread, kept between chunks and calls, so a chunk neither zero-fills
+// nor page-faults fresh buffers. A call made from inside the inner law (a Python law counting an
+// image) finds the thread's buffers in use and gets its own.
+class CellRowsLease {
+ public:
+  CellRowsLease() {
+    thread_local stages::CellRows rows;
+    held_ = &rows;
+    if (held_->in_use) {
+      own_ = std::make_unique<stages::CellRows>();
+      held_ = own_.get();
+    }
+    held_->in_use = true;
+  }
+  ~CellRowsLease() {
+    held_->in_use = false;
+    if (held_->n.size() > kKeptRows) *held_ = stages::CellRows{};
+  }
+  CellRowsLease(const CellRowsLease&) = delete;
+  CellRowsLease& operator=(const CellRowsLease&) = delete;
+  stages::CellRows& operator*() { return *held_; }
+
+ private:
+  stages::CellRows* held_;
+  std::unique_ptr<stages::CellRows> own_;
+};
 }  // namespace
 
 AnisoCounter::AnisoCounter(std::shared_ptr<const GridScheme> scheme, InnerLaw inner, CounterOptions options)
@@ -294,14 +300,101 @@ std::vector<Term> AnisoCounter::terms(double density, const Shape& shape, bool* 
   return out;
 }
 
+// ---------------------------------------------------------------------------------------------
+// The counter's stages (glintlab/detail/aniso_stages.hpp)
+
+}  // namespace glintlab::aniso
+
+namespace glintlab::detail::aniso_stages {
+
+using aniso::CellUniforms;
+
+void CellRows::grow(std::size_t rows, std::size_t nu) {
+  rows = std::max(rows, 2 * n.size());
+  n.resize(rows), p.resize(rows), coef.resize(rows), k.resize(rows), owner.resize(rows), cell.resize(rows);
+  term.resize(rows);
+  if (u.size() < n.size() * nu) u.resize(n.size() * nu);
+}
+
+std::uint64_t image_select_seed(std::uint64_t seed) { return aniso::hash_combine(seed, 0x5E1EC7ULL); }
+
+void cell_uniforms(std::uint64_t cell, std::size_t nu, double* u) { aniso::cell_uniform_rows(&cell, 1, nu, u); }
+
+TermCells::TermCells(const CounterOptions& options, std::size_t max_terms)
+    : spatial_(options.spatial),
+      angular_lattice_(options.angular == aniso::Angular::kNone ? Spatial::kNone : Spatial::kSquare),
+      select_(options.realization == aniso::Realization::kSelect), grids_(max_terms) {}
+
+__attribute__((always_inline)) inline std::size_t TermCells::gather_inline(const Pixel& px, std::size_t i,
+                                                                           std::size_t ti, const Term& t, CellRows& g,
+                                                                           std::size_t at) {
+  const double x = px.u + t.dx, y = px.v + t.dy;
+  // The term angle's cosine and sine, memoized (direct mapped on the angle's bits): the schemes use a few grid
+  // orientations, so nearly every term reuses a value std::cos / std::sin already gave for the same argument.
+  std::uint64_t angle_bits;
+  std::memcpy(&angle_bits, &t.angle, sizeof angle_bits);
+  TrigMemo& memo = trig_[(angle_bits ^ (angle_bits >> 29) ^ (angle_bits >> 47)) & (trig_.size() - 1)];
+  if (memo.bits != angle_bits) memo = {angle_bits, std::cos(t.angle), std::sin(t.angle)};
+  const double c = memo.c, s = memo.s;
+  // Grid coordinates: across the long side (X) and along it (Y), in cells.
+  const double X = (-x * s + y * c) / t.cell_minor, Y = (x * c + y * s) / t.cell_major;
+  aniso::weights::Vertex2 sv[4], av[4];
+  int ns = aniso::weights::spatial_vertices_inline(spatial_, X, Y, sv);
+  int na = aniso::weights::spatial_vertices_inline(angular_lattice_, px.su, px.sv, av);
+  if (select_ && (ns > 1 || na > 1)) {
+    // One vertex with probability v_j (inversion of the running sum), for each lattice. (A single vertex is its
+    // own pick: its uniforms would go unread, so they are not drawn.)
+    const CellUniforms pick_u(px.select_seed, static_cast<std::int64_t>(i), static_cast<std::int64_t>(ti));
+    auto pick = [](aniso::weights::Vertex2* v, int count, double r) {
+      double acc = 0;
+      int q = 0;
+      for (; q < count - 1; ++q) {
+        acc += v[q].w;
+        if (r < acc) break;
+      }
+      v[0] = {v[q].i, v[q].j, 1.0};
+    };
+    pick(sv, ns, pick_u(0));
+    pick(av, na, pick_u(1));
+    ns = na = 1;
+  }
+  // The grid's key under the pixel's grid seed, memoized per term slot, then each angular texel's.
+  if (ti >= grids_.size()) grids_.resize(ti + 1);
+  GridMemo& gm = grids_[ti];
+  if (!gm.set || gm.seed != px.grid_seed || gm.grid.scale != t.grid.scale || gm.grid.ratio != t.grid.ratio ||
+      gm.grid.orientation != t.grid.orientation) {
+    const std::uint64_t key = aniso::grid_key(px.grid_seed, t.grid);
+    gm = {t.grid, px.grid_seed, key, true, av[0].i, av[0].j, aniso::texel_key(key, av[0].i, av[0].j)};
+  }
+  std::size_t rows = 0;
+  for (int b = 0; b < na; ++b) {
+    if (av[b].i != gm.texel_i || av[b].j != gm.texel_j)
+      gm.texel_i = av[b].i, gm.texel_j = av[b].j, gm.texel = aniso::texel_key(gm.key, av[b].i, av[b].j);
+    for (int a = 0; a < ns; ++a, ++rows) {
+      g.cell[at + rows] = CellUniforms::cell_input(gm.texel, sv[a].i, sv[a].j);
+      g.coef[at + rows] = t.scale * sv[a].w * av[b].w;
+    }
+  }
+  for (std::size_t q = at; q < at + rows; ++q) {
+    g.n[q] = t.trials;
+    g.p[q] = px.p;
+    g.owner[q] = i;
+    g.term[q] = static_cast<std::uint32_t>(ti);
+  }
+  return rows;
+}
+
+std::size_t TermCells::gather(const Pixel& px, std::size_t i, std::size_t ti, const Term& t, CellRows& rows,
+                              std::size_t at) {
+  return gather_inline(px, i, ti, t, rows, at);
+}
+
 namespace {
-// The rows of one chunk grouped by term (a stable counting sort on the term index): each term's
-// rows go to its fixed evaluator at once (a table lookup per row where the law tabulates, where the
-// per-pixel path would rebuild the law's constants for every row), the rest to the per-pixel path.
-// A fixed evaluator gives evaluate()'s bits (LawKernel's contract), so the counts are the same bits
-// either way.
-void evaluate_by_term(const InnerLaw& inner, const std::vector<std::shared_ptr<const detail::FixedEvaluator>>& fixed,
-                      Gathered& g, std::size_t rows, std::size_t nu) {
+// The rows grouped by term (a stable counting sort on the term index): each term's rows go to its fixed evaluator
+// at once (a table lookup per row where the law tabulates, where the per-pixel path would rebuild the law's
+// constants for every row), the rest to the per-pixel path.
+void evaluate_by_term(const InnerLaw& inner, const std::vector<std::shared_ptr<const FixedEvaluator>>& fixed,
+                      CellRows& g, std::size_t rows, std::size_t nu) {
   thread_local std::vector<std::size_t> start, order;
   thread_local std::vector<double> u_sorted, k_sorted, n_rest, p_rest;
   const std::size_t nt = fixed.size();
@@ -332,167 +425,80 @@ void evaluate_by_term(const InnerLaw& inner, const std::vector<std::shared_ptr<c
 }
 }  // namespace
 
+void evaluate_cells(const InnerLaw& inner, const std::vector<std::shared_ptr<const FixedEvaluator>>* fixed,
+                    CellRows& rows, std::size_t count) {
+  const auto nu = static_cast<std::size_t>(inner.n_uniforms);
+  aniso::cell_uniform_rows(rows.cell.data(), count, nu, rows.u.data());
+  if (fixed)
+    evaluate_by_term(inner, *fixed, rows, count, nu);
+  else
+    inner.evaluate(rows.n.data(), rows.p.data(), rows.u.data(), count, rows.k.data());
+}
+
+void accumulate_cells(const CellRows& rows, std::size_t count, double* k_out, const std::string& where) {
+  const double *k = rows.k.data(), *coef = rows.coef.data();
+  const std::size_t* owner = rows.owner.data();
+  for (std::size_t q = 0; q < count; ++q) {
+    if (!std::isfinite(k[q]))
+      throw_invalid_message(where + ": the inner law returned " + format_value(k[q]) +
+                            " at n = " + format_value(rows.n[q]) + ", p = " + format_value(rows.p[q]));
+    if (coef[q] != 0.0) k_out[owner[q]] += coef[q] * k[q];
+  }
+}
+
+}  // namespace glintlab::detail::aniso_stages
+
+namespace glintlab::aniso {
+
 template <class Source>
 void AnisoCounter::run(double density, std::size_t m, Source source, double* k_out, std::int32_t* evals_out,
                        std::uint8_t* status_out, SharedFootprint shared) const {
-  const auto* fixed = shared.fixed;
   const std::string where = "aniso_counter('" + scheme_->name() + "', inner='" + inner_.name + "')";
   const std::size_t nu = static_cast<std::size_t>(inner_.n_uniforms);
-  const bool select = options_.realization == Realization::kSelect;
-  const Spatial angular_lattice = options_.angular == Angular::kNone ? Spatial::kNone : Spatial::kSquare;
-  auto refuse = [&](double trials, double p) {
-    throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(trials) +
-                          " at p = " + format_value(p));
-  };
-  // Rows a chunk can gather at most: every buffer is sized once per chunk, so the gather never
-  // reallocates (no regrowth copies) and writes by index.
+  // Rows a chunk can gather at most: every buffer is sized once per chunk, so the gather never reallocates (no
+  // regrowth copies) and writes by index.
   const std::size_t rows_per_term = static_cast<std::size_t>(evaluations_per_term());
   const std::size_t max_terms = scheme_->max_terms();
   auto chunk_body = [&](std::size_t i0, std::size_t i1) {
+    CellRowsLease lease;
+    stages::CellRows& rows = *lease;
+    rows.ensure_rows((i1 - i0) * std::min<std::size_t>(max_terms, 8) * rows_per_term, nu);
+    stages::TermCells cells(options_, max_terms);
     std::vector<Term> terms;
     terms.reserve(max_terms);
-    // Gathered requests (laws that are not thread safe or not built in: one call per chunk). A call
-    // made from inside the inner law (a Python law counting an image) finds the thread's buffers in
-    // use and gets its own.
-    std::unique_ptr<Gathered> own;
-    Gathered* g = &thread_gathered();
-    if (g->in_use) {
-      own = std::make_unique<Gathered>();
-      g = own.get();
-    }
-    struct Release {
-      Gathered* g;
-      ~Release() {
-        g->in_use = false;
-        if (g->n.size() > kKeptRows) *g = Gathered{};
-      }
-    } release{g};
-    g->in_use = true;
-    g->ensure_rows((i1 - i0) * std::min<std::size_t>(max_terms, 8) * rows_per_term, nu);
     std::size_t gathered = 0;
-    double wrow[kMaxRows];
-    // Memo of the last term angle's cosine and sine (direct mapped on the angle's bits): the schemes
-    // use a few grid orientations, so nearly every term reuses a value std::cos / std::sin already
-    // gave for the same argument (the same bits, at a fraction of a libm call).
-    struct TrigMemo {
-      std::uint64_t bits = 0;   // the angle +0.0
-      double c = 1.0, s = 0.0;  // std::cos(+0.0), std::sin(+0.0) exactly
-    };
-    std::array<TrigMemo, 64> trig;
-    // Memo of each term slot's grid key: neighbouring pixels mostly read the same grids.
-    struct GridMemo {
-      GridId grid{};
-      std::uint64_t seed = 0, key = 0;
-      bool set = false;
-      std::int64_t texel_i = 0, texel_j = 0;  // the last angular texel read on this grid, and its key
-      std::uint64_t texel = 0;
-    };
-    std::vector<GridMemo> grid_memo(max_terms);
     for (std::size_t i = i0; i < i1; ++i) {
-      Pixel px;
+      stages::Pixel px;
       Shape shape;
       source(i, px, shape);
       k_out[i] = 0.0;
       if (evals_out) evals_out[i] = 0;
-      if (shape.status == ShapeStatus::kDegenerate || shape.status == ShapeStatus::kNonFinite) {
-        if (status_out) status_out[i] = static_cast<std::uint8_t>(shape.status);
+      ShapeStatus status;
+      if (!stages::footprint_terms(*scheme_, density, shape, shared.terms, terms, status)) {
+        if (status_out) status_out[i] = static_cast<std::uint8_t>(status);
         continue;
       }
-      bool clamped = false;
-      if (shared.terms) {
-        // The same footprint for every pixel: its terms once (sample() computed them), not per pixel.
-        if (terms.empty()) terms = *shared.terms;
-      } else {
-        terms.clear();
-        clamped = scheme_->terms(shape, density, terms);
-      }
-      g->ensure_rows(gathered + terms.size() * rows_per_term, nu);
-      double* const n = g->n.data();
-      double* const pp = g->p.data();
-      double* const coef = g->coef.data();
-      std::size_t* const owner = g->owner.data();
-      std::uint32_t* const term_of = g->term.data();
-      if (fixed && terms.size() != fixed->size())
+      if (shared.fixed && terms.size() != shared.fixed->size())
         throw_invalid_message(where + ": internal: the footprint's terms changed between pixels");
-      if (terms.size() > grid_memo.size()) grid_memo.resize(terms.size());
-      if (status_out) status_out[i] = static_cast<std::uint8_t>(clamped ? ShapeStatus::kClamped : shape.status);
+      if (status_out) status_out[i] = static_cast<std::uint8_t>(status);
+      rows.ensure_rows(gathered + terms.size() * rows_per_term, nu);
       std::int32_t evaluations = 0;
       for (std::size_t ti = 0; ti < terms.size(); ++ti) {
         const Term& t = terms[ti];
-        if (inner_.law && t.trials > 0 && !inner_.law->accepts(t.trials, px.p)) refuse(t.trials, px.p);
-        const double x = px.u + t.dx, y = px.v + t.dy;
-        std::uint64_t angle_bits;
-        std::memcpy(&angle_bits, &t.angle, sizeof angle_bits);
-        TrigMemo& memo = trig[(angle_bits ^ (angle_bits >> 29) ^ (angle_bits >> 47)) & (trig.size() - 1)];
-        if (memo.bits != angle_bits) memo = {angle_bits, std::cos(t.angle), std::sin(t.angle)};
-        const double c = memo.c, s = memo.s;
-        // Grid coordinates: across the long side (X) and along it (Y), in cells.
-        const double X = (-x * s + y * c) / t.cell_minor, Y = (x * c + y * s) / t.cell_major;
-        weights::Vertex2 sv[4], av[4];
-        int ns = weights::spatial_vertices_inline(options_.spatial, X, Y, sv);
-        int na = weights::spatial_vertices_inline(angular_lattice, px.su, px.sv, av);
-        if (select && (ns > 1 || na > 1)) {
-          // One vertex with probability v_j (inversion of the running sum), for each lattice. (A
-          // single vertex is its own pick: its uniforms would go unread, so they are not drawn.)
-          const CellUniforms pick_u(px.select_seed, static_cast<std::int64_t>(i), static_cast<std::int64_t>(ti));
-          auto pick = [](weights::Vertex2* v, int count, double r) {
-            double acc = 0;
-            int q = 0;
-            for (; q < count - 1; ++q) {
-              acc += v[q].w;
-              if (r < acc) break;
-            }
-            v[0] = {v[q].i, v[q].j, 1.0};
-          };
-          pick(sv, ns, pick_u(0));
-          pick(av, na, pick_u(1));
-          ns = na = 1;
-        }
-        GridMemo& gm = grid_memo[ti];
-        if (!gm.set || gm.seed != px.grid_seed || gm.grid.scale != t.grid.scale || gm.grid.ratio != t.grid.ratio ||
-            gm.grid.orientation != t.grid.orientation) {
-          const std::uint64_t key = grid_key(px.grid_seed, t.grid);
-          gm = {t.grid, px.grid_seed, key, true, av[0].i, av[0].j, texel_key(key, av[0].i, av[0].j)};
-        }
-        std::size_t rows = 0;
-        std::uint64_t* cell_row = g->cell.data() + gathered;
-        for (int b = 0; b < na; ++b) {
-          if (av[b].i != gm.texel_i || av[b].j != gm.texel_j)
-            gm.texel_i = av[b].i, gm.texel_j = av[b].j, gm.texel = texel_key(gm.key, av[b].i, av[b].j);
-          const std::uint64_t key = gm.texel;
-          for (int a = 0; a < ns; ++a, ++rows) {
-            cell_row[rows] = CellUniforms::cell_input(key, sv[a].i, sv[a].j);
-            wrow[rows] = t.scale * sv[a].w * av[b].w;
-          }
-        }
-        evaluations += static_cast<std::int32_t>(rows);
-        // Every evaluation of the chunk is gathered and made in one call of the inner law's per-pixel
-        // path (vector code for the laws that have it), then summed per pixel in term order: the
-        // same operations in the same order as summing each term as it comes, so the same bits.
-        for (std::size_t q = 0; q < rows; ++q, ++gathered) {
-          n[gathered] = t.trials;
-          pp[gathered] = px.p;
-          coef[gathered] = wrow[q];
-          owner[gathered] = i;
-          term_of[gathered] = static_cast<std::uint32_t>(ti);
-        }
+        if (inner_.law && t.trials > 0 && !inner_.law->accepts(t.trials, px.p))
+          throw_invalid_message(where + ": the inner law refuses its trial count n = " + format_value(t.trials) +
+                                " at p = " + format_value(px.p));
+        const std::size_t added = cells.gather_inline(px, i, ti, t, rows, gathered);
+        evaluations += static_cast<std::int32_t>(added);
+        gathered += added;
       }
       if (evals_out) evals_out[i] = evaluations;
     }
     if (gathered == 0) return;
-    const double *n = g->n.data(), *pp = g->p.data(), *coef = g->coef.data(), *kk = g->k.data();
-    const std::size_t* owner = g->owner.data();
-    cell_uniform_rows(g->cell.data(), gathered, nu, g->u.data());
-    if (fixed)
-      evaluate_by_term(inner_, *fixed, *g, gathered, nu);
-    else
-      inner_.evaluate(n, pp, g->u.data(), gathered, g->k.data());
-    for (std::size_t q = 0; q < gathered; ++q) {
-      if (!std::isfinite(kk[q]))
-        throw_invalid_message(where + ": the inner law returned " + format_value(kk[q]) +
-                              " at n = " + format_value(n[q]) + ", p = " + format_value(pp[q]));
-      if (coef[q] != 0.0) k_out[owner[q]] += coef[q] * kk[q];
-    }
+    // Every evaluation of the chunk is gathered and made at once (vector code for the laws that have it), then
+    // summed per pixel in term order: the same operations in the same order as summing each term as it comes.
+    stages::evaluate_cells(inner_, shared.fixed, rows, gathered);
+    stages::accumulate_cells(rows, gathered, k_out, where);
   };
   if (inner_.thread_safe) {
     detail::parallel_chunks(m, kChunk, kChunk, chunk_body);
@@ -523,10 +529,10 @@ void AnisoCounter::count_pixels(double density, ParamArray p, const double* uv, 
     if (slope && (!std::isfinite(slope[i]) || std::abs(slope[i]) > 1e9))
       throw_invalid(where, indexed_name("slope", i, true), slope[i], "a finite angular coordinate, |slope| <= 1e9");
   }
-  const std::uint64_t select_seed = hash_combine(seed, 0x5E1EC7ULL);
+  const std::uint64_t select_seed = stages::image_select_seed(seed);
   run(
       density, m,
-      [&](std::size_t i, Pixel& px, Shape& shape) {
+      [&](std::size_t i, stages::Pixel& px, Shape& shape) {
         shape = shape_from_jacobian(jac[4 * i], jac[4 * i + 1], jac[4 * i + 2], jac[4 * i + 3]);
         px = {uv[2 * i], uv[2 * i + 1], slope ? slope[2 * i] : 0.0, slope ? slope[2 * i + 1] : 0.0, p[i],
               seed,      select_seed};
@@ -556,7 +562,7 @@ void AnisoCounter::sample(double density, double p, const Shape& shape, std::siz
   }
   run(
       density, count,
-      [&](std::size_t r, Pixel& px, Shape& s) {
+      [&](std::size_t r, stages::Pixel& px, Shape& s) {
         CounterRng rng(seed, static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(r >> 32), 0,
                        kStreamAnisoPosition);
         const double u = rng.uniform() * width, v = rng.uniform() * width;

@@ -42,9 +42,6 @@ NOT_MEASURED: dict[str, str] = {}
 # BEGIN EXCEPTIONS
 EXCEPTIONS: dict[str, int] = {
     'bench/bench_binomial.py::main': 147,
-    'bench/bench_paths.py::main': 220,
-    'core/src/aniso.cpp::AnisoCounter::run': 168,
-    'core/src/blend.cpp::BlendedLaw::run': 466,
     'python/glintlab/studies/wwh18.py::compute': 138,
     'validation/src/shader_runner.cpp': 1406,
 }

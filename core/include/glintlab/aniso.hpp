@@ -186,10 +186,6 @@ class AnisoCounter {
   Distribution pmf(double density, double p, const Shape& shape, std::size_t max_support = kDefaultMaxSupport) const;
 
  private:
-  struct Pixel {
-    double u, v, su, sv, p;
-    std::uint64_t grid_seed, select_seed;
-  };
   // What every pixel shares when all have the same footprint and p (sample()): its terms, and one
   // evaluator per term (null where the term has none), used for the rows of that term. No member
   // initializers: `= {}` in run()'s declaration value-initializes both to null, and Clang refuses a
@@ -198,7 +194,9 @@ class AnisoCounter {
     const std::vector<Term>* terms;
     const std::vector<std::shared_ptr<const detail::FixedEvaluator>>* fixed;
   };
-  // Runs pixels [0, m): source(i, pixel, shape) fills pixel i's position and footprint.
+  // Runs pixels [0, m) in chunks, each through the stages of detail/aniso_stages.hpp (footprint terms,
+  // term cells, evaluate, accumulate): source(i, pixel, shape) fills pixel i's position, p, seeds and
+  // footprint (detail::aniso_stages::Pixel).
   template <class Source>
   void run(double density, std::size_t m, Source source, double* k, std::int32_t* evaluations, std::uint8_t* status,
            SharedFootprint shared = {}) const;

@@ -37,8 +37,14 @@
 namespace glintlab {
 
 namespace detail {
-class FixedEvaluator;  // detail/law_kernel.hpp
-}
+class FixedEvaluator;     // detail/law_kernel.hpp
+namespace blend_stages {  // detail/blend_stages.hpp
+class RowStreams;
+class LevelEvaluators;
+struct ChunkRows;
+struct ChunkScratch;
+}  // namespace blend_stages
+}  // namespace detail
 
 // Where a footprint of area P sits on the level ladder.
 struct LevelBracket {
@@ -264,12 +270,21 @@ class BlendedLaw {
                  std::uint64_t seed, double* out) const;
 
  private:
-  template <class CellOf>
-  void run(double density, ParamArray area, ParamArray p, std::size_t count, std::uint64_t seed, CellOf cell_of,
-           double* out) const;
+  // sample() and sample_at(): the call cut into chunks, each through the four stages of
+  // detail/blend_stages.hpp (brackets, trial counts, level rows, combine); `streams` holds the seed.
+  void run(double density, ParamArray area, ParamArray p, std::size_t count,
+           const detail::blend_stages::RowStreams& streams, double* out) const;
+  // Stages 1 and 2 for a chunk of rows with a footprint area (or p) per sample: the first refused row, or
+  // rows.m with rows' areas, brackets, trials and span set.
+  std::size_t bracket_and_trial_rows(double density, ParamArray area, detail::blend_stages::ChunkRows& rows,
+                                     detail::blend_stages::ChunkScratch& scratch) const;
+  // Sample i's checks, throwing the message that names it (std::invalid_argument).
+  void check_sample(const std::string& where, double density, ParamArray area, ParamArray p, std::size_t i) const;
   std::unique_ptr<BlendRule> rule_;
   InnerLaw inner_;
   LevelLadder ladder_;
+  // The inner law's step tables of the levels drawn whole, kept across calls (detail::blend_stages::LevelEvaluators).
+  std::shared_ptr<detail::blend_stages::LevelEvaluators> evaluators_;
 };
 
 // Parameters shared by the blend rules' implementations.
