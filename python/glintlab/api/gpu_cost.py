@@ -13,6 +13,7 @@ reads its arguments, so the wrapper's share is reported apart from the user's fu
 """
 from __future__ import annotations
 
+import functools
 import os
 import re
 from pathlib import Path
@@ -21,6 +22,11 @@ import pandas as pd
 
 from .. import _core
 from . import checks as V
+from .counting_shaders import DEFAULT_MATERIAL
+from .glinty_ndf import image_methods, make_method
+from .method_shaders import ShaderMethod, shader_method
+from .shader_samplers import SHIPPED_SAMPLERS, ShaderSampler, shader_sampler, shipped_sampler
+from .shaders import ShaderLaw, shader_law, shipped_shader, shipped_shaders
 
 #: RDNA2 and RDNA3, the architectures the report's tables use by default.
 DEFAULT_ARCHS = ("navi21", "gfx1100")
@@ -86,9 +92,6 @@ def compile_stats(spirv: bytes, arch: str, isa: bool = False) -> dict:
 
 
 def _kind(obj) -> str:
-    from .method_shaders import ShaderMethod
-    from .shader_samplers import ShaderSampler
-    from .shaders import ShaderLaw
     for cls, kind in ((ShaderLaw, "law"), (ShaderMethod, "method"), (ShaderSampler, "sampler")):
         if isinstance(obj, cls):
             return kind
@@ -107,9 +110,6 @@ def _detect_kind(path: Path) -> str:
 
 
 def _from_file(path: Path, kind: str | None, options: dict):
-    from .method_shaders import shader_method
-    from .shader_samplers import shader_sampler
-    from .shaders import shader_law
     kind = kind or _detect_kind(path)
     opts = {k: v for k, v in options.items() if v is not None}
     if kind == "law":
@@ -134,16 +134,12 @@ def resolve_shader(shader, kind: str | None = None, **options):
         return _from_file(Path(shader), kind, options)
     if not isinstance(shader, str):
         V.fail("shader", shader, "a shader object, a shader file or a shipped shader's name")
-    from .glinty_ndf import image_methods, make_method
-    from .shader_samplers import SHIPPED_SAMPLERS, shader_sampler, shipped_sampler
-    from .shaders import shader_law, shipped_shader, shipped_shaders
     language = options.get("language") or "hlsl"
     if shader in shipped_shaders() or shader in shipped_shaders().values():
         return shader_law(shipped_shader(shader, language), register=False, defines=options.get("defines"))
     if shader in SHIPPED_SAMPLERS:
         return shader_sampler(shipped_sampler(shader, language), defines=options.get("defines"))
     if shader in image_methods():
-        from .counting_shaders import DEFAULT_MATERIAL
         method = make_method(shader, options.get("material") or DEFAULT_MATERIAL)
         if hasattr(method, "spirv"):
             return method
@@ -153,23 +149,24 @@ def resolve_shader(shader, kind: str | None = None, **options):
 
 def shader_method_names() -> list[str]:
     """The image methods that are method shaders (have SPIR-V)."""
-    from .glinty_ndf import image_methods
     return [m for m in image_methods() if m.endswith("_shader") or m == "wb16"]
 
 
 def empty_twin(obj):
     """The same kind of shader object, language and entry as ``obj`` with a function that only reads its
-    arguments: its kernel is glintlab's wrapper alone (None for an object of no known kind)."""
-    from .method_shaders import shader_method
-    from .shader_samplers import shader_sampler
-    from .shaders import shader_law
+    arguments: its kernel is glintlab's wrapper alone."""
     kind = _kind(obj)
     language = getattr(obj, "language", None) or getattr(obj, "_spec", {}).get("language", "hlsl")
     entry = getattr(obj, "entry", None) or (getattr(obj, "params", {}) or {}).get("entry")
+    return _empty(kind, language, entry, int(getattr(obj, "n_uniforms", 2) or 0) if kind == "law" else 0)
+
+
+@functools.lru_cache(maxsize=32)
+def _empty(kind: str, language: str, entry: str | None, n_uniforms: int):
+    # One wrapper kernel per contract (every law of a language shares it): compiled once per process.
     if kind == "law":
         code = _EMPTY["law"][language].format(entry=entry or "count")
-        return shader_law(code, entry=entry or "count", language=language, n_uniforms=getattr(obj, "n_uniforms", 2),
-                          register=False)
+        return shader_law(code, entry=entry or "count", language=language, n_uniforms=n_uniforms, register=False)
     if kind == "method":
         code = _EMPTY["method"][language].format(entry=entry or "glint")
         return shader_method(code, language=language, entry=entry or "glint", register=False)
