@@ -21,8 +21,8 @@ TITLE = "GPU cost: the shaders compiled for AMD GPUs, DB23 Table 1 and KPT25 Tab
 MEANING = ("A real GPU compiler (RADV's ACO, without a GPU) gives each shader's registers, occupancy and cycles; "
            "a per-wave model with measured trip counts turns them into frame costs whose ratios stand beside "
            "the papers' measured ones.")
-DEFAULTS = {"archs": list(DEFAULT_ARCHS), "scale": 0.25, "density_factors": [0.0625, 1.0, 16.0], "alphas": [0.3, 1.0]}
-QUICK = {"archs": ["gfx1100"], "scale": 0.1, "density_factors": [0.0625, 16.0], "alphas": [0.3, 1.0]}
+DEFAULTS = {"archs": ",".join(DEFAULT_ARCHS), "scale": 0.25, "density_factors": [0.0625, 1.0, 16.0], "alphas": [0.3, 1.0]}
+QUICK = {"archs": "gfx1100", "scale": 0.1, "density_factors": [0.0625, 16.0], "alphas": [0.3, 1.0]}
 NOTEBOOK = ""
 TABLE = {"db23_table1": ["scene", "arch", "method", "model_over_no_glints", "paper_over_no_glints", "model_over_db23",
                          "paper_over_db23"],
@@ -111,7 +111,7 @@ def compute(params: dict, ctx: Context) -> Tables:
     driver = gpu_driver()
     if driver["error"]:
         return Tables({"unavailable": pd.DataFrame([{"reason": driver["error"]}])}, {"GPU compiler": "missing"})
-    archs, scale = list(params["archs"]), float(params["scale"])
+    archs, scale = [a.strip() for a in params["archs"].split(",")], float(params["scale"])
     stats, kernels = shader_statistics(archs)
     # Table 1: the scene's density times each factor (DB23 varies the microfacet density).
     frames1 = _frames(TABLE1_MS, archs, kernels, scale,
