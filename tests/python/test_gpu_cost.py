@@ -102,3 +102,29 @@ def test_isa_blocks_and_nested_loops():
     assert [(lp.start, lp.end, lp.depth, lp.parent) for lp in k.loops] == [(1, 2, 1, -1), (2, 2, 2, 0)]
     np.testing.assert_array_equal(k.cycles, [1, 4, 3, 0])
     assert M.parse_isa(isa, 64).cycles[1] == 16  # a quarter-rate op of a wave64 on GCN's SIMD16
+
+
+def test_zk16_trip_counts_are_the_twins():
+    # The model's probes are the C++ zk16_aniso scheme's terms (2 evaluations each, one per level) and its
+    # trials the zk16 law's own work units at each level's trial count, pixel for pixel.
+    from glintlab.api import counting_shaders as CS
+    from glintlab.api import zk16_shaders as Z
+    from glintlab.validation import gpu_frames as F
+    from glintlab.validation import method_twins as MT
+    rows, material = MT.scene_rows("heightfield_25", 0.03, seed=1)
+    px = F.pixels_of(rows, material)
+    probes, lower, upper = F.zk16_trip_counts(px, material.density)
+    uv, J, _, _ = CS.tangent_inputs(rows)
+    counts = Z.zk16_twin_ndf(material).counter.count_image(uv, J, material.density, px.p, seed=0)
+    ok = counts.status == 0
+    assert ok.mean() > 0.9 and probes.max() > 1  # anisotropic footprints among them
+    np.testing.assert_array_equal(counts.evaluations[ok], 2 * probes[ok])
+    law = gl.law("zk16")
+    major, minor, _ = F._axes(px.J)
+    area = np.pi * major * np.maximum(minor, major / 16) / probes
+    lo = np.floor(0.5 * np.log2(area * material.density))
+    for lv, trials in ((0, lower), (1, upper)):
+        expected = [law.work_units(4.0 ** (lv + lev), p) for lev, p in zip(lo[ok], px.p[ok])]
+        np.testing.assert_array_equal(trials[ok], expected)
+    # A wrong trip count (one probe per pixel) is caught by the same comparison.
+    assert not np.array_equal(counts.evaluations[ok], 2 * np.ones(ok.sum()))
