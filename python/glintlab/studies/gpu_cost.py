@@ -107,6 +107,25 @@ def table3(frames: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
+def gpu_pareto(stats: pd.DataFrame, arch: str, out) -> pd.DataFrame:
+    """Each counting law with a shader twin: its function's GPU cost per evaluation on ``arch`` (ACO
+    latency and instructions of the function alone, the kernel's VGPRs) beside its worst TV and CPU ns from
+    the speed_accuracy section's table when that section ran into the same folder (else TV and ns are NaN)."""
+    trade_path = Path(out) / "speed_accuracy.csv"
+    trade = pd.read_csv(trade_path) if trade_path.is_file() else pd.DataFrame(columns=["law", "tv_max", "ns_per_sample"])
+    rows = []
+    for shader, twin in sorted(shipped_shaders().items()):
+        r = stats[(stats.shader == shader) & (stats.arch == arch)]
+        if r.empty:
+            continue
+        t = trade[trade.law.isin([twin, shader])]
+        rows.append({"law": twin, "shader": shader, "arch": arch, "function_latency": float(r.function_latency.iloc[0]),
+                     "function_instructions": float(r.function_instructions.iloc[0]), "vgprs": float(r.vgprs.iloc[0]),
+                     "tv_max": float(t.tv_max.iloc[0]) if len(t) else float("nan"),
+                     "ns_per_sample": float(t.ns_per_sample.iloc[0]) if len(t) else float("nan")})
+    return pd.DataFrame(rows)
+
+
 def compute(params: dict, ctx: Context) -> Tables:
     driver = gpu_driver()
     if driver["error"]:
@@ -123,7 +142,8 @@ def compute(params: dict, ctx: Context) -> Tables:
     z = t1[(t1.method == "ZK16") & (t1.arch == archs[-1])]
     headline = {"driver": str(stats.driver.iloc[0]), "architectures": ", ".join(archs),
                 "ZK16 / DB23 (model, " + archs[-1] + ")": "; ".join(f"{s} {r}" for s, r in zip(z.scene, z.model_over_db23))}
-    return Tables({"db23_table1": t1, "kpt25_table3": t3, "shader_statistics": stats},
+    pareto = gpu_pareto(stats, archs[-1], ctx.out)
+    return Tables({"db23_table1": t1, "kpt25_table3": t3, "gpu_pareto": pareto, "shader_statistics": stats},
                   headline, extra={"frames_table1": frames1, "frames_table3": frames3})
 
 
@@ -141,11 +161,32 @@ def figures(tables: Tables, ctx: Context) -> list:
         vals = [g[(g.scene == s) & (g.method == label)].ms_1080p.max() for s in scenes]
         ax.bar([i + k * width for i in range(len(scenes))], vals, width, label=label)
     ax.set_xticks([i + 0.4 - width / 2 for i in range(len(scenes))], scenes)
-    ax.set_ylabel(f"modelled ms per 1080p frame ({arch}, max over densities)")
+    ax.set_ylabel("model ms / 1080p frame (max over N)")
     ax.set_yscale("log")
     ax.legend(fontsize=7)
-    ax.set_title("Per-wave model: the glint pass alone (no geometry, no memory)", fontsize=9)
+    ax.set_title(f"Per-wave model on {arch}: the glint pass alone (no geometry, no memory)", fontsize=9)
     path = Path(ctx.out) / "gpu_cost_frames.png"
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path] + pareto_figure(tables["gpu_pareto"], ctx)
+
+
+def pareto_figure(pareto: pd.DataFrame, ctx: Context) -> list:
+    """Worst TV against the GPU cycles per evaluation (left) and the CPU ns per sample (right)."""
+    import matplotlib.pyplot as plt
+    if pareto.empty or pareto.tv_max.isna().all():
+        return []
+    fig, axes = plt.subplots(1, 2, figsize=(9.0, 3.6), sharey=True)
+    for ax, col, label in ((axes[0], "function_latency", f"ACO latency of the law's function, cycles ({pareto.arch.iloc[0]})"),
+                           (axes[1], "ns_per_sample", "CPU ns / sample (speed_accuracy section)")):
+        for r in pareto.itertuples():
+            ax.semilogy(getattr(r, col), max(r.tv_max, 1e-6), "o", color="#b2182b")
+            ax.annotate(r.law, (getattr(r, col), max(r.tv_max, 1e-6)), fontsize=7, xytext=(4, 2), textcoords="offset points")
+        ax.set_xlabel(label, fontsize=8)
+    axes[0].set_ylabel("worst TV over the standard grid")
+    fig.suptitle("Speed / accuracy with a GPU axis: the shader laws", fontsize=9)
+    path = Path(ctx.out) / "gpu_pareto.png"
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
