@@ -121,7 +121,8 @@ T vk(VkStructureType type) {  // a Vulkan structure zeroed but for its type
 }
 
 void check(VkResult r, const char* what) {
-  if (r != VK_SUCCESS) throw std::runtime_error(std::string("gpu_cost: ") + what + " failed (VkResult " + std::to_string(r) + ")");
+  if (r != VK_SUCCESS)
+    throw std::runtime_error(std::string("gpu_cost: ") + what + " failed (VkResult " + std::to_string(r) + ")");
 }
 
 // One null device per architecture, kept for the process's life.
@@ -175,7 +176,8 @@ NullDevice& null_device(const Architecture& arch) {
     auto ci = vk<VkInstanceCreateInfo>(VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO);
     ci.pApplicationInfo = &app;
     check(create(&ci, nullptr, &nd->instance), "vkCreateInstance (RADV null device)");
-    auto enumerate = reinterpret_cast<PFN_vkEnumeratePhysicalDevices>(d.gipa(nd->instance, "vkEnumeratePhysicalDevices"));
+    auto enumerate =
+        reinterpret_cast<PFN_vkEnumeratePhysicalDevices>(d.gipa(nd->instance, "vkEnumeratePhysicalDevices"));
     std::uint32_t n = 0;
     check(enumerate(nd->instance, &n, nullptr), "vkEnumeratePhysicalDevices");
     if (n == 0) throw CompilerMissing("gpu_cost: RADV created no null device for '" + arch.name + "'");
@@ -183,7 +185,8 @@ NullDevice& null_device(const Architecture& arch) {
     check(enumerate(nd->instance, &n, phys.data()), "vkEnumeratePhysicalDevices");
     nd->physical = phys[0];
   }
-  auto props2 = reinterpret_cast<PFN_vkGetPhysicalDeviceProperties2>(d.gipa(nd->instance, "vkGetPhysicalDeviceProperties2"));
+  auto props2 =
+      reinterpret_cast<PFN_vkGetPhysicalDeviceProperties2>(d.gipa(nd->instance, "vkGetPhysicalDeviceProperties2"));
   auto dp = vk<VkPhysicalDeviceDriverProperties>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES);
   auto p = vk<VkPhysicalDeviceProperties2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2);
   p.pNext = &dp;
@@ -196,9 +199,11 @@ NullDevice& null_device(const Architecture& arch) {
   q.queueCount = 1;
   q.pQueuePriorities = &priority;
   const char* extensions[] = {"VK_KHR_pipeline_executable_properties", "VK_EXT_subgroup_size_control"};
-  auto sizes = vk<VkPhysicalDeviceSubgroupSizeControlFeaturesEXT>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_SIZE_CONTROL_FEATURES_EXT);
+  auto sizes = vk<VkPhysicalDeviceSubgroupSizeControlFeaturesEXT>(
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_SIZE_CONTROL_FEATURES_EXT);
   sizes.subgroupSizeControl = VK_TRUE;
-  auto exec = vk<VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR);
+  auto exec = vk<VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR>(
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR);
   exec.pipelineExecutableInfo = VK_TRUE;
   exec.pNext = &sizes;
   auto dci = vk<VkDeviceCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO);
@@ -279,7 +284,8 @@ void create_pipeline(PipelineObjects& o, const std::vector<std::uint32_t>& spirv
   pl.pPushConstantRanges = &range;
   check(device_fn<PFN_vkCreatePipelineLayout>(nd, "vkCreatePipelineLayout")(nd.device, &pl, nullptr, &o.layout),
         "vkCreatePipelineLayout");
-  auto size = vk<VkPipelineShaderStageRequiredSubgroupSizeCreateInfoEXT>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_REQUIRED_SUBGROUP_SIZE_CREATE_INFO_EXT);
+  auto size = vk<VkPipelineShaderStageRequiredSubgroupSizeCreateInfoEXT>(
+      VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_REQUIRED_SUBGROUP_SIZE_CREATE_INFO_EXT);
   size.requiredSubgroupSize = wave;
   auto cp = vk<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
   cp.flags = VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR |
@@ -302,7 +308,8 @@ void read_executable(NullDevice& nd, VkPipeline pipeline, bool representations, 
   auto props = device_fn<PFN_vkGetPipelineExecutablePropertiesKHR>(nd, "vkGetPipelineExecutablePropertiesKHR");
   check(props(nd.device, &pi, &n, nullptr), "vkGetPipelineExecutablePropertiesKHR");
   if (n == 0) throw std::runtime_error("gpu_cost: the driver reported no executable for the pipeline");
-  std::vector<VkPipelineExecutablePropertiesKHR> ep(n, vk<VkPipelineExecutablePropertiesKHR>(VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR));
+  std::vector<VkPipelineExecutablePropertiesKHR> ep(
+      n, vk<VkPipelineExecutablePropertiesKHR>(VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR));
   check(props(nd.device, &pi, &n, ep.data()), "vkGetPipelineExecutablePropertiesKHR");
   out.subgroup_size = static_cast<int>(ep[0].subgroupSize);
   auto ei = vk<VkPipelineExecutableInfoKHR>(VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR);
@@ -311,7 +318,8 @@ void read_executable(NullDevice& nd, VkPipeline pipeline, bool representations, 
   auto stats = device_fn<PFN_vkGetPipelineExecutableStatisticsKHR>(nd, "vkGetPipelineExecutableStatisticsKHR");
   std::uint32_t ns = 0;
   check(stats(nd.device, &ei, &ns, nullptr), "vkGetPipelineExecutableStatisticsKHR");
-  std::vector<VkPipelineExecutableStatisticKHR> st(ns, vk<VkPipelineExecutableStatisticKHR>(VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR));
+  std::vector<VkPipelineExecutableStatisticKHR> st(
+      ns, vk<VkPipelineExecutableStatisticKHR>(VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR));
   check(stats(nd.device, &ei, &ns, st.data()), "vkGetPipelineExecutableStatisticsKHR");
   for (const auto& s : st) {
     double v = 0;
@@ -329,7 +337,8 @@ void read_executable(NullDevice& nd, VkPipeline pipeline, bool representations, 
   std::uint32_t nr = 0;
   check(irs(nd.device, &ei, &nr, nullptr), "vkGetPipelineExecutableInternalRepresentationsKHR");
   std::vector<VkPipelineExecutableInternalRepresentationKHR> ir(
-      nr, vk<VkPipelineExecutableInternalRepresentationKHR>(VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INTERNAL_REPRESENTATION_KHR));
+      nr, vk<VkPipelineExecutableInternalRepresentationKHR>(
+              VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INTERNAL_REPRESENTATION_KHR));
   check(irs(nd.device, &ei, &nr, ir.data()), "vkGetPipelineExecutableInternalRepresentationsKHR");
   std::vector<std::string> text(nr);
   for (std::uint32_t i = 0; i < nr; ++i) {

@@ -30,13 +30,13 @@ class CompilerMissing : public std::runtime_error {
 
 // An AMD architecture: the RADV family name and the GPU the cost model spreads waves over.
 struct Architecture {
-  std::string name;         // RADV_FORCE_FAMILY value, e.g. "navi21"
-  std::string generation;   // "GCN4", "GCN5", "RDNA1", "RDNA2", "RDNA3"
-  std::string gpu;          // the named GPU, e.g. "Radeon RX 6900 XT"
-  int wave_size = 64;       // lanes per wave the kernel is compiled for (RDNA: 32, GCN: 64)
-  int compute_units = 0;    // of the named GPU
-  int simds_per_cu = 4;     // GCN: 4 SIMD16; RDNA: 2 SIMD32
-  double clock_mhz = 0.0;   // the named GPU's boost clock
+  std::string name;        // RADV_FORCE_FAMILY value, e.g. "navi21"
+  std::string generation;  // "GCN4", "GCN5", "RDNA1", "RDNA2", "RDNA3"
+  std::string gpu;         // the named GPU, e.g. "Radeon RX 6900 XT"
+  int wave_size = 64;      // lanes per wave the kernel is compiled for (RDNA: 32, GCN: 64)
+  int compute_units = 0;   // of the named GPU
+  int simds_per_cu = 4;    // GCN: 4 SIMD16; RDNA: 2 SIMD32
+  double clock_mhz = 0.0;  // the named GPU's boost clock
 };
 
 // The architectures glintlab knows, in a fixed order.
@@ -54,10 +54,10 @@ DriverStatus driver_status();
 
 struct PipelineStats {
   std::string arch;
-  std::string device_name;  // "Null hardware (RADV NAVI21)"
-  std::string driver;       // "radv Mesa 22.3.6"
-  int subgroup_size = 0;    // the wave size the pipeline was compiled for
-  std::vector<std::pair<std::string, double>> statistics;       // in the driver's order
+  std::string device_name;                                           // "Null hardware (RADV NAVI21)"
+  std::string driver;                                                // "radv Mesa 22.3.6"
+  int subgroup_size = 0;                                             // the wave size the pipeline was compiled for
+  std::vector<std::pair<std::string, double>> statistics;            // in the driver's order
   std::vector<std::pair<std::string, std::string>> representations;  // "NIR Shader(s)", "ACO IR", "Assembly"
 };
 
