@@ -36,4 +36,5 @@ PYBIND11_MODULE(_core, m) {
   gb::bind_spatial(m);
   gb::bind_blends(m);
   gb::bind_aniso(m);
+  gb::bind_gpu_cost(m);
 }

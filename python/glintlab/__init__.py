@@ -21,6 +21,8 @@ from .api.glinty_ndf import matched_density, db23_visible_glints
 from .api.method_shaders import ShaderMethod, shader_method
 # Registers the "db23_shader" and "kpt25_shader" image methods (docs/math/glint_images.md#glint-db23-shader).
 from .api import counting_shaders  # noqa: F401
+from .api import zk16_shaders  # noqa: F401  (ZK16, its gated variant and the no-glints baseline as method shaders)
+from .api.gpu_cost import gpu_architectures, gpu_cost
 from .api.grids import AnisoCounter, aniso_counter, footprint_shapes, grid_schemes
 from .api.laws import (CustomLaw, Law, custom_law, law, law_label, law_summaries, law_traits, law_variants, laws,
                        parse_law_label, uniforms)
@@ -78,5 +80,6 @@ __all__ = [
 ]
 __all__ += ["emit_shader", "shipped_shaders"]  # shipped shaders: declared in law traits, emitted paste-ready
 __all__ += ["ShaderSampler", "shader_sampler", "shipped_sampler"]  # samplers as shaders (docs/math/sampling.md#shader-samplers)
+__all__ += ["gpu_architectures", "gpu_cost"]  # shaders compiled for AMD GPUs without one (docs/guide/gpu_cost.md)
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)
 __all__ += ["matched_density", "db23_visible_glints"]  # KPT25 <-> DB23 (docs/math/glinty_ndf.md#glinty-matched)

@@ -41,7 +41,7 @@ from .shaders import DEFAULT_TIMEOUT_S, _read_source
 #: Each method shader is one body (<name>_method_body.h) with a thin .glsl and .hlsl wrapper.
 METHOD_LANGUAGES = ("glsl", "hlsl")
 #: The whole-method shader files this module ships (not law shaders: no law declares them).
-METHOD_SHADER_FILES = tuple(f"{n}_method.{lang}" for n in ("db23", "kpt25") for lang in METHOD_LANGUAGES)
+METHOD_SHADER_FILES = tuple(f"{n}_method.{lang}" for n in ("db23", "kpt25", "zk16", "smooth") for lang in METHOD_LANGUAGES)
 #: KPT25's parameters as the image method "kpt25" runs them (its micro-roughness and roulette width).
 KPT25_ALPHA_STAR, KPT25_EPSILON = 0.02, 0.1
 #: A pixel "mismatches" when shader and twin differ by more than this share of the pixel's one-facet

@@ -3,7 +3,8 @@
 Subcommands, one module each in :mod:`glintlab.cli` (``add_parser(subparsers)`` and ``run(args) -> int``;
 shared options in :mod:`glintlab.cli.common`): laws, run (one experiment), sweep (an experiment from
 flags), check (error bounds), bench (speed against accuracy), extremes (numerical extremes of every law),
-shader (a shader's counting function run on Vulkan: verdict and report), sampler (a direction sampler
+shader (a shader's counting function run on Vulkan: verdict and report), cost (a shader compiled for AMD
+GPUs without one: registers, occupancy, cycles), sampler (a direction sampler
 against its pdf), aniso (anisotropic grids against the ground truth), profile and advise (scenes), images
 (glint images of scenes and their flicker), report (the main job). This module assembles them and turns
 exceptions into exit statuses.
@@ -16,10 +17,10 @@ import sys
 from pathlib import Path
 
 from .._core import __version__
-from . import advise, aniso, bench, check, extremes, images, laws, profile, report, run, sampler, shader, sweep
+from . import advise, aniso, bench, check, cost, extremes, images, laws, profile, report, run, sampler, shader, sweep
 
 # The order of `glintlab --help`.
-COMMANDS = (laws, run, sweep, check, bench, extremes, shader, sampler, aniso, profile, images, advise, report)
+COMMANDS = (laws, run, sweep, check, bench, extremes, shader, sampler, cost, aniso, profile, images, advise, report)
 
 
 def _prepare_outputs(args):

@@ -1,0 +1,5 @@
+// The no-glints baseline (the smooth NDF) as a whole method shader, in GLSL. The method's one body is
+// smooth_method_body.h, which the .hlsl and .glsl files both include (docs/guide/gpu_cost.md).
+#define GLINTLAB_GLSL
+#include "glintlab_method_prelude.h"
+#include "smooth_method_body.h"

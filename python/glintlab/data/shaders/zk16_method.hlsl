@@ -1,0 +1,5 @@
+// ZK16 (as DB23 describes it) as a whole method shader, in HLSL. The method's one body is
+// zk16_method_body.h, which the .hlsl and .glsl files both include (docs/guide/gpu_cost.md).
+#define GLINTLAB_HLSL
+#include "glintlab_method_prelude.h"
+#include "zk16_method_body.h"
