@@ -65,14 +65,15 @@ def probability_table(targets=("beckmann", "ggx"), alphas=(0.05, 0.2, 0.5), half
 
 
 def where_accurate(table: pd.DataFrame, tolerance: float = 0.05) -> pd.DataFrame:
-    """Per approximation and light size: the share of configurations (with p_exact > 1e-6) whose relative
-    error is within ``tolerance``."""
+    """Per approximation, target and light size: the share of configurations (with p_exact > 1e-6) whose
+    relative error is within ``tolerance``."""
     t = table[table.p_exact > 1e-6]
     rows = []
     for m in APPROXIMATIONS:
-        for (kind, a), g in t.groupby(["kind", "half_angle"]):
+        for (target, kind, a), g in t.groupby(["target", "kind", "half_angle"]):
             e = np.abs(g[f"rel_err_{m}"])
-            rows.append(dict(method=m, kind=kind, half_angle=a, tolerance=tolerance, share_within=float(np.mean(e <= tolerance)),
+            rows.append(dict(method=m, target=target, kind=kind, half_angle=a, tolerance=tolerance,
+                             configurations=len(g), share_within=float(np.mean(e <= tolerance)),
                              median_abs_rel_err=float(np.median(e)), max_abs_rel_err=float(np.max(e))))
     return pd.DataFrame(rows)
 
