@@ -151,3 +151,21 @@ def test_bad_inputs_are_refused_by_name():
         gl.lights.envmap(np.full((8, 16), -1.0))
     with pytest.raises(ValueError, match="scheme"):
         gl.multinomial_counts(4, [0.2], scheme="nope")
+
+
+def test_same_seed_same_facets_and_probabilities_whatever_the_threads():
+    uv, J, wo = VL.plane_pixels(16, 10)
+    fps = [gl.Ellipse.from_uv_derivatives(*j) for j in J.reshape(-1, 4)]
+    light = gl.lights.rect((1.2, 0.0, 1.5), (0.4, 0.0, -0.3), (0.0, 0.6, 0.0))
+    runs = []
+    threads = gl.get_num_threads()
+    try:
+        for t in (1, 2):
+            gl.set_num_threads(t)
+            f = gl.facet_truth("beckmann", 0.3, 512**2, fps, uv.reshape(-1, 2), wo.reshape(-1, 3), light, seed=5)
+            runs.append((f.counts, f.facets, gl.reflection_probability("beckmann", 0.3, wo, light)))
+    finally:
+        gl.set_num_threads(threads)
+    for a, b in zip(*runs):
+        assert np.array_equal(a, b)
+    assert runs[0][1].min() > 0  # every footprint holds facets

@@ -29,6 +29,7 @@ TABLE = {
                         "law_sd"],
     "lighting_point_limit": ["half_angle", "p_exact", "p_point", "ratio", "R_equivalent", "p_db23"],
     "lighting_envmap": ["source", "method", "scheme", "chi2", "dof", "chi2_pvalue", "p_0", "p_1", "p_2"],
+    "lighting_images": ["image", "mean_count", "vs_facets", "vs_expected", "lit_share"],
 }
 PASS = 1e-3  # the chi-square level of the exact paths' checks (their false-failure rate; the seeds are fixed)
 
@@ -45,6 +46,8 @@ def compute(params: dict, ctx: Context) -> Tables:
     ctx.progress("environment map")
     env = gl_lights.envmap("sky", regions=3)
     envtab, partition = VL.envmap_counts(env, realizations=params["realizations"], seed=ctx.seed)
+    ctx.progress("images")
+    images, image_table = VL.plane_images(window_light(), seed=ctx.seed)
     failures = []
     exact = counts[(counts.method == "exact") & (counts.law == "binomial")]
     for _, r in exact[exact.chi2_pvalue <= PASS].iterrows():
@@ -56,19 +59,47 @@ def compute(params: dict, ctx: Context) -> Tables:
         failures.append("environment map: the facets or the binomial chain are not the exact multinomial")
     ms = probs.exact_ms
     stats = {"exact p: CPU ms per (view, light), median / max": f"{ms.median():.3g} / {ms.max():.3g}",
-             "exact p: largest error estimate / p": float((probs.exact_error / probs.p_exact.clip(1e-300)).max()),
+             "exact p: largest error estimate / p (p > 1e-20)":
+                 float((probs.exact_error / probs.p_exact)[probs.p_exact > 1e-20].max()),
              f"point p within {params['tolerance']:.0%} of exact (half-angle {min(params['half_angles']):g})":
                  float(accuracy[(accuracy.method == "point") & (accuracy.half_angle == min(params["half_angles"]))]
                        .share_within.mean()),
              "environment map: partition's relative radiance error": partition["rel_partition_error"]}
     return Tables({"lighting_accuracy": accuracy, "lighting_counts": counts, "lighting_point_limit": limit,
-                   "lighting_envmap": envtab}, stats, failures, extra={"lighting_probabilities": probs},
-                  data={"env": env, "partition": partition})
+                   "lighting_envmap": envtab, "lighting_images": image_table}, stats, failures,
+                  extra={"lighting_probabilities": probs}, data={"env": env, "partition": partition, "images": images})
 
 
 def figures(tables: Tables, ctx: Context) -> list:
     return [ctx.save(accuracy_figure(tables["lighting_probabilities"]), "lighting_accuracy.png"),
-            ctx.save(envmap_figure(tables["env"]), "lighting_envmap.png")]
+            ctx.save(envmap_figure(tables["env"]), "lighting_envmap.png"),
+            ctx.save(images_figure(tables["images"]), "lighting_images.png")]
+
+
+def window_light():
+    """A window-sized panel (0.6 x 0.8 at distance 2) ahead of the camera of ``plane_pixels``, centred on
+    the mirror direction of the image's centre."""
+    wo = np.array([-0.62, 0.0, 0.78])
+    wo /= np.linalg.norm(wo)
+    mirror = wo * np.array([-1.0, -1.0, 1.0])
+    return gl_lights.rect(2 * mirror, (0.6 * mirror[2], 0.0, -0.6 * mirror[0]), (0.0, 0.8, 0.0))
+
+
+def images_figure(images):
+    """Counts per pixel of the plane under the window: the facets beside the laws at the exact and point p."""
+    import matplotlib.pyplot as plt
+
+    names = list(images)
+    fig, axes = plt.subplots(1, len(names), figsize=(2.6 * len(names), 2.2))
+    vmax = max(float(np.percentile(v, 99.5)) for v in images.values())
+    for ax, name in zip(axes, names):
+        ax.imshow(images[name], cmap="inferno", vmin=0, vmax=vmax, interpolation="nearest")
+        ax.set_title(name, fontsize=7)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.suptitle("a plane under a window light: reflecting facets per pixel", fontsize=8)
+    fig.tight_layout()
+    return fig
 
 
 def accuracy_figure(probs):

@@ -216,3 +216,50 @@ def envmap_counts(env=None, target="ggx", alpha=0.3, view_deg=30.0, side=128, ce
                      expected_map=float(m * np.sum(p_exact * env.region_radiance)),
                      rel_partition_error=float(np.mean(np.abs(const - rad_true)) / max(rad_true.mean(), 1e-300)))
     return table, partition
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Images of a plane under an area light
+
+def plane_pixels(width=64, height=40, camera_height=1.0, tilt_deg=50.0, fov_deg=40.0, texture_scale=0.3):
+    """A pinhole camera above the plane z = 0 (the tangent frame), looking down at ``tilt_deg`` from the
+    vertical towards +x: per pixel the texture position uv (wrapped to [0, 1)), the uv Jacobian J (du/dx,
+    dv/dx, du/dy, dv/dy) by finite differences, and the unit view direction wo. One texture unit spans
+    1 / ``texture_scale`` world units."""
+    t = math.radians(tilt_deg)
+    fwd = np.array([math.sin(t), 0.0, -math.cos(t)])
+    right = np.array([0.0, -1.0, 0.0])
+    up = np.cross(right, fwd)
+    f = 0.5 / math.tan(math.radians(fov_deg) / 2)
+    xs = (np.arange(width + 1) - width / 2) / width
+    ys = (np.arange(height + 1) - height / 2) / width
+    d = fwd[None, None] * f + xs[None, :, None] * right + ys[::-1, None, None] * up
+    cam = np.array([0.0, 0.0, camera_height])
+    s = -cam[2] / d[..., 2]
+    hit = cam + s[..., None] * d
+    uv = hit[..., :2] * texture_scale
+    J = np.stack([uv[:-1, 1:, 0] - uv[:-1, :-1, 0], uv[:-1, 1:, 1] - uv[:-1, :-1, 1],
+                  uv[1:, :-1, 0] - uv[:-1, :-1, 0], uv[1:, :-1, 1] - uv[:-1, :-1, 1]], axis=-1)
+    wo = cam - hit[:-1, :-1]
+    return np.mod(uv[:-1, :-1], 1.0), J, wo / np.linalg.norm(wo, axis=-1, keepdims=True)
+
+
+def plane_images(light, target="ggx", alpha=0.2, side=1024, seed=0, width=64, height=40, laws=("binomial", "gated")):
+    """The plane under ``light``: the facet truth's count per pixel, and each law's count per pixel drawn at
+    n = N |det J| with the exact p and with the point p. Returns ({name: image}, table): the table gives
+    each image's mean count against the truth's and the expected n p_exact."""
+    from ..api.spatial import Ellipse
+    uv, J, wo = plane_pixels(width, height)
+    fps = [Ellipse.from_uv_derivatives(*j) for j in J.reshape(-1, 4)]
+    truth = facet_truth(target, alpha, side * side, fps, [tuple(c) for c in uv.reshape(-1, 2)], wo.reshape(-1, 3),
+                        light, seed=seed)
+    n = side * side * np.abs(J[..., 0] * J[..., 3] - J[..., 1] * J[..., 2])
+    p = {m: np.clip(reflection_probability(target, alpha, wo, light, m), 0, 1) for m in ("exact", "point")}
+    images = {"facets": truth.counts[:, 0].reshape(height, width)}
+    for name in laws:
+        for m, pm in p.items():
+            images[f"{name} ({m} p)"] = make_law(name).sample(n, pm, seed=seed + 1).reshape(height, width)
+    rows = [dict(image=k, mean_count=float(v.mean()), vs_facets=float(v.mean() / max(images["facets"].mean(), 1e-300)),
+                 vs_expected=float(v.mean() / max((n * p["exact"]).mean(), 1e-300)), lit_share=float(np.mean(v > 0)))
+            for k, v in images.items()]
+    return images, pd.DataFrame(rows)
