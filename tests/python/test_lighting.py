@@ -169,3 +169,18 @@ def test_same_seed_same_facets_and_probabilities_whatever_the_threads():
     for a, b in zip(*runs):
         assert np.array_equal(a, b)
     assert runs[0][1].min() > 0  # every footprint holds facets
+
+
+def test_user_maps_load_from_npy_and_pfm(tmp_path):
+    img = gl.lights.sky_image(16, 32)
+    np.save(tmp_path / "sky.npy", img)
+    rgb = np.repeat(img[..., None], 3, axis=-1).astype("<f4")
+    with open(tmp_path / "sky.pfm", "wb") as f:  # PFM: bottom row first, little-endian when the scale is < 0
+        f.write(b"PF\n32 16\n-1.0\n")
+        f.write(np.ascontiguousarray(np.flipud(rgb)).tobytes())
+    a = gl.lights.envmap(tmp_path / "sky.npy", regions=3)
+    b = gl.lights.envmap(str(tmp_path / "sky.pfm"), regions=3)
+    assert np.array_equal(a.labels, b.labels)
+    assert np.allclose(a.region_radiance, b.region_radiance, rtol=1e-6)
+    with pytest.raises(ValueError, match="path"):
+        gl.lights.envmap(tmp_path / "missing.exr")
