@@ -257,13 +257,17 @@ def _filtered_maps(nd, env: EnvMap, rows: int, cols: int) -> np.ndarray:
     dw = env.solid_angles.reshape(-1)
     lab = env.labels.reshape(-1)
     onehot = np.stack([(lab == r) * dw for r in range(env.regions)] + [dw], axis=-1)  # last: normaliser
-    R = directions(rows, cols).reshape(-1, 3)
-    out = np.empty((R.shape[0], env.regions + 1))
+    # Mirror directions of views are above the horizon: the rows below the equator's neighbour are never
+    # looked up (the bilinear lookup reads at most one row past the equator), so they stay 0.
+    used = min(rows, rows // 2 + 2)
+    R = directions(rows, cols)[:used].reshape(-1, 3)
+    out = np.zeros((rows * cols, env.regions + 1))
+    out[:, -1] = 1.0
     for i0 in range(0, R.shape[0], 256):
         r = R[i0:i0 + 256]
         s = r[:, None, :] + w[None, :, :]
         cos_h = np.sum(s * r[:, None, :], axis=-1) / np.maximum(np.linalg.norm(s, axis=-1), 1e-300)
-        out[i0:i0 + 256] = (nd.D(cos_h) / 4.0) @ onehot
+        out[i0:i0 + len(r)] = (nd.D(cos_h) / 4.0) @ onehot
     maps = (out[:, :-1] / out[:, -1:]).reshape(rows, cols, env.regions)
     env._filtered[key] = maps
     return maps
