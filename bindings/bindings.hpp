@@ -77,5 +77,6 @@ void bind_sampler_shaders(pybind11::module_& m);  // sampler_shaders.cpp: direct
 void bind_wb16(pybind11::module_& m);             // wb16.cpp: WB16's sparkle shader's C++ twin
 void bind_scene_trace(pybind11::module_& m);      // scene_trace.cpp: Scene.trace's camera rays
 void bind_gpu_cost(pybind11::module_& m);         // gpu_cost.cpp: RADV null devices as a GPU compiler
+void bind_lighting(pybind11::module_& m);         // lighting.cpp: area lights, environment maps, their facet truth
 
 }  // namespace glintlab::bindings

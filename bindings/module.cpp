@@ -24,6 +24,7 @@ PYBIND11_MODULE(_core, m) {
   gb::bind_sampler_shaders(m);
   gb::bind_wb16(m);
   gb::bind_scene_trace(m);
+  gb::bind_lighting(m);
   gb::bind_documents(m);
   gb::bind_scene_images(m);
   gb::bind_distribution(m);

@@ -47,6 +47,8 @@ from .api.samplers import Sampler, sampler, samplers, wrong_sampler
 from .validation.sampler_test import SamplerTestResult, sampler_test
 from .validation.furnace import furnace
 from .api.shader_samplers import ShaderSampler, shader_sampler, shipped_sampler
+from .api import lights  # gl.lights.cap / rect / disk / envmap (docs/math/lighting.md#lighting-lights)
+from .api.lighting import facet_truth, multinomial_counts, reflection_probability
 
 
 def set_num_threads(threads: int) -> None:
@@ -83,3 +85,4 @@ __all__ += ["ShaderSampler", "shader_sampler", "shipped_sampler"]  # samplers as
 __all__ += ["gpu_architectures", "gpu_cost"]  # shaders compiled for AMD GPUs without one (docs/guide/gpu_cost.md)
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)
 __all__ += ["matched_density", "db23_visible_glints"]  # KPT25 <-> DB23 (docs/math/glinty_ndf.md#glinty-matched)
+__all__ += ["lights", "reflection_probability", "facet_truth", "multinomial_counts"]  # docs/math/lighting.md

@@ -1,0 +1,414 @@
+"""Glints under extended lights (docs/math/lighting.md): the probability that a facet reflects a light,
+exact and approximated, the facet truth lit by the same lights, and counts per region of an environment
+map drawn as a multinomial.
+
+``reflection_probability(target, alpha, wo, light, method)``: p, the probability that a facet normal drawn
+from D(m)(m.n) mirrors the view wo into the light (docs/math/lighting.md#lighting-probability):
+
+- ``"exact"``: adaptive cubature (C++, ``rel_tol`` 1e-6 by default);
+- ``"ltc"``: a linearly transformed cosine fitted to the target NDF and alpha (KK24's large-light
+  approximation; docs/math/lighting.md#lighting-ltc);
+- ``"cap"``: the NDF held at the half vector of the light's centre, the half-vector region's solid
+  angle exact (KK24's locally constant approximation; docs/math/lighting.md#lighting-cap);
+- ``"point"``: the point light's p density at the light's centre times the light's solid angle.
+
+For an environment map the result is one p per region: ``"exact"`` (cubature over each region's
+cells), ``"filtered"`` (KK25's NDF-filtered indicator maps), ``"unfiltered"`` (the indicator looked up
+at the mirror direction: the deliberately wrong variant).
+
+>>> import glintlab as gl
+>>> light = gl.lights.cap((0.3, 0.0, 1.0), 0.1)
+>>> p = gl.reflection_probability("ggx", 0.2, (-0.3, 0.0, 1.0), light)
+"""
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+import scipy.optimize
+
+from .. import _core
+from . import checks as V
+from .laws import law as make_law
+from .lights import EnvMap, Light, directions
+from .ndf import NDFS
+from .ndf import ndf as smooth_ndf
+
+METHODS = ("exact", "ltc", "cap", "point")
+MAP_METHODS = ("exact", "filtered", "unfiltered")
+
+
+def _view(wo):
+    w = V.as_float_array("wo", wo)
+    if w.shape[-1:] != (3,) or not np.all(np.isfinite(w)):
+        V.fail("wo", f"an array of shape {w.shape}", "finite view directions (..., 3)")
+    n = np.linalg.norm(w, axis=-1, keepdims=True)
+    if np.any(w[..., 2] <= 0) or np.any(n == 0):
+        V.fail("wo", "a view at or below the horizon", "views above the horizon (wo_z > 0)")
+    return w / n
+
+
+def _target(target, alpha):
+    V.choice("target", target, NDFS)
+    return smooth_ndf(target, alpha)
+
+
+def density(target, alpha, wo, wi) -> np.ndarray:
+    """The p density per unit solid angle of light directions, D(h)(h.n) / (4 (wo.h)) (0 below the horizon):
+    the point light's p at wi is this times the light's solid angle."""
+    nd = _target(target, alpha)
+    wo, wi = _view(wo), V.unit_vectors(V.as_float_array("wi", wi))
+    s = wo + wi
+    h = s / np.linalg.norm(s, axis=-1, keepdims=True)
+    c, woh = h[..., 2], np.sum(wo * h, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = nd.D(c) * c / (4.0 * woh)
+    return np.where((wi[..., 2] > 0) & (woh > 0), out, 0.0)
+
+
+def reflection_probability(target, alpha, wo, light, method: str = "exact", rel_tol: float = 1e-6,
+                           return_error: bool = False):
+    """p for each view ``wo`` (3,) or (..., 3) and a light from ``gl.lights`` (see the module docs).
+    An environment map gives one p per region (last axis). ``return_error`` (exact only) also returns the
+    cubature's error estimate."""
+    nd = _target(target, alpha)
+    wo = _view(wo)
+    if isinstance(light, EnvMap):
+        V.choice("method", method, MAP_METHODS)
+        return _map_probability(nd, wo, light, method, rel_tol, return_error)
+    if not isinstance(light, Light):
+        V.fail("light", light, "a light from gl.lights (cap, rect, disk, envmap)")
+    V.choice("method", method, METHODS)
+    flat = wo.reshape(-1, 3)
+    if method == "exact":
+        rel = V.real("rel_tol", rel_tol)
+        views = np.ascontiguousarray(flat).reshape(-1)
+        values, errors = _core.reflection_probabilities(target, nd.alpha, views, light._core, rel)
+        values, errors = values.reshape(wo.shape[:-1]), errors.reshape(wo.shape[:-1])
+        return (values, errors) if return_error else values
+    if method == "point":
+        out = density(target, nd.alpha, flat, np.broadcast_to(light.center, flat.shape)) * light.solid_angle
+    elif method == "cap":
+        h = flat + light.center
+        h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+        omega_h = np.array([_core.half_vector_solid_angle(tuple(w), light._core)[0] for w in flat])
+        out = nd.D(h[:, 2]) * h[:, 2] * omega_h
+    else:
+        out = np.array([ltc_probability(target, nd.alpha, w, light) for w in flat])
+    return out.reshape(wo.shape[:-1])
+
+
+# ---------------------------------------------------------------------------------------------------------
+# LTC (docs/math/lighting.md#lighting-ltc)
+
+#: View angles of the fitted table: uniform in sqrt(1 - cos(theta_o)), as Heitz et al.'s tables.
+LTC_NODES = 16
+LTC_SAMPLES = 32
+
+
+def _ltc_matrix(params):
+    t, lsx, lsy, k = params
+    c, s = math.cos(t), math.sin(t)
+    rot = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    return rot @ np.array([[math.exp(lsx), 0.0, k], [0.0, math.exp(lsy), 0.0], [0.0, 0.0, 1.0]])
+
+
+def _ltc_log_density(minv, w):
+    """log of the LTC density at unit directions w: D_o(w_o) |det M^-1| / |M^-1 w|^3, D_o the clamped cosine."""
+    x = w @ minv.T
+    r = np.linalg.norm(x, axis=-1)
+    cz = x[:, 2] / r
+    det = abs(np.linalg.det(minv))
+    return np.log(np.maximum(cz, 1e-300) / math.pi) + math.log(det) - 3.0 * np.log(r)
+
+
+def _facet_directions(target, alpha, wo, m=LTC_SAMPLES):
+    """Light directions mirrored by normals drawn from D(m)(m.n) at the midpoints of an m x m grid of
+    uniforms (a deterministic sample of the p density); those above the horizon."""
+    u = (np.arange(m) + 0.5) / m
+    uu, vv = np.meshgrid(u, u, indexing="ij")
+    a2 = alpha * alpha
+    tan2 = -a2 * np.log(uu) if target == "beckmann" else a2 * uu / (1 - uu)
+    c = 1 / np.sqrt(1 + tan2)
+    s = np.sqrt(1 - c * c)
+    mn = np.stack([s * np.cos(2 * math.pi * vv), s * np.sin(2 * math.pi * vv), c], axis=-1).reshape(-1, 3)
+    d = mn @ wo
+    wi = 2 * d[:, None] * mn - wo
+    return wi[(d > 0) & (wi[:, 2] > 0)]
+
+
+def _fit_ltc(target, alpha, theta):
+    """The LTC parameters (t, log sx, log sy, skew) maximizing the likelihood of the p density's samples at
+    view angle theta (view in the xz-plane, +x side), and the magnitude: the exact p of the upper
+    hemisphere divided by the LTC's mass above the horizon."""
+    wo = np.array([math.sin(theta), 0.0, math.cos(theta)])
+    wi = _facet_directions(target, alpha, wo)
+    mean = wi.mean(axis=0)
+    t0 = math.atan2(mean[0], mean[2])
+    c, s = math.cos(t0), math.sin(t0)
+    local = wi @ np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]]).T
+    sx = max(2 * math.sqrt(np.mean((local[:, 0] / local[:, 2]) ** 2)), 1e-3)
+    sy = max(2 * math.sqrt(np.mean((local[:, 1] / local[:, 2]) ** 2)), 1e-3)
+
+    def loss(params):
+        m = _ltc_matrix(params)
+        return -np.mean(_ltc_log_density(np.linalg.inv(m), wi))
+
+    best = scipy.optimize.minimize(loss, [t0, math.log(sx), math.log(sy), 0.0], method="Nelder-Mead",
+                                   options={"xatol": 1e-6, "fatol": 1e-9, "maxiter": 4000})
+    m = _ltc_matrix(best.x)
+    upper = _core.reflection_probability(target, alpha, tuple(wo), _core.Light.cap((0.0, 0.0, 1.0), math.pi / 2), 1e-8)[0]
+    # The LTC's mass above the horizon: the clamped cosine's mass in the half-space g.w_o > 0, g the third
+    # row of M, which is (1 + cos(angle of g from z)) / 2.
+    g = m[2]
+    mass = 0.5 * (1.0 + g[2] / np.linalg.norm(g))
+    return np.concatenate([best.x, [upper / max(mass, 1e-300)]])
+
+
+@functools.lru_cache(maxsize=64)
+def ltc_table(target: str, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+    """(theta nodes, parameters (nodes, 5)): the LTC fitted at LTC_NODES view angles, cached per (target,
+    alpha); parameters are interpolated linearly between nodes."""
+    x = (np.arange(LTC_NODES) + 0.5) / LTC_NODES
+    theta = np.arccos(1 - x * x)
+    theta = np.minimum(theta, math.radians(89.0))
+    return theta, np.array([_fit_ltc(target, alpha, t) for t in theta])
+
+
+def _clip_upper(poly):
+    """The spherical polygon (vertices as vectors, great-arc edges) clipped to z >= 0."""
+    out = []
+    for i in range(len(poly)):
+        a, b = poly[i], poly[(i + 1) % len(poly)]
+        if a[2] >= 0:
+            out.append(a)
+        if (a[2] >= 0) != (b[2] >= 0):
+            t = a[2] / (a[2] - b[2])
+            out.append(a + t * (b - a))
+    return np.array(out)
+
+
+def _ltc_polygon(minv, poly):
+    """The integral of the LTC over a spherical polygon: the clamped cosine's integral over the polygon
+    mapped by M^-1 and clipped to the upper hemisphere (Lambert's edge formula)."""
+    q = _clip_upper(poly @ minv.T)
+    if len(q) < 3:
+        return 0.0
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    total = 0.0
+    for i in range(len(q)):
+        a, b = q[i], q[(i + 1) % len(q)]
+        cr = np.cross(a, b)
+        n = np.linalg.norm(cr)
+        if n > 0:
+            total += math.atan2(n, float(a @ b)) * cr[2] / n
+    return abs(total) / (2 * math.pi)
+
+
+def light_polygon(light: Light, n: int = 64) -> np.ndarray:
+    """The light's boundary as a spherical polygon: the rectangle's corners, n points of a cap's or a
+    disk's rim (the approximation the LTC path takes for round lights)."""
+    p = light.params
+    if light.kind == "rect":
+        c, u, v = (np.array(p[k]) for k in ("center", "edge_u", "edge_v"))
+        return np.array([c - u / 2 - v / 2, c + u / 2 - v / 2, c + u / 2 + v / 2, c - u / 2 + v / 2])
+    a = 2 * math.pi * np.arange(n) / n
+    if light.kind == "cap":
+        axis, r = np.array(p["direction"]) / np.linalg.norm(p["direction"]), math.tan(p["half_angle"])
+        centre = axis
+    else:
+        axis, r = np.array(p["normal"]) / np.linalg.norm(p["normal"]), p["radius"]
+        centre = np.array(p["center"])
+    e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    # A cap's rim is the circle of radius tan(half_angle) on the plane tangent at its axis.
+    return centre + r * (np.cos(a)[:, None] * e1 + np.sin(a)[:, None] * e2)
+
+
+def ltc_probability(target, alpha, wo, light: Light) -> float:
+    """p by the LTC (see ltc_table): the view rotated into the xz-plane, the light with it."""
+    wo = _view(wo).reshape(3)
+    theta = math.acos(min(wo[2], 1.0))
+    phi = math.atan2(wo[1], wo[0])
+    c, s = math.cos(-phi), math.sin(-phi)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    nodes, params = ltc_table(target, float(alpha))
+    par = np.array([np.interp(theta, nodes, params[:, j]) for j in range(params.shape[1])])
+    minv = np.linalg.inv(_ltc_matrix(par[:4]))
+    poly = _clip_upper(light_polygon(light) @ rot.T)
+    if len(poly) < 3:
+        return 0.0
+    return float(par[4] * _ltc_polygon(minv, poly))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Environment maps (docs/math/lighting.md#lighting-env)
+
+def _filtered_maps(nd, env: EnvMap, rows: int, cols: int) -> np.ndarray:
+    """KK25's NDF-filtered indicator maps at a grid of (rows, cols) lookup directions R: F_r(R) = sum over
+    the map's cells of [label = r] K(w; R) dw, with K(w; R) = D(h.R) / 4, h = (R + w)/|R + w| (the p
+    density with n = wo = R), normalised so that its discrete sum over the whole sphere is 1."""
+    key = (nd.name, nd.alpha, rows, cols)
+    if key in env._filtered:
+        return env._filtered[key]
+    w = directions(*env.shape).reshape(-1, 3)
+    dw = env.solid_angles.reshape(-1)
+    lab = env.labels.reshape(-1)
+    onehot = np.stack([(lab == r) * dw for r in range(env.regions)] + [dw], axis=-1)  # last: normaliser
+    # Mirror directions of views are above the horizon: the rows below the equator's neighbour are never
+    # looked up (the bilinear lookup reads at most one row past the equator), so they stay 0.
+    used = min(rows, rows // 2 + 2)
+    R = directions(rows, cols)[:used].reshape(-1, 3)
+    out = np.zeros((rows * cols, env.regions + 1))
+    out[:, -1] = 1.0
+    for i0 in range(0, R.shape[0], 256):
+        r = R[i0:i0 + 256]
+        s = r[:, None, :] + w[None, :, :]
+        cos_h = np.sum(s * r[:, None, :], axis=-1) / np.maximum(np.linalg.norm(s, axis=-1), 1e-300)
+        out[i0:i0 + len(r)] = (nd.D(cos_h) / 4.0) @ onehot
+    maps = (out[:, :-1] / out[:, -1:]).reshape(rows, cols, env.regions)
+    env._filtered[key] = maps
+    return maps
+
+
+def _lookup(maps, R):
+    """Bilinear lookup of (rows, cols, k) equirectangular maps at unit directions R (..., 3), wrapping in phi."""
+    rows, cols = maps.shape[:2]
+    theta = np.arccos(np.clip(R[..., 2], -1, 1))
+    phi = np.mod(np.arctan2(R[..., 1], R[..., 0]), 2 * math.pi)
+    y = np.clip(theta / math.pi * rows - 0.5, 0, rows - 1)
+    x = phi / (2 * math.pi) * cols - 0.5
+    y0 = np.minimum(np.floor(y).astype(int), rows - 2)
+    x0 = np.floor(x).astype(int)
+    fy, fx = (y - y0)[..., None], (x - x0)[..., None]
+    x0m, x1m = np.mod(x0, cols), np.mod(x0 + 1, cols)
+    top = maps[y0, x0m] * (1 - fx) + maps[y0, x1m] * fx
+    bottom = maps[y0 + 1, x0m] * (1 - fx) + maps[y0 + 1, x1m] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+FILTER_GRID = (32, 64)
+
+
+def _map_probability(nd, wo, env: EnvMap, method, rel_tol, return_error):
+    flat = wo.reshape(-1, 3)
+    if method == "exact":
+        rows, cols, k, labels, rad = env.core_args()
+        res = [_core.region_probabilities(nd.name, nd.alpha, tuple(w), rows, cols, k, labels, rad, V.real("rel_tol", rel_tol))
+               for w in flat]
+        values = np.array([[r[0] for r in row] for row in res]).reshape(wo.shape[:-1] + (k,))
+        errors = np.array([[r[1] for r in row] for row in res]).reshape(values.shape)
+        return (values, errors) if return_error else values
+    mirror = flat * np.array([-1.0, -1.0, 1.0])
+    if method == "filtered":
+        out = _lookup(_filtered_maps(nd, env, *FILTER_GRID), mirror)
+    else:
+        onehot = np.stack([(env.labels == r).astype(float) for r in range(env.regions)], axis=-1)
+        out = _lookup(onehot, mirror)
+    return out.reshape(wo.shape[:-1] + (env.regions,))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# The facet truth (docs/math/lighting.md#lighting-facets) and multinomial counts (#lighting-multinomial)
+
+class FacetCounts:
+    """One realization of the facet truth: ``counts`` (footprints, channels) of facets reflecting each light
+    or region, ``radiance`` (footprints,) the sum of their radiance, ``facets`` (footprints,) the facets
+    inside each footprint."""
+
+    def __init__(self, counts, radiance, facets):
+        self.counts, self.radiance, self.facets = counts, radiance, facets
+
+    def __repr__(self):
+        return f"FacetCounts({self.counts.shape[0]} footprints, {self.counts.shape[1]} channels)"
+
+
+def _side(density):
+    d = V.real("density", density)
+    side = round(math.sqrt(d)) if d > 0 and math.isfinite(d) else 0
+    if side < 1 or side * side != d:
+        V.fail("density", density, "a perfect square M^2 >= 1 (the stratified layout: one facet per cell)")
+    return side
+
+
+def facet_truth(target, alpha, density, footprints, centers, wo, light, seed=0, radiance: str = "map") -> FacetCounts:
+    """The facet truth under ``light`` (a Light, a list of them, or an EnvMap): explicit facets of the
+    stratified layout of ``density`` (one per cell, jittered, each with its normal drawn from D(m)(m.n)),
+    counted per placed footprint (``footprints`` from gl.Rect / gl.Ellipse, ``centers`` (x, y) pairs) when the
+    mirror of that footprint's view ``wo`` (one (3,) for all or one per footprint) about its normal hits a
+    light (the first that contains it) or a region; for a map, ``radiance`` "map" sums the map's own
+    values, "regions" the partition's constants. One realization per ``seed``, whatever the threads."""
+    nd = _target(target, alpha)
+    side = _side(density)
+    fps = [f._core for f in footprints]
+    cs = [(V.real("centers", c[0]), V.real("centers", c[1])) for c in centers]
+    w = np.broadcast_to(_view(wo), (len(fps), 3)).reshape(-1).tolist()
+    seed = V.seed(seed)
+    if isinstance(light, EnvMap):
+        V.choice("radiance", radiance, ("map", "regions"))
+        c, r, f = _core.facet_truth_map(target, nd.alpha, side, fps, cs, w, *light.core_args(radiance), seed)
+    else:
+        lights = [light] if isinstance(light, Light) else list(light)
+        if not lights or not all(isinstance(x, Light) for x in lights):
+            V.fail("light", light, "a light from gl.lights, a list of them, or an environment map")
+        c, r, f = _core.facet_truth_lights(target, nd.alpha, side, fps, cs, w, [x._core for x in lights],
+                                           [x.radiance for x in lights], seed)
+    return FacetCounts(c, r, f)
+
+
+SCHEMES = ("chain", "tree", "independent")
+
+
+def _split(n_rem, q_rem, p_sub, law, u):
+    """One conditional draw: K ~ law(n_rem, p_sub / q_rem), binned to whole counts."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p = np.clip(np.where(q_rem > 0, p_sub / q_rem, 0.0), 0.0, 1.0)
+    k = law.bin(law.evaluate(n_rem, p, u)) if law.n_uniforms else law.evaluate(n_rem, p, u)
+    return np.clip(k, 0, n_rem)
+
+
+def multinomial_counts(n, probs, law="binomial", scheme: str = "chain", size: int = 1, seed=0) -> np.ndarray:
+    """Counts per region (size, k) of n facets falling in k regions with probabilities ``probs`` (the rest
+    reflect nothing), drawn as conditional binomials of ``law`` (docs/math/lighting.md#lighting-multinomial):
+    "chain" region after region (K_r ~ law(n - K_1 - ... - K_{r-1}, p_r / (1 - p_1 - ... - p_{r-1})): the
+    exact multinomial with the binomial), "tree" by halving the set of regions (KK25's hierarchy), or
+    "independent" (K_r ~ law(n, p_r) each on its own: the deliberately wrong variant)."""
+    lw = make_law(law) if isinstance(law, str) else law
+    V.choice("scheme", scheme, SCHEMES)
+    p = V.as_float_array("probs", probs)
+    if p.ndim != 1 or np.any(p < 0) or p.sum() > 1 + 1e-12:
+        V.fail("probs", probs, "a 1-D array of probabilities >= 0 summing to at most 1")
+    size = V.integer("size", size, minimum=0)
+    n = V.real("n", n)
+    rng = np.random.default_rng(V.seed(seed))
+    k = len(p)
+    out = np.zeros((size, k))
+    uniforms = lambda: rng.random((size, max(lw.n_uniforms, 1)))  # noqa: E731
+    if scheme == "independent":
+        for r in range(k):
+            out[:, r] = _split(np.full(size, n), np.ones(size), p[r], lw, uniforms())
+        return out
+    if scheme == "chain":
+        n_rem, q_rem = np.full(size, n), 1.0
+        for r in range(k):
+            out[:, r] = _split(n_rem, np.full(size, q_rem), p[r], lw, uniforms())
+            n_rem, q_rem = n_rem - out[:, r], q_rem - p[r]
+        return out
+    cats = list(range(k)) + [k]  # the last category: facets that reflect nothing
+    probs_all = np.concatenate([p, [max(0.0, 1.0 - p.sum())]])
+
+    def descend(group, n_group):
+        if len(group) == 1:
+            if group[0] < k:
+                out[:, group[0]] = n_group
+            return
+        left, right = group[: len(group) // 2], group[len(group) // 2:]
+        q = probs_all[group].sum()
+        kl = _split(n_group, np.full(size, q), probs_all[left].sum(), lw, uniforms())
+        descend(left, kl)
+        descend(right, n_group - kl)
+
+    descend(cats, np.full(size, n))
+    return out

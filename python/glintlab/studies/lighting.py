@@ -1,0 +1,146 @@
+"""Glints under real lights (KK24, KK25; docs/math/lighting.md): the reflection probability of an area light,
+exact by cubature against its approximations, the counting laws against facets lit by the same light, and
+an environment map's regions counted as a multinomial (numbers: ``validation.lighting``)."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..api import lights as gl_lights
+from ..api.lighting import reflection_probability
+from ..validation import lighting as VL
+from .base import Context, Tables
+
+NAME = "lighting"
+TITLE = "Glints under area lights and environment maps (KK24, KK25)"
+MEANING = ("The probability that a facet mirrors the view into an extended light, exact by cubature, is what "
+           "explicit facets lit by that light count (binomial per light, multinomial per region of a map); "
+           "the point-light and locally constant approximations hold for lights small against the NDF's lobe, "
+           "and only a joint test over the regions sees a multinomial drawn as independent binomials.")
+DEFAULTS = {"targets": ["beckmann", "ggx"], "alphas": [0.05, 0.2, 0.5], "half_angles": [0.01, 0.05, 0.2],
+            "elevations_deg": [20.0, 45.0], "views_deg": [10.0, 40.0, 70.0], "count_half_angles": [0.001, 0.02, 0.1, 0.3],
+            "realizations": 2, "tolerance": 0.05}
+QUICK = {"alphas": [0.05, 0.3], "half_angles": [0.01, 0.1], "elevations_deg": [30.0], "views_deg": [20.0, 60.0],
+         "count_half_angles": [0.001, 0.1, 0.3], "realizations": 1}
+NOTEBOOK = "lighting.ipynb"
+TABLE = {
+    "lighting_accuracy": ["method", "target", "kind", "half_angle", "configurations", "share_within",
+                          "median_abs_rel_err", "max_abs_rel_err"],
+    "lighting_counts": ["half_angle", "method", "law", "p", "chi2_pvalue", "tv", "facet_mean", "law_mean", "facet_sd",
+                        "law_sd"],
+    "lighting_point_limit": ["half_angle", "p_exact", "p_point", "ratio", "R_equivalent", "p_db23"],
+    "lighting_envmap": ["source", "method", "scheme", "chi2", "dof", "chi2_pvalue", "p_0", "p_1", "p_2"],
+    "lighting_images": ["image", "mean_count", "vs_facets", "vs_expected", "lit_share"],
+}
+PASS = 1e-3  # the chi-square level of the exact paths' checks (their false-failure rate; the seeds are fixed)
+
+
+def compute(params: dict, ctx: Context) -> Tables:
+    ctx.progress("probabilities")
+    probs = VL.probability_table(tuple(params["targets"]), tuple(params["alphas"]), tuple(params["half_angles"]),
+                                 tuple(params["elevations_deg"]), tuple(params["views_deg"]))
+    accuracy = VL.where_accurate(probs, params["tolerance"])
+    ctx.progress("counts under a cap")
+    counts = VL.area_light_counts(half_angles=tuple(params["count_half_angles"]), realizations=params["realizations"],
+                                  seed=ctx.seed)
+    limit = VL.point_limit_table()
+    ctx.progress("environment map")
+    env = gl_lights.envmap("sky", regions=3)
+    envtab, partition = VL.envmap_counts(env, realizations=params["realizations"], seed=ctx.seed)
+    ctx.progress("images")
+    images, image_table = VL.plane_images(window_light(), seed=ctx.seed)
+    failures = []
+    exact = counts[(counts.method == "exact") & (counts.law == "binomial")]
+    for _, r in exact[exact.chi2_pvalue <= PASS].iterrows():
+        failures.append(f"facets under a cap of {r.half_angle:g} rad are not Binomial(M, p_exact): p = {r.chi2_pvalue:.2g}")
+    if abs(limit.ratio.iloc[-1] - 1) > 1e-6:
+        failures.append(f"point-light limit: p_exact / p_point = {limit.ratio.iloc[-1]:.9g} at the smallest cap")
+    e = envtab.set_index(["source", "method", "scheme"]).chi2_pvalue
+    if e[("facets", "exact", "")] <= PASS or e[("binomial", "exact", "chain")] <= PASS:
+        failures.append("environment map: the facets or the binomial chain are not the exact multinomial")
+    ms = probs.exact_ms
+    stats = {"exact p: CPU ms per (view, light), median / max": f"{ms.median():.3g} / {ms.max():.3g}",
+             "exact p: largest error estimate / p (p > 1e-20)":
+                 float((probs.exact_error / probs.p_exact)[probs.p_exact > 1e-20].max()),
+             f"point p within {params['tolerance']:.0%} of exact (half-angle {min(params['half_angles']):g})":
+                 float(accuracy[(accuracy.method == "point") & (accuracy.half_angle == min(params["half_angles"]))]
+                       .share_within.mean()),
+             "environment map: partition's relative radiance error": partition["rel_partition_error"]}
+    return Tables({"lighting_accuracy": accuracy, "lighting_counts": counts, "lighting_point_limit": limit,
+                   "lighting_envmap": envtab, "lighting_images": image_table}, stats, failures,
+                  extra={"lighting_probabilities": probs}, data={"env": env, "partition": partition, "images": images})
+
+
+def figures(tables: Tables, ctx: Context) -> list:
+    return [ctx.save(accuracy_figure(tables["lighting_probabilities"]), "lighting_accuracy.png"),
+            ctx.save(envmap_figure(tables["env"]), "lighting_envmap.png"),
+            ctx.save(images_figure(tables["images"]), "lighting_images.png")]
+
+
+def window_light():
+    """A window-sized panel (0.6 x 0.8 at distance 2) ahead of the camera of ``plane_pixels``, centred on
+    the mirror direction of the image's centre."""
+    wo = np.array([-0.62, 0.0, 0.78])
+    wo /= np.linalg.norm(wo)
+    mirror = wo * np.array([-1.0, -1.0, 1.0])
+    return gl_lights.rect(2 * mirror, (0.6 * mirror[2], 0.0, -0.6 * mirror[0]), (0.0, 0.8, 0.0))
+
+
+def images_figure(images):
+    """Counts per pixel of the plane under the window: the facets beside the laws at the exact and point p."""
+    import matplotlib.pyplot as plt
+
+    names = list(images)
+    fig, axes = plt.subplots(1, len(names), figsize=(2.6 * len(names), 2.2))
+    vmax = max(float(np.percentile(v, 99.5)) for v in images.values())
+    for ax, name in zip(axes, names):
+        ax.imshow(images[name], cmap="inferno", vmin=0, vmax=vmax, interpolation="nearest")
+        ax.set_title(name, fontsize=7)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.suptitle("a plane under a window light: reflecting facets per pixel", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def accuracy_figure(probs):
+    """|relative error| of each approximation against the exact p, by light size, one panel per target."""
+    import matplotlib.pyplot as plt
+
+    targets = sorted(probs.target.unique())
+    fig, axes = plt.subplots(1, len(targets), figsize=(4.2 * len(targets), 3.6), squeeze=False)
+    for ax, target in zip(axes[0], targets):
+        t = probs[(probs.target == target) & (probs.p_exact > 1e-6)]
+        for i, (m, colour) in enumerate((("ltc", "#1b9e77"), ("cap", "#d95f02"), ("point", "#7570b3"))):
+            x = t.half_angle * (1 + 0.08 * (i - 1))
+            ax.scatter(x, np.abs(t[f"rel_err_{m}"]).clip(1e-9), s=10, color=colour, alpha=0.6, label=m)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.axhline(0.05, color="grey", ls=":", lw=0.8)
+        ax.set_xlabel("light half-angle (rad)")
+        ax.set_ylabel("|p / p_exact - 1|")
+        ax.set_title(f"{target}: approximations against the exact p", fontsize=8)
+        ax.legend(fontsize=7)
+        ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def envmap_figure(env):
+    """The shipped sky, its partition, and the per-region p of a view (exact, filtered)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.0))
+    axes[0].imshow(np.log10(env.image), cmap="magma", aspect="auto")
+    axes[0].set_title("sky (log10 radiance)", fontsize=8)
+    axes[1].imshow(env.labels, cmap="tab10", aspect="auto", vmin=-1, vmax=9)
+    axes[1].set_title(f"{env.regions} regions (-1: below the horizon)", fontsize=8)
+    wo = np.array([np.sin(0.5), 0.0, np.cos(0.5)])
+    for i, m in enumerate(("exact", "filtered")):
+        p = reflection_probability("ggx", 0.3, wo, env, m)
+        axes[2].bar(np.arange(env.regions) + 0.4 * i, p, width=0.4, label=m)
+    axes[2].set_yscale("log")
+    axes[2].set_xlabel("region")
+    axes[2].set_title("p per region, GGX 0.3, view at 29 degrees", fontsize=8)
+    axes[2].legend(fontsize=7)
+    fig.tight_layout()
+    return fig
