@@ -14,7 +14,7 @@ deps:
 # What `make run` needs and nothing more: the Python module glintlab._core with what it links (the
 # core, the validation libraries) and the example plugin (docs/guide/python.md). The C++ tests and the
 # benchmarks' programs are built by `make test` and `make bench` (build-all): a fresh clone's first
-# report waits for about 60 % of the compiling.
+# report waits for 340 s of compiler CPU time instead of 556 s (measured without ccache).
 BUILD_TARGETS := _core glintlab_example_plugin
 
 build: deps
