@@ -15,18 +15,17 @@ namespace glintlab {
 namespace {
 
 // Its own kernel: the fixed evaluator's table, and its own sampler (BTRD / inversion, not evaluate()).
-class BinomialLaw final : public CountingLaw, public detail::LawKernel {
+class BinomialLaw final : public detail::KernelLaw<BinomialLaw> {
  public:
-  BinomialLaw() : detail::LawKernel(static_cast<const CountingLaw&>(*this)) {}
-  const detail::LawKernel* kernel() const override { return this; }
   std::string name() const override { return "binomial"; }
   int n_uniforms() const override { return 1; }
-  double evaluate(double n, double p, const double* u) const override { return binomial::quantile(u[0], n, p); }
+  // float64 only (an eval of doubles, not a template).
+  double eval(double n, double p, const double* u) const { return binomial::quantile(u[0], n, p); }
   // Many rows at one (n, p) on given uniforms (a blend's level at one footprint area): quantile on a
   // table of the distribution functions it compares against (binomial::QuantileTable), bit for bit.
   std::unique_ptr<detail::FixedEvaluator> fixed_evaluator(double n, double p, std::size_t rows) const override {
     auto table = std::make_shared<const binomial::QuantileTable>(n, p, rows);
-    if (!table->tabulated()) return detail::LawKernel::fixed_evaluator(n, p, rows);
+    if (!table->tabulated()) return KernelLaw::fixed_evaluator(n, p, rows);
     return detail::make_fixed_evaluator([table](const double* u, std::size_t count, double* out) {
       for (std::size_t r = 0; r < count; ++r) out[r] = (*table)(u[r]);
     });

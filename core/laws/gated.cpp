@@ -14,16 +14,17 @@
 #include <algorithm>
 #include <cmath>
 
-#include "../src/pixel_blocks.hpp"
-#include "../src/simd_math.hpp"
 #include "glintlab/detail/law_kernel.hpp"
+#include "glintlab/detail/pixel_blocks.hpp"
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
 
 namespace glintlab {
 namespace {
 
-// The per-(n, p) constants of eq. 16-17, so that a batch computes them once (same expressions).
+// The per-(n, p) constants of eq. 16-17, computed here only: eval, the batch paths (once per batch) and
+// the exact pmf all take them from this constructor. The vector per-pixel pass (gated_pixels_body.inc)
+// only decides from its own cheap P1 where the decision is far from it, and leaves the rest to eval.
 template <class T>
 struct GatedConstants {
   T p1, mu, sigma, top;
@@ -50,97 +51,23 @@ class GatedLaw final : public detail::KernelLaw<GatedLaw> {
   std::string name() const override { return "gated"; }
   int n_uniforms() const override { return 2; }
 
-  template <class T>
-  T eval(T n, T p, const T* u) const {
-    const GatedConstants<T> c(n, p);
-    if (!(u[0] < c.p1)) return T(0);
-    return T(1) + c.gaussian_count(u[1]);
-  }
-
-  // Rows at one (n, p): the constants once (detail::KernelLaw), or the table below.
+  // eval is constants(n, p)(u) (detail::KernelLaw); rows at one (n, p) compute the constants once, or
+  // use the table below.
   template <class T>
   GatedConstants<T> constants(T n, T p) const {
     return GatedConstants<T>(n, p);
   }
 
-  // Pixels with their own (n, p): log1p, expm1 and the quantile's log by SLEEF over the block, the
-  // rest as eval. Bit-identical to eval: the gate is decided from the vector P1 only when u0 is
-  // farther from it than 1e-11 P1 (the two P1 differ by a few ulps: |n log1p(-p)| e^x / (1 - e^x) <= 1
-  // keeps expm1's relative error at its own), the Gaussian count only when its argument is farther
-  // than 1e-11 of its magnitude from an integer (the quantile's central region is eval's own
-  // expressions, exact); any other pixel (about 1e-11 of them) is recomputed by eval.
+  // Pixels with their own (n, p): the vector block pass at the CPU's ISA (gated_pixels_body.inc: the
+  // gate from a cheap P1, the Gaussian count from eval's central quantile or a banded tail), then eval
+  // wherever it flagged a pixel as too close to a decision to be sure: bit for bit eval. CPUs without
+  // AVX2 and FMA evaluate every pixel.
   void evaluate_pixels(const double* n, const double* p, const double* u, std::size_t count,
                        double* out) const override {
-    constexpr std::size_t kB = 256;
-    // The whole block at the CPU's ISA (gated_pixels_body.inc), then eval where flagged.
-    if (detail::run_pixel_blocks(detail::gated_pixels_block_avx512, detail::gated_pixels_block_avx2, n, p, u, count,
-                                 out,
-                                 [this](double nv, double pv, const double* row) { return eval<double>(nv, pv, row); }))
-      return;
-    alignas(64) double a[kB], e[kB], lt[kB];
-    for (std::size_t s = 0; s < count; s += kB) {
-      const std::size_t m = std::min(kB, count - s);
-      const double *nn = n + s, *pp = p + s, *uu = u + 2 * s;
-      double* oo = out + s;
-      for (std::size_t i = 0; i < m; ++i) a[i] = -pp[i];
-      detail::vec_log1p(a, e, m);
-      for (std::size_t i = 0; i < m; ++i) a[i] = nn[i] * e[i];
-      detail::vec_expm1(a, e, m);  // e = -P1
-      for (std::size_t i = 0; i < m; ++i) {
-        const double v = uu[2 * i + 1];
-        a[i] = v < 0.5 ? v : 1.0 - v;  // quantile's min(u, 1 - u), as it computes it
-      }
-      detail::vec_log(a, lt, m);
-      if (const int level = detail::simd_level(); level >= 1) {
-        // The rest as one vectorized branch-free pass (gated_pixels_body.inc), then eval where flagged.
-        alignas(64) double redo[kB];
-        if (level >= 2)
-          detail::gated_pixels_avx512(nn, pp, uu, e, lt, m, oo, redo);
-        else
-          detail::gated_pixels_avx2(nn, pp, uu, e, lt, m, oo, redo);
-        for (std::size_t i = 0; i < m; ++i)
-          if (redo[i] != 0.0) oo[i] = eval<double>(nn[i], pp[i], uu + 2 * i);
-        continue;
-      }
-      for (std::size_t i = 0; i < m; ++i) {
-        const double nv = nn[i], pv = pp[i], u0 = uu[2 * i], u1 = uu[2 * i + 1];
-        const double* row = uu + 2 * i;
-        if (!(u0 > 0.0 && u0 < 1.0 && u1 > 0.0 && u1 < 1.0)) {
-          oo[i] = eval<double>(nv, pv, row);
-          continue;
-        }
-        if (!(nv > 0.0)) {
-          oo[i] = 0.0;
-          continue;
-        }  // P1 = 0: never gated (eval's guard)
-        const double p1 = -e[i];
-        if (!(std::abs(u0 - p1) > 1e-11 * std::abs(p1))) {
-          oo[i] = eval<double>(nv, pv, row);
-          continue;
-        }
-        if (!(u0 < p1)) {
-          oo[i] = 0.0;
-          continue;
-        }
-        const double mm = nv > 1.0 ? nv - 1.0 : 0.0, mu = mm * pv, sigma = std::sqrt(mu * (1.0 - pv));
-        const double top = std::ceil(nv) - 1.0;
-        double g = mu;
-        if (sigma > 0.0) {
-          bool central;
-          const double z = normal::quantile_given_log(u1, lt[i], central);
-          g = mu + sigma * z;
-          if (!central) {
-            const double f = g - std::floor(g), tol = 1e-11 * (std::abs(mu) + sigma * (std::abs(z) + 1.0));
-            if (!(f > tol && 1.0 - f > tol)) {
-              oo[i] = eval<double>(nv, pv, row);
-              continue;
-            }
-          }
-        }
-        const double j = std::floor(g);
-        oo[i] = 1.0 + (j < 0.0 ? 0.0 : (j > top ? top : j));
-      }
-    }
+    if (!detail::run_pixel_blocks(
+            detail::gated_pixels_block_avx512, detail::gated_pixels_block_avx2, n, p, u, count, out,
+            [this](double nv, double pv, const double* row) { return eval<double>(nv, pv, row); }))
+      KernelLaw::evaluate_pixels(n, p, u, count, out);
   }
 
   // Many rows at one (n, p) (a batch, a blend's level at one footprint area): the Gaussian count by
@@ -159,13 +86,13 @@ class GatedLaw final : public detail::KernelLaw<GatedLaw> {
 
   bool has_pmf() const override { return true; }
   Distribution pmf(double n, double p, std::size_t max_support) const override {
-    const double p1 = n > 0 ? -std::expm1(n * std::log1p(-p)) : 0.0;  // as GatedConstants
-    const double m = n > 1 ? n - 1 : 0.0, mu = m * p, sigma = std::sqrt(mu * (1 - p));
+    const GatedConstants<double> c(n, p);
+    const double p1 = c.p1, mu = c.mu, sigma = c.sigma;
     std::vector<double> ks{0.0}, ps{1.0 - p1};
     bool trimmed_above = false;
     if (p1 > 0) {
       if (sigma > 0) {
-        auto law = normal::discretized(mu, sigma, std::ceil(n) - 1, 0.0, max_support, "gated.pmf");
+        auto law = normal::discretized(mu, sigma, c.top, 0.0, max_support, "gated.pmf");
         // Below the gated part's first point lies trimmed mass < 1e-16 that belongs to K >= 1:
         // fold it into K = 1 by starting at j = 0 when trimmed (it is < 1e-16 of P1).
         for (std::size_t i = 0; i < law.support.size(); ++i) {
@@ -174,7 +101,7 @@ class GatedLaw final : public detail::KernelLaw<GatedLaw> {
         }
         trimmed_above = law.trimmed_above;
       } else {
-        const double one = std::clamp(std::floor(mu), 0.0, std::ceil(n) - 1);
+        const double one = std::clamp(std::floor(mu), 0.0, c.top);
         ks.push_back(1 + one);
         ps.push_back(p1);
       }

@@ -22,9 +22,9 @@
 #include <map>
 #include <vector>
 
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/float16.hpp"
-#include "glintlab/templated_law.hpp"
 
 namespace glintlab {
 namespace {
@@ -142,7 +142,7 @@ const Cells& gaussian_cells() {
   return cells;
 }
 
-class GatedShaderLaw final : public TemplatedLaw<GatedShaderLaw> {
+class GatedShaderLaw final : public detail::KernelLaw<GatedShaderLaw> {
  public:
   std::string name() const override { return "gated_shader"; }
   int n_uniforms() const override { return 2; }

@@ -19,9 +19,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "../src/pixel_blocks.hpp"
-#include "../src/simd_math.hpp"
 #include "glintlab/detail/law_kernel.hpp"
+#include "glintlab/detail/pixel_blocks.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/normal.hpp"
 #include "glintlab/step_inversion.hpp"
@@ -124,97 +123,17 @@ class HeadCfLaw final : public detail::KernelLaw<HeadCfLaw> {
     return Constants<T>(n, p);
   }
 
-  // Pixels with their own (n, p): log1p and exp of the head and the quantile's log by SLEEF over the
-  // block, the rest as eval. Bit-identical to eval: u0 is compared with the vector F(0), F(1), F(2)
-  // only when it is farther than 1e-11 of them from each (the vector exp(x) is within ~|x| ulps,
-  // |x| <= 745 before it underflows), and the tail's ceil only when its argument is farther than
-  // 1e-11 of its magnitude from an integer (the quantile's central region is eval's own
-  // expressions); any other pixel is recomputed by eval.
+  // Pixels with their own (n, p): the vector block pass at the CPU's ISA (head_cf_pixels_body.inc: the
+  // head's F(0), F(1), F(2) and the quantile's log by SLEEF, the rest as eval's expressions), then eval
+  // wherever it flagged a pixel as too close to a decision to be sure (u0 within a relative 1e-11 of
+  // F(0), F(1) or F(2); the tail's ceil argument within 1e-11 of its magnitude from an integer): bit for
+  // bit eval. CPUs without AVX2 and FMA evaluate every pixel.
   void evaluate_pixels(const double* n, const double* p, const double* u, std::size_t count,
                        double* out) const override {
-    constexpr std::size_t kB = 256;
-    // The whole block at the CPU's ISA (head_cf_pixels_body.inc), then eval where flagged.
-    if (detail::run_pixel_blocks(detail::head_cf_pixels_block_avx512, detail::head_cf_pixels_block_avx2, n, p, u, count,
-                                 out,
-                                 [this](double nv, double pv, const double* row) { return eval<double>(nv, pv, row); }))
-      return;
-    alignas(64) double a[kB], e[kB], lt[kB];
-    for (std::size_t s = 0; s < count; s += kB) {
-      const std::size_t mcount = std::min(kB, count - s);
-      const double *nn = n + s, *pp = p + s, *uu = u + 2 * s;
-      double* oo = out + s;
-      for (std::size_t i = 0; i < mcount; ++i) a[i] = -(pp[i] < 0.5 ? pp[i] : 1.0 - pp[i]);
-      detail::vec_log1p(a, e, mcount);
-      for (std::size_t i = 0; i < mcount; ++i) a[i] = std::floor(nn[i]) * e[i];
-      detail::vec_exp(a, e, mcount);  // e = P(Y = 0)
-      for (std::size_t i = 0; i < mcount; ++i) {
-        const double v = uu[2 * i];
-        a[i] = v < 0.5 ? v : 1.0 - v;
-      }
-      detail::vec_log(a, lt, mcount);
-      if (const int level = detail::simd_level(); level >= 1) {
-        // The rest as one vectorized branch-free pass (head_cf_pixels_body.inc), then eval where flagged.
-        alignas(64) double redo[kB];
-        if (level >= 2)
-          detail::head_cf_pixels_avx512(nn, pp, uu, e, lt, mcount, oo, redo);
-        else
-          detail::head_cf_pixels_avx2(nn, pp, uu, e, lt, mcount, oo, redo);
-        for (std::size_t i = 0; i < mcount; ++i)
-          if (redo[i] != 0.0) oo[i] = eval<double>(nn[i], pp[i], uu + 2 * i);
-        continue;
-      }
-      for (std::size_t i = 0; i < mcount; ++i) {
-        const double nv = nn[i], pv = pp[i], u0 = uu[2 * i], u1 = uu[2 * i + 1];
-        const double* row = uu + 2 * i;
-        if (!(u0 > 0.0 && u0 < 1.0 && u1 > 0.0 && u1 < 1.0)) {
-          oo[i] = eval<double>(nv, pv, row);
-          continue;
-        }
-        const double m = std::floor(nv), pt = pv < 0.5 ? pv : 1.0 - pv, qt = 1.0 - pt;
-        const double p0 = e[i];
-        const double p1 = m >= 1.0 ? p0 * m * pt / qt : 0.0;
-        const double p2 = m >= 2.0 ? p1 * (m - 1.0) * pt / (2.0 * qt) : 0.0;
-        const double f0 = p0, f1 = p0 + p1, f2 = p0 + p1 + p2;
-        const auto near = [u0](double f) { return !(std::abs(u0 - f) > 1e-11 * std::abs(f)); };
-        if (near(f0) || near(f1) || near(f2)) {
-          oo[i] = eval<double>(nv, pv, row);
-          continue;
-        }
-        double y;
-        if (u0 <= f0)
-          y = 0.0;
-        else if (u0 <= f1)
-          y = 1.0;
-        else if (u0 <= f2)
-          y = 2.0;
-        else {
-          const double mu = m * pt, sd = std::sqrt(mu * (1.0 - pt));
-          if (sd > 0.0) {
-            const double g = (1.0 - 2.0 * pt) / sd;
-            bool central;
-            double z = normal::quantile_given_log(u0, lt[i], central);
-            if (g > 0.0 && z < -3.0 / g) z = -3.0 / g;
-            const double cf = g > 0.0 ? z + g * (z * z - 1.0) / 6.0 : z;
-            const double arg = mu + sd * cf - 0.5;
-            if (!central) {
-              const double f = std::ceil(arg) - arg, tol = 1e-11 * (std::abs(mu) + sd * (std::abs(cf) + 1.0) + 1.0);
-              if (!(f > tol && 1.0 - f > tol)) {
-                oo[i] = eval<double>(nv, pv, row);
-                continue;
-              }
-            }
-            y = std::ceil(arg);
-          } else {
-            y = mu;
-          }
-          y = y < 3.0 ? 3.0 : y;
-        }
-        y = y > m ? m : y;
-        const double whole = pv <= 0.5 ? y : m - y;
-        const double frac_p = (nv - m) * pv;
-        oo[i] = whole + (u1 < frac_p ? 1.0 : 0.0);
-      }
-    }
+    if (!detail::run_pixel_blocks(
+            detail::head_cf_pixels_block_avx512, detail::head_cf_pixels_block_avx2, n, p, u, count, out,
+            [this](double nv, double pv, const double* row) { return eval<double>(nv, pv, row); }))
+      KernelLaw::evaluate_pixels(n, p, u, count, out);
   }
 
   // Many rows at one (n, p): Y by table inversion of its exact CDF (the thresholds pmf() uses), with

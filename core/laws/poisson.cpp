@@ -8,13 +8,12 @@ namespace glintlab {
 namespace {
 
 // Its own kernel: its own sampler (poisson::Sampler on the sample's stream, not evaluate()).
-class PoissonLaw final : public CountingLaw, public detail::LawKernel {
+class PoissonLaw final : public detail::KernelLaw<PoissonLaw> {
  public:
-  PoissonLaw() : detail::LawKernel(static_cast<const CountingLaw&>(*this)) {}
-  const detail::LawKernel* kernel() const override { return this; }
   std::string name() const override { return "poisson"; }
   int n_uniforms() const override { return 1; }
-  double evaluate(double n, double p, const double* u) const override { return poisson::quantile(u[0], n * p); }
+  // float64 only (an eval of doubles, not a template).
+  double eval(double n, double p, const double* u) const { return poisson::quantile(u[0], n * p); }
   bool samples_by_evaluate() const override { return false; }
   void sample_range(double n, double p, std::uint64_t seed, std::size_t i0, std::size_t i1,
                     double* out) const override {

@@ -10,8 +10,8 @@
 #include <cmath>
 
 #include "glintlab/binomial.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
-#include "glintlab/templated_law.hpp"
 
 namespace glintlab {
 namespace {
@@ -19,7 +19,7 @@ namespace {
 // WWH18's threshold, shared by the factory's default and the declared bound domain.
 constexpr double kDefaultThreshold = 16.0;
 
-class ThresholdLaw final : public TemplatedLaw<ThresholdLaw> {
+class ThresholdLaw final : public detail::KernelLaw<ThresholdLaw> {
  public:
   explicit ThresholdLaw(double t) : t_(t) {}
   std::string name() const override { return "threshold"; }

@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "glintlab/binomial.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/errors.hpp"
 #include "glintlab/normal.hpp"
-#include "glintlab/templated_law.hpp"
 
 namespace glintlab {
 namespace {
@@ -26,7 +26,7 @@ namespace {
 constexpr double kGaussianSwitch = 5.0;  // DB23 eq. 15: the Gaussian branch for n p > 5
 constexpr int kDefaultCap = 16;          // DB23's "up to N = 16" Bernoulli trials
 
-class Zk16Law final : public TemplatedLaw<Zk16Law> {
+class Zk16Law final : public detail::KernelLaw<Zk16Law> {
  public:
   explicit Zk16Law(int cap) : cap_(cap) {}
   std::string name() const override { return "zk16"; }
@@ -101,7 +101,7 @@ const bool registered =
                     ParamReader reader("zk16", params);
                     const double cap = reader.number("cap", kDefaultCap);
                     reader.finish();
-                    if (!(cap >= 1 && cap <= kMaxTemplatedUniforms && cap == std::floor(cap)))
+                    if (!(cap >= 1 && cap <= detail::kMaxLawUniforms && cap == std::floor(cap)))
                       throw_invalid("law 'zk16'", "cap", cap, "an integer in [1, 64]");
                     return std::make_unique<Zk16Law>(static_cast<int>(cap));
                   },

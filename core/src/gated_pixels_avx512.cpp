@@ -9,7 +9,6 @@
 #endif
 
 #define GLINTLAB_VEC_MATH glintlab::detail::vec_math_avx512
-#define GLINTLAB_GATED_KERNEL glintlab::detail::gated_pixels_avx512
 #define GLINTLAB_GATED_BLOCK glintlab::detail::gated_pixels_block_avx512
 #include "gated_pixels_body.inc"
 

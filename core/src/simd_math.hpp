@@ -10,6 +10,8 @@
 
 #include <cstddef>
 
+#include "glintlab/detail/pixel_blocks.hpp"  // the laws' block functions and cpu_has_fma, defined here
+
 namespace glintlab::detail {
 
 void vec_log(const double* x, double* y, std::size_t count);
@@ -28,30 +30,10 @@ void vec_math_avx2(int op, const double* x, double* y, std::size_t count);
 }  // namespace glintlab::detail
 
 namespace glintlab::detail {
-// The gated law's per-pixel arithmetic after the vector logarithms (gated_pixels_body.inc), per ISA:
-// out[i] = eval's count, redo[i] = 1 where eval must recompute it.
-void gated_pixels_avx512(const double* n, const double* p, const double* u, const double* e, const double* lt,
-                         std::size_t m, double* out, double* redo);
-void gated_pixels_avx2(const double* n, const double* p, const double* u, const double* e, const double* lt,
-                       std::size_t m, double* out, double* redo);
-// The whole pass over a block of at most 256 pixels (the vector logarithms' arguments, SLEEF, the
-// kernel), per ISA; true when some redo[i] != 0. The AVX2 one needs FMA3 (SLEEF's AVX2 functions).
-bool gated_pixels_block_avx512(const double* n, const double* p, const double* u, std::size_t m, double* out,
-                               double* redo);
-bool gated_pixels_block_avx2(const double* n, const double* p, const double* u, std::size_t m, double* out,
-                             double* redo);
-// Whether SLEEF's AVX2 functions can run (FMA3).
-bool cpu_has_fma();
-}  // namespace glintlab::detail
-
-namespace glintlab::detail {
-// head_cf's per-pixel arithmetic after the vector logarithms (head_cf_pixels_body.inc), per ISA.
+// head_cf's per-pixel arithmetic after the vector logarithms (head_cf_pixels_body.inc), per ISA: the
+// second half of its block functions (declared with the other laws' in detail/pixel_blocks.hpp).
 void head_cf_pixels_avx512(const double* n, const double* p, const double* u, const double* e, const double* lt,
                            std::size_t count, double* out, double* redo);
 void head_cf_pixels_avx2(const double* n, const double* p, const double* u, const double* e, const double* lt,
                          std::size_t count, double* out, double* redo);
-bool head_cf_pixels_block_avx512(const double* n, const double* p, const double* u, std::size_t count, double* out,
-                                 double* redo);
-bool head_cf_pixels_block_avx2(const double* n, const double* p, const double* u, std::size_t count, double* out,
-                               double* redo);
 }  // namespace glintlab::detail

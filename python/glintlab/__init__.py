@@ -8,7 +8,9 @@
 0.171
 """
 # The public names, re-exported from the layers (api <- validation <- studies <- report <- cli); no
-# module of the package imports this file, so the order of these imports does not matter.
+# module of the package imports this file, so the order of these imports does not matter, except
+# _openmp's: first, before anything loads the OpenMP runtime (_core).
+from . import _openmp  # noqa: F401
 from . import _core
 from .api import checks as _checks
 from ._core import Chi2Result, Distribution, __version__

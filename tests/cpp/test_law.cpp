@@ -1,4 +1,7 @@
 // The law registry, parameter reading, and the vectorized drivers' determinism and validation.
+#include <omp.h>
+
+#include <atomic>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <vector>
@@ -52,6 +55,47 @@ TEST_CASE("sampling is deterministic whatever the number of threads", "[law][det
     sample_many(*law, {&n, 1}, {&p, 1}, prefix.size(), 99, prefix.data());
     CHECK(std::equal(prefix.begin(), prefix.end(), one.begin()));
   }
+  set_num_threads(saved);
+}
+
+namespace {
+// Counts the evaluations that ran inside an OpenMP parallel region.
+class ThreadProbeLaw final : public CountingLaw {
+ public:
+  std::string name() const override { return "thread_probe"; }
+  int n_uniforms() const override { return 1; }
+  double evaluate(double, double p, const double* u) const override {
+    if (omp_in_parallel()) in_region.fetch_add(1, std::memory_order_relaxed);
+    return u[0] < p ? 1.0 : 0.0;
+  }
+  mutable std::atomic<std::size_t> in_region{0};
+};
+}  // namespace
+
+TEST_CASE("short batches run on the calling thread, long ones on the team", "[law][threads]") {
+  // A parallel region's end waits for every thread of its team: on a loaded machine a descheduled
+  // worker made a short batch pay milliseconds (docs/guide/performance.md#threads-on-a-loaded-machine).
+  const int saved = num_threads();
+  set_num_threads(2);
+  ThreadProbeLaw law;
+  const double n = 10, p = 0.5;
+  std::vector<double> ns(100'000, n), ps(100'000, p), out(100'000);
+  for (std::size_t count : {1000, 4000, 10'000, 16'383}) {
+    INFO(count << " samples");
+    law.in_region = 0;
+    sample_many(law, {&n, 1}, {&p, 1}, count, 5, out.data());
+    sample_many(law, {ns.data(), count}, {ps.data(), count}, count, 5, out.data());
+    std::vector<double> u(count, 0.25);
+    evaluate_many(law, {&n, 1}, {&p, 1}, u.data(), count, out.data());
+    CHECK(law.in_region == 0);
+  }
+  law.in_region = 0;
+  sample_many(law, {&n, 1}, {&p, 1}, out.size(), 5, out.data());
+  CHECK(law.in_region > 0);  // a long batch still uses both threads
+  set_num_threads(1);
+  law.in_region = 0;
+  sample_many(law, {&n, 1}, {&p, 1}, out.size(), 5, out.data());
+  CHECK(law.in_region == 0);  // one thread: no region at all
   set_num_threads(saved);
 }
 

@@ -17,10 +17,10 @@
 #include "glintlab/aniso.hpp"
 #include "glintlab/blend.hpp"
 #include "glintlab/chi2.hpp"
+#include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/law.hpp"
 #include "glintlab/metrics.hpp"
 #include "glintlab/registry.hpp"
-#include "glintlab/templated_law.hpp"
 #include "glintlab/validation/plugin.hpp"
 
 using namespace glintlab;
@@ -365,8 +365,9 @@ TEST_CASE("zk16's work units are the trials its loop runs", "[registry][traits][
 namespace {
 
 // "all_or_none": every facet reflects together, K = floor(n) with probability p, else 0. Exact law:
-// two points. Small enough to check by hand, real enough to run through every generic path.
-class AllOrNoneLaw final : public TemplatedLaw<AllOrNoneLaw> {
+// two points. Small enough to check by hand, real enough to run through every generic path. Written
+// the one way a law is (detail::KernelLaw: its eval gives evaluate, float32 and the batch paths).
+class AllOrNoneLaw final : public detail::KernelLaw<AllOrNoneLaw> {
  public:
   std::string name() const override { return "test_all_or_none"; }
   int n_uniforms() const override { return 1; }

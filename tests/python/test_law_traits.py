@@ -4,6 +4,7 @@ are exactly the bounds the laws declare (a new law fails here until scripts/make
 measured its bounds)."""
 import importlib.util
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -60,3 +61,26 @@ def test_default_bounds_are_the_declared_bounds():
     assert sorted(declared) == sorted(shipped), (
         "the shipped bounds differ from those the laws declare; run scripts/make_bounds.py: "
         f"missing {sorted(set(declared) - set(shipped))}, stale {sorted(set(shipped) - set(declared))}")
+
+
+LAW_FILES = sorted((ROOT / "core" / "laws").glob("*.cpp"))
+
+
+@pytest.mark.parametrize("path", LAW_FILES, ids=lambda p: p.name)
+def test_a_law_file_is_written_the_one_way(path):
+    # One base (detail::KernelLaw, docs/architecture.md#registries-adding-a-law-a-blend-a-grid-scheme-or-a-study) and
+    # public headers only: a law file includes nothing from core/src.
+    text = path.read_text()
+    includes = re.findall(r'^#include\s+"([^"]+)"', text, flags=re.M)
+    assert all(i.startswith("glintlab/") for i in includes), f"{path.name} includes {includes}"
+    laws = re.findall(r"class\s+(\w+Law)\s+final\s*:\s*(.*?)\s*\{", text)
+    assert laws and all(base == f"public detail::KernelLaw<{cls}>" for cls, base in laws), f"{path.name}: {laws}"
+
+
+def test_the_threads_header_is_not_the_law_header():
+    # parallel.hpp (the drivers' thread split) needs the threads knob, not the law interface: the image,
+    # blend, sampler and NDF drivers that include it do not depend on law.hpp through it.
+    text = (ROOT / "core" / "src" / "parallel.hpp").read_text()
+    assert '#include "glintlab/threads.hpp"' in text and "law.hpp" not in text
+    assert "int num_threads();" in (ROOT / "core" / "include" / "glintlab" / "threads.hpp").read_text()
+    assert "int num_threads();" not in (ROOT / "core" / "include" / "glintlab" / "law.hpp").read_text()

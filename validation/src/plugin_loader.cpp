@@ -34,24 +34,16 @@ struct PluginEntry {
   long long (*pmf)(double, double, double*, long long, long long*, int*) = nullptr;
 };
 
-class PluginLaw final : public CountingLaw, public detail::LawKernel {
+// A law like the built-in ones (detail::KernelLaw): its eval is the plugin's function, which the batch
+// and per-pixel paths call directly on rows of given uniforms, without a virtual call per row.
+class PluginLaw final : public detail::KernelLaw<PluginLaw> {
  public:
-  explicit PluginLaw(std::shared_ptr<const PluginEntry> entry)
-      : detail::LawKernel(static_cast<const CountingLaw&>(*this)), e_(std::move(entry)) {}
-  const detail::LawKernel* kernel() const override { return this; }
+  explicit PluginLaw(std::shared_ptr<const PluginEntry> entry) : e_(std::move(entry)) {}
 
   std::string name() const override { return e_->name; }
   int n_uniforms() const override { return e_->n_uniforms; }
-  double evaluate(double n, double p, const double* u) const override { return e_->evaluate(n, p, u); }
-
-  // The plugin's function called directly on rows of given uniforms (a batch's blocks of the
-  // fill_uniforms rows, so the same samples; a blend's level), without a virtual call per row.
-  std::unique_ptr<detail::FixedEvaluator> fixed_evaluator(double n, double p, std::size_t) const override {
-    const auto k = static_cast<std::size_t>(e_->n_uniforms);
-    return detail::make_fixed_evaluator([f = e_->evaluate, n, p, k](const double* u, std::size_t rows, double* out) {
-      for (std::size_t r = 0; r < rows; ++r) out[r] = f(n, p, u + r * k);
-    });
-  }
+  // float64 only (the plugin ABI's function of doubles).
+  double eval(double n, double p, const double* u) const { return e_->evaluate(n, p, u); }
 
   bool has_pmf() const override { return e_->pmf != nullptr; }
 

@@ -4,7 +4,7 @@
 // shader's `theta < P1` or `log(1 - u)` then sees an impossible uniform. The rule keeps the top 23
 // bits of u and adds half a step: u32 = (floor(u 2^23) + 1/2) 2^-23, an odd multiple of 2^-24, so
 // u32 lies in [2^-24, 1 - 2^-24] and is exactly representable (24 significant bits at most). The
-// C++ float32 laws (templated_law.hpp) and the Vulkan shader runner (validation/shader) apply the
+// C++ float32 laws (detail::KernelLaw) and the Vulkan shader runner (validation/shader) apply the
 // same rule, so a shader and its C++ twin see the same numbers and can be compared row by row.
 // See docs/math/laws.md#float32-uniforms.
 #pragma once

@@ -22,6 +22,7 @@
 #include "glintlab/distribution.hpp"
 #include "glintlab/registry.hpp"
 #include "glintlab/rng.hpp"
+#include "glintlab/threads.hpp"  // set_num_threads, num_threads: the drivers below use them
 
 namespace glintlab {
 
@@ -233,10 +234,6 @@ struct ParamArray {
   std::size_t size;
   double operator[](std::size_t i) const { return data[size == 1 ? 0 : i]; }
 };
-
-// Threads used by the drivers (OpenMP; default: all cores, or GLINTLAB_NUM_THREADS).
-void set_num_threads(int threads);
-int num_threads();
 
 // out[i] = K for (n[i], p[i]) drawn with the counter RNG. Bad input throws, naming the lowest bad
 // index; with n and p both arrays the check is fused into the draws, so out may then be partly written.

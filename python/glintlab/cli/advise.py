@@ -24,7 +24,8 @@ def add_parser(sub):
     p.add_argument("--scheme", default="db23_tetrahedral", help="grid scheme the cost is modelled on "
                                                                   "(default: db23_tetrahedral)")
     add_scale(p, 1.0, "resolution factor per side (default: 1)")
-    add_costs(p, "law costs instead of measuring them")
+    add_costs(p, "law costs (law, ns_per_eval, ns_per_trial) instead of the costs recorded with the package; "
+                 "'measure' times the laws in this process (then the pick may follow the machine's load)")
     add_seed(p)
     p.add_argument("--json", action="store_true", help="print the recommendation as JSON")
     add_outputs(p, None, plugins=False, out_help="none: the advice is printed, no files are written")
@@ -40,7 +41,7 @@ def run(args) -> int:
         raise ValueError("no budget given; expected --max-tv and/or --max-rel-error")
     scene = load_scene(args.scene)
     costs = scene_costs(args.costs)
-    laws = None if costs is None else [parse_law_label(x) for x in costs.law]
+    laws = None if costs is None or isinstance(costs, str) else [parse_law_label(x) for x in costs.law]
     prof = profile_scene(scene, laws=laws, seed=args.seed, scale=args.scale, costs=costs,
                          schemes=sorted({args.scheme, "zk16_aniso", "db23_tetrahedral"}))
     advice = advise(prof, max_tv=args.max_tv, max_rel_error=args.max_rel_error, coverage=args.coverage,

@@ -194,9 +194,10 @@ def run_experiment_cmd(source, args) -> int:
 
 
 def scene_costs(path):
-    """--costs of ``profile`` and ``advise``: the law costs table, or None to measure them."""
-    if path is None:
-        return None
+    """--costs of ``profile`` and ``advise``: the law costs table; None (not given) for the costs recorded
+    with the package, "measure" to time the laws in this process."""
+    if path is None or path == "measure":
+        return path
     try:
         table = pd.read_csv(path)
     except (OSError, ValueError) as exc:

@@ -22,8 +22,9 @@ def add_parser(sub):
     add_scenes(p)
     add_scale(p, 1.0, "resolution factor per side; the density follows so n per pixel is kept (default: 1)")
     p.add_argument("--max-tv", type=float, default=0.05, help="budget of the advisor table (default: 0.05)")
-    add_costs(p, "law costs (law, ns_per_eval, ns_per_trial), e.g. a scene_cost_units.csv, instead of "
-                 "measuring them: reproducible costs")
+    add_costs(p, "law costs (law, ns_per_eval, ns_per_trial), e.g. a scene_cost_units.csv, instead of the "
+                 "costs recorded with the package; 'measure' times the laws in this process (then the "
+                 "costs follow the machine's load)")
     add_seed(p)
     add_outputs(p, "out/scenes", plugins=False)
     p.set_defaults(func=run)
@@ -33,7 +34,7 @@ def add_parser(sub):
 def run(args) -> int:
     scenes = [load_scene(path) for path in args.scenes]  # all validated before any work
     costs = scene_costs(args.costs)
-    laws = None if costs is None else [parse_law_label(x) for x in costs.law]
+    laws = None if costs is None or isinstance(costs, str) else [parse_law_label(x) for x in costs.law]
     profiles = []
     for sc in scenes:
         t0 = time.perf_counter()

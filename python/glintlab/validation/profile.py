@@ -10,18 +10,23 @@ Pixels with p = 0 (unlit, or D(h) = 0) have K = 0 under every law: error 0.
 
 Cost model (modelled cost units = ns of one CPU evaluation, not GPU milliseconds). The cost of a
 pixel under (grid scheme, law) is evaluations x c_law, the evaluations counted per pixel by
-``count_image``, c_law the law's ns per evaluation measured in-process (mean over fixed (n, p)
-points: a constant, which flatters laws whose cost grows with n p, e.g. the binomial's inversion
-below its switch). A law whose cost grows with (n, p) declares a cost model with its code
-(``law.work_units``; zk16: min(ceil n_t, cap) Bernoulli trials when n_t p <= 5, DB23 §7.1) and the
-points that separate its terms (``cost_points``): c_law and the ns per work unit are fitted to its
-timings there, and each term of a pixel adds work_units(n_t, p) at that price, n_t the term's trial
-count from the scheme's ``terms`` (evaluated per (n, r, phi) bin and scaled by n / n_bin). A SIMD group of 8 x 4 pixels
+``count_image``, c_law the law's ns per evaluation (mean over fixed (n, p) points: a constant, which
+flatters laws whose cost grows with n p, e.g. the binomial's inversion below its switch). A law whose
+cost grows with (n, p) declares a cost model with its code (``law.work_units``; zk16: min(ceil n_t,
+cap) Bernoulli trials when n_t p <= 5, DB23 §7.1) and the points that separate its terms
+(``cost_points``): c_law and the ns per work unit are fitted to its timings there, and each term of a
+pixel adds work_units(n_t, p) at that price, n_t the term's trial count from the scheme's ``terms``
+(evaluated per (n, r, phi) bin and scaled by n / n_bin). The ns come from the table recorded with the
+package (``glintlab/data/costs/laws.json``, written by ``scripts/record_law_costs.py`` from
+``measure_costs``), not from timing in this process: a profile, and so the advisor's pick and the
+report, must not change with the machine's load. Timing in-process is the explicit ``costs="measure"``.
+A SIMD group of 8 x 4 pixels
 costs its most expensive lane (branches diverge: every lane waits for the worst); pixels that miss
 the primitive are inactive lanes of cost 0.
 """
 from __future__ import annotations
 
+import json
 import math
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -36,6 +41,7 @@ from ..api import fpmath
 from ..api.grids import IMAGE_CONFIGS, configured_counter
 from ..api.laws import law as get_law, law_label, law_traits, parse_law_label
 from ..api.metrics import distance
+from ..resources import data_path
 from .bench import DEFAULT_LAWS  # the trade study's laws, labelled by name and parameters
 from .scene import Scene, load_scene
 
@@ -91,8 +97,9 @@ COST_POINTS = ((3.5, 0.5), (16.0, 0.1), (1e3, 1e-2), (1e6, 0.3))
 
 
 def measure_costs(laws=None, size: int = 100_000, repeats: int = 5) -> pd.DataFrame:
-    """ns per evaluation of each law, measured in this process (``law.sample`` on one core, best of
-    ``repeats``). A constant-cost law: the mean over COST_POINTS, ``ns_per_trial`` 0. A law with a cost
+    """ns per evaluation of each law, measured in this process (``law.sample`` on one core, its CPU
+    time, best of ``repeats``): what ``costs="measure"`` uses (profiles default to the recorded table,
+    ``recorded_costs``). A constant-cost law: the mean over COST_POINTS, ``ns_per_trial`` 0. A law with a cost
     model (``law.work_units`` and its declared ``cost_points``): ns = ns_per_eval + ns_per_trial x
     work_units fitted by least squares to its timings at those points (zk16: its Gaussian branch and
     its loop of 1 and 16 Bernoulli trials). Cached per process."""
@@ -127,17 +134,43 @@ def measure_costs(laws=None, size: int = 100_000, repeats: int = 5) -> pd.DataFr
 
 
 def rounds(todo, points, best, repeats, size):
+    # The calling thread's CPU time (the draws run on it: one thread): a busy machine delays a timing
+    # but adds little to it (wall-clock timings of one law varied 8x under a load of 10 on 2 cores).
     for _ in range(repeats):
         for label, lw in todo.items():
             for n, p in points(lw):
-                t0 = time.perf_counter()
+                t0 = time.thread_time()
                 lw.sample(n, p, size=size, seed=1)
-                dt = (time.perf_counter() - t0) / size * 1e9
+                dt = (time.thread_time() - t0) / size * 1e9
                 best[label, n, p] = min(best.get((label, n, p), math.inf), dt)
+
+
+# The law costs recorded with the package (see the module docstring): the profile's default.
+RECORDED_COSTS = ("costs", "laws.json")
+
+
+def recorded_costs(labels=None) -> pd.DataFrame:
+    """The recorded law costs (``glintlab/data/costs/laws.json``): law, ns_per_eval, ns_per_trial, one
+    row per label of ``labels`` (default: every recorded label). A label without a recorded cost is a
+    ValueError naming it: pass ``costs="measure"`` (timed in this process) or a table instead."""
+    doc = json.loads(data_path(*RECORDED_COSTS).read_text())
+    table = pd.DataFrame([{"law": label, "ns_per_eval": float(c["ns_per_eval"]), "ns_per_trial": float(c["ns_per_trial"])}
+                          for label, c in doc["laws"].items()])
+    if labels is None:
+        return table
+    missing = [x for x in labels if x not in set(table.law)]
+    if missing:
+        V.fail("costs", f"the recorded table without {missing}",
+               "a recorded cost for every law (scripts/record_law_costs.py), costs='measure' or a table")
+    return table.set_index("law").loc[list(labels)].reset_index()
 
 
 def _cost_table(costs, labels):
     if costs is None:
+        costs = recorded_costs(labels)
+    elif isinstance(costs, str):
+        if costs != "measure":
+            V.fail("costs", costs, "None (the recorded costs), 'measure', a table or a dict")
         costs = measure_costs([parse_law_label(x) for x in labels])
     if isinstance(costs, dict):
         costs = pd.DataFrame([{"law": k, "ns_per_eval": v if not isinstance(v, (tuple, list)) else v[0],
@@ -369,9 +402,10 @@ def profile_scene(scene, laws=None, schemes=DEFAULT_SCHEMES, seed: int = 1, scal
     """Profiles ``scene`` (a Scene, a path or a dict): regime map, pixel-weighted exact law errors,
     per-scheme evaluations and weight bias, and the SIMD cost of every (scheme, law) pair.
 
-    ``costs``: None (measured in this process, see ``measure_costs``), or a table / dict of ns per
-    evaluation per law label (and, for ZK16, a (ns_per_eval, ns_per_trial) pair), for reproducible
-    costs. ``scale`` multiplies the resolution per side. Same seed and costs, same tables."""
+    ``costs``: None (the recorded costs, ``recorded_costs``: the same tables whatever the machine's
+    load), ``"measure"`` (timed in this process, ``measure_costs``), or a table / dict of ns per
+    evaluation per law label (and, for a law with a cost model, a (ns_per_eval, ns_per_trial) pair).
+    ``scale`` multiplies the resolution per side. Same seed and costs, same tables."""
     t_all = time.perf_counter()
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
     if scale != 1.0:

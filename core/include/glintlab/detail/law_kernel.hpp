@@ -13,11 +13,13 @@
 //     the fill_uniforms rows: samples_by_evaluate() is false and it overrides sample_range (and may
 //     override batch_sampler and sample_pixels, the same samples faster).
 //
-// KernelLaw derives the whole kernel of a constant-time law from one constants functor (the
-// per-(n, p) constants, then a row), with an optional step table for long batches.
+// KernelLaw is the one way a law is written (core/laws/<name>.cpp): it is the CountingLaw and its
+// own LawKernel, derives evaluate (and float32) from the law's eval, and the batch paths from its
+// per-(n, p) constants where it has them; see its comment.
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -26,10 +28,10 @@
 #include <utility>
 
 #include "glintlab/detail/uniform_rows.hpp"
+#include "glintlab/float32.hpp"
 #include "glintlab/law.hpp"
 #include "glintlab/rng.hpp"
 #include "glintlab/step_inversion.hpp"
-#include "glintlab/templated_law.hpp"
 
 namespace glintlab::detail {
 
@@ -158,20 +160,45 @@ struct RowTable {
   std::size_t col = 0;
 };
 
-// A constant-time law written as per-(n, p) constants, then a row. Derived provides
-//   template <class T> auto constants(T n, T p) const;  // c, with T c(const T* u): the count
-// and, optionally, its own eval (when it differs from constants(n, p)(u) only in form) and
-//   std::optional<RowTable> table(double n, double p, std::size_t rows) const;  // a step table
-// From these it gets, all bit for bit eval: eval itself, fixed_evaluator (the table for rows >=
-// kTabulateMinBatch where the law has one, else the constants once for all rows), hence the batch
-// sampler, and the per-pixel path (eval per pixel, without a virtual call); Derived may still
-// override evaluate_pixels with vector code.
+// The largest n_uniforms() of a law evaluated in float32 by KernelLaw (its uniforms are converted on the
+// stack).
+inline constexpr int kMaxLawUniforms = 64;
+
+// The one way to write a law: class MyLaw final : public detail::KernelLaw<MyLaw>, which is both the
+// CountingLaw and its own LawKernel. MyLaw provides name() and n_uniforms(), and K from (n, p, u) as
+//   template <class T> T eval(T n, T p, const T* u) const;   // float64 and float32 (a shader's view)
+// or, for a law defined in float64 only (the exact laws),
+//   double eval(double n, double p, const double* u) const;
+// or only the constants below (eval is then constants(n, p)(u)). From eval KernelLaw derives
+// evaluate(), evaluate_f32() (n, p rounded to float, the uniforms by float32.hpp's rule, as the shader
+// runner feeds a shader) and supports(). Then, each only where it pays, all bit for bit eval:
+//   template <class T> auto constants(T n, T p) const;  // c with T c(const T* u): the per-(n, p)
+//       // constants computed once for a batch's rows (fixed_evaluator, hence the batch sampler)
+//   std::optional<RowTable> table(double n, double p, std::size_t rows) const;  // a step table for
+//       // batches of at least kTabulateMinBatch rows
+//   evaluate_pixels (vector code over a block: detail/pixel_blocks.hpp), or an own sampler
+//       // (samples_by_evaluate() false, sample_range, batch_sampler, sample_pixels): LawKernel's
+//       // virtuals, overridden where the law has them
+// and the definition's optional parts: has_pmf/pmf, params, work_units (CountingLaw).
 template <class Derived>
-class KernelLaw : public TemplatedLaw<Derived>, public LawKernel {
+class KernelLaw : public CountingLaw, public LawKernel {
  public:
   KernelLaw() : LawKernel(static_cast<const CountingLaw&>(*this)) {}
   const LawKernel* kernel() const final { return this; }
 
+  double evaluate(double n, double p, const double* u) const override { return self().eval(n, p, u); }
+  double evaluate_f32(double n, double p, const double* u) const override {
+    if constexpr (has_float32()) {
+      std::array<float, kMaxLawUniforms> uf{};
+      for (int i = 0; i < this->n_uniforms(); ++i) uf[static_cast<std::size_t>(i)] = uniform_to_float(u[i]);
+      return static_cast<double>(self().eval(static_cast<float>(n), static_cast<float>(p), uf.data()));
+    } else {
+      return CountingLaw::evaluate_f32(n, p, u);  // refuses, naming the precision
+    }
+  }
+  bool supports(Precision precision) const override { return precision == Precision::kFloat64 || has_float32(); }
+
+  // K from the constants, for a law that gives only those.
   template <class T>
   T eval(T n, T p, const T* u) const {
     return self().constants(n, p)(u);
@@ -185,24 +212,35 @@ class KernelLaw : public TemplatedLaw<Derived>, public LawKernel {
           return make_fixed_evaluator(
               [this, n, p, k, rt = std::move(*t)](const double* u, std::size_t count, double* out) {
                 rt.steps.sample_rows(u, k, rt.col, count, rt.f, out,
-                                     [&](const double* row) { return self().template eval<double>(n, p, row); });
+                                     [&](const double* row) { return self().eval(n, p, row); });
               });
         }
       }
     }
-    return make_fixed_evaluator([c = self().constants(n, p), k](const double* u, std::size_t count, double* out) {
-      for (std::size_t r = 0; r < count; ++r) out[r] = c(u + r * k);
-    });
+    if constexpr (requires(const Derived& d) { d.constants(n, p); }) {
+      return make_fixed_evaluator([c = self().constants(n, p), k](const double* u, std::size_t count, double* out) {
+        for (std::size_t r = 0; r < count; ++r) out[r] = c(u + r * k);
+      });
+    } else {
+      return make_fixed_evaluator([this, n, p, k](const double* u, std::size_t count, double* out) {
+        for (std::size_t r = 0; r < count; ++r) out[r] = self().eval(n, p, u + r * k);
+      });
+    }
   }
 
   void evaluate_pixels(const double* n, const double* p, const double* u, std::size_t count,
                        double* out) const override {
     const std::size_t k = static_cast<std::size_t>(this->n_uniforms());
-    for (std::size_t i = 0; i < count; ++i) out[i] = self().template eval<double>(n[i], p[i], u + i * k);
+    for (std::size_t i = 0; i < count; ++i) out[i] = self().eval(n[i], p[i], u + i * k);
   }
 
  private:
   const Derived& self() const { return static_cast<const Derived&>(*this); }
+  // Whether eval takes floats: a template eval (or the constants), not a float64-only one. A function,
+  // so that it is asked once Derived is complete.
+  static constexpr bool has_float32() {
+    return requires(const Derived& d, const float* uf) { d.eval(1.0f, 1.0f, uf); };
+  }
 };
 
 }  // namespace glintlab::detail
