@@ -23,7 +23,7 @@ from ..api.laws import law as make_law
 from ..api.lighting import facet_truth, multinomial_counts, reflection_probability
 from ..api.metrics import chi2_test, distance
 from ..api.ndf import ndf
-from ..api.spatial import Rect
+from ..api.spatial import Ellipse, Rect
 
 APPROXIMATIONS = ("ltc", "cap", "point")
 COUNTING_LAWS = ("binomial", "gated", "gated_continuous", "dual_gated")
@@ -248,7 +248,6 @@ def plane_images(light, target="ggx", alpha=0.2, side=1024, seed=0, width=64, he
     """The plane under ``light``: the facet truth's count per pixel, and each law's count per pixel drawn at
     n = N |det J| with the exact p and with the point p. Returns ({name: image}, table): the table gives
     each image's mean count against the truth's and the expected n p_exact."""
-    from ..api.spatial import Ellipse
     uv, J, wo = plane_pixels(width, height)
     fps = [Ellipse.from_uv_derivatives(*j) for j in J.reshape(-1, 4)]
     truth = facet_truth(target, alpha, side * side, fps, [tuple(c) for c in uv.reshape(-1, 2)], wo.reshape(-1, 3),
