@@ -8,6 +8,7 @@ from pathlib import Path
 from ..api.method_shaders import shader_method
 from ..api.shaders import NoVulkanDevice, ShaderOutputError
 from ..api import checks as V
+from ..report.html import write_section_pages
 from ..report.runner import write_section_files
 from ..studies import scene_images as image_study
 from ..studies.base import Context
@@ -67,6 +68,7 @@ def run(args) -> int:
         print(f"glintlab images: FAIL {exc}", file=sys.stderr)
         return 1
     paths = write_section_files(tables, image_study.figures, ctx)
+    paths += write_section_pages(image_study.NAME, tables, args.out)  # the image viewer, as the report's
     if not args.quiet:
         print_table(tables["scene_images_flicker"][["scene", "method", "std_ratio", "pop_rate", "change_rate",
                                                     "truth_change_rate", "mean_ratio"]], args.quiet)
