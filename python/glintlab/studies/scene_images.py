@@ -1,5 +1,6 @@
-"""Glint images of DB23's Table 1 scenes per method, their flicker along a camera path, and an animation:
-the report's opening picture (numbers: ``validation.scene_images``; docs/math/glint_images.md)."""
+"""Glint images of DB23's Table 1 scenes per method and their flicker along a camera path: the report's
+opening picture, its image viewer (``scene_frames``; the page: ``report.viewer``) and the print panel
+(numbers: ``validation.scene_images``; docs/math/glint_images.md)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -12,7 +13,7 @@ from ..api.glinty_ndf import DENSITY_MAPPINGS
 from ..resources import data_path
 from ..validation.scene import table1_scenes
 from ..validation.scene_images import (ANGULAR_TEXEL, DEFAULT_METHODS, IMAGE_METHODS, SUPERSAMPLE, TAU, aliasing_table,
-                                       display, flicker_table, render_path, sparkle_table, time_methods, with_density)
+                                       flicker_table, render_path, sparkle_table, time_methods, with_density)
 from .base import Context, Tables
 from .scene_frames import (FACETS, frames_of_path, display_bytes, own_truth_key, path_tiles, render_frames,
                            timing_table)
@@ -37,8 +38,6 @@ DEFAULTS = {
     "angular_texel": ANGULAR_TEXEL,
     "tau": TAU,
     "methods": ",".join(DEFAULT_METHODS),
-    "animation_scene": "sphere",
-    "animation_methods": "truth,db23_trilinear[gated],db23_tetrahedral[gated],zk16",
     "timing_scene": "plane_25",
     # Seconds per image at 960 x 540 (a quarter of 1920 x 1080's pixels: every method's cost is per pixel,
     # and timing ten methods at full size cost the report about 13 s; `glintlab images` can time any size).
@@ -95,24 +94,20 @@ def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
     methods = _names("methods", params["methods"])
     if "truth" not in methods:
         V.fail("methods", params["methods"], "a list that includes the ground truth 'truth'")
-    anim = _names("animation_methods", params["animation_methods"])
     scale = V.real("scale", params["scale"])
     by_name = {s.name: s for s in scenes}
-    for key in ("animation_scene", "timing_scene"):
-        if params[key] not in by_name:
-            V.fail(key, params[key], f"one of the scenes {', '.join(by_name)}")
+    if params["timing_scene"] not in by_name:
+        V.fail("timing_scene", params["timing_scene"], f"one of the scenes {', '.join(by_name)}")
     paths, rows, views = {}, [], {}
     for sc in scenes:
         ctx.progress(sc.name)
         small = with_density(sc.scaled(scale, keep_n=True), params["density_factor"])
-        names = list(dict.fromkeys(methods + (anim if sc.name == params["animation_scene"] else [])))
-        path = render_path(small, names, params["frames"], params["pan_px"], params["zoom"], seed=ctx.seed,
+        path = render_path(small, methods, params["frames"], params["pan_px"], params["zoom"], seed=ctx.seed,
                            angular_texel=params["angular_texel"])
         paths[sc.name] = path
         rows.append(flicker_table(path, tau=params["tau"]))
         views[sc.name] = viewer_scene(sc, path, methods, params, ctx)
     flicker = pd.concat(rows, ignore_index=True)
-    flicker = flicker[flicker.method.isin(methods)].reset_index(drop=True)
     ctx.progress("timing")
     timing_scale = V.real("timing_scale", params["timing_scale"])
     if timing_scale == V.real("viewer_scale", params["viewer_scale"]):
@@ -146,9 +141,8 @@ def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
     tables = {"scene_images_flicker": flicker, "scene_images_timing": timing, "scene_images_own_truth": own}
     tables.update(_aliasing(scenes, params, ctx, stats))
     return Tables(tables, stats,
-                  data={"paths": paths, "views": views, "methods": methods, "anim": anim,
-                        "anim_scene": params["animation_scene"],
-                        "scale": scale, "density_factor": params["density_factor"],
+                  data={"paths": paths, "views": views, "methods": methods, "scale": scale,
+                        "density_factor": params["density_factor"],
                         "exposure": (V.real("exposure_percentile", params["exposure_percentile"]),
                                      V.real("exposure_white", params["exposure_white"]))})
 
@@ -243,35 +237,12 @@ def _usable(names, stats: dict) -> list:
 
 
 def figures(tables: Tables, ctx: Context) -> list:
-    paths, methods = tables["paths"], tables["methods"]
-    flicker = tables["scene_images_flicker"]
+    methods, flicker = tables["methods"], tables["scene_images_flicker"]
     out = [print_panel(tables["views"], flicker, Path(ctx.out) / "scene_images.png", tables["density_factor"], methods),
            ctx.save(flicker_figure(flicker), "scene_images_flicker.png", 90)]
     if "scene_images_aliasing" in tables.tables:
         out.append(ctx.save(aliasing_figure(tables["scene_images_aliasing"]), "scene_images_aliasing.png", 90))
-    gif = Path(ctx.out) / "scene_images_animation.gif"
-    write_animation(paths[tables["anim_scene"]], tables["anim"], gif)
-    out.append(gif)
     return out
-
-
-def exposure_of(path, percentile: float = 99.0, white: float = 2.0) -> float:
-    """The display's white for a scene: ``white`` x the ``percentile`` of the smooth render's radiance
-    (D(h) x the BRDF factor) over the lit pixels of the first frame; the same for every method."""
-    L = path.target[0] * path.shade[0]
-    lit = path.mask[0] & (L > 0)
-    return float(white * np.percentile(L[lit], percentile)) if lit.any() else 1.0
-
-
-def shaded(path, name: str, image: np.ndarray, white: float, frame: int = 0) -> np.ndarray:
-    """Display values in [0, 1] of one image of method ``name`` (docs/math/glint_images.md#glint-shading):
-    an NDF method's radiance (its image x the BRDF factor of frame ``frame``) over ``white``, an
-    intensity method's value as it returns it, both clipped and raised to 1 / 2.2."""
-    if IMAGE_METHODS.get(name).returns == "intensity" if name in IMAGE_METHODS else False:
-        v = np.asarray(image, float)
-    else:
-        v = np.asarray(image, float) * path.shade[frame] / white
-    return np.clip(np.nan_to_num(v), 0.0, 1.0) ** (1.0 / 2.2)
 
 
 #: The print panel: at most this many tiles per row, each at most this many pixels wide, labels in points
@@ -434,55 +405,16 @@ def flicker_figure(flicker: pd.DataFrame):
     return fig
 
 
-def write_animation(path, methods, out: Path, fps: int = 4) -> Path:
-    """A GIF of ``methods`` side by side along the camera path (matplotlib's Pillow writer)."""
-    import matplotlib.pyplot as plt
-    from matplotlib.animation import FuncAnimation, PillowWriter
-    T = path.target.shape[0]
-    # Cropped to the pixels that see the surface in some frame (the sphere fills a fifth of its image).
-    seen = path.mask.any(axis=0)
-    rows, cols = np.flatnonzero(seen.any(axis=1)), np.flatnonzero(seen.any(axis=0))
-    crop = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)) if rows.size else (slice(None), slice(None))
-    h, w = seen[crop].shape
-    fig, axes = plt.subplots(1, len(methods), figsize=(2.6 * len(methods), 2.6 * h / w + 0.5), squeeze=False)
-    ims = []
-    # The panel's display: the BRDF-shaded radiance at the smooth render's exposure (glint-shading).
-    white = exposure_of(path) if path.shade is not None else None
-
-    def show(m, t):
-        if white is None:
-            return display(path.images[m][t][crop], path.material)
-        return shaded(path, m, path.images[m][t], white, frame=t)[crop]
-
-    for ax, m in zip(axes[0], methods):
-        ims.append(ax.imshow(show(m, 0), cmap="gray", vmin=0, vmax=1, interpolation="nearest"))
-        ax.set_title(IMAGE_METHODS.get(m).label, fontsize=8)
-        ax.set_xticks([])
-        ax.set_yticks([])
-    text = fig.suptitle("", fontsize=8)
-    fig.tight_layout()
-
-    def step(t):
-        for im, m in zip(ims, methods):
-            im.set_data(show(m, t))
-        text.set_text(f"{path.scene}: frame {t + 1}/{T} ({'pan' if t <= T // 2 else 'zoom'})")
-        return ims
-
-    anim = FuncAnimation(fig, step, frames=T, blit=False)
-    anim.save(out, writer=PillowWriter(fps=fps), dpi=100)
-    plt.close(fig)
-    return Path(out)
-
-
 def command_params(scenes, **params) -> dict:
-    """``glintlab images``' section parameters for ``scenes`` (as in ``DEFAULTS``; the animation and the
-    timing use the first scene unless named), checked; ``compute_scenes`` takes them."""
+    """``glintlab images``' section parameters for ``scenes`` (as in ``DEFAULTS``; the timing uses the first
+    scene unless named, the viewer the path's resolution unless ``viewer_scale`` is given), checked;
+    ``compute_scenes`` takes them."""
     unknown = sorted(set(params) - set(DEFAULTS))
     if unknown:
         V.fail("params", unknown, f"parameters among {', '.join(DEFAULTS)}")
     if not scenes:
         V.fail("scenes", scenes, "at least one scene")
     names = [s.name for s in scenes]
-    return {**DEFAULTS, "animation_scene": names[0], "timing_scene": names[0],
+    return {**DEFAULTS, "timing_scene": names[0],
             "viewer_scale": params.get("scale", DEFAULTS["scale"]),
             "sparkle_scene": DEFAULTS["sparkle_scene"] if DEFAULTS["sparkle_scene"] in names else names[0], **params}

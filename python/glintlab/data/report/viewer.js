@@ -1,7 +1,8 @@
 "use strict";
 /* glintlab's image viewer (glintlab/report/viewer.py writes the page; docs/guide/scenes.md#the-image-viewer).
    The renders are float16 radiance, deflated and base64-encoded in <script type="text/plain"> elements of
-   this page; the camera path is a lossless H.264 video of log-encoded radiance. Exposure and tone curve are applied
+   this page; the camera path is a lossless animated WebP of log-encoded radiance, decoded frame by frame
+   with WebCodecs' ImageDecoder. Exposure and tone curve are applied
    here, to both. glintlab.studies.scene_frames has the same tone curves in numpy (the browser test
    compares this canvas with them). No network, no library. */
 (function () {
@@ -95,8 +96,7 @@
     "<kbd>e</kbd> default · <kbd>t</kbd> tone curve · <kbd>d</kbd> show (image, differences) · wheel: zoom, drag: pan, " +
     "<kbd>r</kbd> fit, <kbd>o</kbd> 1:1 · <kbd>p</kbd> play the path, <kbd>,</kbd> <kbd>.</kbd> step";
   const flickCanvas = el("canvas", {class: "gv-canvas", id: "gv-flicker"});
-  const video = el("video", {id: "gv-video", muted: "", playsinline: "", preload: "auto", style: "display:none"});
-  video.muted = true;
+  const fallback = el("img", {id: "gv-animation", alt: "the camera path (log-encoded radiance)", style: "display:none;max-width:100%"});
   const frameRange = el("input", {id: "gv-frame", type: "range", min: 0, max: 1, step: 1,
                                   oninput: () => showFrame(+frameRange.value)});
   const playBtn = el("button", {id: "gv-play", onclick: () => play(!S.playing)}, "play");
@@ -114,7 +114,7 @@
               el("div", {class: "gv-row"}, el("button", {id: "gv-prev", onclick: () => showFrame(S.frame - 1)}, "‹"),
                  playBtn, el("button", {id: "gv-next", onclick: () => showFrame(S.frame + 1)}, "›"), frameRange,
                  el("label", {}, popsBox, " mark pops"), el("label", {}, " zoom ", fzoomSel)),
-              flickCanvas, flickInfo, video);
+              flickCanvas, flickInfo, fallback);
 
   function tabs() {
     sceneRow.replaceChildren(sceneRow.firstChild, ...M.scenes.map((s, i) =>
@@ -305,39 +305,47 @@
   });
   window.addEventListener("blur", () => flip(null));
 
-  // ---- the camera path: one video per scene, its tiles decoded through the exposure and tone curve
-  const tile = document.createElement("canvas");
-  let videoUrl = null, popBits = null;
+  // ---- the camera path: one animated WebP per scene (a mosaic of tiles), each frame decoded by ImageDecoder
+  // into `mosaic`, its tiles mapped through the exposure and tone curve
+  const tile = document.createElement("canvas"), mosaic = document.createElement("canvas");
+  const mctx = mosaic.getContext("2d", {willReadFrequently: true});
+  let decoder = null, popBits = null, shownFrame = -1;
   function loadVideo() {
     const v = scene().video;
-    S.frame = 0; play(false); popBits = null;
-    if (videoUrl) URL.revokeObjectURL(videoUrl);
-    videoUrl = null;
-    if (!v || !v.id) { flickInfo.textContent = v ? "no video (ffmpeg was missing when this page was written)" : ""; return; }
+    S.frame = 0; play(false); popBits = null; shownFrame = -1;
+    if (decoder) decoder.close();
+    decoder = null;
+    if (!v) { flickInfo.textContent = ""; return; }
     frameRange.max = v.frames - 1; frameRange.value = 0;
-    const name = scene().name;
+    const name = scene().name, bytes = bytesOf(v.id);
     inflated(v.pops_id).then((b) => { if (scene().name === name) { popBits = new Uint8Array(b); drawFlicker(); } });
-    videoUrl = URL.createObjectURL(new Blob([bytesOf(v.id)], {type: "video/mp4"}));
-    video.src = videoUrl;
-    video.addEventListener("loadeddata", () => showFrame(0), {once: true});
+    if (!window.ImageDecoder) {  // the animation plays as it is stored (log-encoded), without exposure or pops
+      fallback.src = URL.createObjectURL(new Blob([bytes], {type: "image/webp"}));
+      fallback.style.display = "block"; flickCanvas.style.display = "none";
+      flickInfo.textContent = "This browser has no ImageDecoder (WebCodecs): the path plays as stored, log-encoded.";
+      return;
+    }
+    decoder = new ImageDecoder({data: bytes, type: "image/webp"});
+    showFrame(0);
   }
-  video.addEventListener("error", () => {
-    flickInfo.textContent = "This browser cannot decode the path's lossless H.264 video (High 4:4:4 Predictive); " +
-      "Chromium and Chrome can.";
-  });
-  function showFrame(k) {
+  async function showFrame(k) {
     const v = scene().video;
-    if (!v || !v.id) return;
+    if (!v || !decoder) return;
     S.frame = (k + v.frames) % v.frames; frameRange.value = S.frame;
-    const t = (S.frame + 0.5) / v.fps;
-    if (Math.abs(video.currentTime - t) < 1e-6 && video.readyState >= 2) drawFlicker(); else video.currentTime = t;
+    const want = S.frame, dec = decoder, r = await dec.decode({frameIndex: want});
+    if (dec === decoder && want === S.frame) {
+      mosaic.width = r.image.displayWidth; mosaic.height = r.image.displayHeight;
+      mctx.drawImage(r.image, 0, 0);
+      shownFrame = want;
+      drawFlicker();
+    }
+    r.image.close();
   }
-  video.addEventListener("seeked", () => drawFlicker());
   function play(on) {
     if (S.playing) clearInterval(S.playing);
     S.playing = null; playBtn.textContent = "play";
     const v = scene().video;
-    if (on && v && v.id) { S.playing = setInterval(() => showFrame(S.frame + 1), 1000 / v.fps); playBtn.textContent = "pause"; }
+    if (on && v && decoder) { S.playing = setInterval(() => showFrame(S.frame + 1), 1000 / v.fps); playBtn.textContent = "pause"; }
   }
   function popRow(v, method, pair) {  // the pixel -> popped? test of row (method, pair) of the bit mask
     const row = (v.pop_order.indexOf(method) * (v.frames - 1) + pair) * v.pop_row_bytes;
@@ -345,7 +353,7 @@
   }
   function drawFlicker() {
     const sc = scene(), v = sc.video, c = column();
-    if (!v || !v.id || video.readyState < 2) return;
+    if (!v || shownFrame < 0) return;
     const keys = [c.method, c.own, sc.facets].filter((k, j, all) => all.indexOf(k) === j);
     // The crop of each tile shown (all of it, or 1 / zoom of it around the chosen centre), at s canvas pixels per pixel.
     const cw0 = Math.max(1, Math.round(v.width / S.fzoom)), ch0 = Math.max(1, Math.round(v.height / S.fzoom));
@@ -364,21 +372,20 @@
     const lut = new Uint8Array(256), gain = 2 ** (S.exposure - sc.scale_log2);
     for (let code = 0; code < 256; code++) lut[code] = code ? toByte(2 ** (v.lo + (code - 1) * (v.hi - v.lo) / 254) * gain, S.tone) : 0;
     tile.width = cw0; tile.height = ch0;
-    const tg = tile.getContext("2d", {willReadFrequently: true});
+    const tg = tile.getContext("2d");
     g.imageSmoothingEnabled = false;
     g.font = `${Math.round(12 * dpr())}px sans-serif`; g.textBaseline = "top";
-    const pair = S.frame - 1, count = S.frame > 0 ? v.pop_counts[c.method][pair] : 0;
+    const frame = shownFrame, pair = frame - 1, count = frame > 0 ? v.pop_counts[c.method][pair] : 0;
     keys.forEach((key, n) => {
       const [sx, sy] = v.at[key];
-      tg.drawImage(video, sx + cx0, sy + cy0, cw0, ch0, 0, 0, cw0, ch0);
-      const img = tg.getImageData(0, 0, cw0, ch0), px = img.data;
+      const img = mctx.getImageData(sx + cx0, sy + cy0, cw0, ch0), px = img.data;
       for (let j = 0; j < px.length; j += 4) { const b = lut[px[j]]; px[j] = px[j + 1] = px[j + 2] = b; px[j + 3] = 255; }
       tg.putImageData(img, 0, 0);
       const x = x0 + n * (cw0 * s + gap);
       g.drawImage(tile, 0, 0, cw0, ch0, x, head, cw0 * s, ch0 * s);
       let title = n === 0 ? c.label : key === sc.facets ? "facet truth" : `own truth (${c.truth_kind})`;
-      if (n === 0 && S.frame > 0) {
-        title += ` · pops ${S.frame}→${S.frame + 1}: ${(1000 * count / v.valid).toFixed(1)}‰`;
+      if (n === 0 && frame > 0) {
+        title += ` · pops ${frame}→${frame + 1}: ${(1000 * count / v.valid).toFixed(1)}‰`;
         if (S.pops && popBits && count) {
           const popped = popRow(v, c.method, pair);
           g.fillStyle = "rgba(255, 32, 32, 0.6)";
@@ -390,10 +397,10 @@
       g.fillStyle = "#222";
       g.fillText(title, x, 2 * dpr());
     });
-    flickCanvas.dataset.view = [s, x0, head, gap, S.frame, cx0, cy0, cw0, ch0].join(",");
-    const kind = S.frame <= Math.floor(v.frames / 2) ? "pan" : "zoom";  // validation.scene_images.camera_path
-    flickInfo.textContent = `frame ${S.frame + 1} / ${v.frames} (${S.frame === 0 ? "start" : kind}), ${v.width} × ${v.height}` +
-      (S.frame > 0 ? ` · pops between frames ${S.frame} and ${S.frame + 1}: ${count} pixels, ` +
+    flickCanvas.dataset.view = [s, x0, head, gap, frame, cx0, cy0, cw0, ch0].join(",");
+    const kind = frame <= Math.floor(v.frames / 2) ? "pan" : "zoom";  // validation.scene_images.camera_path
+    flickInfo.textContent = `frame ${frame + 1} / ${v.frames} (${frame === 0 ? "start" : kind}), ${v.width} × ${v.height}` +
+      (frame > 0 ? ` · pops between frames ${frame} and ${frame + 1}: ${count} pixels, ` +
        `${(1000 * count / v.valid).toFixed(2)} per 1000 valid pixels` : "") +
       ` · over the path: ${(1000 * v.pop_rate[c.method]).toFixed(2)} per 1000 pixel-frames (the table's pops against ` +
       `${c.truth_kind === "facets" || c.truth_kind === "self" ? "the facets" : "its own truth"})`;
