@@ -258,6 +258,25 @@ def test_no_request_leaves_the_file_and_nothing_failed(section, browser):
     assert b.errors == []
 
 
+def test_a_request_out_of_the_file_would_be_seen(section, tmp_path):
+    # Not blind: an image from outside shows as a request to http and an error, with the page's policy
+    # (which blocks it) and without (port 9 is refused).
+    _, page = section
+    text = page.read_text().replace("<main id='gv'></main>", "<main id='gv'></main><img src='http://127.0.0.1:9/x.png'>")
+    for name, html in (("csp", text), ("open", re.sub(r"<meta http-equiv='Content-Security-Policy'[^>]*>", "", text))):
+        bad = tmp_path / f"{name}.html"
+        bad.write_text(html)
+        b = Browser(800, 600)
+        try:
+            b.open(bad.as_uri())
+            state(b, "v => v.rendered >= 1")
+            outside = [u for u in b.requests if not (u == bad.as_uri() or u.startswith(("blob:", "data:")))]
+            assert outside == ["http://127.0.0.1:9/x.png"] and b.errors, (name, b.errors)
+            assert ("Content Security Policy" in b.errors[0]) == (name == "csp"), b.errors
+        finally:
+            b.close()
+
+
 @pytest.mark.skipif(not gl.vulkan_devices(), reason="no Vulkan device (install mesa-vulkan-drivers)")
 def test_images_command_writes_the_viewer_with_a_users_method(tmp_path):
     from glintlab.api.glinty_ndf import IMAGE_METHODS

@@ -46,10 +46,11 @@ DEFAULTS = {
     # The image viewer (scene_images.html): frame 0 of every scene and method at this fraction of
     # 1920 x 1080 per side (density x scale^2 as the path's), every pixel stored as float16 radiance.
     "viewer_scale": 0.5,
-    # Display (docs/math/glint_images.md#glint-shading): radiance under the scene's light, white at
-    # exposure_white x the exposure_percentile of the smooth render (one exposure per scene, every method).
+    # Display (docs/math/glint_images.md#glint-shading): radiance under the scene's light; each scene's default
+    # exposure 2^e, e = -log2(exposure_white x the exposure_percentile of the smooth render), the same for every
+    # method: the smooth lobe's bright end at 1/4 before the ACES curve (mid grey), glints several times brighter.
     "exposure_percentile": 99.0,
-    "exposure_white": 2.0,
+    "exposure_white": 4.0,
     # Aliasing (docs/math/glint_images.md#glint-aliasing): small frames, each method against itself
     # box-filtered over aliasing_supersample^2 sub-pixels; "" to skip.
     "aliasing_methods": "truth,db23_trilinear[gated],kpt25,wb16,wb16_star,wb16_lookup_noise",
