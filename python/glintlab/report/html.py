@@ -64,10 +64,11 @@ def png_size(path: Path):
 
 
 # The image viewer is its own page (large, with its own script and a Content-Security-Policy); the report
-# shows it in a frame that takes the height the viewer's document reports.
+# shows it in a frame of fixed height (the viewer sizes its canvases to the frame's window, so a frame that
+# followed the viewer's height would chase it).
 VIEWER_FRAME = ("<p><a href='{page}'>Open the image viewer on its own page</a> (every render at full resolution, "
                 "exposure, tone curve, differences, zoom, the flicker video).</p>"
-                "<iframe id='viewer' src='{page}' title='glint image viewer' style='width:100%;height:1400px;"
+                "<iframe id='viewer' src='{page}' title='glint image viewer' style='width:100%;height:1500px;"
                 "border:1px solid #ccc'></iframe>")
 
 

@@ -248,7 +248,7 @@ def figures(tables: Tables, ctx: Context) -> list:
 
 #: The print panel: at most this many tiles per row, each at most this many pixels wide, labels in points
 #: that stay readable when the PNG is shown at a page's width (about half its own).
-PANEL_COLUMNS, PANEL_TILE_PX, PANEL_FONT_PX = 6, 400, 26
+PANEL_COLUMNS, PANEL_TILE_PX, PANEL_FONT_PX = 6, 320, 24
 
 
 def _font(size: int, bold: bool = False):
