@@ -239,7 +239,8 @@ def _usable(names, stats: dict) -> list:
 
 def figures(tables: Tables, ctx: Context) -> list:
     methods, flicker = tables["methods"], tables["scene_images_flicker"]
-    out = [print_panel(tables["views"], flicker, Path(ctx.out) / "scene_images.png", tables["density_factor"], methods),
+    out = [print_panel(tables["views"], flicker, Path(ctx.out) / "scene_images.png", tables["density_factor"], methods,
+                       exposure=tables["exposure"]),
            ctx.save(flicker_figure(flicker), "scene_images_flicker.png", 90)]
     if "scene_images_aliasing" in tables.tables:
         out.append(ctx.save(aliasing_figure(tables["scene_images_aliasing"]), "scene_images_aliasing.png", 90))
@@ -290,7 +291,13 @@ def _tile_caption(view, key: str, flicker: pd.DataFrame) -> tuple:
     return key, ""
 
 
-def print_panel(views: dict, flicker: pd.DataFrame, path, density_factor: float, methods, tone: str = "aces"):
+def _fitting(draw, text: str, fonts, width: int):
+    """The first of ``fonts`` in which ``text`` fits ``width`` pixels (the last if none does)."""
+    return next((f for f in fonts if draw.textlength(text, font=f) <= width), fonts[-1])
+
+
+def print_panel(views: dict, flicker: pd.DataFrame, path, density_factor: float, methods, tone: str = "aces",
+                exposure=(99.0, 4.0)):
     """The static panel for print (``scene_images.png``), from the viewer's frames: per scene, each method's
     frame 0 and each own truth that is not the facets, box-filtered to tiles of at most PANEL_TILE_PX
     pixels, in radiance, shown at the scene's default exposure through ``tone`` (the viewer's default),
@@ -303,9 +310,11 @@ def print_panel(views: dict, flicker: pd.DataFrame, path, density_factor: float,
     fs, gap, margin = PANEL_FONT_PX, 14, 20
     width = 2 * margin + PANEL_COLUMNS * tw + (PANEL_COLUMNS - 1) * gap
     big, small, head = _font(fs, True), _font(round(fs * 0.8)), _font(round(fs * 1.15), True)
+    smaller = _font(round(fs * 0.7))
     caption = (f"Glint renders at {first.width} × {first.height} (radiance: glinty D × Schlick F × Smith G / (4 cos θo) "
                f"under one directional light; an intensity method's value as it returns), frame 1 of the camera path, "
-               f"each scene at its default exposure (2^e with e = −log2 of 2 × the smooth render's 99th percentile) "
+               f"each scene at its default exposure (2^e with e = −log2 of {exposure[1]:g} × the smooth render's "
+               f"{exposure[0]:g}th percentile) "
                f"through the {tone.upper() if tone == 'aces' else tone} tone curve, tiles box-filtered to {tw} px. "
                f"Facet density {density_factor:g} × the scene files' N, the same facets per pixel at every resolution; "
                f"{density_statement(methods)}. σ×: temporal deviation / the own truth's; pops per 1000 pixel-frames "
@@ -337,8 +346,8 @@ def print_panel(views: dict, flicker: pd.DataFrame, path, density_factor: float,
             col, row = i % PANEL_COLUMNS, i // PANEL_COLUMNS
             x, ty = margin + col * (tw + gap), y + row * (label_h + th + gap)
             title, numbers = _tile_caption(view, key, flicker)
-            draw.text((x, ty), title, fill=0, font=big if draw.textlength(title, font=big) <= tw else small)
-            draw.text((x, ty + fs + 4), numbers, fill=60, font=small)
+            draw.text((x, ty), title, fill=0, font=_fitting(draw, title, (big, small, smaller), tw))
+            draw.text((x, ty + fs + 4), numbers, fill=60, font=_fitting(draw, numbers, (small, smaller), tw))
             tile = Image.fromarray(view.images[key].astype(np.float32), "F").resize((tw, th), Image.BOX)
             img.paste(Image.fromarray(display_bytes(np.asarray(tile), view.exposure, tone)), (x, ty + label_h))
         y += -(-len(keys) // PANEL_COLUMNS) * (label_h + th + gap)
