@@ -28,7 +28,7 @@ from ..validation.scene_images import (INTENSITY_GLINT_LEVEL, IMAGE_METHODS, SUP
 FACETS, SMOOTH = "truth", "smooth"
 #: The tolerance of the viewer's own-truth references where the method takes one (KPT25: the lobes that
 #: would move a pixel by less than this x D(h) x W / K_P are left out; docs/math/glinty_ndf.md#glinty-reference-reach):
-#: far below the stored images' 2^-9 relative precision (measured: 1.5e-8 D(h) at most from the exact sum
+#: far below the stored images' 2^-8 relative precision (measured: 1.5e-8 D(h) at most from the exact sum
 #: on plane_25 and heightfield_25 at 960 x 540), and 40 % faster than the flicker table's 1e-15.
 VIEWER_REFERENCE_TOL = 1e-6
 
