@@ -47,7 +47,9 @@ autodoc_typehints = "signature"
 autodoc_default_options = {"members": True, "show-inheritance": True}
 autodoc_preserve_defaults = True  # show ``seed=None``, ``size=10**6`` as written, not evaluated
 
-html_theme = "alabaster"
+# furo (Debian's package, scripts/install-deps.sh): a content column wide enough for the code examples
+# (alabaster clipped the front page's at 520 pixels), a sidebar of every page, light and dark.
+html_theme = "furo"
 html_title = f"glintlab {release}"
 html_static_path: list[str] = []
 

@@ -11,9 +11,11 @@ PACKAGES=(
   python3-rich python3-mpmath python3-dask python3-distributed python3-nbclient python3-nbformat python3-ipykernel
   python3-jsonschema
   # make docs: the Sphinx API reference, Markdown pages (MyST) and the notebooks (docs/conf.py);
-  # nbsphinx converts the notebooks' Markdown cells with pandoc (only a Recommends of nbconvert)
-  python3-sphinx python3-myst-parser python3-nbsphinx pandoc
-  # the report test renders index.html headless (tests/python/test_report.py)
+  # nbsphinx converts the notebooks' Markdown cells with pandoc (only a Recommends of nbconvert); the
+  # furo theme
+  python3-sphinx python3-myst-parser python3-nbsphinx pandoc furo
+  # the report tests render index.html and the image viewer headless (tests/python/test_report.py,
+  # test_viewer.py)
   chromium
   # make fuzz: clang with libFuzzer (libclang_rt.fuzzer-x86_64.a is in libclang-rt-14-dev) and
   # clang's OpenMP, which the top-level CMakeLists needs when configured with clang
@@ -30,7 +32,7 @@ PACKAGES=(
   # the linters make test runs: flake8 for Python (.flake8; "lint: flake8") and clang-format for C++
   # (.clang-format; "lint: clang-format")
   flake8 clang-format
-  # glint animations (matplotlib writes GIF through Pillow, MP4 through ffmpeg)
+  # images: the print panel and the viewer's animated WebP (Pillow); matplotlib's animations (ffmpeg)
   python3-pil ffmpeg
 )
 

@@ -140,6 +140,31 @@ def test_headless_check_fails_on_a_missing_or_blank_figure(quick_report, tmp_pat
     assert sum(shown.values()) == len(summary["figures"]) - 2
 
 
+def test_quick_viewer_is_small_opens_every_scene_and_sits_in_the_page(quick_report):
+    # The image viewer of the quick report: the page and its media (scene_images.*) under 15 MB; every
+    # scene opens in the browser (the keys of the page), nothing is requested outside the file, no error.
+    from chromium_cdp import Browser
+    from glintlab.report.viewer import manifest_of
+    out, summary = quick_report
+    page = out / "scene_images.html"
+    media = sum(p.stat().st_size for p in out.glob("scene_images*") if p.is_file())
+    assert media < 15e6, media
+    assert "<iframe id='viewer' src='scene_images.html'" in (out / "index.html").read_text()
+    scenes = [d["name"] for d in manifest_of(page)["scenes"]]
+    b = Browser(1400, 1000)
+    try:
+        b.open(page.as_uri())
+        for i, name in enumerate(scenes):
+            if i:
+                b.key("ArrowDown", "ArrowDown")
+            b.wait("(() => { const s = document.getElementById('gv-canvas').dataset.state;"
+                   f" return s && JSON.parse(s).scene === {json.dumps(name)}; }})()")
+        assert all(u == page.as_uri() or u.startswith(("blob:", "data:")) for u in b.requests), b.requests
+        assert b.errors == []
+    finally:
+        b.close()
+
+
 def test_bad_arguments_and_configs_exit_2(tmp_path, capsys):
     assert main(["report", "--seed", "-1", "--quiet", "--out", str(tmp_path / "x")]) == 2
     assert "seed = -1" in capsys.readouterr().err

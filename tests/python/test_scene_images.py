@@ -269,7 +269,7 @@ def test_images_command_writes_figures_and_refuses_bad_input(tmp_path, capsys):
     out = tmp_path / "img"
     assert main(["images", scene, "--scale", "0.04", "--frames", "3", "--timing-scale", "0.04", "--quiet",
                  "--methods", "truth,db23_tetrahedral[head_cf]", "--out", str(out)]) == 0
-    for name in ("scene_images.png", "scene_images_flicker.png", "scene_images_animation.gif",
+    for name in ("scene_images.png", "scene_images_flicker.png", "scene_images.html",
                  "scene_images_flicker.csv", "scene_images_timing.csv"):
         assert (out / name).stat().st_size > 0, name
     assert main(["images", scene, "--methods", "truth,nope", "--quiet", "--out", str(out)]) == 2

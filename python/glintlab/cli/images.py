@@ -1,4 +1,4 @@
-"""``glintlab images``: glint images of scenes per method, their flicker and an animation."""
+"""``glintlab images``: glint images of scenes per method, their flicker and the image viewer page."""
 from __future__ import annotations
 
 import sys
@@ -8,6 +8,7 @@ from pathlib import Path
 from ..api.method_shaders import shader_method
 from ..api.shaders import NoVulkanDevice, ShaderOutputError
 from ..api import checks as V
+from ..report.html import write_section_pages
 from ..report.runner import write_section_files
 from ..studies import scene_images as image_study
 from ..studies.base import Context
@@ -16,12 +17,13 @@ from .common import add_outputs, add_scale, add_scenes, add_seed, print_table
 
 
 def add_parser(sub):
-    p = sub.add_parser("images", help="glint images of scenes per method, their flicker, an animation",
+    p = sub.add_parser("images", help="glint images of scenes per method, their flicker, an image viewer",
                        description="Per scene (data/schema/scene.schema.json), under one directional light: the glint "
                                    "image (NDF term) of each image method along a camera path of sub-pixel pans and "
                                    "zoom steps, the flicker of each against the facet ground truth "
-                                   "(docs/math/glint_images.md), a PNG panel, a flicker plot, a GIF of the first scene "
-                                   "and seconds per image. Writes CSV tables and the figures. A scene is a file or a "
+                                   "(docs/math/glint_images.md), a PNG panel, a flicker plot, the image viewer page "
+                                   "(scene_images.html: every render as HDR, the camera path as an animation) and "
+                                   "seconds per image. Writes CSV tables and the figures. A scene is a file or a "
                                    "shipped scene's name (sphere, plane_25, ...), as gl.render takes it.")
     add_scenes(p)
     add_scale(p, 0.2, "resolution factor per side; the density follows so n per pixel is kept (default: 0.2)")
@@ -53,7 +55,6 @@ def run(args) -> int:
               "density_factor": args.density_factor, "tau": args.tau, "timing_scale": args.timing_scale}
     if args.methods:
         params["methods"] = args.methods
-        params["animation_methods"] = args.methods
     try:
         if args.method:
             add_method_shaders(args, scenes, params)
@@ -67,6 +68,7 @@ def run(args) -> int:
         print(f"glintlab images: FAIL {exc}", file=sys.stderr)
         return 1
     paths = write_section_files(tables, image_study.figures, ctx)
+    paths += write_section_pages(image_study.NAME, tables, args.out)  # the image viewer, as the report's
     if not args.quiet:
         print_table(tables["scene_images_flicker"][["scene", "method", "std_ratio", "pop_rate", "change_rate",
                                                     "truth_change_rate", "mean_ratio"]], args.quiet)
@@ -91,7 +93,7 @@ def add_method_shaders(args, scenes, params) -> None:
         by_name[stem] = path
     names = [shader_method(Path(path), returns=args.method_returns).name for path in args.method]
     base = args.methods or "truth,smooth"
-    params["methods"] = params["animation_methods"] = ",".join(dict.fromkeys(base.split(",") + names))
+    params["methods"] = ",".join(dict.fromkeys(base.split(",") + names))
     seed = V.seed(args.seed)
     for sc in scenes:
         small = with_directional_light(sc.scaled(args.scale, keep_n=True))

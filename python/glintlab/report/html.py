@@ -15,6 +15,7 @@ import pandas as pd
 from ..studies.base import Tables
 from ..studies.extremes import failure_matrix_figure
 from ..validation.extremes import CHECKS, failed_checks
+from . import viewer
 
 escape = html.escape
 
@@ -62,6 +63,20 @@ def png_size(path: Path):
     return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
 
 
+# The image viewer is its own page (large, with its own script and a Content-Security-Policy); the report
+# shows it in a frame of fixed height (the viewer sizes its canvases to the frame's window, so a frame that
+# followed the viewer's height would chase it).
+VIEWER_FRAME = ("<p><a href='{page}'>Open the image viewer on its own page</a> (every render at full resolution, "
+                "exposure, tone curve, differences, zoom, the flicker video).</p>"
+                "<iframe id='viewer' src='{page}' title='glint image viewer' style='width:100%;height:1500px;"
+                "border:1px solid #ccc'></iframe>")
+
+
+def _viewer_frame(out: Path, name: str) -> list:
+    page = SECTION_VIEWERS.get(name)
+    return [VIEWER_FRAME.format(page=page)] if page and (out / page).exists() else []
+
+
 def write_report_page(out, summary: dict, records: list) -> Path:
     """``out/index.html`` from the report's summary (report.json) and its section records, in page order."""
     out, e = Path(out), escape
@@ -85,7 +100,7 @@ def write_report_page(out, summary: dict, records: list) -> Path:
             dims = f' width="{size[0]}" height="{size[1]}"' if size else ""
             figures.append(f'<figure><img src="{e(fig)}" alt="{e(Path(fig).stem)}"{dims}></figure>')
         if i == 0:  # the opening picture comes before the numbers
-            parts += figures
+            parts += _viewer_frame(out, r["name"]) + figures
         if r["stats"]:
             parts.append("<ul class='stats'>" + "".join(f"<li>{e(k)}: <b>{e(fmt(v))}</b></li>"
                                                         for k, v in r["stats"].items()) + "</ul>")
@@ -230,7 +245,19 @@ def _extremes_section_page(tables: Tables, out: Path) -> Path:
                                  figure=out / "extremes.png")
 
 
-SECTION_PAGES = {"extremes": _extremes_section_page}
+def scene_images_viewer(tables: Tables, out) -> Path:
+    """``out/scene_images.html``, the image viewer of the glint images (report section ``scene_images`` and
+    ``glintlab images``; :mod:`glintlab.report.viewer`)."""
+    intro = ("<p>Every method's render of frame 1 at full resolution, stored as float16 radiance: pick the "
+             "exposure (stops) and the tone curve, compare with the method's own truth and the facet truth (hold "
+             "<kbd>space</kbd> or <kbd>f</kbd>), zoom to pixels, and watch the flicker along the camera path "
+             "(docs/guide/scenes.md, docs/math/glint_images.md). This page loads nothing from outside itself.</p>")
+    return viewer.write_viewer(out, tables["views"], "glintlab: glint images per method", intro,
+                               tables["scene_images_flicker"])
+
+
+SECTION_PAGES = {"extremes": _extremes_section_page, "scene_images": scene_images_viewer}
+SECTION_VIEWERS = {"scene_images": viewer.PAGE}
 
 
 def write_section_pages(name: str, tables: Tables, out) -> list:

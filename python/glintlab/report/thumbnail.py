@@ -37,3 +37,36 @@ def thumbnail(out, path, columns: int = 4, width_px: int = 1400) -> Path:
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
+
+
+#: The report's figures that the guide pages show (docs/figures/report/NAME), by page.
+DOC_FIGURES = {
+    "scenes.md": ("scene_images.png", "scene_images_flicker.png", "scene_plane_25_regimes.png"),
+    "laws.md": ("sampler_vs_exact.png", "db23_figure9.png"),
+    "blending.md": ("roulette_vs_linear.png", "lod_strip.png"),
+    "aniso.md": ("aniso_maps.png", "aniso_weight_bias.png"),
+    "sweeps.md": ("trade_pareto.png", "extremes.png"),
+    "shaders.md": ("shaders_row_by_row.png",),
+}
+
+
+def docs_figures(out, dest=None, width_px: int = 1000) -> list:
+    """Copies the report's figures the guide pages show (:data:`DOC_FIGURES`) from a report in ``out``
+    into ``dest`` (default ``docs/figures/report`` of the source tree), at most ``width_px`` wide and,
+    for the plots, in 256 colours, so the repository stays small: after ``make run``,
+    ``docs_figures("out/report")``. Returns the paths written."""
+    from PIL import Image
+    out = Path(out)
+    dest = Path(dest) if dest else Path(__file__).resolve().parents[3] / "docs" / "figures" / "report"
+    dest.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name in sorted({n for names in DOC_FIGURES.values() for n in names}):
+        img = Image.open(out / name)
+        if img.width > width_px:
+            img = img.resize((width_px, round(img.height * width_px / img.width)), Image.LANCZOS)
+        # A plot's few colours survive a palette of 256; the renders' greys one of 64 (a preview: the report
+        # and its viewer have every value).
+        img = img.convert("RGB").quantize(64 if img.mode == "L" else 256, dither=Image.Dither.NONE)
+        img.save(dest / name, optimize=True)
+        written.append(dest / name)
+    return written

@@ -1,5 +1,6 @@
-"""Glint images of DB23's Table 1 scenes per method, their flicker along a camera path, and an animation:
-the report's opening picture (numbers: ``validation.scene_images``; docs/math/glint_images.md)."""
+"""Glint images of DB23's Table 1 scenes per method and their flicker along a camera path: the report's
+opening picture, its image viewer (``scene_frames``; the page: ``report.viewer``) and the print panel
+(numbers: ``validation.scene_images``; docs/math/glint_images.md)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -12,8 +13,10 @@ from ..api.glinty_ndf import DENSITY_MAPPINGS
 from ..resources import data_path
 from ..validation.scene import table1_scenes
 from ..validation.scene_images import (ANGULAR_TEXEL, DEFAULT_METHODS, IMAGE_METHODS, SUPERSAMPLE, TAU, aliasing_table,
-                                       display, flicker_table, render_path, sparkle_table, time_methods, with_density)
+                                       flicker_table, render_path, sparkle_table, time_methods, with_density)
 from .base import Context, Tables
+from .scene_frames import (FACETS, frames_of_path, display_bytes, own_truth_key, path_tiles, render_frames,
+                           timing_table)
 
 NAME = "scene_images"
 TITLE = "Glint images of the Table 1 scenes per method, and their flicker along a camera path"
@@ -35,17 +38,19 @@ DEFAULTS = {
     "angular_texel": ANGULAR_TEXEL,
     "tau": TAU,
     "methods": ",".join(DEFAULT_METHODS),
-    "animation_scene": "sphere",
-    "animation_methods": "truth,db23_trilinear[gated],db23_tetrahedral[gated],zk16",
     "timing_scene": "plane_25",
     # Seconds per image at 960 x 540 (a quarter of 1920 x 1080's pixels: every method's cost is per pixel,
     # and timing ten methods at full size cost the report about 13 s; `glintlab images` can time any size).
+    # At the viewer's scale the timed images are the viewer's own renders of the timing scene.
     "timing_scale": 0.5,
-    # Display (docs/math/glint_images.md#glint-shading): radiance under the scene's light, white at
-    # exposure_white x the exposure_percentile of the smooth render (one exposure per scene, every method).
+    # The image viewer (scene_images.html): frame 0 of every scene and method at this fraction of
+    # 1920 x 1080 per side (density x scale^2 as the path's), every pixel stored as float16 radiance.
+    "viewer_scale": 0.5,
+    # Display (docs/math/glint_images.md#glint-shading): radiance under the scene's light; each scene's default
+    # exposure 2^e, e = -log2(exposure_white x the exposure_percentile of the smooth render), the same for every
+    # method: the smooth lobe's bright end at 1/4 before the ACES curve (mid grey), glints several times brighter.
     "exposure_percentile": 99.0,
-    "exposure_white": 2.0,
-    "crop_px": 40,            # the 1:1 crops (pixels per side) around the smooth highlight
+    "exposure_white": 4.0,
     # Aliasing (docs/math/glint_images.md#glint-aliasing): small frames, each method against itself
     # box-filtered over aliasing_supersample^2 sub-pixels; "" to skip.
     "aliasing_methods": "truth,db23_trilinear[gated],kpt25,wb16,wb16_star,wb16_lookup_noise",
@@ -56,8 +61,8 @@ DEFAULTS = {
     "sparkle_scene": "plane_25",
     "sparkle_scale": 0.25,
 }
-QUICK = {"scale": 1.0 / 12, "frames": 4, "timing_scale": 1.0 / 12, "aliasing_scale": 0.02, "aliasing_frames": 2,
-         "sparkle_scale": 1.0 / 12}
+QUICK = {"scale": 1.0 / 12, "frames": 4, "timing_scale": 1.0 / 6, "viewer_scale": 1.0 / 6, "aliasing_scale": 0.02,
+         "aliasing_frames": 2, "sparkle_scale": 1.0 / 12}
 NOTEBOOK = "scene_images.ipynb"
 TABLE = {"scene_images_flicker": ["scene", "method", "std_ratio", "pop_rate", "pop_rate_wider", "change_rate",
                                   "truth_change_rate", "mean_ratio"],
@@ -90,27 +95,27 @@ def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
     methods = _names("methods", params["methods"])
     if "truth" not in methods:
         V.fail("methods", params["methods"], "a list that includes the ground truth 'truth'")
-    anim = _names("animation_methods", params["animation_methods"])
     scale = V.real("scale", params["scale"])
     by_name = {s.name: s for s in scenes}
-    for key in ("animation_scene", "timing_scene"):
-        if params[key] not in by_name:
-            V.fail(key, params[key], f"one of the scenes {', '.join(by_name)}")
-    paths, rows = {}, []
+    if params["timing_scene"] not in by_name:
+        V.fail("timing_scene", params["timing_scene"], f"one of the scenes {', '.join(by_name)}")
+    paths, rows, views = {}, [], {}
     for sc in scenes:
         ctx.progress(sc.name)
         small = with_density(sc.scaled(scale, keep_n=True), params["density_factor"])
-        names = list(dict.fromkeys(methods + (anim if sc.name == params["animation_scene"] else [])))
-        path = render_path(small, names, params["frames"], params["pan_px"], params["zoom"], seed=ctx.seed,
+        path = render_path(small, methods, params["frames"], params["pan_px"], params["zoom"], seed=ctx.seed,
                            angular_texel=params["angular_texel"])
         paths[sc.name] = path
         rows.append(flicker_table(path, tau=params["tau"]))
+        views[sc.name] = viewer_scene(sc, path, methods, params, ctx)
     flicker = pd.concat(rows, ignore_index=True)
-    flicker = flicker[flicker.method.isin(methods)].reset_index(drop=True)
     ctx.progress("timing")
-    big = with_density(by_name[params["timing_scene"]].scaled(V.real("timing_scale", params["timing_scale"]), keep_n=True),
-                       params["density_factor"])
-    timing = time_methods(big, methods, seed=ctx.seed, angular_texel=params["angular_texel"])
+    timing_scale = V.real("timing_scale", params["timing_scale"])
+    if timing_scale == V.real("viewer_scale", params["viewer_scale"]):
+        timing = timing_table(views, params["timing_scene"])
+    else:
+        big = with_density(by_name[params["timing_scene"]].scaled(timing_scale, keep_n=True), params["density_factor"])
+        timing = time_methods(big, methods, seed=ctx.seed, angular_texel=params["angular_texel"])
     first = next(iter(paths.values()))
     h, w = first.target.shape[1:]
     stats = {"image size": f"{w} x {h} (density x {scale ** 2:.4g}: each pixel keeps the 1920 x 1080 n)",
@@ -137,11 +142,27 @@ def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
     tables = {"scene_images_flicker": flicker, "scene_images_timing": timing, "scene_images_own_truth": own}
     tables.update(_aliasing(scenes, params, ctx, stats))
     return Tables(tables, stats,
-                  data={"paths": paths, "methods": methods, "anim": anim, "anim_scene": params["animation_scene"],
-                        "scale": scale, "density_factor": params["density_factor"],
+                  data={"paths": paths, "views": views, "methods": methods, "scale": scale,
+                        "density_factor": params["density_factor"],
                         "exposure": (V.real("exposure_percentile", params["exposure_percentile"]),
-                                     V.real("exposure_white", params["exposure_white"])),
-                        "crop_px": int(params["crop_px"])})
+                                     V.real("exposure_white", params["exposure_white"]))})
+
+
+def viewer_scene(sc, path, methods, params: dict, ctx: Context):
+    """What the image viewer shows of scene ``sc`` (``scene_frames.ViewerScene``): frame 0 of every method
+    and own truth at ``viewer_scale`` (taken from the camera path when that is its scale, else rendered once
+    more at the viewer's resolution), and the path's frames with their pops."""
+    viewer_scale = V.real("viewer_scale", params["viewer_scale"])
+    exposure = (V.real("exposure_percentile", params["exposure_percentile"]),
+                V.real("exposure_white", params["exposure_white"]))
+    if viewer_scale == V.real("scale", params["scale"]):
+        view = frames_of_path(path, methods, exposure)
+    else:
+        ctx.progress(f"{sc.name} at the viewer's resolution")
+        big = with_density(sc.scaled(viewer_scale, keep_n=True), params["density_factor"])
+        view = render_frames(big, methods, ctx.seed, params["angular_texel"], exposure)
+    view.path = path_tiles(path, methods, view.white, params["tau"])
+    return view
 
 
 def density_statement(methods) -> str:
@@ -217,119 +238,122 @@ def _usable(names, stats: dict) -> list:
 
 
 def figures(tables: Tables, ctx: Context) -> list:
-    paths, methods = tables["paths"], tables["methods"]
-    flicker = tables["scene_images_flicker"]
-    out = [ctx.save(panel_figure(paths, methods, flicker, tables["scale"], tables["density_factor"],
-                                 tables["exposure"], tables["crop_px"]), "scene_images.png", 80),
+    methods, flicker = tables["methods"], tables["scene_images_flicker"]
+    out = [print_panel(tables["views"], flicker, Path(ctx.out) / "scene_images.png", tables["density_factor"], methods,
+                       exposure=tables["exposure"]),
            ctx.save(flicker_figure(flicker), "scene_images_flicker.png", 90)]
     if "scene_images_aliasing" in tables.tables:
         out.append(ctx.save(aliasing_figure(tables["scene_images_aliasing"]), "scene_images_aliasing.png", 90))
-    gif = Path(ctx.out) / "scene_images_animation.gif"
-    write_animation(paths[tables["anim_scene"]], tables["anim"], gif)
-    out.append(gif)
     return out
 
 
-def exposure_of(path, percentile: float = 99.0, white: float = 2.0) -> float:
-    """The display's white for a scene: ``white`` x the ``percentile`` of the smooth render's radiance
-    (D(h) x the BRDF factor) over the lit pixels of the first frame; the same for every method."""
-    L = path.target[0] * path.shade[0]
-    lit = path.mask[0] & (L > 0)
-    return float(white * np.percentile(L[lit], percentile)) if lit.any() else 1.0
+#: The print panel: at most this many tiles per row, each at most this many pixels wide, labels in points
+#: that stay readable when the PNG is shown at a page's width (about half its own).
+PANEL_COLUMNS, PANEL_TILE_PX, PANEL_FONT_PX = 6, 320, 24
 
 
-def shaded(path, name: str, image: np.ndarray, white: float, frame: int = 0) -> np.ndarray:
-    """Display values in [0, 1] of one image of method ``name`` (docs/math/glint_images.md#glint-shading):
-    an NDF method's radiance (its image x the BRDF factor of frame ``frame``) over ``white``, an
-    intensity method's value as it returns it, both clipped and raised to 1 / 2.2."""
-    if IMAGE_METHODS.get(name).returns == "intensity" if name in IMAGE_METHODS else False:
-        v = np.asarray(image, float)
-    else:
-        v = np.asarray(image, float) * path.shade[frame] / white
-    return np.clip(np.nan_to_num(v), 0.0, 1.0) ** (1.0 / 2.2)
+def _font(size: int, bold: bool = False):
+    from matplotlib import font_manager
+    from PIL import ImageFont
+    return ImageFont.truetype(font_manager.findfont(font_manager.FontProperties(
+        family="DejaVu Sans", weight="bold" if bold else "normal")), size)
 
 
-def _columns(path, methods):
-    """(label, method name, image sequence) per panel column: each method followed by its own truth
-    where that is not the facet truth (its exact reference, or itself supersampled)."""
-    cols = []
-    for m in methods:
-        cols.append((IMAGE_METHODS.get(m).label, m, path.images[m]))
-        kind = IMAGE_METHODS.get(m).truth
-        if path.truths is not None and kind in ("reference", "supersampled"):
-            cols.append((f"{IMAGE_METHODS.get(m).label}: {kind}", m, path.truths[m]))
-    return cols
+def _wrap(draw, text: str, font, width: int) -> list:
+    """``text`` broken into lines of at most ``width`` pixels in ``font``."""
+    lines, line = [], ""
+    for word in text.split():
+        trial = f"{line} {word}".strip()
+        if line and draw.textlength(trial, font=font) > width:
+            lines.append(line)
+            line = word
+        else:
+            line = trial
+    return lines + ([line] if line else [])
 
 
-def _crop(path, size: int):
-    """The (rows, cols) slices of a size x size crop centred on the highlight: the pixel of the largest
-    smooth D(h) in the first frame (the radiance's own maximum sits on a grazing rim, where Fresnel
-    and 1 / cos_o grow)."""
-    L = np.where(path.mask[0], path.target[0], 0.0)
-    H, W = L.shape
-    r, c = np.unravel_index(int(np.argmax(L)), L.shape)
-    size = max(4, min(int(size), H, W))
-    r0, c0 = int(np.clip(r - size // 2, 0, H - size)), int(np.clip(c - size // 2, 0, W - size))
-    return slice(r0, r0 + size), slice(c0, c0 + size)
-
-
-def panel_figure(paths: dict, methods, flicker: pd.DataFrame, scale: float = 1.0, density_factor: float = 1.0,
-                 exposure=(99.0, 2.0), crop_px: int = 40):
-    """Per scene three rows: the first frame of each method (and of its own truth where that is not the
-    facets) shaded with the microfacet BRDF under the scene's light at one exposure, titled with its
-    flicker against its own truth; below, a crop_px x crop_px crop at 1:1 (nearest) around the highlight,
-    and the temporal difference of that crop between the first two frames (display values)."""
-    import matplotlib.pyplot as plt
-    scenes = list(paths)
-    h, w = next(iter(paths.values())).target.shape[1:]
-    ncol = len(_columns(next(iter(paths.values())), methods))
-    cw = 2.0
-    rows = 3  # per scene: the frame, its 1:1 crop, the temporal difference |frame 2 - frame 1| of the crop
-    fig, axes = plt.subplots(rows * len(scenes), ncol,
-                             figsize=(cw * ncol, (cw * h / w + 2 * cw + 1.0) * len(scenes) + 0.9), squeeze=False,
-                             gridspec_kw={"height_ratios": [h / w, 1.0, 1.0] * len(scenes)})
+def _tile_caption(view, key: str, flicker: pd.DataFrame) -> tuple:
+    """(title, numbers) above a tile: the method's label and its flicker against its own truth, or what
+    the truth tile is and how often its glints change."""
     f = flicker.set_index(["scene", "method"])
-    for i, sc in enumerate(scenes):
-        p = paths[sc]
-        white = exposure_of(p, *exposure)
-        cr = _crop(p, crop_px)
-        for j, (label, m, seq) in enumerate(_columns(p, methods)):
-            ax, axc, axd = axes[rows * i, j], axes[rows * i + 1, j], axes[rows * i + 2, j]
-            img = shaded(p, m, seq[0], white)
-            ax.imshow(img, cmap="gray", vmin=0, vmax=1, interpolation="antialiased")
-            axc.imshow(img[cr], cmap="gray", vmin=0, vmax=1, interpolation="nearest")
-            if seq.shape[0] > 1:
-                diff = np.abs(shaded(p, m, seq[1], white, frame=1) - img)
-                axd.imshow(diff[cr], cmap="magma", vmin=0, vmax=1, interpolation="nearest")
-            if j == 0:
-                ax.add_patch(plt.Rectangle((cr[1].start, cr[0].start), cr[1].stop - cr[1].start,
-                                           cr[0].stop - cr[0].start, fill=False, ec="tab:red", lw=0.7))
-            for a in (ax, axc, axd):
-                a.set_xticks([])
-                a.set_yticks([])
-            r = f.loc[(sc, m)]
-            is_truth_col = label.endswith(": reference") or label.endswith(": supersampled")
-            if m == "truth" or is_truth_col:
-                sub = (f"changes {1000 * r.truth_change_rate:.1f}‰" if m == "truth"
-                       else f"changes {1000 * r.own_truth_change_rate:.1f}‰")
-            elif "own_std_ratio" in r and r.own_truth not in ("facets", "self"):
-                sub = f"vs {r.own_truth}: σ×{r.own_std_ratio:.2f} pops {1000 * r.own_pop_rate:.1f}‰"
-            else:
-                sub = f"σ×{r.std_ratio:.2f}  pops {1000 * r.pop_rate:.1f}‰"
-            ax.set_title(f"{label}\n{sub}", fontsize=7)
-            if j == 0:
-                ax.set_ylabel(sc, fontsize=9)
-                axc.set_ylabel(f"{crop_px} px 1:1", fontsize=7)
-                axd.set_ylabel("|frame 2 - frame 1|", fontsize=7)
-    fig.suptitle(f"Glint renders (microfacet BRDF: glinty D x Schlick F x Smith G / (4 cos_o), one directional light; "
-                 f"white = {exposure[1]:g} x the {exposure[0]:g}th percentile of the smooth render, every method; "
-                 f"intensity methods as they return) at {w} x {h}, frame 1.\nFacet density {density_factor:g} x the "
-                 f"scene's N at 1920 x 1080 (x {scale ** 2:.3g} here, the same n per pixel); {density_statement(methods)}.\n"
-                 f"σ×: temporal deviation / the own truth's; pops per 1000 pixel-frames (glints appearing or vanishing "
-                 f"with no change in the own truth: facets unless the column after says reference / supersampled)",
-                 fontsize=8)
-    fig.tight_layout()
-    return fig
+    for c in view.columns:
+        if key == c["method"]:
+            r = f.loc[(view.name, key)]
+            if key == FACETS:
+                return c["label"], f"changes {1000 * r.truth_change_rate:.1f}‰ per frame"
+            own = r.get("own_truth", "facets")
+            if own not in ("facets", "self") and "own_std_ratio" in r:
+                return c["label"], f"vs {own}: σ×{r.own_std_ratio:.2f}, pops {1000 * r.own_pop_rate:.1f}‰"
+            return c["label"], f"σ×{r.std_ratio:.2f}, pops {1000 * r.pop_rate:.1f}‰"
+        if key == own_truth_key(c["method"]) and key != FACETS:
+            r = f.loc[(view.name, c["method"])]
+            return f"{c['label']}: {c['truth_kind']}", f"changes {1000 * r.own_truth_change_rate:.1f}‰ per frame"
+    return key, ""
+
+
+def _fitting(draw, text: str, fonts, width: int):
+    """The first of ``fonts`` in which ``text`` fits ``width`` pixels (the last if none does)."""
+    return next((f for f in fonts if draw.textlength(text, font=f) <= width), fonts[-1])
+
+
+def print_panel(views: dict, flicker: pd.DataFrame, path, density_factor: float, methods, tone: str = "aces",
+                exposure=(99.0, 4.0)):
+    """The static panel for print (``scene_images.png``), from the viewer's frames: per scene, each method's
+    frame 0 and each own truth that is not the facets, box-filtered to tiles of at most PANEL_TILE_PX
+    pixels, in radiance, shown at the scene's default exposure through ``tone`` (the viewer's default),
+    at most PANEL_COLUMNS per row, titled with the method and its flicker. Written with Pillow (text
+    in DejaVu Sans); the viewer page has every pixel."""
+    from PIL import Image, ImageDraw
+    first = next(iter(views.values()))
+    tw = min(PANEL_TILE_PX, first.width)
+    th = round(tw * first.height / first.width)
+    fs, gap, margin = PANEL_FONT_PX, 14, 20
+    width = 2 * margin + PANEL_COLUMNS * tw + (PANEL_COLUMNS - 1) * gap
+    big, small, head = _font(fs, True), _font(round(fs * 0.8)), _font(round(fs * 1.15), True)
+    smaller = _font(round(fs * 0.7))
+    caption = (f"Glint renders at {first.width} × {first.height} (radiance: glinty D × Schlick F × Smith G / (4 cos θo) "
+               f"under one directional light; an intensity method's value as it returns), frame 1 of the camera path, "
+               f"each scene at its default exposure (2^e with e = −log2 of {exposure[1]:g} × the smooth render's "
+               f"{exposure[0]:g}th percentile) "
+               f"through the {tone.upper() if tone == 'aces' else tone} tone curve, tiles box-filtered to {tw} px. "
+               f"Facet density {density_factor:g} × the scene files' N, the same facets per pixel at every resolution; "
+               f"{density_statement(methods)}. σ×: temporal deviation / the own truth's; pops per 1000 pixel-frames "
+               f"(glints appearing or vanishing with no change in the own truth). Every pixel, any exposure, "
+               f"differences and the flicker video: scene_images.html.")
+    probe = ImageDraw.Draw(Image.new("L", (1, 1)))
+    cap_lines = _wrap(probe, caption, small, width - 2 * margin)
+    label_h = 2 * fs + 8
+    blocks = []
+    for view in views.values():
+        keys = []
+        for c in view.columns:
+            keys.append(c["method"])
+            if c["own"] not in (c["method"], FACETS):
+                keys.append(c["own"])
+        blocks.append((view, keys))
+    height = margin + len(cap_lines) * (fs + 4) + sum(
+        round(fs * 1.15) + 16 + -(-len(k) // PANEL_COLUMNS) * (label_h + th + gap) for _, k in blocks) + margin
+    img = Image.new("L", (width, height), 255)
+    draw = ImageDraw.Draw(img)
+    y = margin
+    for line in cap_lines:
+        draw.text((margin, y), line, fill=0, font=small)
+        y += fs + 4
+    for view, keys in blocks:
+        draw.text((margin, y + 6), f"{view.name}", fill=0, font=head)
+        y += round(fs * 1.15) + 16
+        for i, key in enumerate(keys):
+            col, row = i % PANEL_COLUMNS, i // PANEL_COLUMNS
+            x, ty = margin + col * (tw + gap), y + row * (label_h + th + gap)
+            title, numbers = _tile_caption(view, key, flicker)
+            draw.text((x, ty), title, fill=0, font=_fitting(draw, title, (big, small, smaller), tw))
+            draw.text((x, ty + fs + 4), numbers, fill=60, font=_fitting(draw, numbers, (small, smaller), tw))
+            tile = Image.fromarray(view.images[key].astype(np.float32), "F").resize((tw, th), Image.BOX)
+            img.paste(Image.fromarray(display_bytes(np.asarray(tile), view.exposure, tone)), (x, ty + label_h))
+        y += -(-len(keys) // PANEL_COLUMNS) * (label_h + th + gap)
+    path = Path(path)
+    img.save(path, optimize=False, compress_level=6)
+    return path
 
 
 def aliasing_figure(al: pd.DataFrame):
@@ -391,54 +415,16 @@ def flicker_figure(flicker: pd.DataFrame):
     return fig
 
 
-def write_animation(path, methods, out: Path, fps: int = 4) -> Path:
-    """A GIF of ``methods`` side by side along the camera path (matplotlib's Pillow writer)."""
-    import matplotlib.pyplot as plt
-    from matplotlib.animation import FuncAnimation, PillowWriter
-    T = path.target.shape[0]
-    # Cropped to the pixels that see the surface in some frame (the sphere fills a fifth of its image).
-    seen = path.mask.any(axis=0)
-    rows, cols = np.flatnonzero(seen.any(axis=1)), np.flatnonzero(seen.any(axis=0))
-    crop = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)) if rows.size else (slice(None), slice(None))
-    h, w = seen[crop].shape
-    fig, axes = plt.subplots(1, len(methods), figsize=(2.6 * len(methods), 2.6 * h / w + 0.5), squeeze=False)
-    ims = []
-    # The panel's display: the BRDF-shaded radiance at the smooth render's exposure (glint-shading).
-    white = exposure_of(path) if path.shade is not None else None
-
-    def show(m, t):
-        if white is None:
-            return display(path.images[m][t][crop], path.material)
-        return shaded(path, m, path.images[m][t], white, frame=t)[crop]
-
-    for ax, m in zip(axes[0], methods):
-        ims.append(ax.imshow(show(m, 0), cmap="gray", vmin=0, vmax=1, interpolation="nearest"))
-        ax.set_title(IMAGE_METHODS.get(m).label, fontsize=8)
-        ax.set_xticks([])
-        ax.set_yticks([])
-    text = fig.suptitle("", fontsize=8)
-    fig.tight_layout()
-
-    def step(t):
-        for im, m in zip(ims, methods):
-            im.set_data(show(m, t))
-        text.set_text(f"{path.scene}: frame {t + 1}/{T} ({'pan' if t <= T // 2 else 'zoom'})")
-        return ims
-
-    anim = FuncAnimation(fig, step, frames=T, blit=False)
-    anim.save(out, writer=PillowWriter(fps=fps), dpi=100)
-    plt.close(fig)
-    return Path(out)
-
-
 def command_params(scenes, **params) -> dict:
-    """``glintlab images``' section parameters for ``scenes`` (as in ``DEFAULTS``; the animation and the
-    timing use the first scene unless named), checked; ``compute_scenes`` takes them."""
+    """``glintlab images``' section parameters for ``scenes`` (as in ``DEFAULTS``; the timing uses the first
+    scene unless named, the viewer the path's resolution unless ``viewer_scale`` is given), checked;
+    ``compute_scenes`` takes them."""
     unknown = sorted(set(params) - set(DEFAULTS))
     if unknown:
         V.fail("params", unknown, f"parameters among {', '.join(DEFAULTS)}")
     if not scenes:
         V.fail("scenes", scenes, "at least one scene")
     names = [s.name for s in scenes]
-    return {**DEFAULTS, "animation_scene": names[0], "timing_scene": names[0],
+    return {**DEFAULTS, "timing_scene": names[0],
+            "viewer_scale": params.get("scale", DEFAULTS["scale"]),
             "sparkle_scene": DEFAULTS["sparkle_scene"] if DEFAULTS["sparkle_scene"] in names else names[0], **params}
