@@ -4,6 +4,7 @@ methods, the GlintInput contract field by field, gl.render, WB16's shader agains
 broken WB16 that the comparison catches), and `glintlab images --method`."""
 from __future__ import annotations
 
+import pickle
 import re
 
 import numpy as np
@@ -467,3 +468,37 @@ def test_unfinished_method_shaders_say_what_they_are(language):
         gl.shader_method("float glint(GlintInput g", language=language, register=False)
     with pytest.raises(ValueError, match=r"no function glint with the expected signature float glint\(GlintInput g\)"):
         gl.shader_method("float glint(float x) { return x; }", language=language, register=False)
+
+
+@needs_vulkan
+def test_shader_backed_objects_share_one_base(tmp_path):
+    """A shader law, a method shader and an NDF method shader are one kind of object (shaders.ShaderBacked):
+    the same kernel properties, the same device choice, and pickles that carry the code and the files it
+    included, so a copy computes the same after the files change (a method shader's too)."""
+    from glintlab.api.counting_shaders import NdfShaderMethod
+    from glintlab.api.shaders import ShaderBacked, ShaderLaw
+    (tmp_path / "scale.h").write_text("#define GLINT_SCALE 2.0\n")
+    src = tmp_path / "scaled.glsl"
+    src.write_text('#include "scale.h"\nfloat glint(GlintInput g) { return GLINT_SCALE * abs(g.view.x); }\n')
+    method = gl.shader_method(src, register=False, device=0)  # an index, as shader laws take it
+    law = gl.shader_law(gl.shipped_shader("gated", "glsl"), register=False)
+    ndf = gl.shader_method("float glint(GlintInput g) { return GLINTLAB_ALPHA; }", language="glsl", register=False,
+                           returns="ndf")
+    assert isinstance(ndf, NdfShaderMethod) and isinstance(law, ShaderLaw)
+    rows = MS.pack_inputs(4, view=[[1.0, 0, 0], [-2.0, 0, 0], [0.5, 1, 0], [3.0, 0, 1]])
+    for obj, kind in ((law, "shader law"), (method, "method shader"), (ndf, "method shader")):
+        assert isinstance(obj, ShaderBacked) and obj.kind == kind
+        assert obj.device and obj.device_type and obj.spirv[:4] == b"\x03\x02\x23\x07" and obj.unbounded_loops == 0
+        assert obj.language == "glsl" and obj.loop_caveat is None
+    assert str(tmp_path / "scale.h") in method.included_files  # beside glintlab_method_glsl.h and its own
+    before = method.shade(rows)
+    np.testing.assert_array_equal(before, [2.0, 4.0, 1.0, 6.0])
+    (tmp_path / "scale.h").write_text("#define GLINT_SCALE 3.0\n")
+    back = pickle.loads(pickle.dumps(method))
+    assert back.identity == method.identity
+    np.testing.assert_array_equal(back.shade(rows), before)  # the recorded header, not the edited one
+    np.testing.assert_array_equal(gl.shader_method(src, register=False).shade(rows), 1.5 * before)  # a new one reads it
+    ndf_back = pickle.loads(pickle.dumps(ndf))
+    assert ndf_back.alpha == ndf.alpha and np.array_equal(ndf_back.shade(rows), ndf.shade(rows))
+    with pytest.raises(ValueError, match="device"):
+        gl.shader_method(src, register=False, device=-1)

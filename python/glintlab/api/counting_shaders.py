@@ -34,9 +34,9 @@ from ..resources import data_path
 from . import checks as V
 from .glinty_ndf import (DB23, DENSITY_MAPPINGS, KPT25, GlintyNDF, Material, matched_density, pixel_arrays,
                          register_image_method)
-from .method_shaders import (ShaderMethod, check_output, frame_rows, method_kernel, pack_inputs, register_ndf_shader_factory,
-                             shader_seed, unpack_inputs)
-from .shaders import DEFAULT_TIMEOUT_S, _read_source
+from .method_shaders import (ShaderMethod, check_output, frame_rows, pack_inputs, register_ndf_shader_factory, shader_seed,
+                             unpack_inputs)
+from .shaders import DEFAULT_TIMEOUT_S, ShaderBacked, kernel_spec
 
 #: Each method shader is one body (<name>_method_body.h) with a thin .glsl and .hlsl wrapper.
 METHOD_LANGUAGES = ("glsl", "hlsl")
@@ -75,10 +75,9 @@ def db23_defines(material: Material, lod_bias: int = 0, key_salt: int = 0) -> di
 
 def _spec(path: Path, name: str, defines: dict) -> dict:
     """A method shader's spec (as ``shader_method`` builds it) for a shipped file, not compiled."""
-    code, source_name, language = _read_source(path, None)
-    return {"code": code, "source_name": source_name, "entry": "glint", "language": language, "name": name,
-            "defines": sorted((k, _glsl_float(v) if isinstance(v, float) else str(v)) for k, v in defines.items()),
-            "include_dirs": [str(data_path("shaders"))], "device": "auto", "timeout": float(DEFAULT_TIMEOUT_S)}
+    spec = kernel_spec(path, None, "glint", defines, (), "auto", DEFAULT_TIMEOUT_S, defaults=(data_path("shaders"),),
+                       none_defines=False)
+    return dict(spec, name=name)
 
 
 def _glsl_float(x: float) -> str:
@@ -86,35 +85,25 @@ def _glsl_float(x: float) -> str:
     return r if ("." in r or "e" in r) else r + ".0"
 
 
-class NdfShaderMethod(ShaderMethod, GlintyNDF):
+class NdfShaderMethod(ShaderMethod):
     """A method shader that returns the glinty NDF value D per pixel (``returns = "ndf"``): its image is
     D on the lit pixels (as every NDF method's), shaded by the scene images' BRDF; ``smooth(h)`` is its
-    target; ``evaluate(uv, J, h, seed)`` runs it on tangent-frame inputs (normal +z, tangent +x)."""
+    target; ``evaluate(uv, J, h, seed)`` runs it on tangent-frame inputs (normal +z, tangent +x). Compiled
+    on first use: registering or making the method (a scene's material) needs no Vulkan."""
 
     returns = "ndf"
 
     def __init__(self, spec: dict, target: str, alpha: float, density: float, reference=None):
         # reference: None or a picklable callable () -> an evaluator with ``reference(uv, J, h, seed)``.
         GlintyNDF.__init__(self, target, alpha, density)
-        self._spec = dict(spec)
-        s = self._spec
-        self.name = s["name"]
-        self.params = {"source": s["source_name"], "entry": s["entry"], "language": s["language"],
-                       **dict(s["defines"])}
+        ShaderBacked.__init__(self, spec)
+        self._describe()
         self._ndf_args = (target, alpha, density, reference)
         self._reference = reference
         self._reference_ndf = None
-        self._compiled = None
 
-    @property
-    def _kernel(self):
-        # Compiled on first use: registering or making the method (a scene's material) needs no Vulkan.
-        if self._compiled is None:
-            self._compiled = method_kernel(self._spec)
-        return self._compiled
-
-    def __reduce__(self):
-        return (NdfShaderMethod, (self._spec, *self._ndf_args))
+    def _reduce_args(self) -> tuple:
+        return (self._spec, *self._ndf_args)
 
     def reference(self, uv, J, h, seed: int = 0):
         """The exact model on the same realization, where the method has one (KPT25: its twin's sum over
