@@ -121,8 +121,7 @@ def test_shipped_shaders_are_declared_by_traits(listed):
 
 
 def test_shipped_method_shaders_and_samplers_are_declared_where_the_table_says(listed):
-    from glintlab.api.counting_shaders import METHOD_SHADER_FILES
-    from glintlab.api.method_shaders import WB16_SHADERS
+    from glintlab.api.method_shaders import shipped_method_shaders
     from glintlab.api.shader_samplers import SHIPPED_SAMPLERS
     row = _table()["shipped method shader"]
     assert "`register_image_method`" in row["registered by"]
@@ -134,7 +133,8 @@ def test_shipped_method_shaders_and_samplers_are_declared_where_the_table_says(l
     files = {p.name for p in [*shaders.glob("*.glsl"), *shaders.glob("*.hlsl")]}
     laws = {f for f in files if f.rsplit(".", 1)[0] in listed["shipped"]}
     samplers = {f for f in files if f.rsplit(".", 1)[0] in SHIPPED_SAMPLERS}
-    assert files - laws - samplers == set(WB16_SHADERS.values()) | set(METHOD_SHADER_FILES)
+    methods = {f"{e.files}.{lang}" for e in shipped_method_shaders().values() for lang in ("glsl", "hlsl")}
+    assert files - laws - samplers == methods
     for name in files:
         assert (shaders / (name.rsplit(".", 1)[0] + "_body.h")).exists(), name
     for module in ("method_shaders", "counting_shaders"):

@@ -21,7 +21,9 @@ arithmetic (and its first, numpy, form :func:`wb16_twin_numpy`).
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -266,6 +268,41 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
     return method
 
 
+@dataclass(frozen=True)
+class ShippedShader:
+    """What the registry entry (``register_image_method(..., shader=...)``) of a method shader glintlab
+    ships carries for the generic machinery (tests/python/test_extension_registries.py, the float32
+    study of ``validation.method_twins``), so that no other list names it:
+
+    - ``files``: the stem of its one body and two thin wrappers in glintlab/data/shaders
+      (``<files>_body.h``, ``<files>.glsl``, ``<files>.hlsl``);
+    - ``compare(rows, material, method=None)``: the shader (or ``method``) against its C++ twin on the same
+      packed rows (:func:`pack_inputs`) for the method's material (its density mapped): a dict with
+      ``share`` (the share of pixels beyond the twin's float32 allowance), ``pixels`` and ``beyond`` (their
+      row indices), and for the counting methods ``share_1pct``, ``rel_err`` and ``max_rel_err``;
+    - ``max_share``: the share the tests accept (each comparison states what it measured);
+    - ``wrong(material)``: the deliberately wrong variants ({label: method}) the same comparison must
+      reject (each beyond ten times ``max_share``), declared by the registrant, not assumed by the tests;
+    - ``explain(rows, material, which, limit)``, where given: why the pixels ``which`` differ ({reason:
+      count}); the float32 study runs the methods that have one.
+    """
+    files: str
+    compare: Callable
+    wrong: Callable
+    max_share: float = 0.005
+    explain: Callable | None = None
+
+    def paths(self) -> list[Path]:
+        """The body and the two wrappers."""
+        return [Path(data_path("shaders", f"{self.files}{suffix}")) for suffix in ("_body.h", ".glsl", ".hlsl")]
+
+
+def shipped_method_shaders() -> dict:
+    """The method shaders glintlab ships, from the one registry of image methods: {image method name:
+    its :class:`ShippedShader`}."""
+    return {n: IMAGE_METHODS.get(n).shader for n in IMAGE_METHODS.names() if IMAGE_METHODS.get(n).shader is not None}
+
+
 # --------------------------------------------------------------------------------------------------
 # WB16's sparkle shader (Code 2) and its numpy twin
 
@@ -450,10 +487,51 @@ def noise3(p, seed) -> np.ndarray:
     return y0 + (y1 - y0) * fz
 
 
-# WB16 is an image method like the others: compiled on first use (needs Vulkan), never by import.
-register_image_method("wb16", lambda m: wb16_method(), label="WB16 sparkles", returns="intensity")
-# The paper's baselines as image methods of their own (the aliasing tables compare them with WB16):
-# Shopf's star shape (Code 1) and Shopf's noise on the lookup instead of on the grid centres.
-register_image_method("wb16_star", lambda m: wb16_method(shape=1), label="WB16 / Shopf star", returns="intensity")
+#: WB16's twin allowance (docs/math/glint_images.md#glint-wb16): per pixel, |shader - twin| may reach
+#: WB16_ULPS float32 spacings of the lookup position pos (tens to hundreds of cells from the origin, so its
+#: last place is 1e-5 .. 3e-5 cells) times the kernel's largest slope (2 / sqrt(threshold) for the round
+#: kernel, 3 k for Shopf's star); beyond that on at most WB16_MAX_SHARE of the pixels (a cell index or a
+#: level moved across its floor by such an ulp). Measured on lavapipe: 0 to 0.1 % of the pixels.
+WB16_ULPS, WB16_MAX_SHARE = 8, 0.005
+
+
+def wb16_beyond(a, b, pos, **params) -> np.ndarray:
+    """Per pixel: a and b (two computations of WB16 with ``params``, e.g. the shader and its twin) differ
+    beyond the float32 allowance of the lookup position ``pos`` (both NaN is agreement)."""
+    prm = _wb16_params(params)
+    slope = 3 * prm["WB16_SHOPF_K"] if prm["WB16_SHAPE"] == 1 else 2 / np.sqrt(1 - prm["WB16_SPARKLE_SIZE"])
+    tol = WB16_ULPS * np.spacing(np.abs(pos).max(axis=1)) * slope
+    both_nan = np.isnan(a) & np.isnan(b)
+    return ~both_nan & ~(np.abs(np.asarray(a, np.float64) - b) <= tol)
+
+
+def wb16_compare(rows, material=None, method=None, **params) -> dict:
+    """WB16's shader with ``params`` (or ``method``) against its C++ twin with ``params`` on the same
+    packed rows: ``share`` of the pixels beyond the allowance (:func:`wb16_beyond`), ``pixels``, ``beyond``
+    (their row indices). ``material`` is not read (WB16 has no material)."""
+    method = method if method is not None else wb16_method(**params)
+    value, pos = wb16_twin(rows, return_lookup=True, **params)
+    bad = wb16_beyond(method.shade(rows), value, pos, **params)
+    return {"share": float(bad.mean()) if bad.size else 0.0, "pixels": int(bad.size), "beyond": np.nonzero(bad)[0]}
+
+
+def _wb16_shipped(compare_params: dict, wrong: dict) -> ShippedShader:
+    """WB16 (or a baseline: ``compare_params``) as a shipped shader whose wrong variants are ``wrong``:
+    {label: the parameters of a WB16 that is not this one}."""
+    return ShippedShader("wb16", functools.partial(wb16_compare, **compare_params),
+                         lambda m: {label: wb16_method(**p) for label, p in wrong.items()}, WB16_MAX_SHARE)
+
+
+# WB16 is an image method like the others: compiled on first use (needs Vulkan), never by import; an
+# intensity, not in the NDF panel. The paper's baselines are image methods of their own (the aliasing
+# tables compare them with WB16): Shopf's star shape (Code 1) and Shopf's noise on the lookup instead of
+# on the grid centres. Each is the wrong variant of the others: the comparison must see the shape.
+_WB16_DOC = "docs/math/glint_images.md#glint-wb16"
+register_image_method("wb16", lambda m: wb16_method(), label="WB16 sparkles", returns="intensity", doc=_WB16_DOC,
+                      shader=_wb16_shipped({}, {"kernel radius x sqrt(1.2)": {"kernel_scale": 1.2},
+                                                "Shopf's star": {"shape": 1}, "lookup noise": {"noise": 1}}))
+register_image_method("wb16_star", lambda m: wb16_method(shape=1), label="WB16 / Shopf star", returns="intensity",
+                      doc=_WB16_DOC, shader=_wb16_shipped({"shape": 1}, {"round kernel": {}}))
 register_image_method("wb16_lookup_noise", lambda m: wb16_method(noise=1), label="WB16 / lookup noise",
-                      returns="intensity")
+                      returns="intensity", doc=_WB16_DOC,
+                      shader=_wb16_shipped({"noise": 1}, {"noise on the grid centres": {}}))

@@ -1,0 +1,114 @@
+"""Every entry of each Python extension registry is tested, rendered and documented, with no hand list
+(the laws have theirs in C++: tests/cpp/test_batch.cpp and tests/cpp/test_registry.cpp run every
+registered law): every image method renders a small frame; every shipped one has a section of the docs
+that names it; every shipped method shader has its body and thin wrappers, agrees with its C++ twin, and
+its comparison rejects each deliberately wrong variant its registrant declares; a method registered
+after glintlab's import is in the scene images' default panel. The lists are the registries'
+(``gl.image_methods()``, ``shipped_method_shaders()``), read when the tests are collected."""
+from __future__ import annotations
+
+import dataclasses
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import glintlab as gl
+from glintlab.api.glinty_ndf import (IMAGE_METHODS, GlintyNDF, SmoothNDF, method_density, panel_methods,
+                                     register_image_method, shipped_image_methods)
+from glintlab.api.method_shaders import shipped_method_shaders
+from glintlab.validation import method_twins as MT
+
+ROOT = Path(__file__).resolve().parents[2]
+VULKAN = bool(gl.vulkan_devices())
+SHIPPED = shipped_image_methods()
+SHADERS = shipped_method_shaders()
+
+
+def _needs_vulkan(name: str) -> bool:
+    entry = IMAGE_METHODS.get(name)
+    return entry.shader is not None or entry.origin == "shader_method"
+
+
+def test_the_registries_hold_every_kind():
+    # Not vacuous: the NDF methods, WB16's shader and the counting method shaders are all there.
+    assert {"truth", "smooth", "kpt25", "wwh18", "wb16", "db23_shader", "kpt25_shader"} <= set(SHIPPED)
+    assert set(SHADERS) == {"wb16", "wb16_star", "wb16_lookup_noise", "db23_shader", "kpt25_shader"}
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_every_image_method_renders(name):
+    if _needs_vulkan(name) and not VULKAN:
+        pytest.skip("no Vulkan device (install mesa-vulkan-drivers)")
+    img = gl.render(name, "sphere", scale=0.03, seed=3)
+    lit = np.isfinite(img)
+    assert img.shape[:2] == (32, 58) and lit.mean() > 0.2, name
+    assert np.all(img[lit] >= 0) and np.any(img[lit] > 0), name  # an image, not a blank one
+
+
+def _section(doc: str) -> str:
+    """The text of a documented section (page#anchor): from its label to the next label."""
+    path, _, anchor = doc.partition("#")
+    text = (ROOT / path).read_text()
+    start = text.index(f"({anchor})=")
+    nxt = re.search(r"^\([\w-]+\)=\s*$", text[start + 1:], flags=re.M)
+    return text[start:start + 1 + nxt.start()] if nxt else text[start:]
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_every_shipped_image_method_is_documented(name):
+    doc = IMAGE_METHODS.get(name).doc
+    assert doc and re.fullmatch(r"docs/[\w/]+\.md#[\w-]+", doc), f"{name}: no doc section declared"
+    section = _section(doc)
+    # The section names the method (a family `db23_trilinear[law]` by its stem and bracket).
+    stem = name.split("[")[0]
+    assert f"`{name}`" in section or f"`{stem}[" in section, f"{doc} does not name {name}"
+
+
+def test_a_method_registered_later_is_in_the_default_panel():
+    from glintlab.studies import scene_images as study
+
+    class Late(GlintyNDF):
+        def evaluate(self, uv, J, h, seed=0):
+            return SmoothNDF(self.target, self.alpha).evaluate(uv, J, h)
+
+    register_image_method("x_late", lambda m: Late(m.target, m.alpha, m.density), label="late")
+    register_image_method("x_late_intensity", lambda m: Late(m.target, m.alpha, m.density), returns="intensity")
+    register_image_method("x_late_hidden", lambda m: Late(m.target, m.alpha, m.density), panel=False)
+    assert "x_late" in panel_methods() and "x_late" in study._names("methods", study.DEFAULTS["methods"])
+    assert "x_late_intensity" not in panel_methods() and "x_late_hidden" not in panel_methods()
+
+
+@pytest.mark.parametrize("name", sorted(SHADERS))
+def test_every_shipped_method_shader_has_one_body_and_thin_wrappers(name):
+    entry = SHADERS[name]
+    body, *wrappers = entry.paths()
+    assert body.is_file(), body
+    for wrapper in wrappers:
+        code = [ln.strip() for ln in wrapper.read_text().splitlines() if ln.strip() and not ln.strip().startswith("//")]
+        assert all(ln.startswith(("#include", "#define")) for ln in code), (wrapper, code)
+        assert f'#include "{body.name}"' in code, wrapper
+
+
+@pytest.fixture(scope="module")
+def plane_rows():
+    # At 0.06 scale the middle column sees u = 0 exactly: the grids at a quarter turn put a cell boundary
+    # there (test_counting_shaders.py); a frame where every comparison has thousands of pixels.
+    return MT.scene_rows("plane_25", 0.06, seed=5)
+
+
+@pytest.mark.skipif(not VULKAN, reason="no Vulkan device (install mesa-vulkan-drivers)")
+@pytest.mark.parametrize("name", sorted(SHADERS))
+def test_every_shipped_method_shader_agrees_with_its_twin_and_rejects_its_wrong_variants(name, plane_rows):
+    rows, facets = plane_rows
+    entry = SHADERS[name]
+    material = dataclasses.replace(facets, density=method_density(name, facets))  # as its image method runs
+    ok = entry.compare(rows, material)
+    assert ok["pixels"] == rows.shape[0] > 5000
+    assert ok["share"] <= entry.max_share, (name, {k: v for k, v in ok.items() if k != "beyond"})
+    wrong = entry.wrong(material)
+    assert wrong, f"{name}: its registrant declares no wrong variant"
+    for label, method in wrong.items():
+        bad = entry.compare(rows, material, method)
+        assert bad["share"] > 10 * entry.max_share, (name, label, bad["share"])
