@@ -34,7 +34,7 @@ def _needs_vulkan(name: str) -> bool:
 def test_the_registries_hold_every_kind():
     # Not vacuous: the NDF methods, WB16's shader and the counting method shaders are all there.
     assert {"truth", "smooth", "kpt25", "wwh18", "wb16", "db23_shader", "kpt25_shader"} <= set(SHIPPED)
-    assert set(SHADERS) == {"wb16", "wb16_star", "wb16_lookup_noise", "db23_shader", "kpt25_shader"}
+    assert {"wb16", "wb16_star", "wb16_lookup_noise", "db23_shader", "kpt25_shader"} <= set(SHADERS)
 
 
 @pytest.mark.parametrize("name", SHIPPED)
