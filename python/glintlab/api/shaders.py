@@ -271,16 +271,6 @@ def compile_error(exc: ValueError, source_name: str, language: str, kind: str,
     return ShaderCompileError(head if head.strip() else text, text)
 
 
-def compiled(make, source_name: str, language: str, kind: str, signatures: dict | None = None):
-    """``make()`` (a kernel's constructor), its compile failure raised as :func:`compile_error`'s one line."""
-    try:
-        return make()
-    except ValueError as exc:
-        if is_compile_failure(exc):
-            raise compile_error(exc, source_name, language, kind, signatures) from None
-        raise
-
-
 class ShaderOutputError(ValueError):
     """A shader returned a NaN, infinite or negative count (``sample`` and ``evaluate``): the shader is
     faulty, not the caller's input, so a verdict counts it as a failed check (exit 1), not bad input."""
@@ -303,7 +293,7 @@ class ShaderBacked:
     defines, include folders, device and timeout, plus what the kind adds) and compiles its kernel
     (``_make_kernel``, the kind's ``_core`` kernel) on first use; the subclass asks for ``_kernel`` in
     its constructor when a shader that does not compile must be refused there. A compile failure is
-    one line (:func:`compile_error`, worded by ``kind``). The files the first compile #include'd travel
+    one line (``_compile_failure``: :func:`compile_error`, worded by ``kind``). The files the first compile #include'd travel
     in the spec (``includes``), so a pickle (the spec, by value) compiles the same code anywhere,
     whatever happened to the files since. The kernel's properties (device, SPIR-V, included files,
     loops lavapipe may cut short) are read here for every kind."""
@@ -318,17 +308,22 @@ class ShaderBacked:
         """The kind's ``_core`` kernel from ``spec``, #includes served from ``includes`` when not empty."""
         raise NotImplementedError
 
-    def _signatures(self) -> dict | None:
-        """The kind's entries and their expected signatures, for compile errors (None: the runner's own)."""
-        return None
+    def _compile_failure(self, exc: ValueError) -> ShaderCompileError:
+        """The runner's compile failure as one line (:func:`compile_error`, worded by ``kind``); a kind with
+        several entries says which one is missing (``shader_samplers``)."""
+        return compile_error(exc, self._spec["source_name"], self._spec["language"], self.kind)
 
     @property
     def _kernel(self):
         if self._compiled is None:
             s = self._spec
             sealed = [(path, content) for path, content in s.get("includes", ())]
-            self._compiled = compiled(lambda: self._make_kernel(s, sealed), s["source_name"], s["language"], self.kind,
-                                      self._signatures())
+            try:
+                self._compiled = self._make_kernel(s, sealed)
+            except ValueError as exc:
+                if is_compile_failure(exc):
+                    raise self._compile_failure(exc) from None
+                raise
             if "includes" not in s:
                 s["includes"] = [(path, bytes(content)) for path, content in self._compiled.included_files]
         return self._compiled
