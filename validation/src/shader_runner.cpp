@@ -155,18 +155,14 @@ struct Kernel::Impl {
 
 Kernel::Kernel(const KernelSpec& spec) : Kernel(spec, law_wrapper(spec.entry)) {}
 
-Kernel::Kernel(const KernelSpec& spec, const WrapperDeclaration& kind)
-    : Kernel(spec, generate_wrapper(kind, spec.language, spec.source_name), wrapper_signature(kind, spec.language),
-             wrapper_resources(kind)) {}
-
-Kernel::Kernel(const KernelSpec& spec, const std::string& wrapper, const std::string& signature,
-               const std::vector<SpirvResource>& allowed)
-    : impl_(std::make_shared<Impl>()) {
+Kernel::Kernel(const KernelSpec& spec, const WrapperDeclaration& kind) : impl_(std::make_shared<Impl>()) {
   validate_spec(spec);
   Device& d = detail::device(detail::choose_device(spec.device));
   impl_->device = &d;
   impl_->n_uniforms = spec.n_uniforms;
   const std::string entry_point = spec.language == "hlsl" ? "glintlab_main" : "main";
+  const std::string wrapper = generate_wrapper(kind, spec.language, spec.source_name);
+  const std::string signature = wrapper_signature(kind, spec.language);
   // The cache key is the preprocessed text (the user's code with its #includes and defines expanded),
   // so an edited included file is a new kernel.
   const std::string text = preprocess(spec, wrapper, &impl_->included, signature);
@@ -180,9 +176,8 @@ Kernel::Kernel(const KernelSpec& spec, const std::string& wrapper, const std::st
   auto pl = std::make_shared<Pipeline>();
   pl->spirv = compile_spirv(spec, wrapper, entry_point, signature);
   // Before the driver sees it: a resource the pipeline layout lacks (descriptor set 1) crashes lavapipe.
-  const WrapperDeclaration law = law_wrapper(spec.entry);
-  require_resources(pl->spirv, allowed.empty() ? wrapper_resources(law) : allowed, spec.source_name,
-                    "only the arguments of " + (signature.empty() ? wrapper_signature(law, spec.language) : signature) +
+  require_resources(pl->spirv, wrapper_resources(kind), spec.source_name,
+                    "only the arguments of " + signature +
                         " (glintlab's own buffers at set 0, bindings 0-3, and its push constant); pass data "
                         "through the uniforms or as constants and defines");
   pl->unbounded_loops = shader::unbounded_loops(pl->spirv);

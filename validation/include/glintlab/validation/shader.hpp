@@ -149,11 +149,6 @@ class Kernel {
   // (same bindings 0..3 and push constant layout); the SPIR-V may declare no resource but the
   // declaration's (require_resources).
   Kernel(const KernelSpec& spec, const WrapperDeclaration& kind);
-  // A kernel around a wrapper written by hand: `wrapper` replaces the generated one, `signature` names
-  // the entry's expected signature in compile errors, `allowed` the wrapper's own resources (empty:
-  // a counting law's).
-  Kernel(const KernelSpec& spec, const std::string& wrapper, const std::string& signature,
-         const std::vector<SpirvResource>& allowed = {});
   ~Kernel();
   Kernel(const Kernel&) = delete;
   Kernel& operator=(const Kernel&) = delete;
