@@ -47,13 +47,22 @@ def test_every_image_method_renders(name):
     assert np.all(img[lit] >= 0) and np.any(img[lit] > 0), name  # an image, not a blank one
 
 
+def _slug(heading: str) -> str:  # as tests/python/test_doc_references.py reads a heading's anchor
+    return re.sub(r"\s+", "-", re.sub(r"[^\w\s-]", "", heading.strip().lower()))
+
+
 def _section(doc: str) -> str:
-    """The text of a documented section (page#anchor): from its label to the next label."""
+    """The text of a documented section (page#anchor): from its label, to the next label, or from its
+    heading, to the next heading of its level or above."""
     path, _, anchor = doc.partition("#")
     text = (ROOT / path).read_text()
-    start = text.index(f"({anchor})=")
-    nxt = re.search(r"^\([\w-]+\)=\s*$", text[start + 1:], flags=re.M)
-    return text[start:start + 1 + nxt.start()] if nxt else text[start:]
+    if f"({anchor})=" in text:
+        start = text.index(f"({anchor})=")
+        nxt = re.search(r"^\([\w-]+\)=\s*$", text[start + 1:], flags=re.M)
+        return text[start:start + 1 + nxt.start()] if nxt else text[start:]
+    heading = next(m for m in re.finditer(r"^(#+)\s+(.*)$", text, flags=re.M) if _slug(m.group(2)) == anchor)
+    nxt = re.search(r"^#{1,%d}\s" % len(heading.group(1)), text[heading.end():], flags=re.M)
+    return text[heading.start():heading.end() + nxt.start()] if nxt else text[heading.start():]
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -105,7 +114,7 @@ def test_every_shipped_method_shader_agrees_with_its_twin_and_rejects_its_wrong_
     entry = SHADERS[name]
     material = dataclasses.replace(facets, density=method_density(name, facets))  # as its image method runs
     ok = entry.compare(rows, material)
-    assert ok["pixels"] == rows.shape[0] > 5000
+    assert 5000 < ok["pixels"] <= rows.shape[0]  # (a comparison may leave out rows its twin does not define)
     assert ok["share"] <= entry.max_share, (name, {k: v for k, v in ok.items() if k != "beyond"})
     wrong = entry.wrong(material)
     assert wrong, f"{name}: its registrant declares no wrong variant"
