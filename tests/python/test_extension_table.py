@@ -44,9 +44,9 @@ def _table() -> dict[str, dict[str, str]]:
 
 
 def _paths(cell: str) -> list[str]:
-    """The file paths a cell names: backticked tokens with a '/' (from the repository's root), bare
-    file names of the root (`README.md`, `CMakeLists.txt`), and a bare name with a placeholder after a
-    path, which lives in that path's folder (`a/b/<x>_body.h`, `<x>.hlsl` -> a/b/<x>.hlsl)."""
+    """The file paths a cell names: backticked tokens with a '/' (from the repository's root), and bare
+    file names, which live in the folder of the path before them (`a/b/<x>_body.h`, `<x>.hlsl` ->
+    a/b/<x>.hlsl) unless they are files of the root (`README.md`, `CMakeLists.txt`)."""
     out, folder = [], ""
     for token in re.findall(r"`([^`]+)`", cell):
         if not re.search(r"\.(py|cpp|hpp|inc|h|hlsl|glsl|md|json|txt)$", token) or " " in token:
@@ -54,7 +54,7 @@ def _paths(cell: str) -> list[str]:
         if "/" in token:
             folder = token.rsplit("/", 1)[0]
             out.append(token)
-        elif "<" in token and folder:
+        elif folder and not ("<" not in token and (ROOT / token).is_file()):
             out.append(f"{folder}/{token}")
         else:
             out.append(token)
@@ -118,11 +118,12 @@ def test_cpp_registry_is_the_single_list(kind, listed):
 
 
 def test_a_vector_path_is_the_files_the_table_names():
-    """Every per-ISA file of the core has its ISA's flags in CMakeLists.txt (the one CMake step of the
-    row), and every per-pixel body is included by an AVX2 and an AVX-512 file and declared in
-    simd_math.hpp."""
+    """Every per-ISA file of the core has its ISA's flags in CMakeLists.txt (the row's one CMake step),
+    and every per-pixel body is included by an AVX2 and an AVX-512 file, its block functions declared in
+    detail/pixel_blocks.hpp, where a law's evaluate_pixels finds them."""
     row = _table()["law with a vector path"]["files to touch"]
-    assert "`CMakeLists.txt`" in row and "`core/src/simd_math.hpp`" in row
+    for named in ("`CMakeLists.txt`", "`core/src/simd_math.hpp`", "`core/include/glintlab/detail/pixel_blocks.hpp`"):
+        assert named in row, named
     cmake = (ROOT / "CMakeLists.txt").read_text()
     flags = {"avx2": "-mavx2", "avx512": "-mavx512f"}
     per_isa = [p for p in (ROOT / "core").rglob("*.cpp") if re.search(r"_(avx2|avx512)$", p.stem)]
@@ -131,14 +132,16 @@ def test_a_vector_path_is_the_files_the_table_names():
         isa = source.stem.rsplit("_", 1)[1]
         rel = source.relative_to(ROOT).as_posix()
         assert re.search(re.escape(rel) + r"\s+PROPERTIES\s+COMPILE_OPTIONS\s+\"[^\"]*" + flags[isa], cmake), rel
-    declared = (ROOT / "core" / "src" / "simd_math.hpp").read_text()
+    declared = (ROOT / "core" / "include" / "glintlab" / "detail" / "pixel_blocks.hpp").read_text()
+    laws = "".join(p.read_text() for p in (ROOT / "core" / "laws").glob("*.cpp"))
     bodies = list((ROOT / "core").rglob("*_pixels_body.inc"))
     assert bodies
     for body in bodies:
         includers = {p.stem.rsplit("_", 1)[1] for p in per_isa if f'#include "{body.name}"' in p.read_text()}
         assert includers == {"avx2", "avx512"}, body.name
-        kernel = body.name.removesuffix("_body.inc")
-        assert f"{kernel}_avx2(" in declared and f"{kernel}_avx512(" in declared, kernel
+        block = body.name.removesuffix("_body.inc") + "_block"
+        for isa in flags:
+            assert f"{block}_{isa}(" in declared and f"detail::{block}_{isa}" in laws, (block, isa)
 
 
 def test_shipped_shaders_are_declared_by_traits_and_the_registry(listed):
