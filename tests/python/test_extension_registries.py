@@ -121,3 +121,65 @@ def test_every_shipped_method_shader_agrees_with_its_twin_and_rejects_its_wrong_
     for label, method in wrong.items():
         bad = entry.compare(rows, material, method)
         assert bad["share"] > 10 * entry.max_share, (name, label, bad["share"])
+
+
+# ---------------------------------------------------------------------------------------------- samplers
+# Every registered sampler (``gl.samplers()``, the classes ``@register_sampler`` registers), at its
+# default parameters: it passes the harness, and the harness rejects every wrong variant it declares
+# (``Sampler.wrong_variants``); its pdf is the one it returns with its samples; its doc section names it.
+SAMPLER_NAMES = list(gl.samplers())
+SAMPLES = 50_000  # the wrong variants fail by far here (alpha + 2 %: its returned pdf is not pdf(x))
+# Every sampler's passing run at one Sidak-corrected level: a false failure of the whole list at 1e-3
+# (the runs' seed is fixed, so a given tree passes or fails every time).
+SAMPLER_ALPHA = gl.sidak_alpha(1e-3, max(len(SAMPLER_NAMES), 1))
+
+
+def test_the_sampler_registry_holds_every_reference_sampler():
+    assert {"beckmann", "ggx", "ggx_vndf", "beckmann_vndf", "vmf_mixture"} <= set(SAMPLER_NAMES)
+
+
+@pytest.mark.parametrize("name", SAMPLER_NAMES)
+def test_every_sampler_passes_and_its_wrong_variants_fail(name):
+    s = gl.sampler(name)
+    x, pdf = s.sample(2000, seed=1)
+    assert len(x) == 2000 and np.all(pdf > 0) and np.allclose(pdf, s.pdf(x), rtol=1e-9, atol=0)
+    res = gl.sampler_test(s, samples=SAMPLES, seed=3, significance=SAMPLER_ALPHA)
+    assert res.passed, res
+    assert s.wrong_variants, f"{name}: its class declares no wrong variant"
+    for kind in s.wrong_variants:
+        bad = gl.sampler_test(gl.wrong_sampler(s, kind), samples=SAMPLES, seed=3, significance=SAMPLER_ALPHA)
+        assert bad.verdict == "FAIL", (name, kind, bad)
+
+
+@pytest.mark.parametrize("name", SAMPLER_NAMES)
+def test_every_sampler_is_documented(name):
+    from glintlab.api.samplers import SAMPLERS
+    doc = SAMPLERS.get(name).doc
+    assert doc and re.fullmatch(r"docs/[\w/]+\.md#[\w-]+", doc), f"{name}: no doc section declared"
+    assert f"`{name}`" in _section(doc), f"{doc} does not name {name}"
+
+
+# Every shader sampler glintlab ships (``SHIPPED_SAMPLERS``): its body and thin wrappers, the same draws
+# in both languages, the harness passes it and fails its wrong variants, the shader samplers' section
+# names it.
+def _shipped_samplers():
+    from glintlab.api.shader_samplers import SHIPPED_SAMPLERS
+    return sorted(SHIPPED_SAMPLERS)
+
+
+@pytest.mark.skipif(not VULKAN, reason="no Vulkan device (install mesa-vulkan-drivers)")
+@pytest.mark.parametrize("name", _shipped_samplers())
+def test_every_shipped_shader_sampler_passes_in_both_languages(name):
+    from glintlab.api.shader_samplers import shipped_sampler
+    for language in ("hlsl", "glsl"):
+        code = [ln.strip() for ln in shipped_sampler(name, language).read_text().splitlines()
+                if ln.strip() and not ln.strip().startswith("//")]
+        assert all(ln.startswith(("#include", "#define")) for ln in code) and f'#include "{name}_body.h"' in code
+    hlsl, glsl = (gl.shader_sampler(shipped_sampler(name, lang)) for lang in ("hlsl", "glsl"))
+    x, pdf = hlsl.sample(2000, seed=1)
+    np.testing.assert_array_equal(x, glsl.sample(2000, seed=1)[0])
+    assert np.allclose(pdf, hlsl.pdf(x), rtol=1e-5)
+    assert gl.sampler_test(hlsl, samples=SAMPLES, seed=3, significance=SAMPLER_ALPHA).passed
+    for kind in hlsl.wrong_variants:
+        assert gl.sampler_test(gl.wrong_sampler(hlsl, kind), samples=SAMPLES, seed=3).verdict == "FAIL", kind
+    assert f"`{name}`" in _section("docs/math/sampling.md#shader-samplers")

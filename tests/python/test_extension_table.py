@@ -235,6 +235,23 @@ _GLINTY_NDF = ("glinty NDF / image method", {
     "docs/math/glinty_ndf.md": "\n(glinty-x-flat)=\n## A test's glinty NDF\n\n`x_flat`: the smooth NDF.\n",
 })
 
+_SAMPLER = ("sampler", {
+    "python/glintlab/api/x_beckmann.py": '''
+        """A test's sampler: the Beckmann normals under another name (its wrong variants: the class's)."""
+        from .samplers import BeckmannNormals, register_sampler
+
+
+        @register_sampler
+        class XBeckmann(BeckmannNormals):
+            name = "x_beckmann"
+            summary = "a test's copy of the Beckmann normal sampler"
+            doc = "docs/math/sampling.md" "#x-beckmann"
+    ''',
+}, {
+    "python/glintlab/__init__.py": "from .api import x_beckmann  # noqa: F401",
+    "docs/math/sampling.md": "\n(x-beckmann)=\n## A test's sampler\n\n`x_beckmann`: Beckmann normals.\n",
+})
+
 _SECTION = ("report section", {
     "python/glintlab/studies/x_section.py": '''
         """A test's report section."""
@@ -260,7 +277,8 @@ _SECTION = ("report section", {
 # (The anchors the new entries cite exist in the copy only: written in two pieces, so that the citation
 # check of the tree, tests/python/test_doc_references.py, does not read them as the tree's.)
 # The generic tests run in the copy: each new entry's own ids, and the tests over the whole registries.
-_SELECT = ("x_glow or x_flat or registries_hold or registered_later or readme_says or sections_are_the_discovered")
+_SELECT = ("x_glow or x_flat or x_beckmann or registries_hold or registered_later or sampler_registry or readme_says "
+           "or sections_are_the_discovered")
 
 
 def _copy_tree(dest: Path) -> None:
@@ -290,11 +308,12 @@ def _add(dest: Path, kind: str, files: dict, lines: dict) -> None:
 
 
 def test_python_kinds_added_inside_a_copy_of_the_package(tmp_path):
-    """The Done-when of issue 43: a method shader with its twin (and a glinty NDF, a report section) added
-    inside the package as the table says is rendered, tested and documented with no other edit."""
+    """The Done-when of issue 43: a method shader with its twin and a sampler (and a glinty NDF, a report
+    section) added inside the package as the table says are rendered, tested and documented with no other
+    edit."""
     dest = tmp_path / "tree"
     _copy_tree(dest)
-    for kind, files, lines in (_METHOD_SHADER, _GLINTY_NDF, _SECTION):
+    for kind, files, lines in (_METHOD_SHADER, _GLINTY_NDF, _SAMPLER, _SECTION):
         _add(dest, kind, files, lines)
     env = dict(os.environ, PYTHONPATH=str(dest / "python"), PYTHONDONTWRITEBYTECODE="1")
     out = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-rA", "-k", _SELECT,
@@ -307,6 +326,8 @@ def test_python_kinds_added_inside_a_copy_of_the_package(tmp_path):
     want = {"test_every_image_method_renders[x_flat]", "test_every_shipped_image_method_is_documented[x_flat]",
             "test_every_shipped_image_method_is_documented[x_glow]",
             "test_every_shipped_method_shader_has_one_body_and_thin_wrappers[x_glow]",
+            "test_every_sampler_passes_and_its_wrong_variants_fail[x_beckmann]",
+            "test_every_sampler_is_documented[x_beckmann]",
             "test_readme_says_what_each_figure_means", "test_sections_are_the_discovered_studies"}
     if gl.vulkan_devices():  # the shader's render and its twin need a Vulkan device (lavapipe here)
         want |= {"test_every_image_method_renders[x_glow]",
@@ -314,8 +335,9 @@ def test_python_kinds_added_inside_a_copy_of_the_package(tmp_path):
     assert want <= passed, (sorted(want - passed), log[-3000:])
     # The copy was what ran: its package, with the new entries, and the tree's own package unchanged.
     check = ("import glintlab as gl, glintlab.report.sections as s; print(gl.__file__); "
-             "print('x_glow' in gl.image_methods(), 'x_flat' in gl.glinty_ndfs(), 'x_section' in s.discover().names())")
+             "print('x_glow' in gl.image_methods(), 'x_flat' in gl.glinty_ndfs(), 'x_beckmann' in gl.samplers(), "
+             "'x_section' in s.discover().names())")
     shown = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=120, cwd=dest,
                            env=env).stdout.split()
-    assert shown[0].startswith(str(dest)) and shown[1:] == ["True", "True", "True"], shown
+    assert shown[0].startswith(str(dest)) and shown[1:] == ["True"] * 4, shown
     assert "x_glow" not in gl.image_methods() and not (ROOT / "python" / "glintlab" / "api" / "x_glow.py").exists()

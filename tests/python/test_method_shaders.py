@@ -464,7 +464,8 @@ def test_unfinished_method_shaders_say_what_they_are(language):
 
 @needs_vulkan
 def test_shader_backed_objects_share_one_base(tmp_path):
-    """A shader law, a method shader and an NDF method shader are one kind of object (shaders.ShaderBacked):
+    """A shader law, a method shader, an NDF method shader and a shader sampler are one kind of object
+    (shaders.ShaderBacked):
     the same kernel properties, the same device choice, and pickles that carry the code and the files it
     included, so a copy computes the same after the files change (a method shader's too)."""
     from glintlab.api.counting_shaders import NdfShaderMethod
@@ -476,9 +477,11 @@ def test_shader_backed_objects_share_one_base(tmp_path):
     law = gl.shader_law(gl.shipped_shader("gated", "glsl"), register=False)
     ndf = gl.shader_method("float glint(GlintInput g) { return GLINTLAB_ALPHA; }", language="glsl", register=False,
                            returns="ndf")
+    sampler = gl.shader_sampler(gl.shipped_sampler("ggx_vndf", "glsl"))
     assert isinstance(ndf, NdfShaderMethod) and isinstance(law, ShaderLaw)
     rows = MS.pack_inputs(4, view=[[1.0, 0, 0], [-2.0, 0, 0], [0.5, 1, 0], [3.0, 0, 1]])
-    for obj, kind in ((law, "shader law"), (method, "method shader"), (ndf, "method shader")):
+    for obj, kind in ((law, "shader law"), (method, "method shader"), (ndf, "method shader"),
+                      (sampler, "shader sampler")):
         assert isinstance(obj, ShaderBacked) and obj.kind == kind
         assert obj.device and obj.device_type and obj.spirv[:4] == b"\x03\x02\x23\x07" and obj.unbounded_loops == 0
         assert obj.language == "glsl" and obj.loop_caveat is None
@@ -490,6 +493,7 @@ def test_shader_backed_objects_share_one_base(tmp_path):
     assert back.identity == method.identity
     np.testing.assert_array_equal(back.shade(rows), before)  # the recorded header, not the edited one
     np.testing.assert_array_equal(gl.shader_method(src, register=False).shade(rows), 1.5 * before)  # a new one reads it
+    assert pickle.loads(pickle.dumps(sampler)).identity == sampler.identity
     ndf_back = pickle.loads(pickle.dumps(ndf))
     assert ndf_back.alpha == ndf.alpha and np.array_equal(ndf_back.shade(rows), ndf.shade(rows))
     with pytest.raises(ValueError, match="device"):
