@@ -26,18 +26,32 @@ void bind_method_shaders(py::module_& m) {
   m.attr("METHOD_OUTPUT_WORDS") = shader::kMethodOutputWords;
   m.def("method_wrapper_source", &shader::method_wrapper_source, py::arg("language"), py::arg("entry"),
         py::arg("include_name"));
+  // GlintInput's fields as the wrapper's declaration reads them: (name, GLSL type, first word).
+  py::list fields;
+  for (const auto& f : shader::method_wrapper("glint").fields) fields.append(py::make_tuple(f.name, f.type, f.word));
+  m.attr("METHOD_INPUT_FIELDS") = py::tuple(fields);
   py::class_<MethodKernel>(m, "MethodKernel")
       .def(py::init([](const std::string& source, const std::string& source_name, const std::string& entry,
                        const std::string& language, const std::vector<std::pair<std::string, std::string>>& defines,
-                       const std::vector<std::string>& include_dirs, const std::string& device) {
-             shader::KernelSpec spec{source, source_name, entry, language, 0, defines, include_dirs, device, {}};
+                       const std::vector<std::string>& include_dirs, const std::string& device,
+                       const std::vector<std::pair<std::string, std::string>>& include_files) {
+             shader::KernelSpec spec{source, source_name, entry, language, 0, defines, include_dirs, device, include_files};
              glintlab::bindings::LongCall release;
              return MethodKernel{shader::method_kernel(spec)};
            }),
            py::arg("source"), py::arg("source_name"), py::arg("entry"), py::arg("language"), py::arg("defines"),
-           py::arg("include_dirs"), py::arg("device"))
+           py::arg("include_dirs"), py::arg("device"),
+           py::arg("include_files") = std::vector<std::pair<std::string, std::string>>{})
       .def_property_readonly("device", [](const MethodKernel& k) { return k.kernel->device_name(); })
       .def_property_readonly("device_type", [](const MethodKernel& k) { return k.kernel->device_type(); })
+      .def_property_readonly("unbounded_loops", [](const MethodKernel& k) { return k.kernel->unbounded_loops(); })
+      .def_property_readonly("included_files",
+                             [](const MethodKernel& k) {
+                               py::list out;  // content as bytes: a header need not be valid UTF-8
+                               for (const auto& [path, content] : k.kernel->included_files())
+                                 out.append(py::make_tuple(path, py::bytes(content)));
+                               return out;
+                             })
       .def_property_readonly("spirv",
                              [](const MethodKernel& k) {
                                const auto& w = k.kernel->spirv();

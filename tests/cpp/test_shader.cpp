@@ -1,9 +1,11 @@
 // The Vulkan compute runner of shader laws (validation/include/glintlab/validation/shader.hpp) on
 // whatever device the loader offers (lavapipe here and in CI): exact outputs of a simple kernel, the
-// float32 uniform rule, compile errors with file and line, the signature message, timeouts, threads.
+// float32 uniform rule, compile errors with file and line, the signature message, timeouts, threads,
+// and a kind of kernel of the test's own, declared and generated in both languages.
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <thread>
 #include <vector>
@@ -119,6 +121,12 @@ std::string error_of(const KernelSpec& s) {
   } catch (const std::invalid_argument& e) { return e.what(); }
   return "no error";
 }
+std::string error_of(const KernelSpec& s, const WrapperDeclaration& kind) {
+  try {
+    Kernel k(s, kind);
+  } catch (const std::invalid_argument& e) { return e.what(); }
+  return "no error";
+}
 }  // namespace
 
 TEST_CASE("shader runner: a resource the contract does not bind is refused by name, before the driver", "[shader]") {
@@ -172,4 +180,42 @@ TEST_CASE("shader runner: loops whose trip count is not a small constant", "[sha
       spec("float count(float n, float p, vec4 u) { float k = 0.0;\n"
            "  for (int i = 0; i < 70000; ++i) k += u.x * float(i); return k; }"));
   CHECK(big.unbounded_loops() == 1);
+}
+
+TEST_CASE("shader runner: a new kind is one declaration, in both languages", "[shader]") {
+  if (!have_device()) return;
+  // A kind of its own: rows of (vec2 a, uint k) in, one float out, entry float mix2(vec2 a, uint k).
+  WrapperDeclaration kind;
+  kind.push = {"in_stride", "out_stride", "pad"};
+  kind.buffers = {{0, "glintlab_in", "GlintlabIn", "uint", false}, {3, "glintlab_out", "GlintlabOut", "float", true}};
+  kind.fields = {{"a", "vec2", 0}, {"k", "uint", 2}};
+  kind.call = "  glintlab_out[i * glintlab_push.out_stride] = $0(a, k);\n";
+  kind.signature = "float $0(vec2 a, uint k)";
+  kind.entries = {"mix2"};
+  CHECK(wrapper_signature(kind, "hlsl") == "float mix2(float2 a, uint k)");
+  CHECK(generate_wrapper(kind, "hlsl", "x.hlsl").find("float2 a = float2(asfloat(glintlab_in[b + 0u])") !=
+        std::string::npos);
+  const std::vector<float> in{1.5f, 2.0f, 0.0f, 0.25f, -4.0f, 0.0f};
+  std::vector<float> words(in);
+  std::uint32_t k0 = 3, k1 = 5;  // the integer words as they are
+  std::memcpy(&words[2], &k0, sizeof k0);
+  std::memcpy(&words[5], &k1, sizeof k1);
+  for (const std::string language : {"glsl", "hlsl"}) {
+    KernelSpec s = spec(language == "glsl" ? "float mix2(vec2 a, uint k) { return a.x * a.y + float(k); }"
+                                           : "float mix2(float2 a, uint k) { return a.x * a.y + float(k); }",
+                        language);
+    s.entry = "mix2";
+    s.n_uniforms = 0;
+    const Kernel kernel(s, kind);
+    // Its resources are the declaration's: the push constant and the two buffers.
+    CHECK(spirv_resources(kernel.spirv()).size() == 3);
+    std::vector<float> out(2);
+    kernel.run_rows(words.data(), 3, 2, out.data(), 1, 10.0);
+    CHECK(out[0] == 1.5f * 2.0f + 3.0f);
+    CHECK(out[1] == 0.25f * -4.0f + 5.0f);
+    // The signature the declaration words is the one a wrong entry is told.
+    s.source = language == "glsl" ? "float mix2(vec2 a) { return a.x; }" : "float mix2(float2 a) { return a.x; }";
+    CHECK(error_of(s, kind).find("with the expected signature " + wrapper_signature(kind, language)) !=
+          std::string::npos);
+  }
 }

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import random
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -127,3 +128,23 @@ def test_every_module_imports_in_a_fresh_interpreter_in_random_order(order_seed)
     code = "import importlib\nfor m in %r:\n    importlib.import_module(m)\n" % order
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, f"import order {order}:\n{run.stderr[-3000:]}"
+
+
+def test_the_architecture_page_names_every_module():
+    """docs/architecture.md's table of the package names each module of the api, validation, report and cli
+    layers, and nothing else (a module added without its room on the page, or a name left after its
+    module went, fails); the studies are named by example and must exist."""
+    text = (PACKAGE.parents[1] / "docs" / "architecture.md").read_text()
+    section = text[text.index("## The Python package"):text.index("\n## ", text.index("## The Python package") + 1)]
+    rows = {}
+    for line in section.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("| `glintlab.") and len(cells) > 1:
+            rows[cells[0].strip("`").split(".", 1)[1]] = set(re.findall(r"`(\w+)`", cells[1]))
+    assert {"api", "validation", "studies", "report", "cli"} <= set(rows)
+    for layer, named in rows.items():
+        files = {p.stem for p in (PACKAGE / layer).glob("*.py") if p.stem != "__init__"}
+        if layer == "studies":
+            assert named <= files, sorted(named - files)
+        else:
+            assert named == files, (layer, "not on the page:", sorted(files - named), "not modules:", sorted(named - files))

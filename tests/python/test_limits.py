@@ -44,7 +44,6 @@ EXCEPTIONS: dict[str, int] = {
     'bench/bench_binomial.py::main': 147,
     'bench/bench_paths.py::main': 184,
     'python/glintlab/studies/wwh18.py::compute': 138,
-    'validation/src/shader_runner.cpp': 1406,
 }
 # END EXCEPTIONS
 

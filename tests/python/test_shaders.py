@@ -317,11 +317,10 @@ def test_shipped_shaders_are_declared_by_the_law_traits():
     assert S.shipped_shaders() == declared and len(declared) >= 4
     assert all(gl.law_traits(law)["shader"] == shader for shader, law in declared.items())
     assert gl.law_traits("binomial")["shader"] == ""
-    from glintlab.api.counting_shaders import METHOD_SHADER_FILES
-    from glintlab.api.method_shaders import WB16_SHADERS
+    from glintlab.api.method_shaders import shipped_method_shaders
     from glintlab.api.shader_samplers import SHIPPED_SAMPLERS  # the third kind: direction samplers
-    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl")
-                if p.name not in (*WB16_SHADERS.values(), *METHOD_SHADER_FILES) and p.stem not in SHIPPED_SAMPLERS}
+    methods = {e.files for e in shipped_method_shaders().values()}  # their registry entries name their files
+    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl") if p.stem not in methods and p.stem not in SHIPPED_SAMPLERS}
     assert wrappers == set(declared)
     assert S.shipped_shader("gated_shader", "glsl") == S.shipped_shader("gated", "glsl")  # the law's name too
     with pytest.raises(ValueError, match="a shipped shader among"):

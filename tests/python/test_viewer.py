@@ -20,7 +20,7 @@ from glintlab.studies import scene_images as image_study
 from glintlab.studies.base import Context
 from glintlab.studies.scene_frames import display_bytes, pop_pixels, srgb_encode, tone_curve
 from glintlab.validation.scene import table1_scenes
-from glintlab.validation.scene_images import DEFAULT_METHODS
+from glintlab.api.glinty_ndf import panel_methods
 
 
 @pytest.fixture(scope="module")
@@ -140,9 +140,9 @@ def test_the_page_is_one_self_contained_file(section):
 def test_every_default_method_has_a_tab_and_its_own_truth(section):
     tables, page = section
     for d in viewer.manifest_of(page)["scenes"]:
-        assert [c["method"] for c in d["columns"]] == list(DEFAULT_METHODS)
-        assert set(d["images"]) >= set(DEFAULT_METHODS) | {"truth", "smooth", "kpt25: reference"}
-        assert d["video"]["id"] and set(d["video"]["at"]) >= set(DEFAULT_METHODS) | {"kpt25: reference"}
+        assert [c["method"] for c in d["columns"]] == panel_methods()
+        assert set(d["images"]) >= set(panel_methods()) | {"truth", "smooth", "kpt25: reference"}
+        assert d["video"]["id"] and set(d["video"]["at"]) >= set(panel_methods()) | {"kpt25: reference"}
 
 
 # ------------------------------------------------------------------------------------------- in the browser
@@ -156,7 +156,7 @@ def test_canvas_shows_each_method_at_the_exposure_and_tone_chosen(section, brows
     assert st["mode"] == "image" and st["tone"] == "aces" and st["exposure"] == round(e0, 2)
     before = None
     # Every default method through its tab: the canvas is the stored image at the scene's default exposure.
-    for m in DEFAULT_METHODS:
+    for m in panel_methods():
         b.click(f"button[data-method='{m}']")
         st = state(b, f"v => v.method === {json.dumps(m)}")
         got, s, _, _ = shown(b)

@@ -24,12 +24,6 @@ def plane_rows():
     return MT.scene_rows("plane_25", 0.04, seed=5)
 
 
-def _variant(material, **defines):
-    d = {**Z.zk16_defines(material), **defines}
-    return CS.NdfShaderMethod(CS._spec(Z.zk16_shader("glsl"), "zk16_wrong", d), material.target, material.alpha,
-                              material.density)
-
-
 @needs_vulkan
 @pytest.mark.parametrize("gated", [False, True])
 def test_zk16_shader_agrees_with_its_twin_and_wrong_variants_do_not(plane_rows, gated):
@@ -39,7 +33,8 @@ def test_zk16_shader_agrees_with_its_twin_and_wrong_variants_do_not(plane_rows, 
     r = CS.twin_mismatch(Z.zk16_method(material, gated=gated).shade(rows)[ok], twin[ok], rows[ok], material)
     assert r["share"] <= MAX_SHARE and r["share_1pct"] <= MAX_SHARE, r
     # The same comparison rejects fewer probes (maximum anisotropy 4) and the other law.
-    for wrong in (_variant(material, ZK16_MAX_ANISO=4, ZK16_GATED=int(gated)), _variant(material, ZK16_GATED=int(not gated))):
+    for wrong in (Z.zk16_variant(material, ZK16_MAX_ANISO=4, ZK16_GATED=int(gated)),
+                  Z.zk16_variant(material, ZK16_GATED=int(not gated))):
         bad = CS.twin_mismatch(wrong.shade(rows)[ok], twin[ok], rows[ok], material)
         assert bad["share"] > 20 * MAX_SHARE, bad
 

@@ -32,16 +32,14 @@ import numpy as np
 
 from ..resources import data_path
 from . import checks as V
-from .glinty_ndf import (DB23, DENSITY_MAPPINGS, KPT25, GlintyNDF, Material, matched_density, pixel_arrays,
-                         register_image_method)
-from .method_shaders import (ShaderMethod, check_output, frame_rows, method_kernel, pack_inputs, register_ndf_shader_factory,
-                             shader_seed, unpack_inputs)
-from .shaders import DEFAULT_TIMEOUT_S, _read_source
+from .glinty_ndf import DB23, KPT25, GlintyNDF, Material, matched_density, pixel_arrays, register_image_method
+from .grids import aniso_counter, footprint_shapes
+from .method_shaders import (ShaderMethod, ShippedShader, check_output, frame_rows, pack_inputs,
+                             register_ndf_shader_factory, shader_seed, unpack_inputs)
+from .shaders import DEFAULT_TIMEOUT_S, ShaderBacked, kernel_spec
 
 #: Each method shader is one body (<name>_method_body.h) with a thin .glsl and .hlsl wrapper.
 METHOD_LANGUAGES = ("glsl", "hlsl")
-#: The whole-method shader files this module ships (not law shaders: no law declares them).
-METHOD_SHADER_FILES = tuple(f"{n}_method.{lang}" for n in ("db23", "kpt25", "zk16", "smooth") for lang in METHOD_LANGUAGES)
 #: KPT25's parameters as the image method "kpt25" runs them (its micro-roughness and roulette width).
 KPT25_ALPHA_STAR, KPT25_EPSILON = 0.02, 0.1
 #: A pixel "mismatches" when shader and twin differ by more than this share of the pixel's one-facet
@@ -75,10 +73,9 @@ def db23_defines(material: Material, lod_bias: int = 0, key_salt: int = 0) -> di
 
 def _spec(path: Path, name: str, defines: dict) -> dict:
     """A method shader's spec (as ``shader_method`` builds it) for a shipped file, not compiled."""
-    code, source_name, language = _read_source(path, None)
-    return {"code": code, "source_name": source_name, "entry": "glint", "language": language, "name": name,
-            "defines": sorted((k, _glsl_float(v) if isinstance(v, float) else str(v)) for k, v in defines.items()),
-            "include_dirs": [str(data_path("shaders"))], "device": "auto", "timeout": float(DEFAULT_TIMEOUT_S)}
+    spec = kernel_spec(path, None, "glint", defines, (), "auto", DEFAULT_TIMEOUT_S, defaults=(data_path("shaders"),),
+                       none_defines=False)
+    return dict(spec, name=name)
 
 
 def _glsl_float(x: float) -> str:
@@ -86,35 +83,25 @@ def _glsl_float(x: float) -> str:
     return r if ("." in r or "e" in r) else r + ".0"
 
 
-class NdfShaderMethod(ShaderMethod, GlintyNDF):
+class NdfShaderMethod(ShaderMethod):
     """A method shader that returns the glinty NDF value D per pixel (``returns = "ndf"``): its image is
     D on the lit pixels (as every NDF method's), shaded by the scene images' BRDF; ``smooth(h)`` is its
-    target; ``evaluate(uv, J, h, seed)`` runs it on tangent-frame inputs (normal +z, tangent +x)."""
+    target; ``evaluate(uv, J, h, seed)`` runs it on tangent-frame inputs (normal +z, tangent +x). Compiled
+    on first use: registering or making the method (a scene's material) needs no Vulkan."""
 
     returns = "ndf"
 
     def __init__(self, spec: dict, target: str, alpha: float, density: float, reference=None):
         # reference: None or a picklable callable () -> an evaluator with ``reference(uv, J, h, seed)``.
         GlintyNDF.__init__(self, target, alpha, density)
-        self._spec = dict(spec)
-        s = self._spec
-        self.name = s["name"]
-        self.params = {"source": s["source_name"], "entry": s["entry"], "language": s["language"],
-                       **dict(s["defines"])}
+        ShaderBacked.__init__(self, spec)
+        self._describe()
         self._ndf_args = (target, alpha, density, reference)
         self._reference = reference
         self._reference_ndf = None
-        self._compiled = None
 
-    @property
-    def _kernel(self):
-        # Compiled on first use: registering or making the method (a scene's material) needs no Vulkan.
-        if self._compiled is None:
-            self._compiled = method_kernel(self._spec)
-        return self._compiled
-
-    def __reduce__(self):
-        return (NdfShaderMethod, (self._spec, *self._ndf_args))
+    def _reduce_args(self) -> tuple:
+        return (self._spec, *self._ndf_args)
 
     def reference(self, uv, J, h, seed: int = 0):
         """The exact model on the same realization, where the method has one (KPT25: its twin's sum over
@@ -226,24 +213,41 @@ def db23_twin(rows, material: Material) -> np.ndarray:
     return out
 
 
+def _summary(err: np.ndarray, allowance: float) -> dict:
+    """A comparison's figures from its per-pixel relative errors (NaN where both agree on NaN: 0)."""
+    n = max(err.size, 1)
+    return {"pixels": int(err.size), "share": float((err > allowance).sum() / n),
+            "share_1pct": float((err > 0.01).sum() / n),
+            "rel_err": float(np.mean(np.minimum(err, 1e3))) if err.size else 0.0,
+            "max_rel_err": float(err.max()) if err.size else 0.0, "beyond": np.nonzero(err > allowance)[0]}
+
+
+def _relative(shader, twin, scale) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        err = np.abs(shader - twin) / scale
+    return np.where(np.isfinite(err), err, np.where(shader == twin, 0.0, np.inf))
+
+
 def twin_mismatch(shader, twin, rows, material: Material) -> dict:
     """Shader against twin per pixel: ``share`` of pixels whose difference exceeds COUNT_ALLOWANCE of the
     pixel's one-facet value D(n) / (R N P), ``share_1pct`` of those off by more than 1 %, ``rel_err`` the
-    mean of |shader - twin| / max(twin, one facet) and its maximum ``max_rel_err``; ``pixels`` compared."""
+    mean of |shader - twin| / max(twin, one facet) and its maximum ``max_rel_err``; ``pixels`` compared,
+    ``beyond`` the rows beyond the allowance."""
     shader = np.asarray(shader, np.float64)
     twin = np.asarray(twin, np.float64)
     _, J, _, _ = tangent_inputs(rows)
     P = np.abs(J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2])
     with np.errstate(divide="ignore", invalid="ignore"):
         one = 1.0 / (math.pi * material.alpha**2) / (material.R * material.density * P)
-        scale = np.maximum(np.abs(twin), one)
-        err = np.abs(shader - twin) / scale
-    err = np.where(np.isfinite(err), err, np.where(shader == twin, 0.0, np.inf))
-    bad = err > COUNT_ALLOWANCE
-    return {"pixels": int(err.size), "share": float(bad.mean()) if err.size else 0.0,
-            "share_1pct": float((err > 0.01).mean()) if err.size else 0.0,
-            "rel_err": float(np.mean(np.minimum(err, 1e3))) if err.size else 0.0,
-            "max_rel_err": float(err.max()) if err.size else 0.0}
+    return _summary(_relative(shader, twin, np.maximum(np.abs(twin), one)), COUNT_ALLOWANCE)
+
+
+def db23_compare(rows, material: Material, method=None) -> dict:
+    """The DB23 method shader (or ``method``, e.g. a deliberately wrong variant) against the C++ twin on
+    the same rows (:func:`twin_mismatch`). Measured on lavapipe (plane_25, plane_90, sphere,
+    heightfield_25 at 0.06 and 0.1 scale, seeds 0 and 5): 0 to 0.02 % of the pixels beyond the allowance."""
+    method = method if method is not None else db23_method(material)
+    return twin_mismatch(method.shade(rows), db23_twin(rows, material), rows, material)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -319,25 +323,149 @@ def kpt25_twin(rows, material: Material) -> np.ndarray:
 def kpt25_mismatch(shader, twin, rows, material: Material, allowance: float = 1e-3) -> dict:
     """Shader against twin per pixel, relative to max(twin, 1e-2 D(h)) (KPT25's value is D(h) times a
     mass: its compensation alone is a fraction of D(h)): ``share`` beyond ``allowance``, ``share_1pct``
-    beyond 1 %, ``rel_err`` the mean and ``max_rel_err`` the largest relative error."""
+    beyond 1 %, ``rel_err`` the mean and ``max_rel_err`` the largest relative error, ``beyond`` the rows
+    beyond the allowance."""
     shader = np.asarray(shader, np.float64)
     twin = np.asarray(twin, np.float64)
     _, _, h, _ = tangent_inputs(rows)
     d = kpt25_twin_ndf(material).smooth(h)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        err = np.abs(shader - twin) / np.maximum(np.abs(twin), 1e-2 * d)
-    err = np.where(np.isfinite(err), err, np.where(shader == twin, 0.0, np.inf))
-    n = max(err.size, 1)
-    return {"pixels": int(err.size), "share": float((err > allowance).sum() / n),
-            "share_1pct": float((err > 0.01).sum() / n), "rel_err": float(np.mean(np.minimum(err, 1e3))) if err.size else 0.0,
-            "max_rel_err": float(err.max()) if err.size else 0.0}
+    return _summary(_relative(shader, twin, np.maximum(np.abs(twin), 1e-2 * d)), allowance)
+
+
+def kpt25_compare(rows, material: Material, method=None) -> dict:
+    """The KPT25 method shader (or ``method``) against its C++ twin on the same rows at K_P =
+    ``material.density`` (:func:`kpt25_mismatch`). Measured on lavapipe (the scenes of
+    :func:`db23_compare`): 0 to 0.13 % of the pixels beyond the allowance."""
+    method = method if method is not None else kpt25_method(material)
+    return kpt25_mismatch(method.shade(rows), kpt25_twin(rows, material), rows, material)
+
+
+# --------------------------------------------------------------------------------------------------
+# Why pixels differ (the float32 study of glintlab.validation.method_twins reads these through the
+# registry entries' ``explain``)
+
+#: A coordinate this many float32 spacings (of its own magnitude) from an integer counts as "at a cell
+#: boundary": the shader's rotation and division round it by a few spacings.
+BOUNDARY_ULPS = 16
+
+
+def db23_explain(rows, material: Material, which, limit: int = 64) -> dict:
+    """Why mismatching pixels differ: for up to ``limit`` of the row indices ``which``, whether a grid
+    coordinate of one of its terms (in float64, as the twin computes it) or its angular coordinate lies
+    within BOUNDARY_ULPS float32 spacings of an integer. Returns counts {"cell boundary", "count floor"}."""
+    uv, J, h, _ = tangent_inputs(rows)
+    counter = aniso_counter("db23_trilinear", inner="gated_shader", base_area=1.0 / material.density)
+    out = {"cell boundary": 0, "count floor": 0}
+    which = np.asarray(list(which)[:limit], dtype=np.int64)
+    shapes = footprint_shapes(J[which]) if which.size else None
+    for row, i in enumerate(which):
+        shp = shapes.iloc[row]
+        coords = list(h[i, :2] / h[i, 2] / material.angular_texel)
+        if shp.status in ("ok", "clamped"):
+            terms, _ = counter._core.terms(float(material.density), float(shp.P), float(shp.r), float(shp.phi))
+            for t in terms:
+                c, s = math.cos(t["angle"]), math.sin(t["angle"])
+                coords += [(-uv[i, 0] * s + uv[i, 1] * c) / t["cell_minor"], (uv[i, 0] * c + uv[i, 1] * s) / t["cell_major"]]
+        x = np.asarray(coords)
+        tol = BOUNDARY_ULPS * np.spacing(np.abs(x).astype(np.float32) + np.float32(1.0)).astype(np.float64)
+        out["cell boundary" if bool(np.any(np.abs(x - np.round(x)) <= tol)) else "count floor"] += 1
+    return out
+
+
+def _philox(c, key):
+    """Philox4x32-10 on uint32 arrays c (4, m) and key (2,), as the core's CounterRng::block."""
+    c = [np.asarray(x, np.uint64) & 0xFFFFFFFF for x in c]
+    k0, k1 = np.uint64(key[0]), np.uint64(key[1])
+    mask = np.uint64(0xFFFFFFFF)
+    for r in range(10):
+        if r:
+            k0, k1 = (k0 + np.uint64(0x9E3779B9)) & mask, (k1 + np.uint64(0xBB67AE85)) & mask
+        p0 = np.uint64(0xD2511F53) * c[0]
+        p1 = np.uint64(0xCD9E8D57) * c[2]
+        c = [((p1 >> np.uint64(32)) ^ c[1] ^ k0) & mask, p1 & mask, ((p0 >> np.uint64(32)) ^ c[3] ^ k1) & mask, p0 & mask]
+    return c
+
+
+def kpt25_explain(rows, material: Material, which, limit: int = 64, ulps: float = 64.0) -> dict:
+    """Why KPT25 pixels differ: for up to ``limit`` rows of ``which``, the points of B(k) at the pixel's
+    levels in float64 (the twin's arithmetic), and whether one of them sits within ``ulps`` float32
+    spacings of the filter's edge (q = 9) or of the disk U's rim ("point at an edge"), or the pixel's
+    spatial box or angular block is at a floor ("box or block edge"), or every point's offset from the
+    pixel is rounded to |uv| 2^-24, beyond 1e-4 of the filter's std ("point offsets"), or the lobe lies
+    within 8 stds of the unit square's edge ("lobe at the square's edge": the compensation's erfc
+    differences); else "ulps" (exp, erfc, log2)."""
+    uv, J, h, seed = tangent_inputs(rows)
+    nd = kpt25_twin_ndf(material)
+    out = {"point at an edge": 0, "point offsets": 0, "box or block edge": 0, "lobe at the square's edge": 0, "ulps": 0}
+    eps32 = float(np.finfo(np.float32).eps) * ulps
+    for i in list(which)[:limit]:
+        px = nd.pixel(J[i], h[i])
+        f2 = 0.25 / math.pi
+        suu = f2 * (J[i, 0] ** 2 + J[i, 2] ** 2)
+        svv = f2 * (J[i, 1] ** 2 + J[i, 3] ** 2)
+        suv = f2 * (J[i, 0] * J[i, 1] + J[i, 2] * J[i, 3])
+        det = suu * svv - suv * suv
+        ia, ib, ic = svv / det, -suv / det, suu / det
+        hu, hv = 3 * math.sqrt(suu), 3 * math.sqrt(svv)
+        res = math.sqrt(material.density)
+        reason = "ulps"
+        lam = max(0.0, float(px["lambda"]))
+        l0 = int(math.floor(lam))
+        edges = [lam]
+        for level in ([l0, l0 + 1] if lam > l0 else [l0]):
+            cell, na = 2.0**level / res, 2**level
+            edges += [(uv[i, 0] - hu) / cell, (uv[i, 0] + hu) / cell, (uv[i, 1] - hv) / cell, (uv[i, 1] + hv) / cell]
+            qa, qb = px["xa"] * na - 0.5, px["ya"] * na - 0.5
+            edges += [qa, qb] if na > 2 else []
+            a0 = 0 if na <= 2 else min(max(int(math.floor(qa)), 0), na - 2)
+            b0 = 0 if na <= 2 else min(max(int(math.floor(qb)), 0), na - 2)
+            ii = np.arange(math.floor((uv[i, 0] - hu) / cell), math.floor((uv[i, 0] + hu) / cell) + 1)
+            jj = np.arange(math.floor((uv[i, 1] - hv) / cell), math.floor((uv[i, 1] + hv) / cell) + 1)
+            aa = np.arange(a0, min(a0 + 1, na - 1) + 1)
+            bb = np.arange(b0, min(b0 + 1, na - 1) + 1)
+            I, Jj, A, B = (x.ravel() for x in np.meshgrid(ii, jj, aa, bb, indexing="ij"))
+            word3 = (8 << 24) | (level << 20) | B
+            r = _philox([2 * A, I, Jj, word3], (seed & 0xFFFFFFFF, seed >> 32))
+            unit = [(x.astype(np.float64) + 0.5) * 2.0**-32 for x in r]
+            mx, my = (A + unit[2]) / na, (B + unit[3]) / na
+            rim = (mx - 0.5) ** 2 + (my - 0.5) ** 2
+            dx, dy = (I + unit[0]) * cell - uv[i, 0], (Jj + unit[1]) * cell - uv[i, 1]
+            q = ia * dx * dx + 2 * ib * dx * dy + ic * dy * dy
+            # float32 keeps |uv| 2^-24 of the point's offset: q moves by that much relative to the footprint
+            dq = 2 * math.sqrt(max(ia, ic)) * 3 * (abs(uv[i]).max() + 1) * eps32
+            if np.any((np.abs(q - 9.0) <= dq + 9 * eps32) & (rim < 0.25)) or np.any(np.abs(rim - 0.25) <= eps32):
+                reason = "point at an edge"
+        # The point's offset (i + u) cell - uv keeps |uv| 2^-24: relative to the filter's std that moves every
+        # point's q, so the weights exp(-q / 2), by more than the allowance when it exceeds 1e-4.
+        if reason == "ulps" and 3 * float(np.spacing(np.float32(np.abs(uv[i]).max()))) * math.sqrt(max(ia, ic)) > 1e-4:
+            reason = "point offsets"
+        # A lobe within 8 stds of the unit square's edge (T(h) at U's rim: grazing h, sigma ~ 1e-7 to 1e-3):
+        # the compensation's 1D masses there are differences of erfc of float32 arguments.
+        if reason == "ulps" and min(px["xa"], 1 - px["xa"], px["ya"], 1 - px["ya"]) < 8 * px["sigma"]:
+            reason = "lobe at the square's edge"
+        if reason == "ulps":
+            e = np.asarray(edges)
+            if np.any(np.abs(e - np.round(e)) <= eps32 * (np.abs(e) + 1)):
+                reason = "box or block edge"
+        out[reason] += 1
+    return out
 
 
 # DB23's counting pipeline as a method shader: an NDF image method (compiled on first use, needs Vulkan;
-# not in the default panel). Its own truth is the facet truth, as for the C++ DB23 methods.
-register_image_method("db23_shader", lambda m: db23_method(m), label="DB23 shader (GLSL)", returns="ndf")
+# not in the default panel). Its own truth is the facet truth, as for the C++ DB23 methods. Its wrong
+# variants: one LOD level off (the grids one scale coarser), and cells that read other keys (another
+# realization of the same law).
+register_image_method("db23_shader", lambda m: db23_method(m), label="DB23 shader (GLSL)", returns="ndf", panel=False,
+                      doc="docs/math/glint_images.md#glint-db23-shader",
+                      shader=ShippedShader("db23_method", db23_compare, lambda m: {
+                          "one LOD level coarser": db23_method(m, lod_bias=1),
+                          "other cell keys": db23_method(m, key_salt=1)}, explain=db23_explain))
 # KPT25's Algorithm 1 as a method shader, at the density matched to the facets' glint count (as "kpt25"),
-# its own truth the twin's reference (the sum over every point of the same realization).
+# its own truth the twin's reference (the sum over every point of the same realization). Its wrong
+# variants: half a MIP level off (every point's weights change), another key (another realization).
 register_image_method("kpt25_shader", lambda m: kpt25_method(m), label="KPT25 shader (GLSL)", truth="reference",
-                      returns="ndf")
-DENSITY_MAPPINGS["kpt25_shader"] = lambda m: matched_density(m.density, KPT25_ALPHA_STAR, m.target, m.alpha, m.R)
+                      returns="ndf", panel=False, doc="docs/math/glint_images.md#glint-kpt25-shader",
+                      density=lambda m: matched_density(m.density, KPT25_ALPHA_STAR, m.target, m.alpha, m.R),
+                      shader=ShippedShader("kpt25_method", kpt25_compare, lambda m: {
+                          "half a MIP level off": kpt25_method(m, lod_bias=0.5),
+                          "another key": kpt25_method(m, key_salt=1)}, explain=kpt25_explain))

@@ -849,21 +849,33 @@ class Material:
 
 @dataclass(frozen=True)
 class ImageMethod:
-    """A registered image method: ``factory(material)`` returns a :class:`GlintyNDF` (or any object with
-    ``evaluate(uv, J, h, seed)``); ``label`` is the figure's name for it; ``truth`` is the kind of the
-    method's own truth, what its flicker and pops are read against (docs/math/glint_images.md#glint-own-truth):
-    "self" (the method is the facet ground truth), "facets" (the stratified facet truth), "reference"
-    (the evaluator's ``reference(uv, J, h, seed)``: the exact model on the same realization) or
-    "supersampled" (the same method box-filtered over 4 x 4 sub-pixels); ``returns`` is "ndf" (an NDF
-    value per pixel) or "intensity" (a method shader's output); ``origin`` says who registered it
-    (``ORIGINS``): "glintlab" (a method glintlab ships), "shader_method" (a user's method shader, which a
-    later ``shader_method`` of the same name replaces) or "user" (any other registration)."""
+    """A registered image method, everything the scene images, the report and the generic tests read of
+    it (tests/python/test_extension_registries.py): ``factory(material)`` returns a :class:`GlintyNDF`
+    (or any object with ``evaluate(uv, J, h, seed)``); ``label`` is the figure's name for it; ``truth``
+    is the kind of the method's own truth, what its flicker and pops are read against
+    (docs/math/glint_images.md#glint-own-truth): "self" (the method is the facet ground truth), "facets"
+    (the stratified facet truth), "reference" (the evaluator's ``reference(uv, J, h, seed)``: the exact
+    model on the same realization) or "supersampled" (the same method box-filtered over 4 x 4
+    sub-pixels); ``returns`` is "ndf" (an NDF value per pixel) or "intensity" (a method shader's output);
+    ``origin`` says who registered it (``ORIGINS``): "glintlab" (a method glintlab ships),
+    "shader_method" (a user's method shader, which a later ``shader_method`` of the same name replaces)
+    or "user" (any other registration); ``density(material)``, when given, is the density the method
+    runs at (its mapping to the facet truth's expected glint count,
+    docs/math/glint_images.md#glint-own-truth), else the material's N; ``panel``: whether the scene
+    images' panel renders it by default (the report's first section); ``doc``: the section documenting
+    it (a page and its anchor, as docs/math/glint_images.md#glint-methods: a method glintlab ships has
+    one, and it names the method); ``shader``: a shipped method shader's files, twin comparison and
+    deliberately wrong variants (``method_shaders.ShippedShader``), None for any other method."""
     name: str
     label: str
     factory: Callable
     truth: str = "facets"
     returns: str = "ndf"
     origin: str = "user"
+    density: Callable | None = None
+    panel: bool = True
+    doc: str | None = None
+    shader: object = None
 
     @property
     def is_truth(self) -> bool:
@@ -885,14 +897,20 @@ def _defined_in_glintlab(factory) -> bool:
 
 
 def register_image_method(name: str, factory: Callable, label: str | None = None, truth=None,
-                          replace: bool = False, returns: str = "ndf", origin: str | None = None) -> ImageMethod:
-    """Adds an image method: ``factory(material)`` -> a glinty NDF; returns its entry. ``truth``: the
-    kind of its own truth (``TRUTH_KINDS``; True means "self", the ground truth itself); default
-    "facets" for an NDF method, "supersampled" for an intensity method. ``origin`` (``ORIGINS``): who
-    registers it; default "glintlab" for a factory defined in glintlab's package (its shipped methods),
-    "user" otherwise. A name registered before is refused unless ``replace``."""
+                          replace: bool = False, returns: str = "ndf", origin: str | None = None,
+                          density: Callable | None = None, panel: bool | None = None, doc: str | None = None,
+                          shader=None) -> ImageMethod:
+    """Adds an image method: ``factory(material)`` -> a glinty NDF; returns its entry (:class:`ImageMethod`,
+    whose fields the other arguments are). ``truth``: the kind of its own truth (``TRUTH_KINDS``; True
+    means "self", the ground truth itself); default "facets" for an NDF method, "supersampled" for an
+    intensity method. ``origin`` (``ORIGINS``): who registers it; default "glintlab" for a factory
+    defined in glintlab's package (its shipped methods), "user" otherwise. ``panel``: default True for
+    an NDF method (the scene images render it by default, registered before or after them), False for
+    an intensity method. A name registered before is refused unless ``replace``."""
     if not callable(factory):
         V.fail("factory", factory, "a callable material -> evaluator")
+    if density is not None and not callable(density):
+        V.fail("density", density, "None or a callable material -> density")
     if origin is None:
         origin = "glintlab" if _defined_in_glintlab(factory) else "user"
     V.choice("origin", origin, ORIGINS)
@@ -903,8 +921,9 @@ def register_image_method(name: str, factory: Callable, label: str | None = None
         truth = "self"
     if truth not in TRUTH_KINDS:
         V.fail("truth", truth, f"one of {', '.join(TRUTH_KINDS)} (or True for the ground truth itself)")
-    return IMAGE_METHODS.register(name, ImageMethod(name, label or name, factory, truth, returns, origin),
-                                  replace=replace)
+    panel = returns == "ndf" if panel is None else bool(panel)
+    entry = ImageMethod(name, label or name, factory, truth, returns, origin, density, panel, doc, shader)
+    return IMAGE_METHODS.register(name, entry, replace=replace)
 
 
 def shipped_image_methods() -> list[str]:
@@ -922,25 +941,24 @@ def image_methods(returns: str | None = None) -> list[str]:
     return [n for n in IMAGE_METHODS.names() if IMAGE_METHODS.get(n).returns == returns]
 
 
-#: Density mappings: image method name -> f(material) -> the density at which the method shows the
-#: same expected glint count as the facet truth at the material's density N (docs/math/glint_images.md#glint-own-truth);
-#: a mapping registered here is applied by :func:`make_method` and stated on the scene panel. KPT25's
-#: is :func:`matched_density` (docs/math/glinty_ndf.md#glinty-matched), registered with its image method.
-DENSITY_MAPPINGS: dict = {}
+def panel_methods() -> list[str]:
+    """The image methods the scene images' panel renders by default: every registered one whose entry
+    says ``panel`` (the NDF methods unless registered otherwise), read when called, so a method
+    registered after glintlab's import is rendered too."""
+    return [n for n in IMAGE_METHODS.names() if IMAGE_METHODS.get(n).panel]
 
 
 def method_density(name: str, material: Material) -> float:
-    """The density image method ``name`` runs at for ``material``: its mapping's (``DENSITY_MAPPINGS``)
-    or the material's N."""
-    IMAGE_METHODS.get(name)
-    f = DENSITY_MAPPINGS.get(name)
+    """The density image method ``name`` runs at for ``material``: its entry's ``density(material)`` (its
+    mapping to the facet truth's glint count) or the material's N."""
+    f = IMAGE_METHODS.get(name).density
     return float(f(material)) if f is not None else material.density
 
 
 def make_method(name: str, material: Material):
     """The evaluator (a glinty NDF) of image method ``name`` for ``material`` (at its matched density)."""
     entry = IMAGE_METHODS.get(name)
-    if name in DENSITY_MAPPINGS and material is not None:
+    if entry.density is not None and material is not None:
         material = dataclasses.replace(material, density=method_density(name, material))
     return entry.factory(material)
 
@@ -951,26 +969,25 @@ def _counted(scheme, inner):
                                 R=m.R, angular_resolution=1.0 / m.angular_texel)
 
 
+_DOC = "docs/math/glint_images.md#glint-methods"  # the table of the methods glintlab ships
 register_image_method("truth", lambda m: FacetNDF(m.density, m.target, m.alpha, R=m.R, angular_texel=m.angular_texel),
-                      label="ground truth (facets)", truth=True)
-register_image_method("smooth", lambda m: SmoothNDF(m.target, m.alpha), label="smooth D(h)")
+                      label="ground truth (facets)", truth=True, doc=_DOC)
+register_image_method("smooth", lambda m: SmoothNDF(m.target, m.alpha), label="smooth D(h)", doc=_DOC)
 for _scheme, _short in (("db23_trilinear", "DB23 tri"), ("db23_tetrahedral", "DB23 tet")):
     for _inner in ("gated", "binomial", "head_cf"):
-        register_image_method(f"{_scheme}[{_inner}]", _counted(_scheme, _inner), label=f"{_short} {_inner}")
+        register_image_method(f"{_scheme}[{_inner}]", _counted(_scheme, _inner), label=f"{_short} {_inner}", doc=_DOC)
 # DB23's shader configuration: tetrahedral, log LOD, realizations blended over 3 simplex vertices x 4 angular
 # texels (48 evaluations): glints fade in and out instead of popping (docs/math/grids.md#grid-realizations).
-register_image_method("db23_shader_48[gated]", _counted("db23_shader_48", "gated"), label="DB23 shader 48 gated")
-register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16")
+register_image_method("db23_shader_48[gated]", _counted("db23_shader_48", "gated"), label="DB23 shader 48 gated",
+                      doc=_DOC)
+register_image_method("zk16", _counted("zk16_aniso", "zk16"), label="ZK16", doc=_DOC)
 # KPT25's constant-time NDF (Algorithm 1: k = 4 angular neighbours, eps = 0.1) over its own point
-# process, whose density is the scene's facet density (docs/math/glinty_ndf.md).
+# process, whose density K_P is matched to the facet truth's expected glint count (docs/math/glinty_ndf.md#glinty-matched).
 # Its own truth, the reference, leaves out lobes that move a pixel by less than IMAGE_REFERENCE_TOL x D(h)
 # x W / K_P (a tenth of the points on the report's sphere; docs/math/glinty_ndf.md#glinty-reference-reach).
 IMAGE_REFERENCE_TOL = 1e-15
 register_image_method("kpt25", lambda m: glinty_ndf("kpt25", density=m.density, target=m.target, alpha=m.alpha,
                                                     alpha_star=0.02, k=4, epsilon=0.1,
                                                     reference_tol=IMAGE_REFERENCE_TOL),
-                      label="KPT25", truth="reference")
-DENSITY_MAPPINGS["kpt25"] = lambda m: matched_density(m.density, 0.02, m.target, m.alpha, m.R)
-#: The built-in glinty-NDF image methods (the scene images' default list; method shaders registered
-#: later, WB16's among them, are listed by ``image_methods()`` but not rendered by default).
-BUILTIN_IMAGE_METHODS = tuple(IMAGE_METHODS.names())
+                      label="KPT25", truth="reference", doc=_DOC,
+                      density=lambda m: matched_density(m.density, 0.02, m.target, m.alpha, m.R))

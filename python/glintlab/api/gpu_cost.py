@@ -23,7 +23,7 @@ import pandas as pd
 from .. import _core
 from . import checks as V
 from .counting_shaders import DEFAULT_MATERIAL
-from .glinty_ndf import image_methods, make_method
+from .glinty_ndf import IMAGE_METHODS, image_methods, make_method
 from .method_shaders import ShaderMethod, shader_method
 from .shader_samplers import SHIPPED_SAMPLERS, ShaderSampler, shader_sampler, shipped_sampler
 from .shaders import ShaderLaw, shader_law, shipped_shader, shipped_shaders
@@ -148,8 +148,10 @@ def resolve_shader(shader, kind: str | None = None, **options):
 
 
 def shader_method_names() -> list[str]:
-    """The image methods that are method shaders (have SPIR-V)."""
-    return [m for m in image_methods() if m.endswith("_shader") or m == "wb16"]
+    """The image methods that are method shaders (have SPIR-V): those glintlab ships (their registry entry
+    carries a ``ShippedShader``) and the user's own (``gl.shader_method``)."""
+    return [m for m in image_methods()
+            if IMAGE_METHODS.get(m).shader is not None or IMAGE_METHODS.get(m).origin == "shader_method"]
 
 
 def empty_twin(obj):

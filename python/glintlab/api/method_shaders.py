@@ -21,8 +21,9 @@ arithmetic (and its first, numpy, form :func:`wb16_twin_numpy`).
 from __future__ import annotations
 
 import functools
-import hashlib
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -31,13 +32,13 @@ from ..resources import data_path
 from . import checks as V
 from . import fpmath
 from .glinty_ndf import IMAGE_METHODS, GlintyNDF, register_image_method
-from .shaders import DEFAULT_TIMEOUT_S, LANGUAGES, ShaderOutputError, _define_value, _read_source, compiled
+from .shaders import DEFAULT_TIMEOUT_S, ShaderBacked, ShaderOutputError, kernel_spec
 
-#: The fields of GlintInput in the order of the 32-word row the wrapper reads: (name, first word, words).
-GLINT_INPUT_FIELDS = (("world_pos", 0, 3), ("uv", 3, 2), ("J", 5, 4), ("n", 9, 3), ("t", 12, 3), ("b", 15, 3),
-                      ("view", 18, 3), ("light", 21, 3), ("h", 24, 3), ("pixel", 27, 2), ("frame", 29, 1),
-                      ("seed", 30, 1))
-_INTEGER_FIELDS = ("pixel", "frame", "seed")
+_WORDS = {"float": 1, "vec2": 2, "vec3": 3, "vec4": 4, "uint": 1, "uvec2": 2}
+#: The fields of GlintInput in the order of the 32-word row the wrapper reads: (name, first word, words),
+#: from the method shader's wrapper declaration (validation/src/method_runner.cpp), the one table.
+GLINT_INPUT_FIELDS = tuple((name, word, _WORDS[kind]) for name, kind, word in _core.METHOD_INPUT_FIELDS)
+_INTEGER_FIELDS = tuple(name for name, kind, _ in _core.METHOD_INPUT_FIELDS if kind.startswith("u"))
 WB16_SHADER = "wb16.glsl"
 #: The shipped WB16 method shader per language: thin wrappers around one body (wb16_body.h).
 WB16_SHADERS = {"glsl": "wb16.glsl", "hlsl": "wb16.hlsl"}
@@ -113,47 +114,39 @@ def frame_rows(inputs, seed: int = 0, frame: int = 0, method: str = "a method sh
     return rows, hit
 
 
-def method_kernel(spec: dict):
-    """A method shader's compiled kernel (``_core.MethodKernel``) from its spec; a compile failure is one
-    line (``shaders.compile_error``: a prototype without a body, an unfinished declaration and a missing
-    or mistyped ``glint`` named as such), the compiler's text in its ``messages``."""
-    s = spec
-    return compiled(lambda: _core.MethodKernel(s["code"], s["source_name"], s["entry"], s["language"],
-                                               [(k, str(val)) for k, val in s["defines"]], list(s["include_dirs"]),
-                                               s["device"]),
-                    s["source_name"], s["language"], "method shader")
-
-
-class ShaderMethod(GlintyNDF):
+class ShaderMethod(ShaderBacked, GlintyNDF):
     """An image method computed by a shader function per pixel (see :func:`shader_method`). Its
     ``image(inputs, seed, frame)`` runs the shader on every pixel that sees the surface (0 elsewhere);
-    ``run(rows)`` on packed rows (:func:`pack_inputs`) returns the raw (m, 4) output."""
+    ``run(rows)`` on packed rows (:func:`pack_inputs`) returns the raw (m, 4) output. The kernel's
+    properties, pickling and device are the shader-backed objects' (``shaders.ShaderBacked``)."""
 
     returns = "intensity"
+    kind = "method shader"
 
     def __init__(self, spec: dict):
-        self._spec = dict(spec)
+        ShaderBacked.__init__(self, spec)
+        self._describe()
+        self.target, self.alpha, self.density = None, None, None
+        self._kernel  # compiled now: a method that does not compile is refused when made
+
+    def _describe(self):
         s = self._spec
         self.name = s["name"]
         self.params = {"source": s["source_name"], "entry": s["entry"], "language": s["language"],
                        **dict(s["defines"])}
-        self.target, self.alpha, self.density = None, None, None
-        self._kernel = method_kernel(s)
 
-    device = property(lambda self: self._kernel.device, doc="The Vulkan device's name.")
-    language = property(lambda self: self._spec["language"])
-    spirv = property(lambda self: self._kernel.spirv, doc="The SPIR-V the pipeline runs (bytes).")
+    def _make_kernel(self, s, includes):
+        return _core.MethodKernel(s["code"], s["source_name"], s["entry"], s["language"],
+                                  [(k, str(val)) for k, val in s["defines"]], list(s["include_dirs"]), s["device"],
+                                  includes)
 
     @property
     def identity(self) -> str:
         """``method_shader:<sha256 of the SPIR-V and the device>:<name>``."""
-        return f"method_shader:{hashlib.sha256(self._kernel.spirv + self.device.encode()).hexdigest()[:16]}:{self.name}"
+        return f"method_shader:{self._digest()}:{self.name}"
 
     def __repr__(self):
-        return f"ShaderMethod({self.name!r}, {self.language}, device={self.device!r})"
-
-    def __reduce__(self):  # the code travels by value
-        return (ShaderMethod, (self._spec,))
+        return f"{type(self).__name__}({self.name!r}, {self.language}, device={self.device!r})"
 
     def smooth(self, h):
         raise NotImplementedError(f"method shader {self.name!r} returns an intensity: it has no smooth target")
@@ -225,19 +218,6 @@ def _check_method_name(name: str) -> None:
                              "which a method shader does not replace")
 
 
-def _method_defines(defines) -> list:
-    """A method shader's defines as sorted (name, text) pairs: True/False as 1/0 (what the C preprocessor
-    reads), numbers and strings as written (``shaders._define_value``); None is refused (it is no value:
-    "" defines a name without one)."""
-    defines = dict(defines or {})
-    for key, value in defines.items():
-        if not isinstance(key, str) or not key.isidentifier():
-            V.fail("defines", key, "macro names that are identifiers")
-        if value is None:
-            V.fail(f"defines[{key!r}]", value, "a string, a number or True/False (\"\" for a define without a value)")
-    return sorted((k, _define_value(k, val)) for k, val in defines.items())
-
-
 def shader_method(source, language: str | None = None, entry: str = "glint", name: str | None = None,
                   defines: dict | None = None, include_dirs=(), device: str = "auto",
                   timeout: float = DEFAULT_TIMEOUT_S, register: bool = True, returns: str = "intensity",
@@ -266,27 +246,15 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
     Beckmann) and GLINTLAB_R; the object returned is the method for ``material`` (a :class:`Material`;
     default: the sphere scene's), with ``evaluate(uv, J, h, seed)`` as every glinty NDF."""
     V.choice("returns", returns, ("intensity", "ndf"))
-    if language is not None and language not in LANGUAGES:
-        V.fail("language", language, "'hlsl' or 'glsl'")
-    code, source_name, language = _read_source(source, language)
-    if not isinstance(entry, str) or not entry.isidentifier():
-        V.fail("entry", entry, "a function name")
+    spec = kernel_spec(source, language, entry, defines, include_dirs, device, timeout,
+                       defaults=(data_path("shaders"),), none_defines=False)
     if name is None:
-        name = Path(source_name).stem if source_name != "<string>" else "shader_method"
+        name = Path(spec["source_name"]).stem if spec["source_name"] != "<string>" else "shader_method"
     if not isinstance(name, str) or not name:
         V.fail("name", name, "a non-empty string")
     if register:
         _check_method_name(name)
-    define_list = _method_defines(defines)
-    if isinstance(include_dirs, (str, Path)):
-        include_dirs = [include_dirs]
-    V.positive("timeout", timeout, "a number of seconds > 0")
-    if not isinstance(device, str):
-        V.fail("device", device, "'auto', 'gpu', 'cpu', a device index or part of a device name")
-    spec = {"code": code, "source_name": source_name, "entry": entry, "language": language, "name": name,
-            "defines": define_list,
-            "include_dirs": [str(d) for d in include_dirs] + [str(data_path("shaders"))], "device": device,
-            "timeout": float(timeout)}
+    spec["name"] = name
     if returns == "ndf":
         factory = _NDF_SHADER_FACTORY[0]
         if register:
@@ -298,6 +266,41 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
         register_image_method(name, lambda m, method=method: method, label=name, replace=True, returns="intensity",
                               origin="shader_method")
     return method
+
+
+@dataclass(frozen=True)
+class ShippedShader:
+    """What the registry entry (``register_image_method(..., shader=...)``) of a method shader glintlab
+    ships carries for the generic machinery (tests/python/test_extension_registries.py, the float32
+    study of ``validation.method_twins``), so that no other list names it:
+
+    - ``files``: the stem of its one body and two thin wrappers in glintlab/data/shaders
+      (``<files>_body.h``, ``<files>.glsl``, ``<files>.hlsl``);
+    - ``compare(rows, material, method=None)``: the shader (or ``method``) against its C++ twin on the same
+      packed rows (:func:`pack_inputs`) for the method's material (its density mapped): a dict with
+      ``share`` (the share of pixels beyond the twin's float32 allowance), ``pixels`` and ``beyond`` (their
+      row indices), and for the counting methods ``share_1pct``, ``rel_err`` and ``max_rel_err``;
+    - ``max_share``: the share the tests accept (each comparison states what it measured);
+    - ``wrong(material)``: the deliberately wrong variants ({label: method}) the same comparison must
+      reject (each beyond ten times ``max_share``), declared by the registrant, not assumed by the tests;
+    - ``explain(rows, material, which, limit)``, where given: why the pixels ``which`` differ ({reason:
+      count}); the float32 study runs the methods that have one.
+    """
+    files: str
+    compare: Callable
+    wrong: Callable
+    max_share: float = 0.005
+    explain: Callable | None = None
+
+    def paths(self) -> list[Path]:
+        """The body and the two wrappers."""
+        return [Path(data_path("shaders", f"{self.files}{suffix}")) for suffix in ("_body.h", ".glsl", ".hlsl")]
+
+
+def shipped_method_shaders() -> dict:
+    """The method shaders glintlab ships, from the one registry of image methods: {image method name:
+    its :class:`ShippedShader`}."""
+    return {n: IMAGE_METHODS.get(n).shader for n in IMAGE_METHODS.names() if IMAGE_METHODS.get(n).shader is not None}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -484,10 +487,51 @@ def noise3(p, seed) -> np.ndarray:
     return y0 + (y1 - y0) * fz
 
 
-# WB16 is an image method like the others: compiled on first use (needs Vulkan), never by import.
-register_image_method("wb16", lambda m: wb16_method(), label="WB16 sparkles", returns="intensity")
-# The paper's baselines as image methods of their own (the aliasing tables compare them with WB16):
-# Shopf's star shape (Code 1) and Shopf's noise on the lookup instead of on the grid centres.
-register_image_method("wb16_star", lambda m: wb16_method(shape=1), label="WB16 / Shopf star", returns="intensity")
+#: WB16's twin allowance (docs/math/glint_images.md#glint-wb16): per pixel, |shader - twin| may reach
+#: WB16_ULPS float32 spacings of the lookup position pos (tens to hundreds of cells from the origin, so its
+#: last place is 1e-5 .. 3e-5 cells) times the kernel's largest slope (2 / sqrt(threshold) for the round
+#: kernel, 3 k for Shopf's star); beyond that on at most WB16_MAX_SHARE of the pixels (a cell index or a
+#: level moved across its floor by such an ulp). Measured on lavapipe: 0 to 0.1 % of the pixels.
+WB16_ULPS, WB16_MAX_SHARE = 8, 0.005
+
+
+def wb16_beyond(a, b, pos, **params) -> np.ndarray:
+    """Per pixel: a and b (two computations of WB16 with ``params``, e.g. the shader and its twin) differ
+    beyond the float32 allowance of the lookup position ``pos`` (both NaN is agreement)."""
+    prm = _wb16_params(params)
+    slope = 3 * prm["WB16_SHOPF_K"] if prm["WB16_SHAPE"] == 1 else 2 / np.sqrt(1 - prm["WB16_SPARKLE_SIZE"])
+    tol = WB16_ULPS * np.spacing(np.abs(pos).max(axis=1)) * slope
+    both_nan = np.isnan(a) & np.isnan(b)
+    return ~both_nan & ~(np.abs(np.asarray(a, np.float64) - b) <= tol)
+
+
+def wb16_compare(rows, material=None, method=None, **params) -> dict:
+    """WB16's shader with ``params`` (or ``method``) against its C++ twin with ``params`` on the same
+    packed rows: ``share`` of the pixels beyond the allowance (:func:`wb16_beyond`), ``pixels``, ``beyond``
+    (their row indices). ``material`` is not read (WB16 has no material)."""
+    method = method if method is not None else wb16_method(**params)
+    value, pos = wb16_twin(rows, return_lookup=True, **params)
+    bad = wb16_beyond(method.shade(rows), value, pos, **params)
+    return {"share": float(bad.mean()) if bad.size else 0.0, "pixels": int(bad.size), "beyond": np.nonzero(bad)[0]}
+
+
+def _wb16_shipped(compare_params: dict, wrong: dict) -> ShippedShader:
+    """WB16 (or a baseline: ``compare_params``) as a shipped shader whose wrong variants are ``wrong``:
+    {label: the parameters of a WB16 that is not this one}."""
+    return ShippedShader("wb16", functools.partial(wb16_compare, **compare_params),
+                         lambda m: {label: wb16_method(**p) for label, p in wrong.items()}, WB16_MAX_SHARE)
+
+
+# WB16 is an image method like the others: compiled on first use (needs Vulkan), never by import; an
+# intensity, not in the NDF panel. The paper's baselines are image methods of their own (the aliasing
+# tables compare them with WB16): Shopf's star shape (Code 1) and Shopf's noise on the lookup instead of
+# on the grid centres. Each is the wrong variant of the others: the comparison must see the shape.
+_WB16_DOC = "docs/math/glint_images.md#glint-wb16"
+register_image_method("wb16", lambda m: wb16_method(), label="WB16 sparkles", returns="intensity", doc=_WB16_DOC,
+                      shader=_wb16_shipped({}, {"kernel radius x sqrt(1.2)": {"kernel_scale": 1.2},
+                                                "Shopf's star": {"shape": 1}, "lookup noise": {"noise": 1}}))
+register_image_method("wb16_star", lambda m: wb16_method(shape=1), label="WB16 / Shopf star", returns="intensity",
+                      doc=_WB16_DOC, shader=_wb16_shipped({"shape": 1}, {"round kernel": {}}))
 register_image_method("wb16_lookup_noise", lambda m: wb16_method(noise=1), label="WB16 / lookup noise",
-                      returns="intensity")
+                      returns="intensity", doc=_WB16_DOC,
+                      shader=_wb16_shipped({"noise": 1}, {"noise on the grid centres": {}}))

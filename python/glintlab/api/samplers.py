@@ -59,17 +59,30 @@ def _unit(name, value) -> np.ndarray:
     return w
 
 
+def register_sampler(cls):
+    """Registers a :class:`Sampler` subclass under its ``name`` (a class decorator: the class is the one
+    entry, carrying its ``summary``, its ``doc`` section and the ``wrong_variants`` it declares, all the
+    generic tests and the harness read); returns the class."""
+    if not (isinstance(cls, type) and issubclass(cls, Sampler)) or not cls.name:
+        V.fail("cls", cls, "a Sampler subclass with a name")
+    SAMPLERS.register(cls.name, cls)
+    return cls
+
+
 class Sampler:
-    """Common surface: ``name``, ``domain``, ``params``, ``sample(size, seed)``, ``pdf(points)``, and
-    ``wrong_variants``: the deliberately wrong variants ``wrong_sampler(s, kind)`` builds of this sampler,
-    declared by its class (the tests, ``glintlab sampler --wrong`` and the report run exactly these).
-    Losing samples (``"drop_0.1%"``) wraps any sampler; a class adds the variants its parameters allow
-    (``"alpha+2%"`` needs ``with_params(alpha=...)``, ``"no_jacobian"`` a microfacet pdf with its (h . n))."""
+    """Common surface: ``name``, ``domain``, ``params``, ``sample(size, seed)``, ``pdf(points)``, ``doc``
+    (the section of the docs naming it), and ``wrong_variants``: the deliberately wrong variants
+    ``wrong_sampler(s, kind)`` builds of this sampler, declared by its class (the tests, ``glintlab
+    sampler --wrong`` and the report run exactly these). Losing samples (``"drop_0.1%"``) wraps any
+    sampler; a class adds the variants its parameters allow (``"alpha+2%"`` needs
+    ``with_params(alpha=...)``, ``"no_jacobian"`` a microfacet pdf with its (h . n))."""
 
     name = ""
     domain = "hemisphere"
     summary = ""
     wrong_variants: tuple = ("drop_0.1%",)
+    #: The section documenting the sampler (a page and its anchor); a registered sampler's names it.
+    doc = "docs/math/sampling.md#reference-samplers"
 
     def __init__(self):
         self.params: dict = {}
@@ -139,11 +152,13 @@ class NormalSampler(_Microfacet):
         return self.ndf.D(c) * np.maximum(c, 0.0)
 
 
+@register_sampler
 class BeckmannNormals(NormalSampler):
     name, ndf_name = "beckmann", "beckmann"
     summary = "Beckmann half vectors from D(h)(h.n) (Walter et al. 2007)"
 
 
+@register_sampler
 class GGXNormals(NormalSampler):
     name, ndf_name = "ggx", "ggx"
     summary = "GGX half vectors from D(h)(h.n) (Walter et al. 2007)"
@@ -162,6 +177,7 @@ class _VisibleNormals(_Microfacet):
         return self.ndf.G1(self.wo[2]) * np.maximum(hn @ self.wo, 0.0) * self.ndf.D(c) / self.wo[2]
 
 
+@register_sampler
 class GGXVisibleNormals(_VisibleNormals):
     """Heitz 2018: stretch wo to the alpha = 1 configuration, where the visible normals are uniform over
     the projected hemisphere: a uniform point of the unit disk, its second coordinate compressed onto
@@ -191,6 +207,7 @@ class GGXVisibleNormals(_VisibleNormals):
         return h, self.pdf(h)
 
 
+@register_sampler
 class BeckmannVisibleNormals(_VisibleNormals):
     """Visible Beckmann normals in the slope domain (docs/math/sampling.md#beckmann-visible-normals).
 
@@ -233,6 +250,7 @@ class BeckmannVisibleNormals(_VisibleNormals):
         return h, self.pdf(h)
 
 
+@register_sampler
 class VMFMixture(Sampler):
     """Equal-weight von Mises-Fisher lobes on the hemisphere: ``lobes`` lobes of angular width
     ``width_deg`` (kappa = 1 / width^2), centres between ``theta_deg`` = (min, max) polar angles.
@@ -361,10 +379,6 @@ def _frames(mu):
     t1 = np.cross(helper, mu)
     t1 /= np.linalg.norm(t1, axis=1)[:, None]
     return t1, np.cross(mu, t1)
-
-
-for _cls in (BeckmannNormals, GGXNormals, GGXVisibleNormals, BeckmannVisibleNormals, VMFMixture):
-    SAMPLERS.register(_cls.name, _cls)
 
 
 def sampler(name: str, **params) -> Sampler:

@@ -24,7 +24,6 @@ machine and whatever the chunking. GGX visible normals (Heitz 2018) ship as the 
 """
 from __future__ import annotations
 
-import hashlib
 import os
 import re
 from pathlib import Path
@@ -35,9 +34,8 @@ from .. import _core
 from ..resources import data_path
 from . import checks as V
 from .samplers import SAMPLER_LOADERS, Sampler, _points, _size, _unit
-from .shaders import (_ERROR_LINE, _EXTENSIONS, _WRAPPER_FILE, DEFAULT_TIMEOUT_S, LANGUAGES, LAVAPIPE_LOOP_CAP,
-                      ShaderCompileError, ShaderOutputError, _define_value, _device_request, _read_source, _utf8,
-                      compile_error)
+from .shaders import (_ERROR_LINE, _EXTENSIONS, _WRAPPER_FILE, DEFAULT_TIMEOUT_S, LANGUAGES, ShaderBacked,
+                      ShaderCompileError, ShaderOutputError, _utf8, compile_error, kernel_spec)
 
 SAMPLE_ENTRY, PDF_ENTRY = "sample_h", "pdf_h"
 #: The shipped example: GGX visible normals, ``ggx_vndf.hlsl`` / ``ggx_vndf.glsl`` (one body).
@@ -157,32 +155,24 @@ def _check_defines(code: str, included: list, defines: list, source_name: str) -
                                    f"it never mentions changes nothing{hint}")
 
 
-class ShaderSampler(Sampler):
+class ShaderSampler(ShaderBacked, Sampler):
     """A direction sampler computed by two shader functions (see :func:`shader_sampler`) for one pixel
     (``uv``, ``J``) and one outgoing direction ``wo``: ``sample(size, seed) -> (h, pdf)`` and
     ``pdf(h)``, as the reference samplers, on the hemisphere (or the sphere). A pdf that is NaN,
-    infinite or negative raises ``ShaderOutputError``. Pickles carry the code and its included files."""
+    infinite or negative raises ``ShaderOutputError``. The kernel's properties, pickles (the code and
+    its included files) and device are the shader-backed objects' (``shaders.ShaderBacked``)."""
 
+    kind = "shader sampler"
     summary = "a sampler written as a shader (sample_h, pdf_h)"
     # Its parameters are defines fixed at compile time, so the variants that redraw with another alpha are
     # not built; losing samples is a Python-side wrapper of any sampler.
     wrong_variants = ("drop_0.1%",)
 
     def __init__(self, spec: dict):
-        super().__init__()
-        self._spec = dict(spec)
+        Sampler.__init__(self)
+        ShaderBacked.__init__(self, spec)
+        self._kernel  # compiled now: a sampler that does not compile is refused when made
         s = self._spec
-        sealed = [(path, content) for path, content in s.get("includes", ())]
-        try:
-            self._kernel = _core.SamplerKernel(s["code"], s["source_name"], SAMPLE_ENTRY, PDF_ENTRY, s["language"],
-                                               [(k, val) for k, val in s["defines"]], list(s["include_dirs"]),
-                                               s["device"], sealed)
-        except ValueError as exc:
-            if "compile" in str(exc).split("\n", 1)[0] or "no function" in str(exc).split("\n", 1)[0]:
-                raise _compile_error(exc, s["source_name"], s["language"]) from None
-            raise
-        if "includes" not in s:
-            s["includes"] = [(path, bytes(content)) for path, content in self._kernel.included_files]
         self.name = s["name"]
         self.domain = s["domain"]
         self.wo = np.asarray(s["wo"], dtype=np.float64)
@@ -195,37 +185,22 @@ class ShaderSampler(Sampler):
         head[0:2], head[2:6], head[6:9] = self.uv, self.J, self.wo
         self._head = head.view(np.uint32)
 
-    device = property(lambda self: self._kernel.device, doc="The Vulkan device's name.")
-    device_type = property(lambda self: self._kernel.device_type, doc='"cpu", "discrete_gpu", ...')
-    language = property(lambda self: self._spec["language"])
-    source_name = property(lambda self: self._spec["source_name"])
-    spirv = property(lambda self: self._kernel.spirv, doc="The SPIR-V the pipeline runs (bytes).")
-    included_files = property(lambda self: [path for path, _ in self._spec["includes"]],
-                              doc="The files #include'd at the first compile (their content travels in pickles).")
-    unbounded_loops = property(lambda self: self._kernel.unbounded_loops,
-                               doc="Loops of the SPIR-V whose trip count is not a known constant <= 65535.")
+    def _make_kernel(self, s, includes):
+        return _core.SamplerKernel(s["code"], s["source_name"], SAMPLE_ENTRY, PDF_ENTRY, s["language"],
+                                   [(k, val) for k, val in s["defines"]], list(s["include_dirs"]), s["device"],
+                                   includes)
 
-    @property
-    def loop_caveat(self) -> str | None:
-        """As ``ShaderLaw.loop_caveat``: why results on lavapipe may differ from a GPU's, or None."""
-        loops = self.unbounded_loops
-        if not loops or not self.device.startswith("llvmpipe"):
-            return None
-        return (f"{loops} loop(s) of the sampler have a trip count that is not a constant <= {LAVAPIPE_LOOP_CAP}, "
-                f"and lavapipe stops every loop after {LAVAPIPE_LOOP_CAP} iterations")
+    def _compile_failure(self, exc: ValueError) -> ShaderCompileError:
+        return _compile_error(exc, self._spec["source_name"], self._spec["language"])
 
     @property
     def identity(self) -> str:
         """``shader_sampler:<sha256 of the SPIR-V, the device and the pixel>:<name>``."""
-        key = self._kernel.spirv + self.device.encode() + self._head.tobytes()
-        return f"shader_sampler:{hashlib.sha256(key).hexdigest()[:16]}:{self.name}"
+        return f"shader_sampler:{self._digest(self._head.tobytes())}:{self.name}"
 
     def __repr__(self):
         return f"ShaderSampler({self.name!r}, {self.language}, wo={tuple(round(float(x), 6) for x in self.wo)}, " \
                f"device={self.device!r})"
-
-    def __reduce__(self):  # the code travels by value, with the files it included
-        return (ShaderSampler, (self._spec,))
 
     def _rows(self, mode: int, words: np.ndarray) -> np.ndarray:
         rows = np.empty((len(words), _core.SAMPLER_INPUT_WORDS), np.uint32)
@@ -305,32 +280,21 @@ def shader_sampler(source, language: str | None = None, name: str | None = None,
     >>> gl.sampler_test(s, samples=10**5).passed                                 # doctest: +SKIP
     True
     """
-    if language is not None and language not in LANGUAGES:
-        V.fail("language", language, "'hlsl' or 'glsl'")
-    code, source_name, language = _read_source(source, language)
+    spec = kernel_spec(source, language, SAMPLE_ENTRY, defines, include_dirs, device, timeout,
+                       defaults=(data_path("shaders"),))
+    for d in spec["include_dirs"][:-1]:  # the caller's (glintlab's own comes last)
+        if not os.path.isdir(d):
+            V.fail("include_dirs", d, "existing folders")
+    code, source_name, language, define_list = spec["code"], spec["source_name"], spec["language"], spec["defines"]
     if name is None:
         name = Path(source_name).name if source_name != "<string>" else "shader_sampler"
     if not isinstance(name, str) or not name:
         V.fail("name", name, "a non-empty string")
     _utf8("name", name)
-    defines = dict(defines or {})
-    for key in defines:
-        if not isinstance(key, str) or not key.isidentifier():
-            V.fail("defines", key, "macro names that are identifiers")
-    define_list = sorted((k, _define_value(k, val)) for k, val in defines.items())
     V.choice("domain", domain, ("hemisphere", "sphere"), "'hemisphere' or 'sphere'")
-    if isinstance(include_dirs, (str, os.PathLike)):
-        include_dirs = [include_dirs]
-    include_dirs = [_utf8("include_dirs", os.fspath(d)) for d in include_dirs]
-    for d in include_dirs:
-        if not os.path.isdir(d):
-            V.fail("include_dirs", d, "existing folders")
-    V.positive("timeout", timeout, "a number of seconds > 0")
     _check_declarations(code, source_name, language)
-    spec = {"code": code, "source_name": source_name, "language": language, "name": name, "defines": define_list,
-            "wo": tuple(float(x) for x in _unit("wo", wo)), "uv": _vector("uv", uv, 2), "J": _vector("J", J, 4),
-            "domain": domain, "include_dirs": include_dirs + [str(data_path("shaders"))],
-            "device": _device_request(device), "timeout": float(timeout)}
+    spec.update(name=name, wo=tuple(float(x) for x in _unit("wo", wo)), uv=_vector("uv", uv, 2), J=_vector("J", J, 4),
+                domain=domain)
     sampler = ShaderSampler(spec)
     _check_defines(code, sampler._spec["includes"], define_list, source_name)
     return sampler

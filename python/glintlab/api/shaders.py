@@ -271,16 +271,6 @@ def compile_error(exc: ValueError, source_name: str, language: str, kind: str,
     return ShaderCompileError(head if head.strip() else text, text)
 
 
-def compiled(make, source_name: str, language: str, kind: str, signatures: dict | None = None):
-    """``make()`` (a kernel's constructor), its compile failure raised as :func:`compile_error`'s one line."""
-    try:
-        return make()
-    except ValueError as exc:
-        if is_compile_failure(exc):
-            raise compile_error(exc, source_name, language, kind, signatures) from None
-        raise
-
-
 class ShaderOutputError(ValueError):
     """A shader returned a NaN, infinite or negative count (``sample`` and ``evaluate``): the shader is
     faulty, not the caller's input, so a verdict counts it as a failed check (exit 1), not bad input."""
@@ -295,28 +285,48 @@ NoVulkanDevice = _core.NoVulkanDevice
 LAVAPIPE_LOOP_CAP = 65535
 
 
-class ShaderLaw(CustomLaw):
-    """A counting law computed by a shader function on a Vulkan device (see ``shader_law``).
+class ShaderBacked:
+    """What every shader-backed object shares: a shader law (:class:`ShaderLaw`), a method shader
+    (``method_shaders.ShaderMethod``) and a shader sampler (``shader_samplers.ShaderSampler``).
 
-    It is a custom law to the rest of glintlab (sampling, chi-square, sweeps, bounds, extremes,
-    blends, the report), with the shader's output as the count: float32 arithmetic whatever
-    ``precision`` is asked (both give the same numbers). A NaN, infinite or negative count is an
-    error naming the row. ``device`` names the Vulkan device it runs on.
-    """
+    The object is made from its spec (:func:`kernel_spec`: the code, its file's name, entry, language,
+    defines, include folders, device and timeout, plus what the kind adds) and compiles its kernel
+    (``_make_kernel``, the kind's ``_core`` kernel) on first use; the subclass asks for ``_kernel`` in
+    its constructor when a shader that does not compile must be refused there. A compile failure is
+    one line (``_compile_failure``: :func:`compile_error`, worded by ``kind``). The files the first compile #include'd travel
+    in the spec (``includes``), so a pickle (the spec, by value) compiles the same code anywhere,
+    whatever happened to the files since. The kernel's properties (device, SPIR-V, included files,
+    loops lavapipe may cut short) are read here for every kind."""
+
+    kind = "shader"  # as a compile error names it: "shader law", "method shader", "shader sampler"
 
     def __init__(self, spec: dict):
         self._spec = dict(spec)
-        s = self._spec
-        # A spec from a pickle carries the included files as they were at the first compile ("includes");
-        # a new law reads them from the disk and records them for its pickles.
-        sealed = [(path, content) for path, content in s.get("includes", ())]
-        self._kernel = compiled(lambda: _core.ShaderKernel(s["code"], s["source_name"], s["entry"], s["language"],
-                                                           s["n_uniforms"], [(k, str(val)) for k, val in s["defines"]],
-                                                           list(s["include_dirs"]), s["device"], sealed),
-                                s["source_name"], s["language"], "shader law")
-        if "includes" not in s:
-            s["includes"] = [(path, bytes(content)) for path, content in self._kernel.included_files]
-        super().__init__(self._run, s["n_uniforms"], s["name"], s["binning"])
+        self._compiled = None
+
+    def _make_kernel(self, spec: dict, includes: list):
+        """The kind's ``_core`` kernel from ``spec``, #includes served from ``includes`` when not empty."""
+        raise NotImplementedError
+
+    def _compile_failure(self, exc: ValueError) -> ShaderCompileError:
+        """The runner's compile failure as one line (:func:`compile_error`, worded by ``kind``); a kind with
+        several entries says which one is missing (``shader_samplers``)."""
+        return compile_error(exc, self._spec["source_name"], self._spec["language"], self.kind)
+
+    @property
+    def _kernel(self):
+        if self._compiled is None:
+            s = self._spec
+            sealed = [(path, content) for path, content in s.get("includes", ())]
+            try:
+                self._compiled = self._make_kernel(s, sealed)
+            except ValueError as exc:
+                if is_compile_failure(exc):
+                    raise self._compile_failure(exc) from None
+                raise
+            if "includes" not in s:
+                s["includes"] = [(path, bytes(content)) for path, content in self._compiled.included_files]
+        return self._compiled
 
     device = property(lambda self: self._kernel.device, doc="The Vulkan device's name.")
     device_type = property(lambda self: self._kernel.device_type, doc='"cpu", "discrete_gpu", ...')
@@ -324,10 +334,14 @@ class ShaderLaw(CustomLaw):
     entry = property(lambda self: self._spec["entry"])
     source_name = property(lambda self: self._spec["source_name"])
     spirv = property(lambda self: self._kernel.spirv, doc="The SPIR-V the pipeline runs (bytes).")
-    included_files = property(lambda self: [path for path, _ in self._spec["includes"]],
-                              doc="The files #include'd at the first compile (their content travels in pickles).")
     unbounded_loops = property(lambda self: self._kernel.unbounded_loops,
                                doc="Loops of the SPIR-V whose trip count is not a known constant <= 65535.")
+
+    @property
+    def included_files(self) -> list:
+        """The files #include'd at the first compile (their content travels in pickles)."""
+        self._kernel
+        return [path for path, _ in self._spec["includes"]]
 
     @property
     def loop_caveat(self) -> str | None:
@@ -337,22 +351,82 @@ class ShaderLaw(CustomLaw):
         loops = self.unbounded_loops
         if not loops or not self.device.startswith("llvmpipe"):
             return None
-        return (f"{loops} loop(s) of the shader have a trip count that is not a constant <= {LAVAPIPE_LOOP_CAP}, and "
-                f"lavapipe ({self.device}) stops every loop after {LAVAPIPE_LOOP_CAP} iterations: results on this "
-                "device are not what a GPU would compute where a loop runs longer")
+        return (f"{loops} loop(s) of the {self.kind} have a trip count that is not a constant <= {LAVAPIPE_LOOP_CAP}, "
+                f"and lavapipe ({self.device}) stops every loop after {LAVAPIPE_LOOP_CAP} iterations: results on "
+                "this device are not what a GPU would compute where a loop runs longer")
+
+    def _digest(self, extra: bytes = b"") -> str:
+        """The first 16 hex digits of the sha256 of the SPIR-V, the device's name and ``extra``: what an
+        identity names (the compiled code with its #includes and defines, and the device that runs it:
+        GPUs differ in pow, exp, log)."""
+        return hashlib.sha256(self._kernel.spirv + self.device.encode() + extra).hexdigest()[:16]
+
+    def _reduce_args(self) -> tuple:
+        return (self._spec,)
+
+    def __reduce__(self):
+        # The code travels by value, with the files it included (workers compile it again); an object
+        # not compiled yet (made without a Vulkan device) has read no file, and its copy reads them then.
+        return (type(self), self._reduce_args())
+
+
+def kernel_spec(source, language, entry, defines, include_dirs, device, timeout, defaults: tuple = (),
+                none_defines: bool = True) -> dict:
+    """The spec every shader-backed object starts from: the code and its file's name (``source``: a path
+    or the code; ``language`` from the extension when None, "hlsl" for code in a string), ``entry``,
+    the defines as sorted (name, text) pairs (:func:`_define_value`; ``none_defines`` False refuses
+    None as a value), the include folders (then ``defaults``, glintlab's own), the device request
+    (:func:`_device_request`: "auto", "gpu", "cpu", an index or part of a name) and the timeout."""
+    if language is not None and language not in LANGUAGES:
+        v.fail("language", language, "'hlsl' or 'glsl'")
+    code, source_name, language = _read_source(source, language)
+    if not isinstance(entry, str) or not entry.isidentifier():
+        v.fail("entry", entry, "a function name")
+    defines = dict(defines or {})
+    for key, value in defines.items():
+        if not isinstance(key, str) or not key.isidentifier():
+            v.fail("defines", key, "macro names that are identifiers")
+        if value is None and not none_defines:
+            v.fail(f"defines[{key!r}]", value, "a string, a number or True/False (\"\" for a define without a value)")
+    if isinstance(include_dirs, (str, os.PathLike)):
+        include_dirs = [include_dirs]
+    v.positive("timeout", timeout, "a number of seconds > 0")
+    return {"code": code, "source_name": source_name, "entry": entry, "language": language,
+            "defines": sorted((k, _define_value(k, val)) for k, val in defines.items()),
+            "include_dirs": [_utf8("include_dirs", os.fspath(d)) for d in include_dirs] + [str(d) for d in defaults],
+            "device": _device_request(device), "timeout": float(timeout)}
+
+
+class ShaderLaw(ShaderBacked, CustomLaw):
+    """A counting law computed by a shader function on a Vulkan device (see ``shader_law``).
+
+    It is a custom law to the rest of glintlab (sampling, chi-square, sweeps, bounds, extremes,
+    blends, the report), with the shader's output as the count: float32 arithmetic whatever
+    ``precision`` is asked (both give the same numbers). A NaN, infinite or negative count is an
+    error naming the row. ``device`` names the Vulkan device it runs on.
+    """
+
+    kind = "shader law"
+
+    def __init__(self, spec: dict):
+        ShaderBacked.__init__(self, spec)
+        self._kernel  # compiled now: a law that does not compile is refused when made
+        s = self._spec
+        CustomLaw.__init__(self, self._run, s["n_uniforms"], s["name"], s["binning"])
+
+    def _make_kernel(self, s, includes):
+        return _core.ShaderKernel(s["code"], s["source_name"], s["entry"], s["language"], s["n_uniforms"],
+                                  [(k, str(val)) for k, val in s["defines"]], list(s["include_dirs"]), s["device"],
+                                  includes)
 
     @property
     def identity(self) -> str:
         """``shader:<sha256 of the SPIR-V and the device>:<binning>:<name>``: the compiled code (with
         its #includes and defines) and the device that runs it (GPUs differ in pow, exp, log)."""
-        digest = hashlib.sha256(self._kernel.spirv + self.device.encode()).hexdigest()[:16]
-        return f"shader:{digest}:{self._binning}:{self._name}"
+        return f"shader:{self._digest()}:{self._binning}:{self._name}"
 
     def __repr__(self):
         return f"ShaderLaw({self._name!r}, {self.language}, device={self.device!r})"
-
-    def __reduce__(self):  # the code travels by value (Dask workers compile it again)
-        return (ShaderLaw, (self._spec,))
 
     def _run(self, n_rows, p_rows, u):
         out = np.empty(u.shape[0])
@@ -415,34 +489,17 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
     ``RuntimeError`` naming the package to install. A NaN, infinite or negative count from ``sample``
     or ``evaluate`` raises ``ShaderOutputError`` (a ``ValueError``).
     """
-    if language is not None and language not in LANGUAGES:
-        v.fail("language", language, "'hlsl' or 'glsl'")
-    code, source_name, language = _read_source(source, language)
-    if not isinstance(entry, str) or not entry.isidentifier():
-        v.fail("entry", entry, "a function name")
+    spec = kernel_spec(source, language, entry, defines, include_dirs, device, timeout)
     v.integer("n_uniforms", n_uniforms, 0, 4, expected="an integer from 0 to 4")
     if name is None:
-        name = Path(source_name).name if source_name != "<string>" else "shader"
+        name = Path(spec["source_name"]).name if spec["source_name"] != "<string>" else "shader"
     if not isinstance(name, str) or not name:
         v.fail("name", name, "a non-empty string")
     _utf8("name", name)
     if name in {n for n, _ in _core.law_infos()}:
         v.fail("name", name, "a name that no built-in law uses")
-    defines = dict(defines or {})
-    for key in defines:
-        if not isinstance(key, str) or not key.isidentifier():
-            v.fail("defines", key, "macro names that are identifiers")
-    define_list = sorted((k, _define_value(k, val)) for k, val in defines.items())
-    if isinstance(include_dirs, (str, os.PathLike)):
-        include_dirs = [include_dirs]
-    include_dirs = [_utf8("include_dirs", os.fspath(d)) for d in include_dirs]
     v.choice("binning", binning, BINNINGS, "'round' (real outputs, unit bins) or 'none' (integer counts)")
-    v.positive("timeout", timeout, "a number of seconds > 0")
-    device = _device_request(device)
-    spec = {"code": code, "source_name": source_name, "entry": entry, "language": language,
-            "n_uniforms": int(n_uniforms), "name": name, "defines": define_list,
-            "include_dirs": include_dirs, "device": device, "binning": binning,
-            "timeout": float(timeout)}
+    spec.update(n_uniforms=int(n_uniforms), name=name, binning=binning)
     law_ = ShaderLaw(spec)
     if register:
         CUSTOM_LAWS.register(name, law_, replace=True)

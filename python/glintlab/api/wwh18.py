@@ -260,9 +260,11 @@ GLINTY_NDFS.register("wwh18", WWH18)
 # counts with probability 1 - P and renders the surface 1 / p_gamma too bright away from the highlight
 # (docs/math/wwh18.md#wwh18-threshold-test; measured on the scenes: mean 125-275 x the smooth render).
 # Its table takes seconds to build: one evaluator per material (a frozen, hashable dataclass) is kept.
+# Not in the scene images' default panel (the report's flicker and timing tables): rendered on request.
 @functools.lru_cache(maxsize=8)
 def _wwh18_image_method(material) -> WWH18:
     return WWH18(density=material.density, target=material.target, alpha=material.alpha, threshold_test="flipped")
 
 
-register_image_method("wwh18", _wwh18_image_method, label="WWH18 (flipped test)", truth="reference")
+register_image_method("wwh18", _wwh18_image_method, label="WWH18 (flipped test)", truth="reference", panel=False,
+                      doc="docs/math/glint_images.md#glint-methods")

@@ -15,6 +15,7 @@ the "No Glints" column.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 from pathlib import Path
 
@@ -22,8 +23,9 @@ import numpy as np
 
 from ..resources import data_path
 from . import checks as V
-from .counting_shaders import NdfShaderMethod, _spec, tangent_inputs
+from .counting_shaders import NdfShaderMethod, _spec, tangent_inputs, twin_mismatch
 from .glinty_ndf import DB23, Material, register_image_method
+from .method_shaders import ShippedShader
 
 #: ZK16's maximum anisotropy (probes per footprint) and Bernoulli-loop cap, as DB23 describes them.
 ZK16_MAX_ANISO, ZK16_CAP = 16, 16
@@ -115,9 +117,50 @@ def zk16_twin(rows, material: Material, gated: bool = False):
     return out, ok
 
 
+def zk16_variant(material: Material, **defines) -> NdfShaderMethod:
+    """The ZK16 shader with some defines changed (``ZK16_MAX_ANISO=4``, ``ZK16_GATED=...``): the tests'
+    deliberately wrong variants."""
+    return NdfShaderMethod(_spec(zk16_shader("glsl"), "zk16_wrong", {**zk16_defines(material), **defines}),
+                           material.target, material.alpha, material.density)
+
+
+def zk16_compare(rows, material: Material, method=None, gated: bool = False) -> dict:
+    """The ZK16 shader (``gated``: ZK16*; or ``method``) against its C++ twin on the rows the twin defines as
+    the shader does (:func:`zk16_twin`), with ``counting_shaders.twin_mismatch``'s figures; ``beyond`` are
+    indices of ``rows``. Measured on lavapipe (plane_25 at 0.04 and 0.06, plane_90 at 0.05, heightfield_25
+    at 0.05, sphere at 0.06; both laws): 0 pixels beyond the allowance."""
+    method = method if method is not None else zk16_method(material, gated)
+    twin, ok = zk16_twin(rows, material, gated)
+    r = twin_mismatch(method.shade(rows)[ok], twin[ok], rows[ok], material)
+    r["beyond"] = np.nonzero(ok)[0][r["beyond"]]
+    return r
+
+
+def smooth_compare(rows, material: Material, method=None) -> dict:
+    """The no-glints shader (or ``method``) against the smooth NDF D(h) of the same rows (relative 1e-4:
+    float32 transcendentals): ``share`` and ``beyond`` of the pixels beyond it, ``pixels``."""
+    method = method if method is not None else smooth_method(material)
+    _, _, h, _ = tangent_inputs(rows)
+    ref = zk16_twin_ndf(material).smooth(h)
+    bad = ~(np.abs(method.shade(rows) - ref) <= 1e-4 * np.abs(ref))
+    return {"share": float(bad.mean()) if bad.size else 0.0, "pixels": int(bad.size), "beyond": np.nonzero(bad)[0]}
+
+
 # ZK16 and its gated variant as method shaders (NDF image methods, compiled on first use, not in the
 # default panel), and the no-glints baseline. Their own truth is the facet truth, as for the C++ methods.
-register_image_method("zk16_shader", lambda m: zk16_method(m), label="ZK16 shader (GLSL)", returns="ndf")
+# Their wrong variants: fewer probes (maximum anisotropy 4) and the other law; the baseline's, the other
+# target NDF.
+_DOC = "docs/guide/gpu_cost.md#the-method-shaders-of-the-two-tables"
+register_image_method("zk16_shader", lambda m: zk16_method(m), label="ZK16 shader (GLSL)", returns="ndf", panel=False,
+                      doc=_DOC, shader=ShippedShader("zk16_method", zk16_compare, lambda m: {
+                          "maximum anisotropy 4": zk16_variant(m, ZK16_MAX_ANISO=4),
+                          "the gated law": zk16_variant(m, ZK16_GATED=1)}))
 register_image_method("zk16_gated_shader", lambda m: zk16_method(m, gated=True), label="ZK16* gated shader (GLSL)",
-                      returns="ndf")
-register_image_method("smooth_shader", lambda m: smooth_method(m), label="No glints shader (GLSL)", returns="ndf")
+                      returns="ndf", panel=False, doc=_DOC,
+                      shader=ShippedShader("zk16_method", functools.partial(zk16_compare, gated=True), lambda m: {
+                          "maximum anisotropy 4": zk16_variant(m, ZK16_MAX_ANISO=4, ZK16_GATED=1),
+                          "ZK16's own law": zk16_variant(m, ZK16_GATED=0)}))
+register_image_method("smooth_shader", lambda m: smooth_method(m), label="No glints shader (GLSL)", returns="ndf",
+                      panel=False, doc=_DOC, shader=ShippedShader("smooth_method", smooth_compare, lambda m: {
+                          "the other target": smooth_method(dataclasses.replace(
+                              m, target="ggx" if m.target == "beckmann" else "beckmann"))}))

@@ -18,12 +18,14 @@ more than ``lighting_max_z`` standard errors.
 """
 from __future__ import annotations
 
+import inspect
+
 import numpy as np
 import pandas as pd
 
 from ..api.glinty_ndf import glinty_ndf
 from ..api.ndf import NDF
-from ..api.samplers import sampler, wrong_sampler
+from ..api.samplers import SAMPLERS, sampler, samplers, wrong_sampler
 from ..api.shader_samplers import shader_sampler, shipped_sampler
 from ..api.shaders import vulkan_devices
 from ..validation.furnace import furnace
@@ -62,13 +64,24 @@ TABLE = {"sampling_verdicts": ["sampler", "variant", "pvalue", "bins", "lost", "
                                     "z_without_compensation", "compensation_share", "relative_std_per_sample"]}
 
 
+def _rough_samplers(alpha: float, wo) -> list:
+    """Every registered sampler with a roughness (its class takes ``alpha``), at the study's alpha and,
+    where it takes one, its ``wo``: read from the registry, so a new one is tested here too (the spiky
+    pdf, which takes neither, has its own table)."""
+    out = []
+    for name in samplers():
+        params = inspect.signature(SAMPLERS.get(name)).parameters
+        if "alpha" in params:
+            out.append(sampler(name, alpha=alpha, **({"wo": wo} if "wo" in params else {})))
+    return out
+
+
 def compute(params: dict, ctx: Context) -> Tables:
     n, sig, alpha = int(params["samples"]), float(params["significance"]), float(params["alpha"])
     th = np.radians(float(params["wo_theta_deg"]))
     wo = (float(np.sin(th)), 0.0, float(np.cos(th)))
     rows, failures = [], []
-    bases = [sampler("beckmann", alpha=alpha), sampler("ggx", alpha=alpha),
-             sampler("ggx_vndf", alpha=alpha, wo=wo), sampler("beckmann_vndf", alpha=alpha, wo=wo)]
+    bases = _rough_samplers(alpha, wo)
     if vulkan_devices():  # the shipped shader sampler, run on Vulkan (lavapipe where there is no GPU)
         bases.append(shader_sampler(shipped_sampler("ggx_vndf"), wo=wo, defines={"ALPHA": alpha},
                                     name="ggx_vndf.hlsl (shader)"))

@@ -9,10 +9,11 @@ import numpy as np
 import pandas as pd
 
 from ..api import checks as V
-from ..api.glinty_ndf import DENSITY_MAPPINGS
+from ..api.glinty_ndf import panel_methods
+from ..api.method_shaders import shipped_method_shaders
 from ..resources import data_path
 from ..validation.scene import table1_scenes
-from ..validation.scene_images import (ANGULAR_TEXEL, DEFAULT_METHODS, IMAGE_METHODS, SUPERSAMPLE, TAU, aliasing_table,
+from ..validation.scene_images import (ANGULAR_TEXEL, IMAGE_METHODS, SUPERSAMPLE, TAU, aliasing_table,
                                        flicker_table, render_path, sparkle_table, time_methods, with_density)
 from .base import Context, Tables
 from .scene_frames import (FACETS, frames_of_path, display_bytes, own_truth_key, path_tiles, render_frames,
@@ -37,7 +38,9 @@ DEFAULTS = {
     "zoom": 0.99,
     "angular_texel": ANGULAR_TEXEL,
     "tau": TAU,
-    "methods": ",".join(DEFAULT_METHODS),
+    # "panel": every image method whose registry entry is in the panel (panel_methods(), read when the
+    # section runs: a method registered after glintlab's import is rendered too), as any other name list.
+    "methods": "panel",
     "timing_scene": "plane_25",
     # Seconds per image at 960 x 540 (a quarter of 1920 x 1080's pixels: every method's cost is per pixel,
     # and timing ten methods at full size cost the report about 13 s; `glintlab images` can time any size).
@@ -76,7 +79,9 @@ TABLE = {"scene_images_flicker": ["scene", "method", "std_ratio", "pop_rate", "p
 
 
 def _names(param: str, value: str) -> list[str]:
+    """The image method names of a comma-separated list, "panel" standing for ``panel_methods()``."""
     names = [s.strip() for s in str(value).split(",") if s.strip()]
+    names = list(dict.fromkeys(m for n in names for m in (panel_methods() if n == "panel" else [n])))
     if not names:
         V.fail(param, value, "a comma-separated list of image method names")
     for n in names:
@@ -168,8 +173,9 @@ def viewer_scene(sc, path, methods, params: dict, ctx: Context):
 def density_statement(methods) -> str:
     """What the densities of the methods shown are. Every method runs at the scene's facet density N:
     KPT25's point density K_P = N and WWH18's flake density = N; no mapping to equal expected glint
-    counts between KPT25 and DB23 is applied (``glinty_ndf.DENSITY_MAPPINGS`` holds them: KPT25's is ``gl.matched_density``)."""
-    mapped = [m for m in methods if m in DENSITY_MAPPINGS]
+    counts between KPT25 and DB23 is applied (an image method's registry entry holds its mapping, ``density``:
+    KPT25's is ``gl.matched_density``)."""
+    mapped = [m for m in methods if IMAGE_METHODS.get(m).density is not None]
     base = "every method at the scene's facet density N (KPT25's point density K_P = N, WWH18's flake density = N)"
     if mapped:
         return (base.replace("every method", "every method not listed") + "; matched to equal expected glint counts: "
@@ -207,7 +213,9 @@ def _aliasing(scenes, params: dict, ctx: Context, stats: dict) -> dict:
         if sp not in by_name:
             V.fail("sparkle_scene", sp, f"one of the scenes {', '.join(by_name)} or ''")
         rows = []
-        for name in _usable(["wb16", "wb16_star", "wb16_lookup_noise"], stats):
+        # WB16's claims, for every image method its shader computes (the paper's method and its baselines).
+        wb16 = [n for n, entry in shipped_method_shaders().items() if entry.files == "wb16"]
+        for name in _usable(wb16, stats):
             rows.append(sparkle_table(by_name[sp].scaled(V.real("sparkle_scale", params["sparkle_scale"])), name,
                                       seed=ctx.seed))
         if rows:

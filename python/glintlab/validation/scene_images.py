@@ -16,7 +16,9 @@ temporal standard deviation and pops.
 
 A new method is one entry: ``register_image_method("name", lambda m: evaluator, label="...", truth=...)``,
 with ``m`` the scene's :class:`Material` (density, target NDF, alpha, R, angular texel) and ``truth`` the
-kind of its own truth ("facets", "reference", "supersampled"; docs/math/glint_images.md#glint-own-truth):
+kind of its own truth ("facets", "reference", "supersampled"; docs/math/glint_images.md#glint-own-truth);
+the entry also says whether the default panel renders it (``panel``, :func:`panel_methods`, read when a
+render starts) and the density it runs at (``density``):
 :func:`render_path` renders each method's own truth beside it and :func:`flicker_table` reads the
 flicker against it (``own_*`` columns) and against the smooth image. :func:`shading` is the microfacet
 BRDF's factor that turns an NDF image into the radiance the panels show; :func:`aliasing_table` and
@@ -36,7 +38,7 @@ import numpy as np
 import pandas as pd
 
 from ..api import checks as V
-from ..api.glinty_ndf import (ANGULAR_TEXEL, BUILTIN_IMAGE_METHODS, IMAGE_METHODS, ImageMethod, Material,  # noqa: F401
+from ..api.glinty_ndf import (ANGULAR_TEXEL, IMAGE_METHODS, ImageMethod, Material, panel_methods,  # noqa: F401
                               SmoothNDF, image_methods, make_method, register_image_method)
 from ..api.method_shaders import ShaderMethod, shader_seed
 from .scene import SCENES_DIR, Scene, _unit, load_scene
@@ -45,9 +47,8 @@ TAU = 2.0             # a pixel shows a glint when its NDF value exceeds TAU x D
 
 
 # --------------------------------------------------------------------------------------------------
-# The image methods: one registry, in glintlab.api.glinty_ndf (re-exported here)
-
-DEFAULT_METHODS = BUILTIN_IMAGE_METHODS
+# The image methods: one registry, in glintlab.api.glinty_ndf (re-exported here); the default ones are
+# ``panel_methods()``, read from the registry when a render starts (a method registered later included).
 
 
 # --------------------------------------------------------------------------------------------------
@@ -380,6 +381,7 @@ def _path_setup(scene: Scene, methods, seed, angular_texel: float, directional: 
     (under one directional light unless ``directional`` is False), its material and the methods'
     evaluators. Returns (seed, scene, material, {name: evaluator})."""
     seed = V.seed(seed)
+    methods = panel_methods() if methods is None else methods
     if isinstance(methods, str) or not len(methods):
         V.fail("methods", methods, "a non-empty list of image method names")
     for name in methods:
@@ -394,14 +396,16 @@ def _path_setup(scene: Scene, methods, seed, angular_texel: float, directional: 
     return seed, scene, mat, evaluators
 
 
-def render_path(scene: Scene, methods=DEFAULT_METHODS, frames: int = 8, pan_px: float = 0.25, zoom: float = 0.99,
+def render_path(scene: Scene, methods=None, frames: int = 8, pan_px: float = 0.25, zoom: float = 0.99,
                 seed: int = 1, angular_texel: float = ANGULAR_TEXEL, directional: bool = True,
                 own_truths: bool = True, supersample: int = SUPERSAMPLE) -> PathImages:
     """Every method's images of ``scene`` along :func:`camera_path` (one directional light unless
     ``directional`` is False). The inputs of each frame are computed once and shared. With
     ``own_truths`` each method's own truth is rendered too (``PathImages.truths``, :func:`truth_kind`;
-    "supersampled" with ``supersample`` x ``supersample`` sub-pixels)."""
+    "supersampled" with ``supersample`` x ``supersample`` sub-pixels). ``methods``: default the panel's
+    (``panel_methods()``)."""
     seed, scene, mat, evaluators = _path_setup(scene, methods, seed, angular_texel, directional)
+    methods = list(evaluators)
     smooth = SmoothNDF(mat.target, mat.alpha)
     path = camera_path(scene, frames, pan_px, zoom)
     shape = (frames, scene.height, scene.width)
@@ -441,10 +445,11 @@ def render_path(scene: Scene, methods=DEFAULT_METHODS, frames: int = 8, pan_px: 
     return PathImages(scene.name, images, target, mask, seconds, t_in, mat, truths, shade, t_truth)
 
 
-def time_methods(scene: Scene, methods=DEFAULT_METHODS, seed: int = 1, angular_texel: float = ANGULAR_TEXEL,
+def time_methods(scene: Scene, methods=None, seed: int = 1, angular_texel: float = ANGULAR_TEXEL,
                  repeats: int = 1) -> pd.DataFrame:
     """Seconds per image of each method on the first frame of ``scene`` at its own resolution (best of
-    ``repeats``), with the shared per-frame inputs timed once."""
+    ``repeats``), with the shared per-frame inputs timed once. ``methods``: default the panel's."""
+    methods = panel_methods() if methods is None else methods
     scene = with_directional_light(scene)
     mat = Material.of(scene, angular_texel)
     inp = frame_inputs(scene)

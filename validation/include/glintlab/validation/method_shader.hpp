@@ -24,6 +24,10 @@ constexpr std::size_t kMethodInputWords = 32;
 // channels = 1, a float3 result with channels = 3.
 constexpr std::size_t kMethodOutputWords = 4;
 
+// The method shader's wrapper declaration (glintlab/validation/shader.hpp): GlintInput's fields at
+// their words of the row, the float or float3 result stored with its channel count.
+WrapperDeclaration method_wrapper(const std::string& entry);
+
 // The wrapper kernel around the user's `entry` (for the docs and for tests).
 std::string method_wrapper_source(const std::string& language, const std::string& entry,
                                   const std::string& include_name);

@@ -25,6 +25,10 @@ constexpr std::size_t kSamplerInputWords = 16;
 // One row of the output: sample_h's (h.x, h.y, h.z, pdf) in mode 0, (pdf, 0, 0, 0) in mode 1.
 constexpr std::size_t kSamplerOutputWords = 4;
 
+// The shader sampler's wrapper declaration (glintlab/validation/shader.hpp): the row's words, and the
+// mode word choosing the call of sample_h or of pdf_h.
+WrapperDeclaration sampler_wrapper(const std::string& sample_entry, const std::string& pdf_entry);
+
 // The expected signatures of the two functions, as compile errors name them.
 std::string sampler_signature(const std::string& language, const std::string& sample_entry,
                               const std::string& pdf_entry);

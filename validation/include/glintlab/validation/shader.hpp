@@ -81,17 +81,74 @@ struct SpirvResource {
   int binding = -1;  // Binding decoration (-1: none)
 };
 
+// ---------------------------------------------------------------- wrapper kernels, one generator
+// Every kind of shader (a counting law, a method shader, a shader sampler) is the user's function(s)
+// inside a compute kernel of glintlab's. One generator writes that kernel, in HLSL or GLSL, from the
+// kind's declaration: the push constant, the storage buffers, the values the entry reads (each a
+// field of a type at a word of the input row), the call and its stores. The resources the SPIR-V may
+// declare and the signature compile errors name come from the same declaration. The texts of a
+// declaration are written in GLSL's spelling; HLSL gets them with its own type names and bit casts
+// (vec2 -> float2, ..., uvec2 -> uint2, uintBitsToFloat -> asfloat), word for word; `$0` and `$1`
+// stand for the entry functions' names.
+
+constexpr unsigned kWorkGroupSize = 64;  // threads per work group, in every wrapper and in the dispatch
+
+// A storage buffer of the kernel, at descriptor set 0.
+struct WrapperBuffer {
+  int binding = 0;
+  std::string variable;  // HLSL: the variable; GLSL: the block's array ("glintlab_in")
+  std::string block;     // GLSL: the block's type name ("GlintlabIn")
+  std::string element;   // GLSL spelling: "float", "vec4", "uint"
+  bool written = false;  // the kernel writes it (RWStructuredBuffer, writeonly); else reads it
+};
+
+// A value the kernel reads for the entry. From the input row (binding 0, uint words at row i *
+// in_stride): `word` is its first word, floats (float, vec2..vec4) are float32 bits, integers (uint,
+// uvec2) the words themselves. Or, where `read` is given, that expression (a buffer of its own).
+struct WrapperField {
+  WrapperField(std::string name_, std::string type_, int word_)  // from the row
+      : name(std::move(name_)), type(std::move(type_)), word(word_) {}
+  WrapperField(std::string name_, std::string type_, std::string read_)  // its own expression
+      : name(std::move(name_)), type(std::move(type_)), read(std::move(read_)) {}
+  std::string name;
+  std::string type;  // GLSL spelling: "float", "vec2", "vec3", "vec4", "uint", "uvec2"
+  int word = -1;
+  std::string read;  // GLSL spelling; "" to read the row's words
+};
+
+struct WrapperDeclaration {
+  std::string header;                  // glintlab's include before the user's code: "glintlab_method" reads
+                                       // glintlab_method_hlsl.h / glintlab_method_glsl.h ("": none)
+  std::vector<std::string> push;       // the push constant's three words after `count`
+  std::vector<WrapperBuffer> buffers;  // by binding
+  std::string record;                  // "GlintInput g": the fields are this struct's members ("": locals)
+  std::vector<WrapperField> fields;
+  std::string helpers;               // functions before the kernel's main
+  std::string call;                  // main's last lines: the entry's call and the stores
+  std::string signature;             // the entry's expected signature(s), for compile errors
+  std::vector<std::string> entries;  // the names $0, $1 stand for
+};
+
+// The kernel's source in `language` ("hlsl" or "glsl"); `include_name` is the user's file.
+std::string generate_wrapper(const WrapperDeclaration& kind, const std::string& language,
+                             const std::string& include_name);
+// The declaration's signature in `language`.
+std::string wrapper_signature(const WrapperDeclaration& kind, const std::string& language);
+// The resources the declaration's kernel binds (both languages' names): all the SPIR-V may declare.
+std::vector<SpirvResource> wrapper_resources(const WrapperDeclaration& kind);
+// A counting law's declaration: float entry(float n, float p, vec4 u) over n, p, u buffers.
+WrapperDeclaration law_wrapper(const std::string& entry);
+
 class Kernel {
  public:
-  // Compiles (or finds in the cache) and builds the pipeline. Throws std::invalid_argument with the
-  // compiler's messages (file:line) for code that does not compile or lacks the expected entry.
+  // A counting law's kernel (law_wrapper(spec.entry)). Compiles (or finds in the cache) and builds the
+  // pipeline. Throws std::invalid_argument with the compiler's messages (file:line) for code that does
+  // not compile or lacks the expected entry.
   explicit Kernel(const KernelSpec& spec);
-  // A kernel with its own wrapper (method shaders, glintlab/validation/method_shader.hpp): `wrapper`
-  // replaces the counting-law wrapper (same bindings 0..3 and push constants) and `signature` names the
-  // entry's expected signature in compile errors. `allowed`: the wrapper's own resources (empty: those
-  // of wrapper_source); the SPIR-V may declare no other (require_resources).
-  Kernel(const KernelSpec& spec, const std::string& wrapper, const std::string& signature,
-         const std::vector<SpirvResource>& allowed = {});
+  // A kernel of another kind (method shaders, shader samplers): its wrapper generated from `kind`
+  // (same bindings 0..3 and push constant layout); the SPIR-V may declare no resource but the
+  // declaration's (require_resources).
+  Kernel(const KernelSpec& spec, const WrapperDeclaration& kind);
   ~Kernel();
   Kernel(const Kernel&) = delete;
   Kernel& operator=(const Kernel&) = delete;
@@ -123,7 +180,8 @@ class Kernel {
   std::shared_ptr<Impl> impl_;
 };
 
-// The wrapper kernel glintlab puts around the user's function (for the docs and for tests).
+// The wrapper kernel glintlab puts around the user's counting function (for the docs and for tests):
+// generate_wrapper(law_wrapper(entry), language, include_name).
 std::string wrapper_source(const std::string& language, const std::string& entry, const std::string& include_name);
 
 // ---------------------------------------------------------------- the compile path, piece by piece
@@ -157,9 +215,6 @@ std::vector<SpirvResource> spirv_resources(const std::vector<std::uint32_t>& spi
 // driver (a descriptor set the pipeline layout lacks).
 void require_resources(const std::vector<std::uint32_t>& spirv, const std::vector<SpirvResource>& allowed,
                        const std::string& source_name, const std::string& contract);
-
-// The resources of wrapper_source's kernel (both languages' names).
-std::vector<SpirvResource> wrapper_resources();
 
 // Loops (OpLoopMerge) whose trip count is not shown to be at most 65535 by the pattern
 // "phi from a constant, stepped by a constant, compared with a constant": lavapipe (llvmpipe) stops
