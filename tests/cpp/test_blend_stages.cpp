@@ -222,7 +222,7 @@ TEST_CASE("stage 3: a row's level counts are the inner law on its (seed, row, le
   }
 }
 
-TEST_CASE("stage 3: positioned rows in one level cell share its count; one footprint draws what rows do",
+TEST_CASE("stage 3: positioned rows in one level cell share its count, and one footprint draws what rows do",
           "[blend][stages]") {
   const LevelLadder ladder(4, 1);
   const auto law = law_named("gated");

@@ -210,7 +210,7 @@ void ggx_pilot(double alpha, std::size_t n, std::vector<double>& s, std::vector<
 }
 }  // namespace
 
-TEST_CASE("a near-specular pdf is unresolved; a resolvable one is not", "[sampler_test]") {
+TEST_CASE("a near-specular pdf is unresolved, a resolvable one is not", "[sampler_test]") {
   for (double alpha : {0.3, 1e-4}) {
     std::vector<double> s, t, q;
     ggx_pilot(alpha, 20000, s, t, q);

@@ -7,6 +7,7 @@ import re
 import sys
 from pathlib import Path
 
+from ..api import checks as V
 from ..api.gpu_cost import DEFAULT_ARCHS, gpu_architectures, gpu_cost
 from .common import print_table
 
@@ -45,7 +46,7 @@ def run(args) -> int:
         print_table(gpu_architectures(), False)
         return 0
     if args.shader is None:
-        raise ValueError("SHADER = None is invalid; expected a shader file or a shipped shader's name")
+        V.fail("SHADER", None, "a shader file or a shipped shader's name")
     defines = {}
     for item in args.define:
         key, sep, value = item.partition("=")

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from ..api import checks as V
 from ..validation.scene_images import (INTENSITY_GLINT_LEVEL, IMAGE_METHODS, SUPERSAMPLE, Material, SmoothNDF,
                                        frame_inputs, glint_mask, make_method, reference_image, render,
                                        shading, supersampled, truth_kind, with_directional_light)
@@ -208,7 +209,7 @@ def tone_curve(x, tone: str = "aces") -> np.ndarray:
         return x / (1.0 + x)
     if tone == "aces":
         return np.clip(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0)
-    raise ValueError(f"tone = {tone!r} is invalid: expected one of {', '.join(TONE_CURVES)}")
+    V.fail("tone", tone, "one of " + ", ".join(TONE_CURVES))
 
 
 def srgb_encode(y) -> np.ndarray:
