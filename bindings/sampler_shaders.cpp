@@ -33,8 +33,8 @@ void bind_sampler_shaders(py::module_& m) {
       [](const std::string& source, const std::string& source_name, const std::string& language,
          const std::vector<std::pair<std::string, std::string>>& defines, const std::vector<std::string>& include_dirs,
          const std::vector<std::pair<std::string, std::string>>& include_files) {
-        shader::KernelSpec spec{source, source_name, "sample_h", language, 0, defines, include_dirs, "auto",
-                                include_files};
+        shader::KernelSpec spec{source,  source_name,  "sample_h", language,     0,
+                                defines, include_dirs, "auto",     include_files};
         return shader::sampler_functions(spec);
       },
       py::arg("source"), py::arg("source_name"), py::arg("language"), py::arg("defines"), py::arg("include_dirs"),

@@ -1,7 +1,7 @@
 // Shader samplers (glintlab/validation/sampler_shader.hpp): the sampler's declarations (its row's words,
 // the mode's two calls), from which the one generator writes the wrapper kernel around the user's
-// sample_h and pdf_h, or sample_l and pdf_l; compiled and run by the shader runner on its row path (Kernel::run_rows), as
-// method shaders are (method_runner.cpp).
+// sample_h and pdf_h, or sample_l and pdf_l; compiled and run by the shader runner on its row path (Kernel::run_rows),
+// as method shaders are (method_runner.cpp).
 #include "glintlab/validation/sampler_shader.hpp"
 
 #include <algorithm>
