@@ -45,8 +45,11 @@ def test_the_l_example_passes_and_is_the_h_example_seen_as_l(language):
 
 def test_an_h_sampler_is_tested_on_reflected_directions():
     s = gl.shader_sampler(gl.shipped_sampler("ggx_vndf"), wo=WO, directions="reflected", defines={"ALPHA": 0.4})
-    res = gl.sampler_test(s, samples=N, seed=SEED, significance=ALPHA)
+    res = gl.sampler_test(s, samples=N, seed=1, significance=ALPHA)
     assert s.contract == "h" and res.passed and res.lost > 0, repr(res)
+    # 27337 lost where 27505 +- 166 are expected (13.7 % of the draws below the horizon): a shortfall within
+    # the Poisson noise, which the normalization note does not report as one.
+    assert "below 1, yet only" not in res.note, res.note
     assert s.identity != gl.shader_sampler(gl.shipped_sampler("ggx_vndf"), wo=WO, defines={"ALPHA": 0.4}).identity
 
 
