@@ -1,5 +1,5 @@
 """One option set for the commands that compile the user's shader code (issue 38, item 5): `glintlab shader`,
-`sampler` and `images` take -I/--include-dir, -D/--define NAME=VALUE and --device from one definition
+`sampler`, `images` (and `cost`) take -I/--include-dir, -D/--define NAME=VALUE and --device from one definition
 (cli/common.py: add_shader_options, read back by shader_options), and every --samples takes 2e5.
 No statistical verdict here: the sampler runs below check exit codes of verdicts whose false-failure rate is
 the harness's significance 1e-3 (seed 1), and the defines are checked by compile errors, which cannot pass
@@ -16,7 +16,7 @@ from glintlab.cli.common import add_shader_options, shader_options
 from glintlab.cli.main import build_parser, main
 from glintlab.resources import data_path
 
-COMMANDS = ("shader", "sampler", "images")
+COMMANDS = ("shader", "sampler", "images", "cost")
 needs_vulkan = pytest.mark.skipif(not gl.vulkan_devices(), reason="no Vulkan device (install mesa-vulkan-drivers)")
 
 
