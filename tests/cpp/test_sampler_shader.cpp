@@ -127,12 +127,14 @@ TEST_CASE("shader samplers: the shipped GGX VNDF pdf_h is the visible-normal den
 TEST_CASE("shader samplers: the contract on l, and the functions read from the preprocessed code",
           "[shader][sampler-shader]") {
   // The functions the code declares, its #includes and defines expanded (no device needed).
-  const std::string shipped = "#define GLINTLAB_HLSL\n#include \"glintlab_prelude.h\"\n#include \"ggx_vndf_l_body.h\"\n";
+  const std::string shipped =
+      "#define GLINTLAB_HLSL\n#include \"glintlab_prelude.h\"\n#include \"ggx_vndf_l_body.h\"\n";
   CHECK(sampler_functions(sampler_spec(shipped, "hlsl")) == std::vector<std::string>{"sample_l", "pdf_l"});
   auto helpers = sampler_spec("#define GGX_VNDF_HELPERS_ONLY\n#include \"ggx_vndf_body.h\"\n", "hlsl");
   CHECK(sampler_functions(helpers).empty());
   helpers.defines = {{"EXTRA", "1"}};
-  helpers.source += "#ifdef EXTRA\nfloat pdf_h(float2 uv, float4 J, float3 wo, float3 h) { return pdf_l(h); }\n#endif\n";
+  helpers.source +=
+      "#ifdef EXTRA\nfloat pdf_h(float2 uv, float4 J, float3 wo, float3 h) { return pdf_l(h); }\n#endif\n";
   CHECK(sampler_functions(helpers) == std::vector<std::string>{"pdf_h"});  // a call is no declaration
   CHECK(sampler_signature("glsl", "sample_l", "pdf_l", "l") ==
         "vec4 sample_l(vec2 uv, vec4 J, vec3 wo, vec4 u) and float pdf_l(vec2 uv, vec4 J, vec3 wo, vec3 l)");
