@@ -4,10 +4,10 @@ and a deliberately wrong sampler per contract (the 4 (wo.h) Jacobian mishandled)
 as l through glintlab's conversion, an engine's pdf defined only where the engine calls it (clamp_pdf), and
 `glintlab sampler --domain reflected --clamp-pdf`.
 
-False-failure rates: each verdict on a correct sampler uses significance 1e-3, and this file has eight of them
-(the L example in two languages, the h example as l, the engine-style pdf clamped, the two CLI runs, and
-two at 1e-3 in the clamp tests), so a run fails by chance with probability below 1e-2; the seeds are fixed,
-so a run is reproducible. The wrong samplers are rejected at p = 0 (double precision), with the pdf's
+False-failure rates: each verdict on a correct sampler uses significance 1e-3, and this file has six of them
+(the L example in two languages, the h example as l, the engine-style pdf clamped, and the two passing CLI
+runs), so a run fails by chance with probability below 6e-3; the seeds are fixed, so a run is
+reproducible. The wrong samplers are rejected at p = 0 (double precision), with the pdf's
 integral off 1 by far more than its error (measured values in each comment, N = 2e5, seed 11, lavapipe)."""
 from __future__ import annotations
 
