@@ -25,23 +25,36 @@ void bind_sampler_shaders(py::module_& m) {
   m.attr("SAMPLER_INPUT_WORDS") = shader::kSamplerInputWords;
   m.attr("SAMPLER_OUTPUT_WORDS") = shader::kSamplerOutputWords;
   m.def("sampler_wrapper_source", &shader::sampler_wrapper_source, py::arg("language"), py::arg("sample_entry"),
-        py::arg("pdf_entry"), py::arg("include_name"));
+        py::arg("pdf_entry"), py::arg("include_name"), py::arg("contract") = "h");
   m.def("sampler_signature", &shader::sampler_signature, py::arg("language"), py::arg("sample_entry"),
-        py::arg("pdf_entry"));
+        py::arg("pdf_entry"), py::arg("contract") = "h");
+  m.def(
+      "sampler_functions",
+      [](const std::string& source, const std::string& source_name, const std::string& language,
+         const std::vector<std::pair<std::string, std::string>>& defines, const std::vector<std::string>& include_dirs,
+         const std::vector<std::pair<std::string, std::string>>& include_files) {
+        shader::KernelSpec spec{source,  source_name,  "sample_h", language,     0,
+                                defines, include_dirs, "auto",     include_files};
+        return shader::sampler_functions(spec);
+      },
+      py::arg("source"), py::arg("source_name"), py::arg("language"), py::arg("defines"), py::arg("include_dirs"),
+      py::arg("include_files") = std::vector<std::pair<std::string, std::string>>{});
   py::class_<SamplerKernel>(m, "SamplerKernel")
       .def(py::init([](const std::string& source, const std::string& source_name, const std::string& sample_entry,
                        const std::string& pdf_entry, const std::string& language,
                        const std::vector<std::pair<std::string, std::string>>& defines,
                        const std::vector<std::string>& include_dirs, const std::string& device,
-                       const std::vector<std::pair<std::string, std::string>>& include_files) {
+                       const std::vector<std::pair<std::string, std::string>>& include_files,
+                       const std::string& contract) {
              shader::KernelSpec spec{source, source_name, sample_entry, language, 0, defines, include_dirs, device,
                                      include_files};
              glintlab::bindings::LongCall release;
-             return SamplerKernel{shader::sampler_kernel(spec, pdf_entry)};
+             return SamplerKernel{shader::sampler_kernel(spec, pdf_entry, contract)};
            }),
            py::arg("source"), py::arg("source_name"), py::arg("sample_entry"), py::arg("pdf_entry"),
            py::arg("language"), py::arg("defines"), py::arg("include_dirs"), py::arg("device"),
-           py::arg("include_files") = std::vector<std::pair<std::string, std::string>>{})
+           py::arg("include_files") = std::vector<std::pair<std::string, std::string>>{},
+           py::arg("contract") = "h")
       .def_property_readonly("device", [](const SamplerKernel& k) { return k.kernel->device_name(); })
       .def_property_readonly("device_type", [](const SamplerKernel& k) { return k.kernel->device_type(); })
       .def_property_readonly("unbounded_loops", [](const SamplerKernel& k) { return k.kernel->unbounded_loops(); })

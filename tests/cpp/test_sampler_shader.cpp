@@ -123,3 +123,48 @@ TEST_CASE("shader samplers: the shipped GGX VNDF pdf_h is the visible-normal den
   for (std::size_t i = 0; i < rows; ++i)
     CHECK(out[i * kSamplerOutputWords] == Approx(want[i]).epsilon(3e-5).margin(1e-6));
 }
+
+TEST_CASE("shader samplers: the contract on l, and the functions read from the preprocessed code",
+          "[shader][sampler-shader]") {
+  // The functions the code declares, its #includes and defines expanded (no device needed).
+  const std::string shipped =
+      "#define GLINTLAB_HLSL\n#include \"glintlab_prelude.h\"\n#include \"ggx_vndf_l_body.h\"\n";
+  CHECK(sampler_functions(sampler_spec(shipped, "hlsl")) == std::vector<std::string>{"sample_l", "pdf_l"});
+  auto helpers = sampler_spec("#define GGX_VNDF_HELPERS_ONLY\n#include \"ggx_vndf_body.h\"\n", "hlsl");
+  CHECK(sampler_functions(helpers).empty());
+  helpers.defines = {{"EXTRA", "1"}};
+  helpers.source +=
+      "#ifdef EXTRA\nfloat pdf_h(float2 uv, float4 J, float3 wo, float3 h) { return pdf_l(h); }\n#endif\n";
+  CHECK(sampler_functions(helpers) == std::vector<std::string>{"pdf_h"});  // a call is no declaration
+  CHECK(sampler_signature("glsl", "sample_l", "pdf_l", "l") ==
+        "vec4 sample_l(vec2 uv, vec4 J, vec3 wo, vec4 u) and float pdf_l(vec2 uv, vec4 J, vec3 wo, vec3 l)");
+  CHECK_THROWS_AS(sampler_signature("glsl", "sample_l", "pdf_l", "x"), std::invalid_argument);
+  if (vulkan_devices().empty()) {
+    WARN("no Vulkan device: install mesa-vulkan-drivers");
+    return;
+  }
+  // The l wrapper: mode 0 calls sample_l, mode 1 pdf_l with l read from words 10..12.
+  auto spec = sampler_spec(
+      "float4 sample_l(float2 uv, float4 J, float3 wo, float4 u) { return float4(u.x, wo.y, uv.x, J.z); }\n"
+      "float pdf_l(float2 uv, float4 J, float3 wo, float3 l) { return l.x + 10.0 * l.y + 100.0 * l.z; }\n",
+      "hlsl");
+  spec.entry = "sample_l";
+  auto k = sampler_kernel(spec, "pdf_l", "l");
+  std::vector<float> in(2 * kSamplerInputWords, 0.0f), out(2 * kSamplerOutputWords, -1.0f);
+  for (std::size_t i = 0; i < 2; ++i) {
+    put(in, i, 0, 0.25f);
+    put(in, i, 4, 0.5f);
+    put(in, i, 7, 0.75f);
+    for (std::size_t w = 10; w < 13; ++w) put(in, i, w, 0.1f * static_cast<float>(w - 9));
+    put_mode(in, i, static_cast<std::uint32_t>(i));
+  }
+  run_sampler(*k, in.data(), 2, out.data(), 10.0);
+  CHECK(out[0] == 0.1f);
+  CHECK(out[1] == 0.75f);
+  CHECK(out[2] == 0.25f);
+  CHECK(out[3] == 0.5f);
+  CHECK(out[kSamplerOutputWords] == Approx(0.1 + 10 * 0.2 + 100 * 0.3).epsilon(1e-6));
+  // The h contract's function names do not meet the l contract.
+  spec.entry = "sample_h";
+  CHECK_THROWS_AS(sampler_kernel(spec, "pdf_h", "h"), std::invalid_argument);
+}

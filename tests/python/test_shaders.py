@@ -318,13 +318,18 @@ def test_shipped_shaders_are_declared_by_the_law_traits():
     assert all(gl.law_traits(law)["shader"] == shader for shader, law in declared.items())
     assert gl.law_traits("binomial")["shader"] == ""
     from glintlab.api.method_shaders import shipped_method_shaders
-    from glintlab.api.shader_samplers import SHIPPED_SAMPLERS  # the third kind: direction samplers
+    from glintlab.api.shader_samplers import SHIPPED_SAMPLERS, WRONG_SAMPLERS  # the third kind: direction samplers
     methods = {e.files for e in shipped_method_shaders().values()}  # their registry entries name their files
-    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl") if p.stem not in methods and p.stem not in SHIPPED_SAMPLERS}
+    samplers = {*SHIPPED_SAMPLERS, *WRONG_SAMPLERS}
+    wrappers = {p.stem for p in SHADER_DIR.glob("*.[hg]lsl") if p.stem not in methods and p.stem not in samplers}
     assert wrappers == set(declared)
     assert S.shipped_shader("gated_shader", "glsl") == S.shipped_shader("gated", "glsl")  # the law's name too
     with pytest.raises(ValueError, match="a shipped shader among"):
         S.shipped_shader("binomial")
+
+
+# The contracts' entries, which every shipped body of their kind defines (the sampler's wrong variants too).
+CONTRACT_ENTRIES = ("count", "glint", "sample_h", "pdf_h", "sample_l", "pdf_l")
 
 
 @pytest.mark.parametrize("name", list(S.shipped_shaders()))
@@ -340,7 +345,7 @@ def test_each_shader_is_written_once(name):
     swap = {"hlsl": "glsl", "glsl": "hlsl", "HLSL": "GLSL", "GLSL": "HLSL"}
     assert re.sub(r"hlsl|glsl|HLSL|GLSL", lambda m: swap[m.group()], texts["hlsl"]) == texts["glsl"]
     defined = [f for path in sorted(SHADER_DIR.glob("*.h")) if not path.name.startswith("glintlab_method")
-               for f in re.findall(FUNCTION_DEF, path.read_text(), re.M) if f not in ("count", "glint")]  # the contracts' entries
+               for f in re.findall(FUNCTION_DEF, path.read_text(), re.M) if f not in CONTRACT_ENTRIES]
     assert len(defined) == len(set(defined)), sorted(defined)
 
 

@@ -104,7 +104,7 @@ def _detect_kind(path: Path) -> str:
     for name in re.findall(r'^\s*#\s*include\s+"([^"]+)"', text, flags=re.M):
         if (path.parent / name).is_file():
             text += (path.parent / name).read_text(encoding="utf-8", errors="replace")
-    if "sample_h" in text and "pdf_h" in text:
+    if ("sample_h" in text and "pdf_h" in text) or ("sample_l" in text and "pdf_l" in text):
         return "sampler"
     return "method" if "GlintInput" in text or "_method_body.h" in text else "law"
 
@@ -125,7 +125,7 @@ def resolve_shader(shader, kind: str | None = None, **options):
     """The shader object ``shader`` names: an object with ``.spirv`` as is; a shipped law shader's name (or
     its law's), a method shader's image-method name ("db23_shader", "zk16_shader", ...), a shipped
     sampler's name, or a file (its kind from ``kind`` or its code: a GlintInput function is a method,
-    sample_h and pdf_h a sampler, else a counting law) compiled with ``options`` (those of
+    sample_h and pdf_h, or sample_l and pdf_l, a sampler, else a counting law) compiled with ``options`` (those of
     ``glintlab shader``: entry, language, n_uniforms, defines, include_dirs, device)."""
     if hasattr(shader, "spirv"):
         return shader

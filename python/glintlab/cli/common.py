@@ -163,6 +163,38 @@ def add_outputs(p, out_default=None, plugins=True, store=False, out_help=None):
         add_plugins(p)
 
 
+def add_shader_options(p):
+    """The options of every command that compiles the user's shader code (``shader``, ``sampler``,
+    ``images``; read back by :func:`shader_options`): include folders, defines and the Vulkan device."""
+    p.add_argument("-I", "--include-dir", "--include", dest="include_dirs", action="append", default=[],
+                   metavar="DIR", help="a folder searched for the shader's #include files (repeatable)")
+    p.add_argument("-D", "--define", dest="defines", action="append", default=[], metavar="NAME=VALUE",
+                   help="a define passed to the compiler, -D NAME=VALUE (NAME alone: 1; repeatable)")
+    p.add_argument("--device", default="auto",
+                   help="the Vulkan device: auto (default: a GPU if any, else lavapipe), gpu, cpu, an index or a name")
+
+
+def shader_options(args) -> dict:
+    """``add_shader_options``'s flags as the keywords of gl.shader_law, gl.shader_sampler and
+    gl.shader_method: ``defines`` ({NAME: VALUE}; a later -D of a name wins), ``include_dirs``,
+    ``device``. A define without a name is bad input naming it."""
+    defines = {}
+    for item in args.defines:
+        key, sep, value = item.partition("=")
+        if not key.strip().isidentifier():
+            V.fail("--define", item, "NAME=VALUE with NAME a macro name (e.g. -D ALPHA=0.5)")
+        defines[key.strip()] = value if sep else "1"
+    return {"defines": defines, "include_dirs": list(args.include_dirs), "device": args.device}
+
+
+def given_shader_options(args) -> dict:
+    """The shader options given on the command line, {flag: value} (for a command to refuse them where
+    no shader takes them)."""
+    given = {"--define": args.defines, "--include-dir": args.include_dirs,
+             "--device": args.device if args.device != "auto" else None}
+    return {flag: value for flag, value in given.items() if value}
+
+
 # ---------------------------------------------------------------- runtime helpers
 
 def load_plugins(paths):

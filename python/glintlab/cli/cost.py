@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..api import checks as V
 from ..api.gpu_cost import DEFAULT_ARCHS, gpu_architectures, gpu_cost
-from .common import print_table
+from .common import add_shader_options, print_table, shader_options
 
 COLUMNS = ("arch", "wave_size", "instructions", "vgprs", "sgprs", "spilled_vgprs", "waves_per_simd", "latency",
            "inverse_throughput", "code_size", "wrapper_latency", "function_latency", "function_instructions")
@@ -32,8 +32,7 @@ def add_parser(sub):
     p.add_argument("--entry", help="the function (default: count for a law, glint for a method)")
     p.add_argument("--lang", choices=["hlsl", "glsl"], help="the language (default: from the extension)")
     p.add_argument("--uniforms", type=int, help="a law's uniforms, 0 to 4 (default: 2)")
-    p.add_argument("-D", "--define", action="append", default=[], metavar="NAME=VALUE", help="a define (repeatable)")
-    p.add_argument("-I", "--include", action="append", default=[], metavar="DIR", help="an include folder (repeatable)")
+    add_shader_options(p)
     p.add_argument("--isa", metavar="DIR", help="write each architecture's ISA (.s) and ACO IR (.aco) into DIR")
     p.add_argument("--csv", metavar="FILE", help="also write the table as CSV")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
@@ -47,12 +46,10 @@ def run(args) -> int:
         return 0
     if args.shader is None:
         V.fail("SHADER", None, "a shader file or a shipped shader's name")
-    defines = {}
-    for item in args.define:
-        key, sep, value = item.partition("=")
-        defines[key] = value if sep else "1"
+    shader = shader_options(args)
     options = {"entry": args.entry, "language": args.lang, "n_uniforms": args.uniforms,
-               "defines": defines or None, "include_dirs": args.include or None}
+               "defines": shader["defines"] or None, "include_dirs": shader["include_dirs"] or None,
+               "device": shader["device"]}
     try:
         table = gpu_cost(args.shader, arch=args.arch or DEFAULT_ARCHS, isa=bool(args.isa), kind=args.kind, **options)
     except RuntimeError as exc:  # no RADV (or no Vulkan to build the kernel): the environment, exit 2

@@ -13,7 +13,8 @@ from ..report.runner import write_section_files
 from ..studies import scene_images as image_study
 from ..studies.base import Context
 from ..validation.scene_images import Material, frame_inputs, make_method, resolve_scene, with_directional_light
-from .common import add_outputs, add_scale, add_scenes, add_seed, print_table
+from .common import (add_outputs, add_scale, add_scenes, add_seed, add_shader_options, given_shader_options,
+                     print_table, shader_options)
 
 
 def add_parser(sub):
@@ -41,6 +42,7 @@ def add_parser(sub):
                    help="what the --method shaders return: an intensity (default), or a glinty NDF value D that "
                         "is shaded with the microfacet BRDF as the built-in NDF methods (the material as defines "
                         "GLINTLAB_DENSITY, GLINTLAB_ALPHA, GLINTLAB_GGX, GLINTLAB_R)")
+    add_shader_options(p)
     p.add_argument("--timing-scale", type=float, default=1.0,
                    help="resolution factor of the timed image of the first scene (default: 1, 1920 x 1080)")
     add_seed(p)
@@ -55,6 +57,9 @@ def run(args) -> int:
               "density_factor": args.density_factor, "tau": args.tau, "timing_scale": args.timing_scale}
     if args.methods:
         params["methods"] = args.methods
+    for flag, value in given_shader_options(args).items():
+        if not args.method:  # the shader options compile the --method files, and only those
+            V.fail(flag, value, f"a --method shader file to compile with {flag}")
     try:
         if args.method:
             add_method_shaders(args, scenes, params)
@@ -91,7 +96,8 @@ def add_method_shaders(args, scenes, params) -> None:
             V.fail("--method", path, f"files with distinct names: {by_name[stem]} has the name {stem!r} too "
                                      "(a method shader is named after its file's stem; rename one)")
         by_name[stem] = path
-    names = [shader_method(Path(path), returns=args.method_returns).name for path in args.method]
+    names = [shader_method(Path(path), returns=args.method_returns, **shader_options(args)).name
+             for path in args.method]
     base = args.methods or "truth,smooth"
     params["methods"] = ",".join(dict.fromkeys(base.split(",") + names))
     seed = V.seed(args.seed)

@@ -4,10 +4,10 @@ from __future__ import annotations
 import sys
 
 from ..api import checks as V
-from ..api.samplers import WRONG_KINDS, load_sampler, wrong_sampler
+from ..api.samplers import SAMPLERS, WRONG_KINDS, load_sampler, wrong_sampler
 from ..api.shaders import ShaderOutputError
 from ..validation.sampler_test import sampler_test
-from .common import add_outputs, add_samples, add_seed
+from .common import add_outputs, add_samples, add_seed, add_shader_options, given_shader_options, shader_options
 
 
 def add_parser(sub):
@@ -27,6 +27,14 @@ def add_parser(sub):
     p.add_argument("--significance", type=float, default=1e-3,
                    help="fail below this p-value (the false-failure rate; default 1e-3)")
     p.add_argument("--write-always", action="store_true", help="write the bins and figure even on a pass")
+    p.add_argument("--domain", choices=("half", "reflected"),
+                   help="for a shader sampler, the directions tested: half (half vectors, sample_h's default) or "
+                        "reflected (sample_l's, and sample_h's draws as l = 2 (wo.h) h - wo with pdf_h / (4 wo.h), "
+                        "glintlab's conversion); the contract is read from the functions the file defines")
+    p.add_argument("--clamp-pdf", action="store_true",
+                   help="for a shader sampler, read a pdf that is negative or NaN only where wo.h < 0 (where a "
+                        "visible-normal sampler never draws) as 0 there, reported in the notes")
+    add_shader_options(p)
     p.add_argument("--wrong", metavar="KIND",
                    help="test a deliberately wrong variant of the sampler instead (it must fail: exit 1), one of "
                         "those the sampler declares (" + ", ".join(WRONG_KINDS) + " for the microfacet samplers; "
@@ -82,10 +90,29 @@ def check_sampler(sampler, args) -> int:
     return 0 if res.passed else 1
 
 
+def shader_sampler_params(args) -> dict:
+    """The flags that only a shader sampler file takes, as its loader's keywords; refused by name for a
+    registered sampler, which compiles nothing."""
+    given = {**given_shader_options(args), "--domain": args.domain, "--clamp-pdf": args.clamp_pdf or None}
+    given = {flag: value for flag, value in given.items() if value is not None}
+    if args.sampler in SAMPLERS:
+        for flag, value in given.items():
+            V.fail(flag, value, f"no {flag} for a registered sampler ({args.sampler}): it is a flag of shader "
+                                "sampler files")
+        return {}
+    options = shader_options(args)
+    params = {**options.pop("defines"), **options}
+    if args.domain:
+        params["directions"] = args.domain
+    if args.clamp_pdf:
+        params["clamp_pdf"] = True
+    return params
+
+
 def run(args) -> int:
     V.integer("--samples", args.samples, minimum=1)
     try:
-        s = load_sampler(args.sampler, **sampler_params(args.param))
+        s = load_sampler(args.sampler, **sampler_params(args.param), **shader_sampler_params(args))
     except RuntimeError as exc:  # no Vulkan device for a shader sampler: the environment, not the sampler
         print(f"glintlab sampler: {str(exc).strip().splitlines()[0]}", file=sys.stderr)
         return 2

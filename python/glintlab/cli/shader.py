@@ -12,7 +12,8 @@ from ..studies.shaders import verdict_files, verdict_tables
 from ..validation.bounds import check
 from ..validation.references import resolve_law
 from ..validation.shader_check import shader_verdict
-from .common import add_count, add_outputs, add_samples, add_seed, load_plugins, print_table
+from .common import (add_count, add_outputs, add_samples, add_seed, add_shader_options, load_plugins, print_table,
+                     shader_options)
 from ..api import checks as V
 
 COUNTS = ("samples", "grid_samples", "grid_stride", "rows", "speed_evaluations")
@@ -34,9 +35,7 @@ def add_parser(sub):
     p.add_argument("--uniforms", type=int, default=2, help="uniforms the function reads, 0 to 4 (default: 2)")
     p.add_argument("--against", default="binomial", help="the law the shader claims to approximate (default: binomial)")
     p.add_argument("--twin", help="a C++ law computing the same in float32, compared row by row")
-    p.add_argument("-D", "--define", action="append", default=[], metavar="NAME=VALUE", help="a define (repeatable)")
-    p.add_argument("-I", "--include", action="append", default=[], metavar="DIR", help="an include folder (repeatable)")
-    p.add_argument("--device", default="auto", help="auto (default: a GPU if any, else lavapipe), gpu, cpu, an index or a name")
+    add_shader_options(p)
     p.add_argument("--bounds", metavar="B.json", help="also check these error bounds, the shader standing in for --against")
     add_samples(p, "draws per Figure 9 point (default: 1e6)", 10**6)
     add_count(p, "--grid-samples", "draws per standard-grid point (default: 4096)", 4096)
@@ -62,13 +61,9 @@ def run(args) -> int:
             V.fail(f"--{flag.replace('_', '-')}", getattr(args, flag), "an integer >= 1")
     if not (args.timeout > 0 and math.isfinite(args.timeout)):
         V.fail("--timeout", args.timeout, "seconds > 0")
-    defines = {}
-    for item in args.define:
-        key, sep, value = item.partition("=")
-        defines[key] = value if sep else "1"
     try:  # FILE is always a path, never code (a mistyped name is reported missing)
         law = shader_law(Path(args.file), entry=args.entry, language=args.lang, n_uniforms=args.uniforms,
-                         defines=defines, include_dirs=args.include, device=args.device, timeout=args.timeout)
+                         timeout=args.timeout, **shader_options(args))
     except RuntimeError as exc:  # no Vulkan device: the environment, not the shader
         print(f"glintlab shader: {exc}", file=sys.stderr)
         return 2

@@ -1,10 +1,17 @@
 // glintlab's shader-sampler contract, HLSL (docs/math/sampling.md#shader-samplers).
-// A shader sampler defines two functions:
+// A shader sampler defines two functions on the half vector h:
 //   float4 sample_h(float2 uv, float4 J, float3 wo, float4 u)
 //       one half vector h (unit, in the shading frame: z along the normal) drawn with the four
 //       uniforms u in (0, 1), returned as (h.x, h.y, h.z, pdf), the pdf per steradian of h;
 //   float pdf_h(float2 uv, float4 J, float3 wo, float3 h)
 //       the same density at a given unit h.
+// or, as renderers write them, two functions on the reflected direction l (the file defines one pair;
+// glintlab picks the contract from the functions it finds):
+//   float4 sample_l(float2 uv, float4 J, float3 wo, float4 u)
+//       one unit direction l drawn, returned as (l.x, l.y, l.z, pdf), the pdf per steradian of l (an
+//       l below the surface, l.z <= 0, is a lost draw);
+//   float pdf_l(float2 uv, float4 J, float3 wo, float3 l)
+//       the same density at a given unit l.
 // uv is the pixel's texture position, J its footprint (du/dx, dv/dx, du/dy, dv/dy), wo the unit
 // outgoing direction (z > 0); a smooth sampler ignores uv and J. glintlab's wrapper kernel includes
 // this file before the sampler's code; including it again is harmless. Same names in

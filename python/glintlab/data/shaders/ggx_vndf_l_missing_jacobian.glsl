@@ -1,0 +1,6 @@
+// A deliberately wrong sample_l / pdf_l (the Jacobian 1 / (4 wo.h) left out), in GLSL
+// (glintlab_sampler_glsl.h). The one body is ggx_vndf_l_missing_jacobian_body.h, shared with ggx_vndf_l_missing_jacobian.hlsl.
+// Test it with   glintlab sampler ggx_vndf_l_missing_jacobian.glsl --param ALPHA=0.3 --param wo=0.6,0,0.8
+#define GLINTLAB_GLSL
+#include "glintlab_prelude.h"
+#include "ggx_vndf_l_missing_jacobian_body.h"
