@@ -5,15 +5,15 @@ lobe 1.3 times too wide), in Python and as method shaders a user would write, fa
 meant to catch it. Seed 1 throughout (the false-failure rates: the docs' section)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import glintlab as gl
 from glintlab.api.glinty_ndf import IMAGE_METHODS
+from glintlab.resources import data_path
 from glintlab.validation import light_response as LR
-from glintlab.resources import data_path  # noqa: F401  (the shader search path's owner)
-
-from pathlib import Path
 
 needs_vulkan = pytest.mark.skipif(not gl.vulkan_devices(), reason="no Vulkan device (install mesa-vulkan-drivers)")
 SHADERS = Path(__file__).parent / "data" / "light_response"
@@ -119,3 +119,21 @@ def test_same_seed_same_result(sphere):
     a = gl.light_response("db23_trilinear[gated]", "sphere", setup=sphere)
     b = gl.light_response("db23_trilinear[gated]", "sphere", setup=LR.response_setup("sphere", seed=1))
     assert a.table.equals(b.table) and a.lobe.equals(b.lobe)
+
+
+@needs_vulkan
+def test_images_command_fails_a_method_that_ignores_a_component_of_h(tmp_path, capsys):
+    """`glintlab images --method FILE` runs the light response on every method it renders: the correct port
+    exits 0 with its row in scene_images_light_response.csv; the one-float half vector exits 1 naming it."""
+    from glintlab.cli.main import main
+    scene = str(data_path("scenes", "plane_90.json"))
+    common = [scene, "--scale", "0.03", "--frames", "2", "--timing-scale", "0.03", "--quiet", "--method-returns", "ndf"]
+    try:
+        assert main(["images", *common, "--method", str(SHADERS / "db23_port.glsl"), "--out", str(tmp_path / "a")]) == 0
+        assert "db23_port" in (tmp_path / "a" / "scene_images_light_response.csv").read_text()
+        assert main(["images", *common, "--method", str(SHADERS / "hx_bug.glsl"), "--out", str(tmp_path / "b")]) == 1
+        err = capsys.readouterr().err
+        assert "FAIL light response of hx_bug on plane_90" in err and "light along b" in err
+    finally:
+        for n in ("db23_port", "hx_bug"):
+            IMAGE_METHODS._items.pop(n, None)

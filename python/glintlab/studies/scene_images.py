@@ -12,7 +12,7 @@ from ..api import checks as V
 from ..api.glinty_ndf import panel_methods
 from ..api.method_shaders import shipped_method_shaders
 from ..resources import data_path
-from ..validation.light_response import response_figure, response_tables
+from ..validation import light_response as LR
 from ..validation.scene import table1_scenes
 from ..validation.scene_images import (ANGULAR_TEXEL, IMAGE_METHODS, SUPERSAMPLE, TAU, aliasing_table,
                                        flicker_table, render_path, sparkle_table, time_methods, with_density)
@@ -254,7 +254,7 @@ def _light_response(scenes, methods, params: dict, ctx: Context, stats: dict, ta
     if params["response_scene"] not in by_name:
         V.fail("response_scene", params["response_scene"], f"one of the scenes {', '.join(by_name)}")
     ctx.progress("light response")
-    r = response_tables(by_name[params["response_scene"]], names, ctx.seed, scale=params["response_scale"],
+    r = LR.response_tables(by_name[params["response_scene"]], names, ctx.seed, scale=params["response_scale"],
                         density_factor=params["density_factor"], lobe_scale=params["response_lobe_scale"])
     summary = r["summary"]
     tables["scene_images_light_response"] = summary
@@ -288,7 +288,7 @@ def figures(tables: Tables, ctx: Context) -> list:
     if "scene_images_aliasing" in tables.tables:
         out.append(ctx.save(aliasing_figure(tables["scene_images_aliasing"]), "scene_images_aliasing.png", 90))
     if "scene_images_light_response" in tables.tables:
-        out.append(ctx.save(response_figure(tables["scene_images_light_response"], tables["scene_images_lobe_sweep"]),
+        out.append(ctx.save(light_response_figure(tables["scene_images_light_response"], tables["scene_images_lobe_sweep"]),
                             "scene_images_light_response.png", 90))
     return out
 
@@ -475,3 +475,41 @@ def command_params(scenes, **params) -> dict:
             "viewer_scale": params.get("scale", DEFAULTS["scale"]),
             "sparkle_scene": DEFAULTS["sparkle_scene"] if DEFAULTS["sparkle_scene"] in names else names[0],
             "response_scene": DEFAULTS["response_scene"] if DEFAULTS["response_scene"] in names else names[0], **params}
+
+
+def light_response_figure(summary: pd.DataFrame, lobe: pd.DataFrame):
+    """Left: each method's decorrelation over its truth's per move and axis (failing below LR.MIN_RATIO);
+    right: its mean D / D(h) across the lobe (the slopes along t and b), D(h) at 1. One colour per method."""
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.6))
+    colour = {m: f"C{k % 10}" for k, m in enumerate(summary.method)}
+    label = dict(zip(summary.method, summary.label))
+    keys = [f"{m}_{a}" for m in LR.MOVES for a in LR.AXES]
+    x = np.arange(len(keys))
+    shown = summary[np.isfinite(summary[keys].to_numpy(float)).any(axis=1)]
+    width = 0.8 / max(len(shown), 1)
+    for k, r in enumerate(shown.itertuples()):
+        axes[0].bar(x + k * width, [getattr(r, c) for c in keys], width, color=colour[r.method])
+    axes[0].axhline(LR.MIN_RATIO, color="r", lw=0.8, ls="--")
+    axes[0].axhline(1, color="k", lw=0.6)
+    axes[0].set_xticks(x + 0.4 - width / 2)
+    axes[0].set_xticklabels([k.replace("_", " along ") for k in keys], fontsize=8)
+    axes[0].set_yscale("log")
+    axes[0].set_title(f"decorrelation of the moved image / its truth's (fails below {LR.MIN_RATIO:g}, red)", fontsize=9)
+    for name, g in lobe.groupby("method", sort=False):
+        for axis, ls in (("t", "-"), ("b", ":")):
+            s = g[g.axis == axis].sort_values("slope_over_alpha")
+            if axis == "b":
+                s = pd.concat([g[(g.axis == "t") & (g.slope_over_alpha == 0)], s])
+            axes[1].plot(s.slope_over_alpha, s.ratio, ls, marker="o", ms=3, color=colour.get(name, "k"))
+    axes[1].axhline(1, color="k", lw=0.6)
+    axes[1].axvline(LR.LOBE_CHECKED, color="grey", lw=0.6, ls="--")
+    axes[1].set_xlabel(f"slope of h / alpha (solid: along t, dotted: along b; checked up to {LR.LOBE_CHECKED:g})",
+                       fontsize=8)
+    axes[1].set_title("mean D over the pixels / D(h) across the lobe", fontsize=9)
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colour[m]) for m in summary.method]
+    fig.legend(handles, [label[m] for m in summary.method], loc="lower center", ncol=min(len(handles), 6), fontsize=7)
+    sc = summary.scene.iloc[0] if len(summary) else ""
+    fig.suptitle(f"Light and view response on {sc} (docs/math/glint_images.md#glint-light-response)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    return fig
