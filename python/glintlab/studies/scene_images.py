@@ -482,7 +482,7 @@ def light_response_figure(summary: pd.DataFrame, lobe: pd.DataFrame):
     right: its mean D / D(h) across the lobe (the slopes along t and b), D(h) at 1. One colour per method."""
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, 2, figsize=(13, 4.6))
-    colour = {m: f"C{k % 10}" for k, m in enumerate(summary.method)}
+    colour = {m: plt.get_cmap("tab20")(k % 20) for k, m in enumerate(summary.method)}
     label = dict(zip(summary.method, summary.label))
     keys = [f"{m}_{a}" for m in LR.MOVES for a in LR.AXES]
     x = np.arange(len(keys))
