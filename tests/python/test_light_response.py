@@ -11,9 +11,13 @@ import numpy as np
 import pytest
 
 import glintlab as gl
-from glintlab.api.glinty_ndf import IMAGE_METHODS
+from glintlab.api.glinty_ndf import IMAGE_METHODS, register_image_method
+from glintlab.cli.main import main
 from glintlab.resources import data_path
+from glintlab.studies import scene_images as study
+from glintlab.studies.base import Context
 from glintlab.validation import light_response as LR
+from glintlab.validation.scene import table1_scenes
 
 needs_vulkan = pytest.mark.skipif(not gl.vulkan_devices(), reason="no Vulkan device (install mesa-vulkan-drivers)")
 SHADERS = Path(__file__).parent / "data" / "light_response"
@@ -125,7 +129,6 @@ def test_same_seed_same_result(sphere):
 def test_images_command_fails_a_method_that_ignores_a_component_of_h(tmp_path, capsys):
     """`glintlab images --method FILE` runs the light response on every method it renders: the correct port
     exits 0 with its row in scene_images_light_response.csv; the one-float half vector exits 1 naming it."""
-    from glintlab.cli.main import main
     scene = str(data_path("scenes", "plane_90.json"))
     common = [scene, "--scale", "0.03", "--frames", "2", "--timing-scale", "0.03", "--quiet", "--method-returns", "ndf"]
     try:
@@ -137,3 +140,22 @@ def test_images_command_fails_a_method_that_ignores_a_component_of_h(tmp_path, c
     finally:
         for n in ("db23_port", "hx_bug"):
             IMAGE_METHODS._items.pop(n, None)
+
+
+def test_the_section_reports_a_failing_method_as_a_failure(tmp_path):
+    """The scene_images section's light response: a registered method that reads h as one float becomes one
+    of the section's failures (the report exits 1), the shipped truth does not."""
+    name = "x_one_float_h"
+    register_image_method(name, _variant("h read as (h.x, h.x, h.x)"), panel=False)
+    try:
+        scenes = [s for s in table1_scenes() if s.name == "sphere"]
+        params = {**study.DEFAULTS, **study.QUICK}
+        stats, tables = {}, {}
+        extra, failures = study._light_response(scenes, ["truth", name], params, Context(tmp_path, 1), stats, tables)
+        summary = tables["scene_images_light_response"]
+        assert list(summary.passed) == [True, False]
+        assert len(failures) == 1 and name in failures[0] and "light along b" in failures[0]
+        assert set(extra) == {"scene_images_light_curves", "scene_images_lobe_sweep"}
+        assert "1 of 2" in next(v for k, v in stats.items() if k.startswith("light response"))
+    finally:
+        IMAGE_METHODS._items.pop(name, None)
