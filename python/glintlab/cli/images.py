@@ -25,8 +25,8 @@ def add_parser(sub):
                                    "(docs/math/glint_images.md), a PNG panel, a flicker plot, the image viewer page "
                                    "(scene_images.html: every render as HDR, the camera path as an animation) and "
                                    "seconds per image. Writes CSV tables and the figures. A scene is a file or a "
-                                   "shipped scene's name (sphere, plane_25, ...), as gl.render takes it. Every method rendered, your "
-                                   "--method files included, also has its light and view response checked on the "
+                                   "shipped scene's name (sphere, plane_25, ...), as gl.render takes it. Every method "
+                                   "rendered, your --method files included, has its light and view response checked on the "
                                    "first scene (docs/math/glint_images.md#glint-light-response): exit 1 naming a "
                                    "method that ignores a component of h or whose lobe has the wrong width.")
     add_scenes(p)
