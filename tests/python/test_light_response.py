@@ -99,6 +99,23 @@ def test_user_method_shaders_correct_port_passes_and_wrong_ones_fail(sphere):
 
 
 @needs_vulkan
+def test_a_user_ndf_shader_object_is_compiled_for_each_material(sphere):
+    """gl.shader_method(..., returns="ndf") returns the method for one material (the sphere file's density);
+    light_response compiles it for each of its two scenes' materials, as its registered name would be: the
+    object and the name give the same curves (an object used as built would run at 1/16 x scale^-2 the
+    facets per pixel of the truth's, and read its glints wrongly)."""
+    obj = gl.shader_method(SHADERS / "wide_lobe.glsl", returns="ndf", register=False)
+    try:
+        by_name = gl.light_response(gl.shader_method(SHADERS / "wide_lobe.glsl", returns="ndf").name, "sphere",
+                                    setup=sphere)
+        by_object = gl.light_response(obj, "sphere", setup=sphere)
+        assert by_object.table.equals(by_name.table) and by_object.lobe.equals(by_name.lobe)
+        assert not by_object.passed and _failed(by_object, "light along") == 0
+    finally:
+        IMAGE_METHODS._items.pop("wide_lobe", None)
+
+
+@needs_vulkan
 def test_an_intensity_method_is_reported_not_checked(sphere):
     r = gl.light_response("wb16", "sphere", setup=sphere)
     assert r.passed and not r.checks.applies.any() and r.lobe is None

@@ -41,6 +41,7 @@ import pandas as pd
 from scipy import ndimage
 
 from ..api import checks as V
+from ..api.counting_shaders import NdfShaderMethod, user_ndf_method
 from ..api.glinty_ndf import (DB23, IMAGE_METHODS, ImageMethod, Material, SmoothNDF, angular_slope, footprint_area,
                               make_method, pixel_arrays)
 from ..api.shaders import ShaderOutputError
@@ -89,17 +90,28 @@ class LightResponse:
                 f"{'passed' if self.passed else 'FAILED'}, {len(self.checks)} checks)")
 
 
+#: The defines through which a user's NDF shader reads the scene's material (api/counting_shaders.py).
+_MATERIAL_DEFINES = {"GLINTLAB_DENSITY", "GLINTLAB_ALPHA", "GLINTLAB_GGX", "GLINTLAB_R"}
+
+
 def _method_factory(method):
     """(name, factory material -> evaluator, registry entry or None) of what a user names a method by: an
-    image method's name or entry (built for each scene's material, at its matched density), a glinty NDF or
-    method shader object (used as it was built) or a factory ``material -> evaluator``."""
+    image method's name or entry (built for each scene's material, at its matched density), a user's NDF
+    shader (compiled for each material), another glinty NDF or method shader object (used as it was built)
+    or a factory ``material -> evaluator``."""
     if isinstance(method, (str, ImageMethod)):
         name = method if isinstance(method, str) else method.name
         entry = IMAGE_METHODS.get(name)
         return name, lambda m: make_method(name, m), entry
     if hasattr(method, "image") or hasattr(method, "evaluate"):
         name = getattr(method, "name", "") or type(method).__name__
-        return name, lambda m: method, IMAGE_METHODS.get(name) if name in IMAGE_METHODS else None
+        entry = IMAGE_METHODS.get(name) if name in IMAGE_METHODS else None
+        if isinstance(method, NdfShaderMethod) and _MATERIAL_DEFINES <= {k for k, _ in method._spec["defines"]}:
+            # A user's NDF shader (shader_method(..., returns="ndf")): compiled again for each scene's
+            # material, as its registered name would be, so that its density is the scene's.
+            spec = dict(method._spec, defines=[d for d in method._spec["defines"] if d[0] not in _MATERIAL_DEFINES])
+            return name, lambda m: user_ndf_method(spec, m), entry
+        return name, lambda m: method, entry
     if callable(method):
         return getattr(method, "__name__", "factory"), method, None
     V.fail("method", method, "an image method's name, an ImageMethod, a glinty NDF, a method shader or a factory "
