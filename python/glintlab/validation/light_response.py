@@ -384,8 +384,9 @@ def light_response(method, scene, seed: int = 1, scale: float = 0.05, density_fa
     offsets of ``step`` along each axis of the shading frame, beside its truth's; and its mean D as the half
     vector sweeps the lobe (on the scene at ``lobe_scale``, density x ``lobe_density_factor``; None: no
     sweep) against the target D(h) (docs/math/glint_images.md#glint-light-response). ``method``: an image
-    method's name or ImageMethod (built for each of the two materials, at its matched density), a glinty
-    NDF or method shader object (``gl.shader_method``; used as built), or a factory material -> evaluator;
+    method's name or ImageMethod (built for each of the two materials, at its matched density), a method
+    shader from ``gl.shader_method`` (a user's NDF shader compiled for each material), a glinty NDF object
+    (used as built) or a factory material -> evaluator;
     ``scene`` as ``gl.render`` takes it. ``setup`` (:func:`response_setup`) shares the scene's inputs and
     the facet truth's renders between methods, in place of the other arguments. Returns a
     :class:`LightResponse` (``.passed``, ``.notes``, ``.table``, ``.lobe``, ``.checks``)."""
