@@ -44,6 +44,7 @@ from .validation.grid import standard_grid
 from .validation.profile import SceneProfile, profile_scene
 from .validation.scene import Scene, load_scene
 from .validation.scene_images import render_image as render
+from .validation.light_response import LightResponse, light_response
 from .validation.sweep import error_table, sweep
 from .api.samplers import Sampler, sampler, samplers, wrong_sampler
 from .validation.sampler_test import SamplerTestResult, sampler_test
@@ -88,3 +89,4 @@ __all__ += ["gpu_architectures", "gpu_cost"]  # shaders compiled for AMD GPUs wi
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)
 __all__ += ["matched_density", "db23_visible_glints"]  # KPT25 <-> DB23 (docs/math/glinty_ndf.md#glinty-matched)
 __all__ += ["lights", "reflection_probability", "facet_truth", "multinomial_counts"]  # docs/math/lighting.md
+__all__ += ["LightResponse", "light_response"]  # docs/math/glint_images.md#glint-light-response

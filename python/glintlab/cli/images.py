@@ -25,7 +25,10 @@ def add_parser(sub):
                                    "(docs/math/glint_images.md), a PNG panel, a flicker plot, the image viewer page "
                                    "(scene_images.html: every render as HDR, the camera path as an animation) and "
                                    "seconds per image. Writes CSV tables and the figures. A scene is a file or a "
-                                   "shipped scene's name (sphere, plane_25, ...), as gl.render takes it.")
+                                   "shipped scene's name (sphere, plane_25, ...), as gl.render takes it. Every method "
+                                   "rendered, your --method files included, has its light and view response checked on the "
+                                   "first scene (docs/math/glint_images.md#glint-light-response): exit 1 naming a "
+                                   "method that ignores a component of h or whose lobe has the wrong width.")
     add_scenes(p)
     add_scale(p, 0.2, "resolution factor per side; the density follows so n per pixel is kept (default: 0.2)")
     p.add_argument("--frames", type=int, default=8, help="frames of the camera path (default: 8)")
@@ -80,7 +83,23 @@ def run(args) -> int:
         print_table(tables["scene_images_timing"], args.quiet)
         print(f"\nwrote {', '.join(str(p) for p in paths)} and CSV tables in {args.out} "
               f"({time.perf_counter() - t0:.1f} s)")
-    return 0
+    return light_response_verdict(tables, args.quiet)
+
+
+def light_response_verdict(tables, quiet: bool) -> int:
+    """The light and view response of every rendered method, your --method files included
+    (docs/math/glint_images.md#glint-light-response): its table, and exit 1 naming each method that
+    fails (one that ignores a component of h, or whose lobe has the wrong width)."""
+    if "scene_images_light_response" not in tables.tables:
+        return 0
+    resp = tables["scene_images_light_response"]
+    if not quiet:
+        print_table(resp[["scene", "method", "truth", "passed", "light_t", "light_b", "light_n", "view_t", "view_b",
+                          "view_n", "lobe_level", "lobe_shape_dev"]], quiet)
+    for row in resp[~resp.passed].itertuples():
+        print(f"glintlab images: FAIL light response of {row.method} on {row.scene}: {row.failed} "
+              "(scene_images_light_response.csv, scene_images_light_curves.csv)", file=sys.stderr)
+    return 1 if (~resp.passed).any() else 0
 
 
 def add_method_shaders(args, scenes, params) -> None:

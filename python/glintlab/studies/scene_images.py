@@ -12,6 +12,7 @@ from ..api import checks as V
 from ..api.glinty_ndf import panel_methods
 from ..api.method_shaders import shipped_method_shaders
 from ..resources import data_path
+from ..validation import light_response as LR
 from ..validation.scene import table1_scenes
 from ..validation.scene_images import (ANGULAR_TEXEL, IMAGE_METHODS, SUPERSAMPLE, TAU, aliasing_table,
                                        flicker_table, render_path, sparkle_table, time_methods, with_density)
@@ -63,9 +64,16 @@ DEFAULTS = {
     # WB16's density against depth and sparkle size: one frame of this scene at this scale ("" to skip).
     "sparkle_scene": "plane_25",
     "sparkle_scale": 0.25,
+    # The light and view response (docs/math/glint_images.md#glint-light-response) of every method rendered
+    # ("methods") or of the listed ones ("" to skip), on one frame of this scene: moved images at this scale,
+    # the lobe sweep at response_lobe_scale with the scene file's density.
+    "response_methods": "methods",
+    "response_scene": "sphere",
+    "response_scale": 0.05,
+    "response_lobe_scale": 0.1,
 }
 QUICK = {"scale": 1.0 / 12, "frames": 4, "timing_scale": 1.0 / 6, "viewer_scale": 1.0 / 6, "aliasing_scale": 0.02,
-         "aliasing_frames": 2, "sparkle_scale": 1.0 / 12}
+         "aliasing_frames": 2, "sparkle_scale": 1.0 / 12, "response_scale": 0.04, "response_lobe_scale": 0.05}
 NOTEBOOK = "scene_images.ipynb"
 TABLE = {"scene_images_flicker": ["scene", "method", "std_ratio", "pop_rate", "pop_rate_wider", "change_rate",
                                   "truth_change_rate", "mean_ratio"],
@@ -75,7 +83,9 @@ TABLE = {"scene_images_flicker": ["scene", "method", "std_ratio", "pop_rate", "p
          "scene_images_aliasing": ["scene", "method", "supersample", "alias_rel_rmse", "alias_rel_rmse_spread",
                                    "std_ratio_vs_supersampled", "mean_ratio_vs_supersampled"],
          "scene_images_sparkles": ["scene", "method", "width", "height", "distance_lo", "distance_hi",
-                                   "sparkles_per_1000_px", "mean_size_px", "p90_size_px"]}
+                                   "sparkles_per_1000_px", "mean_size_px", "p90_size_px"],
+         "scene_images_light_response": ["scene", "method", "truth", "passed", "light_t", "light_b", "light_n",
+                                         "view_t", "view_b", "view_n", "lobe_level", "lobe_shape_dev", "failed"]}
 
 
 def _names(param: str, value: str) -> list[str]:
@@ -146,8 +156,9 @@ def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
     stats["densities"] = density_statement(methods)
     tables = {"scene_images_flicker": flicker, "scene_images_timing": timing, "scene_images_own_truth": own}
     tables.update(_aliasing(scenes, params, ctx, stats))
-    return Tables(tables, stats,
-                  data={"paths": paths, "views": views, "methods": methods, "scale": scale,
+    extra, failures = _light_response(scenes, methods, params, ctx, stats, tables)
+    return Tables(tables, stats, failures, extra,
+                  {"paths": paths, "views": views, "methods": methods, "scale": scale,
                         "density_factor": params["density_factor"],
                         "exposure": (V.real("exposure_percentile", params["exposure_percentile"]),
                                      V.real("exposure_white", params["exposure_white"]))})
@@ -231,6 +242,30 @@ def _aliasing(scenes, params: dict, ctx: Context, stats: dict) -> dict:
     return out
 
 
+def _light_response(scenes, methods, params: dict, ctx: Context, stats: dict, tables: dict):
+    """The light and view response of the methods on ``response_scene`` (``validation.light_response``):
+    adds its summary to ``tables`` and a line to ``stats``; returns (the curves and lobe sweeps as CSV
+    tables, the failed methods as the section's failures)."""
+    which = str(params["response_methods"]).strip()
+    if not which:
+        return {}, []
+    names = _usable(methods if which == "methods" else _names("response_methods", which), stats)
+    by_name = {s.name: s for s in scenes}
+    if params["response_scene"] not in by_name:
+        V.fail("response_scene", params["response_scene"], f"one of the scenes {', '.join(by_name)}")
+    ctx.progress("light response")
+    r = LR.response_tables(by_name[params["response_scene"]], names, ctx.seed, scale=params["response_scale"],
+                        density_factor=params["density_factor"], lobe_scale=params["response_lobe_scale"])
+    summary = r["summary"]
+    tables["scene_images_light_response"] = summary
+    bad = summary[~summary.passed]
+    sc = r["setup"].scene
+    stats[f"light response on {sc.name} at {sc.width} x {sc.height}: methods passing"] = \
+        f"{int(summary.passed.sum())} of {len(summary)}" + (f" (failed: {', '.join(bad.method)})" if len(bad) else "")
+    failures = [f"scene_images light response: {row.method} on {row.scene}: {row.failed}" for row in bad.itertuples()]
+    return {"scene_images_light_curves": r["curves"], "scene_images_lobe_sweep": r["lobe"]}, failures
+
+
 def _usable(names, stats: dict) -> list:
     """``names`` less the method shaders that cannot run here (no Vulkan device), noted in ``stats``."""
     keep = []
@@ -252,6 +287,9 @@ def figures(tables: Tables, ctx: Context) -> list:
            ctx.save(flicker_figure(flicker), "scene_images_flicker.png", 90)]
     if "scene_images_aliasing" in tables.tables:
         out.append(ctx.save(aliasing_figure(tables["scene_images_aliasing"]), "scene_images_aliasing.png", 90))
+    if "scene_images_light_response" in tables.tables:
+        out.append(ctx.save(light_response_figure(tables["scene_images_light_response"], tables["scene_images_lobe_sweep"]),
+                            "scene_images_light_response.png", 90))
     return out
 
 
@@ -435,4 +473,43 @@ def command_params(scenes, **params) -> dict:
     names = [s.name for s in scenes]
     return {**DEFAULTS, "timing_scene": names[0],
             "viewer_scale": params.get("scale", DEFAULTS["scale"]),
-            "sparkle_scene": DEFAULTS["sparkle_scene"] if DEFAULTS["sparkle_scene"] in names else names[0], **params}
+            "sparkle_scene": DEFAULTS["sparkle_scene"] if DEFAULTS["sparkle_scene"] in names else names[0],
+            "response_scene": DEFAULTS["response_scene"] if DEFAULTS["response_scene"] in names else names[0], **params}
+
+
+def light_response_figure(summary: pd.DataFrame, lobe: pd.DataFrame):
+    """Left: each method's decorrelation over its truth's per move and axis (failing below LR.MIN_RATIO);
+    right: its mean D / D(h) across the lobe (the slopes along t and b), D(h) at 1. One colour per method."""
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.6))
+    colour = {m: plt.get_cmap("tab20")(k % 20) for k, m in enumerate(summary.method)}
+    label = dict(zip(summary.method, summary.label))
+    keys = [f"{m}_{a}" for m in LR.MOVES for a in LR.AXES]
+    x = np.arange(len(keys))
+    shown = summary[np.isfinite(summary[keys].to_numpy(float)).any(axis=1)]
+    width = 0.8 / max(len(shown), 1)
+    for k, r in enumerate(shown.itertuples()):
+        axes[0].bar(x + k * width, [getattr(r, c) for c in keys], width, color=colour[r.method])
+    axes[0].axhline(LR.MIN_RATIO, color="r", lw=0.8, ls="--")
+    axes[0].axhline(1, color="k", lw=0.6)
+    axes[0].set_xticks(x + 0.4 - width / 2)
+    axes[0].set_xticklabels([k.replace("_", " along ") for k in keys], fontsize=8)
+    axes[0].set_yscale("log")
+    axes[0].set_title(f"decorrelation of the moved image / its truth's (fails below {LR.MIN_RATIO:g}, red)", fontsize=9)
+    for name, g in lobe.groupby("method", sort=False):
+        for axis, ls in (("t", "-"), ("b", ":")):
+            s = g[g.axis == axis].sort_values("slope_over_alpha")
+            if axis == "b":
+                s = pd.concat([g[(g.axis == "t") & (g.slope_over_alpha == 0)], s])
+            axes[1].plot(s.slope_over_alpha, s.ratio, ls, marker="o", ms=3, color=colour.get(name, "k"))
+    axes[1].axhline(1, color="k", lw=0.6)
+    axes[1].axvline(LR.LOBE_CHECKED, color="grey", lw=0.6, ls="--")
+    axes[1].set_xlabel(f"slope of h / alpha (solid: along t, dotted: along b; checked up to {LR.LOBE_CHECKED:g})",
+                       fontsize=8)
+    axes[1].set_title("mean D over the pixels / D(h) across the lobe", fontsize=9)
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colour[m]) for m in summary.method]
+    fig.legend(handles, [label[m] for m in summary.method], loc="lower center", ncol=min(len(handles), 6), fontsize=7)
+    sc = summary.scene.iloc[0] if len(summary) else ""
+    fig.suptitle(f"Light and view response on {sc} (docs/math/glint_images.md#glint-light-response)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    return fig
