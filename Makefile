@@ -104,7 +104,7 @@ sanitize: deps
 # The core and its C++ tests built with Clang (Debian 12's clang-14 and libomp-14-dev) as well as GCC: a
 # library users link must build with both. Release flags as users build (at -O1 or -O2 clang-14 does
 # not vectorize the `omp simd` kernels and warns); every C++ test runs. The compiler-specific code
-# (the SIMD dispatch files, the half-float conversion of core/include/glintlab/float16.hpp) is
+# (the SIMD dispatch files, the half-float conversion of core/include/glintlab/base/float16.hpp) is
 # compiled and tested here.
 clang-test: deps
 	@CC=clang CXX=clang++ cmake -S . -B build-clang -DCMAKE_BUILD_TYPE=Release \

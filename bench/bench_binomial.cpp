@@ -36,9 +36,9 @@
 #include <utility>
 #include <vector>
 
-#include "glintlab/binomial.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/rng.hpp"
+#include "glintlab/base/rng.hpp"
+#include "glintlab/counting/law.hpp"
+#include "glintlab/stats/binomial.hpp"
 
 namespace {
 

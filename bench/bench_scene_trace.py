@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""`make bench`: the per-frame inputs' ray tracing, ``Scene.trace`` (C++, core/src/scene_trace.cpp), over every
+"""`make bench`: the per-frame inputs' ray tracing, ``Scene.trace`` (C++, core/src/scene/scene_trace.cpp), over every
 pixel of each shipped scene at 1920 x 1080, against one per-pixel gated evaluation per pixel
 (``gl.law("gated").sample(n_array, p_array)`` on as many random (n, p) of the standard grid: what the
 issue's goal is stated in, trace within 2x of it), beside the numpy form ``Scene.trace_numpy`` and the

@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "glintlab/blend.hpp"
-#include "glintlab/law.hpp"
+#include "glintlab/counting/blend.hpp"
+#include "glintlab/counting/law.hpp"
 using namespace glintlab;
 __attribute__((noinline)) static void inner_batch(const CountingLaw& law, std::size_t m, double* out) {
   const double n = 4e4, p = 0.01;

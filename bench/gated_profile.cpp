@@ -19,9 +19,9 @@
 #include <string>
 #include <vector>
 
+#include "glintlab/base/rng.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/rng.hpp"
 
 using namespace glintlab;
 

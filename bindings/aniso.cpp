@@ -1,4 +1,4 @@
-// Anisotropic grids (glintlab/aniso.hpp): the grid schemes' registry, footprint shapes from Jacobians,
+// Anisotropic grids (glintlab/counting/aniso.hpp): the grid schemes' registry, footprint shapes from Jacobians,
 // and the counter that sums an inner law's counts over a scheme's grids, per shape or per pixel.
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
@@ -13,8 +13,8 @@
 
 #include "bindings.hpp"
 #include "conversions.hpp"
-#include "glintlab/aniso.hpp"
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/aniso.hpp"
 
 namespace py = pybind11;
 

@@ -11,7 +11,7 @@
 #include <csignal>
 #include <exception>
 
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 
 namespace glintlab::bindings {
 

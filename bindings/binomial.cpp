@@ -1,10 +1,10 @@
-// The exact binomial and Poisson distribution functions (glintlab/binomial.hpp), vectorized with numpy
+// The exact binomial and Poisson distribution functions (glintlab/stats/binomial.hpp), vectorized with numpy
 // broadcasting.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
 #include "bindings.hpp"
-#include "glintlab/binomial.hpp"
+#include "glintlab/stats/binomial.hpp"
 
 namespace py = pybind11;
 

@@ -1,4 +1,4 @@
-// LOD blending (glintlab/blend.hpp): a blend rule over an inner law, built-in or written in Python, on a
+// LOD blending (glintlab/counting/blend.hpp): a blend rule over an inner law, built-in or written in Python, on a
 // ladder of levels.
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
@@ -12,7 +12,7 @@
 
 #include "bindings.hpp"
 #include "conversions.hpp"
-#include "glintlab/blend.hpp"
+#include "glintlab/counting/blend.hpp"
 
 namespace py = pybind11;
 

@@ -1,4 +1,4 @@
-// The chi-square test of samples against an exact law (glintlab/chi2.hpp): Chi2Result unpacks as
+// The chi-square test of samples against an exact law (glintlab/stats/chi2.hpp): Chi2Result unpacks as
 // (statistic, pvalue), like scipy's result, and pickles.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -9,8 +9,8 @@
 
 #include "bindings.hpp"
 #include "conversions.hpp"
-#include "glintlab/chi2.hpp"
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/stats/chi2.hpp"
 
 namespace py = pybind11;
 

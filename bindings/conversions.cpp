@@ -3,7 +3,7 @@
 
 #include <cstring>
 
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 
 namespace py = pybind11;
 

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "glintlab/blend.hpp"
-#include "glintlab/law.hpp"
+#include "glintlab/counting/blend.hpp"
+#include "glintlab/counting/law.hpp"
 
 namespace glintlab::bindings {
 

@@ -1,4 +1,4 @@
-// Distribution (glintlab/distribution.hpp): a law's exact pmf on its support, as numpy arrays; pickles
+// Distribution (glintlab/stats/distribution.hpp): a law's exact pmf on its support, as numpy arrays; pickles
 // exactly.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -9,8 +9,8 @@
 
 #include "bindings.hpp"
 #include "conversions.hpp"
-#include "glintlab/distribution.hpp"
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/stats/distribution.hpp"
 
 namespace py = pybind11;
 

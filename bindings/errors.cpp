@@ -1,4 +1,4 @@
-// The core's errors and interrupts (glintlab/errors.hpp): not_implemented raises NotImplementedError,
+// The core's errors and interrupts (glintlab/base/errors.hpp): not_implemented raises NotImplementedError,
 // `interrupted` (a batch driver stopped by Ctrl-C, see LongCall) raises KeyboardInterrupt, and a sweep's
 // thread pool asks the running C++ batches to stop with request_interrupt.
 #include <pybind11/pybind11.h>
@@ -6,7 +6,7 @@
 #include <exception>
 
 #include "bindings.hpp"
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 
 namespace py = pybind11;
 

@@ -1,4 +1,4 @@
-// Glinty NDFs (KPT25's point process, its reference and Algorithm 1): core/include/glintlab/glinty_ndf.hpp.
+// Glinty NDFs (KPT25's point process, its reference and Algorithm 1): core/include/glintlab/glinty/glinty_ndf.hpp.
 // Arrays arrive flattened and checked for shape by glintlab.api.glinty_ndf; the GIL is released while the
 // pixels are computed (the core splits them over OpenMP threads).
 #include <pybind11/numpy.h>
@@ -11,8 +11,8 @@
 #include <utility>
 
 #include "bindings.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/glinty_ndf.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/glinty/glinty_ndf.hpp"
 
 namespace py = pybind11;
 

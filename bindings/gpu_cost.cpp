@@ -6,7 +6,7 @@
 #include <cstring>
 
 #include "bindings.hpp"
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 #include "glintlab/validation/gpu_cost.hpp"
 
 namespace py = pybind11;

@@ -1,4 +1,4 @@
-// Counting laws (glintlab/law.hpp): the law object (CoreLaw), the registry with each law's traits, the
+// Counting laws (glintlab/counting/law.hpp): the law object (CoreLaw), the registry with each law's traits, the
 // batch uniforms and the drivers' thread count and SIMD level.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -11,9 +11,9 @@
 
 #include "bindings.hpp"
 #include "conversions.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/uniform_rows.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/law.hpp"
 
 namespace py = pybind11;
 

@@ -1,4 +1,4 @@
-// Glints under extended lights (glintlab/lighting.hpp): lights, the exact reflection probability by
+// Glints under extended lights (glintlab/lighting/lighting.hpp): lights, the exact reflection probability by
 // cubature, the per-region probabilities of an environment map and the facet truth under both.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -11,7 +11,7 @@
 
 #include "bindings.hpp"
 #include "conversions.hpp"
-#include "glintlab/lighting.hpp"
+#include "glintlab/lighting/lighting.hpp"
 
 namespace py = pybind11;
 

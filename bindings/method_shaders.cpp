@@ -6,7 +6,7 @@
 #include <pybind11/stl.h>
 
 #include "bindings.hpp"
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 #include "glintlab/validation/method_shader.hpp"
 
 namespace py = pybind11;

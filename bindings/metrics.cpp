@@ -1,11 +1,11 @@
-// Distances between distributions (glintlab/metrics.hpp).
+// Distances between distributions (glintlab/stats/metrics.hpp).
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
 #include <string>
 
 #include "bindings.hpp"
-#include "glintlab/metrics.hpp"
+#include "glintlab/stats/metrics.hpp"
 
 namespace py = pybind11;
 

@@ -1,4 +1,4 @@
-// The direction-sampler harness's core (core/include/glintlab/sampler_test.hpp): the bins with their
+// The direction-sampler harness's core (core/include/glintlab/sampling/sampler_test.hpp): the bins with their
 // pull interface (nodes / supply), the binning of samples and the chi-square. The Python driver is
 // glintlab.validation.sampler_test; the GIL is released while points are binned.
 #include <pybind11/numpy.h>
@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/sampler_test.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/sampling/sampler_test.hpp"
 
 namespace py = pybind11;
 

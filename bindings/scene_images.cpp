@@ -1,4 +1,4 @@
-// Glint images of scenes: the facet-by-facet ground truth (core/include/glintlab/glint_image.hpp).
+// Glint images of scenes: the facet-by-facet ground truth (core/include/glintlab/glinty/glint_image.hpp).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -9,8 +9,8 @@
 #include <string>
 
 #include "bindings.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/glint_image.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/glinty/glint_image.hpp"
 
 namespace py = pybind11;
 

@@ -1,4 +1,4 @@
-// Scene.trace's per-ray work in C++ (core/include/glintlab/scene_trace.hpp) as _core.scene_trace: the
+// Scene.trace's per-ray work in C++ (core/include/glintlab/scene/scene_trace.hpp) as _core.scene_trace: the
 // scene's camera and primitive as plain numbers (glintlab.validation.scene.Scene passes its own), flat
 // float64 pixel coordinates in, a dict of arrays out (Scene.trace reshapes them).
 #include <pybind11/numpy.h>
@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/scene_trace.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/scene/scene_trace.hpp"
 
 namespace py = pybind11;
 

@@ -1,4 +1,4 @@
-// Spatialized Bernoulli trials, the ground truth (glintlab/spatial.hpp): footprints, the ground truth's
+// Spatialized Bernoulli trials, the ground truth (glintlab/counting/spatial.hpp): footprints, the ground truth's
 // exact law and samples, stratified coverage and the joint counts of several footprints.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -11,8 +11,8 @@
 
 #include "bindings.hpp"
 #include "conversions.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/spatial.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/spatial.hpp"
 
 namespace py = pybind11;
 

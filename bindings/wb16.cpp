@@ -1,4 +1,4 @@
-// WB16's sparkle shader's C++ twin (core/include/glintlab/wb16.hpp) as _core.wb16_twin: (rows, 32) uint32
+// WB16's sparkle shader's C++ twin (core/include/glintlab/glinty/wb16.hpp) as _core.wb16_twin: (rows, 32) uint32
 // packed GlintInput rows in, (rows,) float32 intensities and (rows, 3) float32 lookup positions out.
 // glintlab.api.method_shaders.wb16_twin checks the parameters' names and passes them here.
 #include <pybind11/numpy.h>
@@ -7,8 +7,8 @@
 #include <string>
 
 #include "bindings.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/wb16.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/glinty/wb16.hpp"
 
 namespace py = pybind11;
 

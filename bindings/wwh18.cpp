@@ -1,4 +1,4 @@
-// WWH18's filterable model and its discrete-flake truth: core/include/glintlab/wwh18.hpp. Arrays arrive
+// WWH18's filterable model and its discrete-flake truth: core/include/glintlab/glinty/wwh18.hpp. Arrays arrive
 // flattened and shape-checked by glintlab.api.wwh18; the GIL is released while pixels are computed.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -7,8 +7,8 @@
 #include <string>
 
 #include "bindings.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/wwh18.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/glinty/wwh18.hpp"
 
 namespace py = pybind11;
 

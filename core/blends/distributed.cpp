@@ -5,7 +5,7 @@
 // Non-integer trial counts go to the inner law unchanged (its own rule; for the exact binomial,
 // Binomial(floor n, p) + Bernoulli(frac(n) p) per level: the mean stays N P p and the variance grows
 // by at most p^2/2 over Binomial(N P, p), see docs).
-#include "glintlab/blend.hpp"
+#include "glintlab/counting/blend.hpp"
 
 namespace glintlab {
 namespace {

@@ -1,7 +1,7 @@
 // Blend "nearest": WB16's stepped grid scale. One level, the nearer in LOD (round(w), w = 0.5 goes
 // up), its count rescaled to the footprint: K = (P / A_l) · b(N A_l, p). Right mean, the variance of
 // the level's cell rescaled, and a pop each time the rounded level changes.
-#include "glintlab/blend.hpp"
+#include "glintlab/counting/blend.hpp"
 
 namespace glintlab {
 namespace {

@@ -19,7 +19,7 @@
 // weight frac(k).
 // The moments E[R], E[R^2] are a closed form (detail/roulette.hpp; docs/math/blends.md, "Moments of R
 // in closed form"); the batch forms compute the rows' normal sums in vector kernels
-// (core/src/roulette_rows*.cpp) with the scalar code's operations, so every path gives the same bits.
+// (core/src/counting/roulette_rows*.cpp) with the scalar code's operations, so every path gives the same bits.
 #include <boost/math/quadrature/gauss_kronrod.hpp>
 
 #include <algorithm>
@@ -31,11 +31,11 @@
 #include <memory>
 #include <unordered_map>
 
-#include "glintlab/binomial.hpp"
-#include "glintlab/blend.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/blend.hpp"
 #include "glintlab/detail/roulette.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/normal.hpp"
+#include "glintlab/stats/binomial.hpp"
+#include "glintlab/stats/normal.hpp"
 
 namespace glintlab {
 

@@ -4,7 +4,7 @@
 // [(1 - w)^2 / A_lo + w^2 / A_hi]: a fraction P [(1 - w)^2 / A_lo + w^2 / A_hi] of the ground truth's
 // N P p (1 - p) (0.625 at w = 1/2 with ratio 4). Values form a lattice of non-integers: twice the
 // glints at half the intensity, DB23's ghosting (Fig. 2a, 4b).
-#include "glintlab/blend.hpp"
+#include "glintlab/counting/blend.hpp"
 
 namespace glintlab {
 namespace {

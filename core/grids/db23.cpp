@@ -6,8 +6,8 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "glintlab/aniso.hpp"
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/aniso.hpp"
 
 namespace glintlab::aniso {
 namespace {

@@ -9,8 +9,8 @@
 #include <cmath>
 #include <numbers>
 
-#include "glintlab/aniso.hpp"
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/aniso.hpp"
 
 namespace glintlab::aniso {
 namespace {

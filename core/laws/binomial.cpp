@@ -2,10 +2,10 @@
 // binomial.hpp). evaluate() inverts the exact CDF with one uniform (monotone in u, so neighbouring
 // u give neighbouring K: useful for coherence studies); sample() uses the BTRD/inversion sampler,
 // which is 10-100x cheaper than CDF inversion for large n.
-#include "glintlab/binomial.hpp"
+#include "glintlab/stats/binomial.hpp"
 
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/law.hpp"
 
 #include <algorithm>
 #include <memory>

@@ -31,9 +31,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "glintlab/base/errors.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/normal.hpp"
+#include "glintlab/stats/normal.hpp"
 
 namespace glintlab {
 namespace {

@@ -16,8 +16,8 @@
 
 #include "glintlab/detail/law_kernel.hpp"
 #include "glintlab/detail/pixel_blocks.hpp"
-#include "glintlab/normal.hpp"
-#include "glintlab/step_inversion.hpp"
+#include "glintlab/stats/normal.hpp"
+#include "glintlab/stats/step_inversion.hpp"
 
 namespace glintlab {
 namespace {

@@ -15,7 +15,7 @@
 #include <cmath>
 
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/normal.hpp"
+#include "glintlab/stats/normal.hpp"
 
 namespace glintlab {
 namespace {

@@ -22,14 +22,14 @@
 #include <map>
 #include <vector>
 
+#include "glintlab/base/errors.hpp"
+#include "glintlab/base/float16.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/float16.hpp"
 
 namespace glintlab {
 namespace {
 
-// A shader's half(x): round to nearest even half, back to float (glintlab/float16.hpp: integer bit
+// A shader's half(x): round to nearest even half, back to float (glintlab/base/float16.hpp: integer bit
 // manipulation, identical to a _Float16 conversion, and portable to compilers without _Float16).
 inline float to_half(float x) { return round_to_half(x); }
 

@@ -10,8 +10,8 @@
 #include <cmath>
 
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/normal.hpp"
-#include "glintlab/step_inversion.hpp"
+#include "glintlab/stats/normal.hpp"
+#include "glintlab/stats/step_inversion.hpp"
 
 namespace glintlab {
 namespace {

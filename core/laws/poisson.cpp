@@ -1,8 +1,8 @@
 // Law "poisson": the count of a Poisson facet layout of intensity N in a footprint holding n = N P
 // facets on average, K ~ Poisson(n p) (docs/math/ground_truth.md#gt-poisson). Any real n >= 0 is natural here.
-#include "glintlab/binomial.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/law.hpp"
+#include "glintlab/stats/binomial.hpp"
 
 namespace glintlab {
 namespace {

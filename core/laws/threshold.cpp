@@ -9,9 +9,9 @@
 // underflowing for p near 1).
 #include <cmath>
 
-#include "glintlab/binomial.hpp"
+#include "glintlab/base/errors.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/errors.hpp"
+#include "glintlab/stats/binomial.hpp"
 
 namespace glintlab {
 namespace {

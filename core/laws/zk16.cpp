@@ -13,10 +13,10 @@
 #include <cmath>
 #include <vector>
 
-#include "glintlab/binomial.hpp"
+#include "glintlab/base/errors.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/normal.hpp"
+#include "glintlab/stats/binomial.hpp"
+#include "glintlab/stats/normal.hpp"
 
 namespace glintlab {
 namespace {

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "glintlab/aniso.hpp"
+#include "glintlab/counting/aniso.hpp"
 
 using namespace glintlab;
 using namespace glintlab::aniso;

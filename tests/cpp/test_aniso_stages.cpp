@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "glintlab/aniso.hpp"
+#include "glintlab/counting/aniso.hpp"
 #include "glintlab/detail/aniso_stages.hpp"
 #include "glintlab/detail/law_kernel.hpp"
 

@@ -4,11 +4,11 @@
 #include <cmath>
 #include <vector>
 
-#include "glintlab/binomial.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/normal.hpp"
-#include "glintlab/step_inversion.hpp"
+#include "glintlab/stats/binomial.hpp"
+#include "glintlab/stats/normal.hpp"
+#include "glintlab/stats/step_inversion.hpp"
 
 using namespace glintlab;
 

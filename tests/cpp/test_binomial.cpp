@@ -12,10 +12,10 @@
 #include <stdexcept>
 #include <vector>
 
-#include "glintlab/binomial.hpp"
-#include "glintlab/chi2.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/special.hpp"
+#include "glintlab/counting/law.hpp"
+#include "glintlab/stats/binomial.hpp"
+#include "glintlab/stats/chi2.hpp"
+#include "glintlab/stats/special.hpp"
 
 using namespace glintlab;
 using Catch::Matchers::Contains;

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <vector>
 
-#include "glintlab/binomial.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/law.hpp"
+#include "glintlab/stats/binomial.hpp"
 
 using namespace glintlab;
 

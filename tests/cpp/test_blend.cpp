@@ -7,11 +7,11 @@
 #include <memory>
 #include <vector>
 
-#include "glintlab/binomial.hpp"
-#include "glintlab/blend.hpp"
-#include "glintlab/chi2.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/metrics.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/blend.hpp"
+#include "glintlab/stats/binomial.hpp"
+#include "glintlab/stats/chi2.hpp"
+#include "glintlab/stats/metrics.hpp"
 
 using namespace glintlab;
 

@@ -10,9 +10,9 @@
 #include <memory>
 #include <vector>
 
-#include "glintlab/binomial.hpp"
-#include "glintlab/blend.hpp"
+#include "glintlab/counting/blend.hpp"
 #include "glintlab/detail/law_kernel.hpp"
+#include "glintlab/stats/binomial.hpp"
 
 using namespace glintlab;
 

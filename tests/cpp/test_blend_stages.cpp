@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "glintlab/blend.hpp"
+#include "glintlab/counting/blend.hpp"
 #include "glintlab/detail/blend_stages.hpp"
 
 using namespace glintlab;

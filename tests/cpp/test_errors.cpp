@@ -1,4 +1,4 @@
-// The C++ error vocabulary (glintlab/errors.hpp): one message per shape of bad input.
+// The C++ error vocabulary (glintlab/base/errors.hpp): one message per shape of bad input.
 #include <catch2/catch.hpp>
 
 #include <array>
@@ -8,9 +8,9 @@
 #include <utility>
 #include <vector>
 
-#include "glintlab/errors.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/metrics.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/law.hpp"
+#include "glintlab/stats/metrics.hpp"
 
 using namespace glintlab;
 using Catch::Equals;

@@ -1,4 +1,4 @@
-// glintlab/float16.hpp: the portable half-float rounding of the "gated_shader" law, checked bit for bit
+// glintlab/base/float16.hpp: the portable half-float rounding of the "gated_shader" law, checked bit for bit
 // against the compiler's _Float16 conversion where it has one (GCC on x86-64), and against values
 // worked out by hand everywhere (Clang 14 has no _Float16 on x86-64).
 #include <catch2/catch.hpp>
@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <cstring>
 
-#include "glintlab/float16.hpp"
+#include "glintlab/base/float16.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// The ground truth of glint images (core/src/glint_image.cpp, docs/math/glint_images.md#glint-truth):
+// The ground truth of glint images (core/src/glinty/glint_image.cpp, docs/math/glint_images.md#glint-truth):
 // stratified facets counted in footprint ellipses.
 #include <catch2/catch.hpp>
 #include <cmath>
@@ -7,8 +7,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "glintlab/glint_image.hpp"
-#include "glintlab/law.hpp"
+#include "glintlab/counting/law.hpp"
+#include "glintlab/glinty/glint_image.hpp"
 
 using namespace glintlab;
 

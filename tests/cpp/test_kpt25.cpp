@@ -18,8 +18,8 @@
 #include <utility>
 #include <vector>
 
-#include "glintlab/glinty_ndf.hpp"
-#include "glintlab/law.hpp"
+#include "glintlab/counting/law.hpp"
+#include "glintlab/glinty/glinty_ndf.hpp"
 
 using namespace glintlab;
 

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <vector>
 
-#include "glintlab/errors.hpp"
-#include "glintlab/law.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/law.hpp"
 
 using namespace glintlab;
 using Catch::Matchers::Contains;

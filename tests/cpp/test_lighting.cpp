@@ -1,4 +1,4 @@
-// Glints under extended lights (glintlab/lighting.hpp): the lights' geometry, the cubature against
+// Glints under extended lights (glintlab/lighting/lighting.hpp): the lights' geometry, the cubature against
 // closed forms, the facet truth's mean count.
 #include <catch2/catch.hpp>
 #include <cmath>
@@ -6,8 +6,8 @@
 #include <numbers>
 #include <vector>
 
-#include "../../core/src/lighting_cubature.hpp"
-#include "glintlab/lighting.hpp"
+#include "../../core/src/lighting/lighting_cubature.hpp"
+#include "glintlab/lighting/lighting.hpp"
 
 using namespace glintlab::lighting;
 

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <limits>
 
-#include "glintlab/binomial.hpp"
-#include "glintlab/chi2.hpp"
-#include "glintlab/metrics.hpp"
+#include "glintlab/stats/binomial.hpp"
+#include "glintlab/stats/chi2.hpp"
+#include "glintlab/stats/metrics.hpp"
 
 using namespace glintlab;
 using Catch::Matchers::Contains;

@@ -3,7 +3,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "glintlab/normal.hpp"
+#include "glintlab/stats/normal.hpp"
 
 using namespace glintlab;
 

@@ -9,11 +9,11 @@
 #include <string>
 #include <vector>
 
-#include "glintlab/binomial.hpp"
-#include "glintlab/chi2.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/metrics.hpp"
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/law.hpp"
+#include "glintlab/stats/binomial.hpp"
+#include "glintlab/stats/chi2.hpp"
+#include "glintlab/stats/metrics.hpp"
 #include "glintlab/validation/plugin.hpp"
 
 using namespace glintlab;

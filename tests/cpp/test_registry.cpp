@@ -14,13 +14,13 @@
 #include <thread>
 #include <vector>
 
-#include "glintlab/aniso.hpp"
-#include "glintlab/blend.hpp"
-#include "glintlab/chi2.hpp"
+#include "glintlab/base/registry.hpp"
+#include "glintlab/counting/aniso.hpp"
+#include "glintlab/counting/blend.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/metrics.hpp"
-#include "glintlab/registry.hpp"
+#include "glintlab/stats/chi2.hpp"
+#include "glintlab/stats/metrics.hpp"
 #include "glintlab/validation/plugin.hpp"
 
 using namespace glintlab;

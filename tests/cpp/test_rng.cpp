@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "glintlab/base/rng.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/uniform_rows.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/rng.hpp"
 
 using glintlab::CounterRng;
 

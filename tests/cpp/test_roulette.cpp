@@ -11,12 +11,12 @@
 #include <limits>
 #include <vector>
 
-#include "glintlab/blend.hpp"
+#include "glintlab/base/rng.hpp"
+#include "glintlab/counting/blend.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/roulette.hpp"
 #include "glintlab/detail/uniform_rows.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/normal.hpp"
-#include "glintlab/rng.hpp"
+#include "glintlab/stats/normal.hpp"
 
 using namespace glintlab;
 

@@ -5,7 +5,7 @@
 #include <numbers>
 #include <vector>
 
-#include "glintlab/sampler_test.hpp"
+#include "glintlab/sampling/sampler_test.hpp"
 
 using namespace glintlab::sampling;
 

@@ -10,7 +10,7 @@
 #include <thread>
 #include <vector>
 
-#include "glintlab/float32.hpp"
+#include "glintlab/base/float32.hpp"
 #include "glintlab/validation/shader.hpp"
 
 using namespace glintlab::shader;

@@ -4,10 +4,10 @@
 #include <numbers>
 #include <vector>
 
-#include "glintlab/binomial.hpp"
-#include "glintlab/chi2.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/spatial.hpp"
+#include "glintlab/counting/law.hpp"
+#include "glintlab/counting/spatial.hpp"
+#include "glintlab/stats/binomial.hpp"
+#include "glintlab/stats/chi2.hpp"
 
 using namespace glintlab;
 using namespace glintlab::spatial;

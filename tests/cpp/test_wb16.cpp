@@ -10,8 +10,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "glintlab/law.hpp"
-#include "glintlab/wb16.hpp"
+#include "glintlab/counting/law.hpp"
+#include "glintlab/glinty/wb16.hpp"
 
 using namespace glintlab;
 

@@ -9,8 +9,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "glintlab/law.hpp"
-#include "glintlab/wwh18.hpp"
+#include "glintlab/counting/law.hpp"
+#include "glintlab/glinty/wwh18.hpp"
 
 using namespace glintlab;
 

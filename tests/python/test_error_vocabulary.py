@@ -1,4 +1,4 @@
-"""The C++ error vocabulary holds: bad input is reported through core/include/glintlab/errors.hpp
+"""The C++ error vocabulary holds: bad input is reported through core/include/glintlab/base/errors.hpp
 (throw_invalid, check_length, parse_enum, throw_invalid_message), never by a direct
 ``throw std::invalid_argument(`` in core/, validation/ or bindings/, so that each shape of bad input
 has one message (as test_layout.py greps imports, this greps throws)."""
@@ -8,7 +8,7 @@ import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-HELPERS = {"core/include/glintlab/errors.hpp", "core/src/errors.cpp"}
+HELPERS = {"core/include/glintlab/base/errors.hpp", "core/src/base/errors.cpp"}
 # Files allowed a direct throw, each with its reason.
 ALLOWED: dict[str, str] = {
     "validation/src/documents.cpp": "the document parser is its own library (glintlab_documents), built and fuzzed "
@@ -32,12 +32,12 @@ def offenders(pattern):
 
 def test_no_direct_invalid_argument_throws():
     found = offenders(DIRECT)
-    assert not found, ("throw through glintlab/errors.hpp (throw_invalid, check_length, parse_enum or "
+    assert not found, ("throw through glintlab/base/errors.hpp (throw_invalid, check_length, parse_enum or "
                        f"throw_invalid_message), not std::invalid_argument directly: {found}")
 
 
 def test_one_length_message():
-    assert not offenders(LENGTH), "use check_length (glintlab/errors.hpp) for 'has N values; expected 1 or M'"
+    assert not offenders(LENGTH), "use check_length (glintlab/base/errors.hpp) for 'has N values; expected 1 or M'"
 
 
 def test_the_grep_finds_a_direct_throw():

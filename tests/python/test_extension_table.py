@@ -122,7 +122,7 @@ def test_a_vector_path_is_the_files_the_table_names():
     and every per-pixel body is included by an AVX2 and an AVX-512 file, its block functions declared in
     detail/pixel_blocks.hpp, where a law's evaluate_pixels finds them."""
     row = _table()["law with a vector path"]["files to touch"]
-    for named in ("`CMakeLists.txt`", "`core/src/simd_math.hpp`", "`core/include/glintlab/detail/pixel_blocks.hpp`"):
+    for named in ("`CMakeLists.txt`", "`core/src/simd/simd_math.hpp`", "`core/include/glintlab/detail/pixel_blocks.hpp`"):
         assert named in row, named
     cmake = (ROOT / "CMakeLists.txt").read_text()
     flags = {"avx2": "-mavx2", "avx512": "-mavx512f"}

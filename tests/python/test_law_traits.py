@@ -80,7 +80,7 @@ def test_a_law_file_is_written_the_one_way(path):
 def test_the_threads_header_is_not_the_law_header():
     # parallel.hpp (the drivers' thread split) needs the threads knob, not the law interface: the image,
     # blend, sampler and NDF drivers that include it do not depend on law.hpp through it.
-    text = (ROOT / "core" / "src" / "parallel.hpp").read_text()
-    assert '#include "glintlab/threads.hpp"' in text and "law.hpp" not in text
-    assert "int num_threads();" in (ROOT / "core" / "include" / "glintlab" / "threads.hpp").read_text()
-    assert "int num_threads();" not in (ROOT / "core" / "include" / "glintlab" / "law.hpp").read_text()
+    text = (ROOT / "core" / "src" / "base" / "parallel.hpp").read_text()
+    assert '#include "glintlab/base/threads.hpp"' in text and "law.hpp" not in text
+    assert "int num_threads();" in (ROOT / "core" / "include" / "glintlab" / "base" / "threads.hpp").read_text()
+    assert "int num_threads();" not in (ROOT / "core" / "include" / "glintlab" / "counting" / "law.hpp").read_text()

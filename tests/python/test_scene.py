@@ -275,7 +275,7 @@ def test_a_scene_that_sees_no_surface_is_refused_by_name(tmp_path, capsys):
     assert "no pixel sees the plane" in capsys.readouterr().err
 
 
-# Scene.trace is C++ (core/src/scene_trace.cpp), Scene.trace_numpy its first, numpy form: the same float64
+# Scene.trace is C++ (core/src/scene/scene_trace.cpp), Scene.trace_numpy its first, numpy form: the same float64
 # operations, so they agree to float64 rounding. Measured on the shipped scenes: planes bit for bit,
 # the sphere up to 2e-11 and the heightfields 6e-11 relative (numpy's vector sin, cos and atan2 against the
 # C library's, amplified in J by the root's conditioning); allowed: 1e-9 of each vector's largest component.

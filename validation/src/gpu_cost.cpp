@@ -15,7 +15,7 @@
 #include <regex>
 #include <sstream>
 
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 
 namespace glintlab::gpu_cost {
 namespace {

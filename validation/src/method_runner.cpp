@@ -4,7 +4,7 @@
 // compilation, caching, devices and timeouts are shared.
 #include "glintlab/validation/method_shader.hpp"
 
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 
 namespace glintlab::shader {
 

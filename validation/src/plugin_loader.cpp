@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "glintlab/base/errors.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/law_kernel.hpp"
-#include "glintlab/errors.hpp"
-#include "glintlab/law.hpp"
 #include "glintlab/plugin.h"
 
 namespace glintlab {

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <regex>
 
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 
 namespace glintlab::shader {
 

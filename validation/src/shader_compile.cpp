@@ -2,7 +2,7 @@
 // that serves the user's code and its #includes (UTF-8 checked, include cycles and macro expansion
 // bounded before glslang sees them), shaderc's options, and the preprocessed text and SPIR-V of a
 // wrapper kernel, a compile failure worded once for every kind of kernel.
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 #include "glintlab/validation/shader.hpp"
 
 #include <shaderc/shaderc.hpp>

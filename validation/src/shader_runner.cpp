@@ -4,7 +4,7 @@
 // its calls go through one submit path, chunk by chunk: record, submit, wait, and retire on timeout.
 #include "glintlab/validation/shader.hpp"
 
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 
 #include <algorithm>
 #include <array>
@@ -13,7 +13,7 @@
 #include <functional>
 #include <sstream>
 
-#include "glintlab/float32.hpp"
+#include "glintlab/base/float32.hpp"
 #include "vulkan_device.hpp"
 
 namespace glintlab::shader {

@@ -2,7 +2,7 @@
 // declares, checked against those its wrapper binds before the driver sees the module, and the loops
 // whose trip count is not shown to stay within lavapipe's cap. A few opcodes read by number; no
 // SPIR-V library.
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 #include "glintlab/validation/shader.hpp"
 
 #include <algorithm>

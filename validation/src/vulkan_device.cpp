@@ -4,7 +4,7 @@
 // passed its timeout.
 #include "vulkan_device.hpp"
 
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 #include "glintlab/validation/shader.hpp"
 
 #include <algorithm>

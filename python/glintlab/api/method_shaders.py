@@ -359,7 +359,7 @@ def _wb16_params(params: dict) -> dict:
 
 
 def wb16_twin(rows, return_lookup: bool = False, **params):
-    """WB16's Code 2 in C++ float32 (core/src/wb16.cpp), operation for operation as ``wb16_body.h``
+    """WB16's Code 2 in C++ float32 (core/src/glinty/wb16.cpp), operation for operation as ``wb16_body.h``
     computes it, on packed rows (:func:`pack_inputs`; the shader reads the same float32 values), on
     every core. Returns (m,) float32, and with ``return_lookup`` also the lookup positions ``pos``
     (m, 3), whose float32 spacing bounds how far the two may differ. They agree pixel by pixel except

@@ -3,7 +3,7 @@
 A scene file (``data/schema/scene.schema.json``, examples in ``data/scenes/``) holds a pinhole camera,
 one primitive (a plane, a sphere, or a plane displaced by a procedural heightfield), a point or
 directional light and a glinty material (NDF, roughness alpha, DB23's ratio R, facet density N).
-``Scene.trace`` (in C++, core/src/scene_trace.cpp; ``Scene.trace_numpy`` is the same in numpy) intersects
+``Scene.trace`` (in C++, core/src/scene/scene_trace.cpp; ``Scene.trace_numpy`` is the same in numpy) intersects
 the camera rays analytically (the heightfield by a conservative march and a safeguarded Newton step) and
 differentiates the hit point, the texture coordinates and so the
 Jacobian d(uv)/d(pixel) analytically; ``Scene.geometry`` does it for every pixel and derives the
@@ -291,7 +291,7 @@ class Scene:
         """Rays through pixel coordinates (px, py) (floats, pixel centres at i + 0.5; y down): hit mask,
         hit point x, ray parameter t, uv, the analytic Jacobian (du/dx, dv/dx, du/dy, dv/dy), the shading
         normal, the ray direction and the hit point's derivatives along the pixel axes. Arrays of any
-        (equal) shape. Computed in C++ on every core (core/src/scene_trace.cpp): the operations of
+        (equal) shape. Computed in C++ on every core (core/src/scene/scene_trace.cpp): the operations of
         :meth:`trace_numpy`, which it matches to float64 rounding."""
         px, py = np.broadcast_arrays(np.asarray(px, float), np.asarray(py, float))
         shape = px.shape

@@ -5,7 +5,7 @@
 #include <exception>
 #include <vector>
 
-#include "glintlab/law.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/plugin.h"  // installed too (plugin authors include only it)
 
 int main() {

@@ -1,5 +1,6 @@
-// The stages of AnisoCounter::count_pixels and sample (core/src/aniso.cpp; docs/math/grids.md#grid-realizations):
-// internal to the library and its tests. A call cuts its pixels into chunks; each pixel goes through
+// The stages of AnisoCounter::count_pixels and sample (core/src/counting/aniso.cpp;
+// docs/math/grids.md#grid-realizations): internal to the library and its tests. A call cuts its pixels into chunks;
+// each pixel goes through
 //
 //   1. footprint terms  footprint_terms  the scheme's terms of the pixel's footprint (or the call's shared ones)
 //   2. term cells       TermCells        each term's grid cells (vertices of the spatial and angular lattices, or
@@ -22,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "glintlab/aniso.hpp"
+#include "glintlab/counting/aniso.hpp"
 
 namespace glintlab::detail {
 class FixedEvaluator;

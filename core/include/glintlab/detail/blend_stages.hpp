@@ -1,5 +1,6 @@
-// The stages of BlendedLaw::sample and sample_at (core/src/blend_stages.cpp; docs/math/blends.md#blend-stages):
-// internal to the library and its tests. A call cuts its samples into chunks of rows; each chunk goes through
+// The stages of BlendedLaw::sample and sample_at (core/src/counting/blend_stages.cpp;
+// docs/math/blends.md#blend-stages): internal to the library and its tests. A call cuts its samples into chunks of
+// rows; each chunk goes through
 //
 //   1. brackets       bracket_rows   each row's P and p checked, its level bracket on the ladder
 //   2. trial counts   trial_counts   the rule's trials at the two levels, snapped, checked against the inner law
@@ -25,9 +26,9 @@
 #include <utility>
 #include <vector>
 
-#include "glintlab/blend.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/rng.hpp"
+#include "glintlab/base/rng.hpp"
+#include "glintlab/counting/blend.hpp"
+#include "glintlab/counting/law.hpp"
 
 namespace glintlab::detail {
 class FixedEvaluator;

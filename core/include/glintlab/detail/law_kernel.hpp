@@ -27,11 +27,11 @@
 #include <stdexcept>
 #include <utility>
 
+#include "glintlab/base/float32.hpp"
+#include "glintlab/base/rng.hpp"
+#include "glintlab/counting/law.hpp"
 #include "glintlab/detail/uniform_rows.hpp"
-#include "glintlab/float32.hpp"
-#include "glintlab/law.hpp"
-#include "glintlab/rng.hpp"
-#include "glintlab/step_inversion.hpp"
+#include "glintlab/stats/step_inversion.hpp"
 
 namespace glintlab::detail {
 

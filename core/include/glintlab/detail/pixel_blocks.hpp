@@ -1,5 +1,5 @@
 // A law's vector per-pixel pass (detail::LawKernel::evaluate_pixels): the per-ISA block functions of
-// the laws that have one (compiled from core/src/<law>_pixels_body.inc with the ISA's flags, called
+// the laws that have one (compiled from core/src/simd/<law>_pixels_body.inc with the ISA's flags, called
 // only on CPUs that have it) and the one driver that runs them, for the law files (core/laws/).
 //
 // The ISA-compiled files include this header for the declarations only: they never instantiate
@@ -19,7 +19,7 @@ namespace glintlab::detail {
 using PixelBlock = bool (*)(const double* n, const double* p, const double* u, std::size_t m, double* out,
                             double* redo);
 
-// The block functions per law and ISA (core/src/gated_pixels_avx512.cpp, gated_pixels_avx2.cpp).
+// The block functions per law and ISA (core/src/simd/gated_pixels_avx512.cpp, gated_pixels_avx2.cpp).
 // The AVX2 ones need FMA3 too (SLEEF's AVX2 functions).
 bool gated_pixels_block_avx512(const double* n, const double* p, const double* u, std::size_t m, double* out,
                                double* redo);

@@ -2,7 +2,7 @@
 // "roulette"): internal to the library and its tests.
 //
 // The closed-form moments are inline and branch-free (selects, no division) so that the scalar rule
-// and the vector row kernels (core/src/roulette_rows*.cpp) compile the very same IEEE operations in
+// and the vector row kernels (core/src/counting/roulette_rows*.cpp) compile the very same IEEE operations in
 // the same order: neither contracts products and sums into FMAs (the scalar code is built for the
 // x86-64 baseline, which has none; the kernels with -ffp-contract=off), so both give the same bits.
 #pragma once

@@ -3,7 +3,7 @@
 // printed code is ambiguous: docs/math/glint_images.md#glint-wb16. The body of wb16.hlsl and
 // wb16.glsl (which include glintlab_method_<language>.h first), written in what the two languages
 // share, so both compute the same operations. Its C++ twin, which must agree with it pixel by pixel,
-// is core/src/wb16.cpp (glintlab.api.method_shaders.wb16_twin; wb16_twin_numpy is the numpy one).
+// is core/src/glinty/wb16.cpp (glintlab.api.method_shaders.wb16_twin; wb16_twin_numpy is the numpy one).
 #ifndef WB16_BODY_H
 #define WB16_BODY_H
 

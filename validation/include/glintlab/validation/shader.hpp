@@ -5,7 +5,7 @@
 // The contract: the user writes one function
 //     float count(float n, float p, float4 u)      (HLSL; GLSL: float count(float n, float p, vec4 u))
 // and glintlab wraps it in its own compute kernel (buffers, bindings, dispatch). n and p arrive as
-// float(n), float(p); the uniforms by uniform_to_float (glintlab/float32.hpp); unused ones are 0.
+// float(n), float(p); the uniforms by uniform_to_float (glintlab/base/float32.hpp); unused ones are 0.
 //
 // Runner policy: one Vulkan instance per process and one logical device per physical device, kept
 // for the process's life; pipelines cached by a hash of (device, language, entry, source, included
