@@ -192,6 +192,21 @@ class EnvMap:
         """The map with each region replaced by its constant radiance (0 below the horizon)."""
         return np.where(self.labels >= 0, self.region_radiance[np.maximum(self.labels, 0)], 0.0)
 
+    def lookup(self, w, radiance: str = "map") -> np.ndarray:
+        """The radiance at unit directions ``w`` (..., 3): the map's cell holding each (nearest, no
+        filtering: the map is piecewise constant over its cells, as the exact p and the facet truth read
+        it), ``radiance`` "map" (its own values) or "regions" (the partition's constants); 0 below the
+        horizon."""
+        V.choice("radiance", radiance, ("map", "regions"))
+        w = V.as_float_array("w", w)
+        rows, cols = self.shape
+        theta = np.arccos(np.clip(w[..., 2], -1, 1))
+        phi = np.mod(np.arctan2(w[..., 1], w[..., 0]), 2 * math.pi)
+        i = np.minimum((theta / math.pi * rows).astype(int), rows - 1)
+        j = np.minimum((phi / (2 * math.pi) * cols).astype(int), cols - 1)
+        img = self.image if radiance == "map" else self.constant_image()
+        return np.where(w[..., 2] > 0, img[i, j], 0.0)
+
     def core_args(self, radiance: str = "map"):
         """(rows, cols, regions, labels, radiance) as the core takes them; ``radiance`` "map" (the map's
         own values) or "regions" (the partition's constants)."""

@@ -12,6 +12,7 @@ from ..api.shaders import NoVulkanDevice
 from ..validation import lighting as VL
 from ..validation import lighting_images as LI
 from ..validation.scene_images import resolve_scene, with_density
+from . import sampling_lighting
 from .base import Context, Tables
 
 NAME = "lighting"
@@ -24,12 +25,19 @@ DEFAULTS = {"targets": ["beckmann", "ggx"], "alphas": [0.05, 0.2, 0.5], "half_an
             "elevations_deg": [20.0, 45.0], "views_deg": [10.0, 40.0, 70.0], "count_half_angles": [0.001, 0.02, 0.1, 0.3],
             "realizations": 2, "tolerance": 0.05,
             # Images of a Table 1 plane under a cap, a window and the sky (validation.lighting_images): this
-            # fraction of 1920 x 1080 per side, N x density_factor x scale^2, frames of the scene images' path.
-            "scene": "plane_25", "scene_scale": 0.25, "scene_density_factor": 0.25, "scene_frames": 8,
-            "scene_cap_half_angle": 0.2, "scene_rect_half_widths": [0.3, 0.2], "scene_grid_nodes": 17}
-QUICK = {"scene_scale": 1.0 / 12, "scene_frames": 4, "scene_grid_nodes": 11,
+            # fraction of 1920 x 1080 per side, N x density_factor x scale^2, frames of the scene images' path
+            # (about 10 s; FULL_SCENE's sizes, 4 minutes, are make bench's: bench/bench_lighting.py).
+            "scene": "plane_25", "scene_scale": 1.0 / 12, "scene_density_factor": 0.25, "scene_frames": 4,
+            "scene_cap_half_angle": 0.2, "scene_rect_half_widths": [0.3, 0.2], "scene_grid_nodes": 11}
+# KPT25's Algorithm 2 under the sky map (studies.sampling_lighting with the map's radiance): pixels of its
+# PIXELS, estimates x samples per estimator, the view's polar angle; |z| above alg2_max_z fails the section.
+DEFAULTS.update({"alg2_pixels": [0, 2], "alg2_repeats": 64, "alg2_samples": 256, "alg2_wo_theta_deg": 30.0,
+                 "alg2_max_z": 4.0})
+FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17}
+QUICK = {"scene_scale": 1.0 / 16, "scene_frames": 3, "scene_grid_nodes": 9,
          "alphas": [0.05, 0.3], "half_angles": [0.01, 0.1], "elevations_deg": [30.0], "views_deg": [20.0, 60.0],
-         "count_half_angles": [0.001, 0.1, 0.3], "realizations": 1}
+         "count_half_angles": [0.001, 0.1, 0.3], "realizations": 1, "alg2_pixels": [0], "alg2_repeats": 32,
+         "alg2_samples": 128}
 NOTEBOOK = "lighting.ipynb"
 TABLE = {
     "lighting_accuracy": ["method", "target", "kind", "half_angle", "configurations", "share_within",
@@ -39,11 +47,13 @@ TABLE = {
     "lighting_point_limit": ["half_angle", "p_exact", "p_point", "ratio", "R_equivalent", "p_db23"],
     "lighting_envmap": ["source", "method", "scheme", "chi2", "dof", "chi2_pvalue", "p_0", "p_1", "p_2"],
     "lighting_images": ["image", "mean_count", "vs_facets", "vs_expected", "lit_share"],
+    "lighting_kpt25_envmap": ["pixel", "estimator", "samples", "reference", "reference_error", "mean", "z",
+                              "relative_std_per_sample", "rmse_ratio_to_alg2"],
     "lighting_scene_images": ["light", "method", "own_std_ratio", "own_pop_rate", "own_truth_change_rate",
                               "own_mean_ratio", "smooth_mean_ratio", "lit_facets", "count_ratio", "expected_ratio"],
 }
 #: The shipped area-light shader's lit facets over their expectation at the exact p must lie within this
-#: factor: with the section's ~10^2 expected lit facets per path a Poisson count misses it with probability
+#: factor: with the section's ~10^2 to 10^3 expected lit facets per path a Poisson count misses it with probability
 #: far below 1e-6, while the shader without the light's solid angle is off by 1 / Omega (8 for the cap).
 SHADER_FACTOR = 2.0
 PASS = 1e-3  # the chi-square level of the exact paths' checks (their false-failure rate; the seeds are fixed)
@@ -63,9 +73,12 @@ def compute(params: dict, ctx: Context) -> Tables:
     envtab, partition = VL.envmap_counts(env, realizations=params["realizations"], seed=ctx.seed)
     ctx.progress("images")
     images, image_table = VL.plane_images(window_light(), seed=ctx.seed)
+    ctx.progress("KPT25's Algorithm 2 under the map")
+    alg2 = kpt25_envmap(params, env, ctx.seed)
     ctx.progress("scene images under the lights")
     paths, scene_table = scene_images(params, ctx.seed)
-    failures = []
+    failures = [f"KPT25's Algorithm 2 under the sky, {r.pixel}: z = {r.z:.2f} against the quadrature"
+                for r in alg2[alg2.estimator == "kpt25_alg2"].itertuples() if abs(r.z) > params["alg2_max_z"]]
     exact = counts[(counts.method == "exact") & (counts.law == "binomial")]
     for _, r in exact[exact.chi2_pvalue <= PASS].iterrows():
         failures.append(f"facets under a cap of {r.half_angle:g} rad are not Binomial(M, p_exact): p = {r.chi2_pvalue:.2g}")
@@ -89,7 +102,8 @@ def compute(params: dict, ctx: Context) -> Tables:
              "scene images: exact p grid's largest relative error (p > 1e-3 max p), over the lights":
                  max(p.grid_error["max_rel_error_p_above_1e-3_max"] for p in paths)}
     return Tables({"lighting_accuracy": accuracy, "lighting_counts": counts, "lighting_point_limit": limit,
-                   "lighting_envmap": envtab, "lighting_images": image_table, "lighting_scene_images": scene_table},
+                   "lighting_envmap": envtab, "lighting_images": image_table, "lighting_scene_images": scene_table,
+                   "lighting_kpt25_envmap": alg2},
                   stats, failures, extra={"lighting_probabilities": probs},
                   data={"env": env, "partition": partition, "images": images, "scene_paths": paths})
 
@@ -99,6 +113,18 @@ def figures(tables: Tables, ctx: Context) -> list:
             ctx.save(envmap_figure(tables["env"]), "lighting_envmap.png"),
             ctx.save(images_figure(tables["images"]), "lighting_images.png"),
             ctx.save(scene_figure(tables["scene_paths"]), "lighting_scene_images.png")]
+
+
+def kpt25_envmap(params: dict, env, seed: int):
+    """KPT25's Algorithm 2 as the importance sampler of the lighting integral under the map ``env`` (its own
+    radiance per cell: ``EnvMap.lookup``) beside sampling the smooth NDF and the visible normals: per pixel
+    and estimator the bias table of studies.sampling_lighting and each estimator's RMSE over Algorithm 2's at
+    the largest sample count."""
+    rmse, bias = sampling_lighting.study(params["alg2_pixels"], int(params["alg2_repeats"]), int(params["alg2_samples"]),
+                                         float(params["alg2_wo_theta_deg"]), seed, light=env.lookup)
+    last = rmse[rmse.samples == rmse.samples.max()].set_index(["pixel", "estimator"]).ratio_to_alg2
+    bias["rmse_ratio_to_alg2"] = [last[(r.pixel, r.estimator)] for r in bias.itertuples()]
+    return bias
 
 
 def scene_images(params: dict, seed: int):
