@@ -9,6 +9,8 @@ Thresholds: the lit facets of a path over their expectation at the exact p must 
 doubles the variance of their sum), so a correct method misses by chance with probability far below 1e-6,
 and the seeds are fixed. The facet truth itself must lie within 20% of its expectation (about 4 standard
 deviations of that sum)."""
+import functools
+
 import numpy as np
 import pytest
 
@@ -117,9 +119,10 @@ def test_kpt25_algorithm2_under_the_sky_is_unbiased_and_a_wrong_pdf_is_not():
     # normal z; the seed is fixed), and Algorithm 2's pdf doubled must be rejected at |z| > 4.
     env = gl.lights.envmap("sky", regions=3)
     wo = np.array([np.sin(0.5), 0.0, np.cos(0.5)])
-    _, bias = SL.pixel_study(0, 32, 128, [128], wo, seed=1, estimators=("kpt25_alg2",), light=env.lookup)
+    sky = functools.partial(env.lookup, filter="bilinear")
+    _, bias = SL.pixel_study(0, 32, 128, [128], wo, seed=1, estimators=("kpt25_alg2",), light=sky)
     assert abs(bias[0]["z"]) <= 4
-    _, wrong = SL.pixel_study(0, 32, 128, [128], wo, seed=1, estimators=("kpt25_alg2",), light=env.lookup,
+    _, wrong = SL.pixel_study(0, 32, 128, [128], wo, seed=1, estimators=("kpt25_alg2",), light=sky,
                               pdf_scale=2.0)
     assert abs(wrong[0]["z"]) > 4
 
@@ -131,3 +134,8 @@ def test_the_map_lookup_reads_the_cell_of_a_direction():
     np.testing.assert_array_equal(env.lookup(d)[upper], env.image[upper])
     assert np.all(env.lookup(d)[~upper] == 0)
     np.testing.assert_array_equal(env.lookup(d, "regions")[upper], env.constant_image()[upper])
+    # Bilinear: the cells' values at their centres, and between two centres of a row their mean.
+    np.testing.assert_allclose(env.lookup(d, filter="bilinear")[upper], env.image[upper], rtol=1e-12)
+    theta, phi = 3.5 * np.pi / 16, 5.0 * 2 * np.pi / 32  # row 3's centre, the edge between columns 4 and 5
+    mid = np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
+    assert env.lookup(mid, filter="bilinear") == pytest.approx(env.image[3, 4:6].mean(), rel=1e-9)
