@@ -46,7 +46,7 @@ TEST_CASE("method shaders: the GlintInput fields arrive in place, float and floa
     in[i * kMethodInputWords + 29] = 3;                                   // frame
     in[i * kMethodInputWords + 30] = 123456789;                           // seed
     in[i * kMethodInputWords + 31] = 2;                                   // light_kind: a rectangle
-    for (std::size_t w = 32; w < kMethodInputWords; ++w)  // light_radiance, light_size, light_edge
+    for (std::size_t w = 32; w < kMethodInputWords; ++w)                  // light_radiance, light_size, light_edge
       in[i * kMethodInputWords + w] = bits(static_cast<float>(i) + 0.01f * static_cast<float>(w));
   }
   std::vector<float> out(rows * kMethodOutputWords);
@@ -75,9 +75,10 @@ TEST_CASE("method shaders: the GlintInput fields arrive in place, float and floa
     }
   }
   SECTION("glsl, the light's extent") {
-    auto k = method_kernel(method_spec("vec3 glint(GlintInput g) { return vec3(float(g.light_kind) + g.light_radiance, "
-                                       "g.light_size.y, g.light_edge.z); }",
-                                       "glsl"));
+    auto k =
+        method_kernel(method_spec("vec3 glint(GlintInput g) { return vec3(float(g.light_kind) + g.light_radiance, "
+                                  "g.light_size.y, g.light_edge.z); }",
+                                  "glsl"));
     run_method(*k, reinterpret_cast<const float*>(in.data()), rows, out.data(), 10.0);
     for (std::size_t i = 0; i < rows; ++i) {
       const float* o = &out[i * kMethodOutputWords];
