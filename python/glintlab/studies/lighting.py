@@ -162,7 +162,7 @@ def scene_figure(paths):
         for ax, (name, seq) in zip(row, path.images.items()):
             ax.imshow(seq[0], cmap="inferno", vmin=0, vmax=vmax, interpolation="nearest")
             ax.set_title(f"{path.light}: {name}", fontsize=6)
-    fig.suptitle("plane_25 under extended lights: each method beside the facets lit the same way (frame 0)", fontsize=8)
+    fig.suptitle(f"{paths[0].scene} under extended lights: each method beside the facets lit the same way (frame 0)", fontsize=8)
     fig.tight_layout()
     return fig
 
