@@ -7,8 +7,8 @@
 
 #include "bindings.hpp"
 #include "glintlab/base/errors.hpp"
-#include "glintlab/validation/method_shader.hpp"
 #include "glintlab/glinty/wb16.hpp"
+#include "glintlab/validation/method_shader.hpp"
 
 namespace py = pybind11;
 
