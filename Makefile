@@ -75,6 +75,8 @@ bench: build-all
 	@$(VENV)/bin/python bench/bench_method_shader.py
 	@$(VENV)/bin/python bench/bench_counting_shaders.py
 	@$(VENV)/bin/python bench/bench_scene_trace.py --no-numpy
+	@# Issue 40: the exact p of an extended light per call (the hidden Catch2 case) and per 960 x 540 frame.
+	@$(VENV)/bin/python bench/bench_lighting.py
 	@$(VENV)/bin/glintlab bench --out out/bench
 	@$(VENV)/bin/python bench/bench_dask.py
 	@$(VENV)/bin/glintlab aniso --out out/bench/aniso

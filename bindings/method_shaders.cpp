@@ -1,5 +1,5 @@
 // Method shaders (glintlab/validation/method_shader.hpp) as _core.MethodKernel: compiled once, run on
-// (rows, 32) uint32 input rows (float32 bits and integers, the GlintInput layout), returning (rows, 4)
+// (rows, kMethodInputWords) uint32 input rows (float32 bits and integers, the GlintInput layout), returning (rows, 4)
 // float32. glintlab.api.method_shaders packs the rows and reads the files.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -7,11 +7,14 @@
 
 #include "bindings.hpp"
 #include "glintlab/base/errors.hpp"
+#include "glintlab/glinty/wb16.hpp"
 #include "glintlab/validation/method_shader.hpp"
 
 namespace py = pybind11;
 
 namespace glintlab::bindings {
+
+static_assert(wb16::kInputWords == shader::kMethodInputWords, "WB16's twin reads the method contract's rows");
 
 namespace {
 // Its own Python type (ShaderKernel already binds shader::Kernel): a compiled method shader.

@@ -1,6 +1,6 @@
 // Method shaders (validation/include/glintlab/validation/method_shader.hpp): the wrapper reads the
-// 32-word GlintInput rows in place, float and float3 results come back with their channel count, and
-// a wrong signature names the expected one. On whatever Vulkan device the loader offers.
+// GlintInput rows (kMethodInputWords words) in place, float and float3 results come back with their
+// channel count, and a wrong signature names the expected one. On whatever Vulkan device the loader offers.
 #include <catch2/catch.hpp>
 
 #include <cstring>
@@ -45,6 +45,9 @@ TEST_CASE("method shaders: the GlintInput fields arrive in place, float and floa
     in[i * kMethodInputWords + 28] = 7;                                   // pixel row
     in[i * kMethodInputWords + 29] = 3;                                   // frame
     in[i * kMethodInputWords + 30] = 123456789;                           // seed
+    in[i * kMethodInputWords + 31] = 2;                                   // light_kind: a rectangle
+    for (std::size_t w = 32; w < kMethodInputWords; ++w)                  // light_radiance, light_size, light_edge
+      in[i * kMethodInputWords + w] = bits(static_cast<float>(i) + 0.01f * static_cast<float>(w));
   }
   std::vector<float> out(rows * kMethodOutputWords);
   SECTION("glsl, vec3") {
@@ -69,6 +72,19 @@ TEST_CASE("method shaders: the GlintInput fields arrive in place, float and floa
       CHECK(o[0] == (static_cast<float>(i) + 0.01f * 19.0f) + 7.0f);  // view.y: word 19
       CHECK(o[1] == o[0]);
       CHECK(o[3] == 1.0f);
+    }
+  }
+  SECTION("glsl, the light's extent") {
+    auto k =
+        method_kernel(method_spec("vec3 glint(GlintInput g) { return vec3(float(g.light_kind) + g.light_radiance, "
+                                  "g.light_size.y, g.light_edge.z); }",
+                                  "glsl"));
+    run_method(*k, reinterpret_cast<const float*>(in.data()), rows, out.data(), 10.0);
+    for (std::size_t i = 0; i < rows; ++i) {
+      const float* o = &out[i * kMethodOutputWords];
+      CHECK(o[0] == 2.0f + (static_cast<float>(i) + 0.01f * 32.0f));  // light_kind + light_radiance: words 31, 32
+      CHECK(o[1] == static_cast<float>(i) + 0.01f * 34.0f);           // light_size.y: word 34
+      CHECK(o[2] == static_cast<float>(i) + 0.01f * 37.0f);           // light_edge.z: word 37
     }
   }
   SECTION("a wrong signature names the contract") {

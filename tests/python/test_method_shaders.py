@@ -63,7 +63,9 @@ def test_one_d_p_and_one_pixel_check():
 _FIELDS_HLSL = """
 float3 probe(GlintInput g) {
   float r = dot(g.world_pos, float3(1.0, 2.0, 3.0)) + dot(g.uv, float2(5.0, 7.0)) + dot(g.J, float4(11.0, 13.0, 17.0, 19.0));
-  float s = dot(g.n, float3(1.0, 3.0, 5.0)) + dot(g.t, float3(7.0, 11.0, 13.0)) + dot(g.b, float3(17.0, 19.0, 23.0));
+  float s = dot(g.n, float3(1.0, 3.0, 5.0)) + dot(g.t, float3(7.0, 11.0, 13.0)) + dot(g.b, float3(17.0, 19.0, 23.0))
+          + float(g.light_kind) * 0.125 + g.light_radiance * 29.0 + dot(g.light_size, float2(31.0, 37.0))
+          + dot(g.light_edge, float3(41.0, 43.0, 47.0));
   float t = dot(g.view, float3(1.0, 2.0, 4.0)) + dot(g.light, float3(8.0, 16.0, 32.0)) + dot(g.h, float3(3.0, 9.0, 27.0))
           + float(g.pixel.x) * 1000.0 + float(g.pixel.y) * 100000.0 + float(g.frame) * 0.5 + float(g.seed) * 0.25;
   return float3(r, s, t);
@@ -76,14 +78,17 @@ _FIELDS_GLSL = _FIELDS_HLSL.replace("float3", "vec3").replace("float2", "vec2").
 def test_glint_input_fields_arrive_in_place(language, src):
     rng = np.random.default_rng(5)
     m = 300
-    f = {k: rng.uniform(-1, 1, (m, w)) for k, _, w in MS.GLINT_INPUT_FIELDS if k not in ("pixel", "frame", "seed")}
+    f = {k: rng.uniform(-1, 1, (m, w)) for k, _, w in MS.GLINT_INPUT_FIELDS
+         if k not in ("pixel", "frame", "seed", "light_kind")}
+    kind = rng.integers(0, 3, m).astype(np.uint32)
     pixel = rng.integers(0, 64, (m, 2)).astype(np.uint32)
     frame, seed = rng.integers(0, 9, m).astype(np.uint32), rng.integers(0, 99, m).astype(np.uint32)
     meth = gl.shader_method(src, language=language, entry="probe", name=f"probe_{language}", register=False)
-    out = meth.shade(MS.pack_inputs(m, pixel=pixel, frame=frame, seed=seed, **f))
+    out = meth.shade(MS.pack_inputs(m, pixel=pixel, frame=frame, seed=seed, light_kind=kind, **f))
     assert out.shape == (m, 3)
     r = f["world_pos"] @ [1, 2, 3] + f["uv"] @ [5, 7] + f["J"] @ [11, 13, 17, 19]
-    s = f["n"] @ [1, 3, 5] + f["t"] @ [7, 11, 13] + f["b"] @ [17, 19, 23]
+    s = f["n"] @ [1, 3, 5] + f["t"] @ [7, 11, 13] + f["b"] @ [17, 19, 23] + kind * 0.125 + f["light_radiance"][:, 0] * 29 \
+        + f["light_size"] @ [31, 37] + f["light_edge"] @ [41, 43, 47]
     t = f["view"] @ [1, 2, 4] + f["light"] @ [8, 16, 32] + f["h"] @ [3, 9, 27] + pixel[:, 0] * 1000.0 \
         + pixel[:, 1] * 1e5 + frame * 0.5 + seed * 0.25
     np.testing.assert_allclose(out, np.column_stack([r, s, t]), rtol=2e-6, atol=2e-4)

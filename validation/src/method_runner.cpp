@@ -17,9 +17,14 @@ WrapperDeclaration method_wrapper(const std::string& entry) {
   d.buffers = {{0, "glintlab_in", "GlintlabIn", "uint", false}, {3, "glintlab_out", "GlintlabOut", "float", true}};
   d.record = "GlintInput g";
   // GlintInput's fields at their words of the row (kMethodInputWords; docs/math/glint_images.md#glint-contract).
-  d.fields = {{"world_pos", "vec3", 0}, {"uv", "vec2", 3},      {"J", "vec4", 5},      {"n", "vec3", 9},
-              {"t", "vec3", 12},        {"b", "vec3", 15},      {"view", "vec3", 18},  {"light", "vec3", 21},
-              {"h", "vec3", 24},        {"pixel", "uvec2", 27}, {"frame", "uint", 29}, {"seed", "uint", 30}};
+  d.fields = {{"world_pos", "vec3", 0},   {"uv", "vec2", 3},
+              {"J", "vec4", 5},           {"n", "vec3", 9},
+              {"t", "vec3", 12},          {"b", "vec3", 15},
+              {"view", "vec3", 18},       {"light", "vec3", 21},
+              {"h", "vec3", 24},          {"pixel", "uvec2", 27},
+              {"frame", "uint", 29},      {"seed", "uint", 30},
+              {"light_kind", "uint", 31}, {"light_radiance", "float", 32},
+              {"light_size", "vec2", 33}, {"light_edge", "vec3", 35}};
   d.helpers =
       "void glintlab_store(uint o, float v) { glintlab_out[o] = v; glintlab_out[o + 1u] = v; "
       "glintlab_out[o + 2u] = v; glintlab_out[o + 3u] = 1.0; }\n"

@@ -26,6 +26,7 @@ import functools
 import math
 
 import numpy as np
+import scipy.interpolate
 import scipy.optimize
 
 from .. import _core
@@ -97,6 +98,79 @@ def reflection_probability(target, alpha, wo, light, method: str = "exact", rel_
     else:
         out = np.array([ltc_probability(target, nd.alpha, w, light) for w in flat])
     return out.reshape(wo.shape[:-1])
+
+
+class ProbabilityGrid:
+    """The exact p of many views at the cost of ``nodes`` x ``nodes`` (docs/math/lighting.md#lighting-grid): the
+    exact p (cubature at ``rel_tol``) at the nodes of a grid spanning ``views``, interpolated by bicubic
+    splines (one per region of a map). The grid's coordinates are the views' tangent components (x, y) when
+    their box lies inside the unit disk (views around the normal), else their polar and azimuthal angles
+    (a view box away from the normal, azimuths within half a turn). Its error against the exact p is what
+    :meth:`error` measures; p varies over the lobe's width and the light's size, so the grid must resolve
+    both across the views' span."""
+
+    def __init__(self, target, alpha, light, views, nodes: int = 17, rel_tol: float = 1e-6):
+        nd = _target(target, alpha)
+        self.target, self.alpha, self.light, self.rel_tol = target, nd.alpha, light, V.real("rel_tol", rel_tol)
+        self.nodes = V.integer("nodes", nodes, minimum=4, maximum=1024)
+        wo = _view(views).reshape(-1, 3)
+        if wo.shape[0] == 0 or np.any(wo[:, 2] <= 0):
+            V.fail("views", f"{wo.shape[0]} views", "at least one view, all above the horizon (z > 0)")
+        xy = wo[:, :2]
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        self.polar = bool(np.hypot(*np.maximum(np.abs(lo), np.abs(hi))) >= 0.999)
+        self.phi0 = 0.0
+        if self.polar:
+            ang = self._angles(wo, None)
+            self.phi0 = float(np.angle(np.mean(np.exp(1j * ang[:, 1]))))
+            ang = self._angles(wo, self.phi0)
+            lo, hi = ang.min(axis=0), ang.max(axis=0)
+            if hi[1] - lo[1] > math.pi:
+                V.fail("views", "views all around the normal and near the horizon", "views whose box fits a grid")
+        span = np.maximum(hi - lo, 1e-6)
+        self.axes = [np.linspace(lo[i] - 1e-9 * span[i], hi[i] + 1e-9 * span[i], self.nodes) for i in (0, 1)]
+        a, b = np.meshgrid(*self.axes, indexing="ij")
+        node_views = self._views(a.reshape(-1), b.reshape(-1))
+        values = np.asarray(reflection_probability(target, nd.alpha, node_views, light, "exact", self.rel_tol))
+        values = values.reshape(self.nodes, self.nodes, -1)
+        self.splines = [scipy.interpolate.RectBivariateSpline(*self.axes, values[..., r]) for r in range(values.shape[2])]
+        self.regions = light.regions if isinstance(light, EnvMap) else None
+
+    @staticmethod
+    def _angles(wo, phi0):
+        phi = np.arctan2(wo[:, 1], wo[:, 0])
+        if phi0 is not None:
+            phi = np.mod(phi - phi0 + math.pi, 2 * math.pi) - math.pi
+        return np.column_stack([np.arccos(np.clip(wo[:, 2], -1, 1)), phi])
+
+    def _views(self, a, b):
+        if self.polar:
+            phi = b + self.phi0
+            return np.column_stack([np.sin(a) * np.cos(phi), np.sin(a) * np.sin(phi), np.cos(a)])
+        return np.column_stack([a, b, np.sqrt(np.maximum(1 - a * a - b * b, 0.0))])
+
+    def __call__(self, wo) -> np.ndarray:
+        """p at views ``wo`` (..., 3) inside the grid's span (an environment map: (..., regions))."""
+        w = _view(wo)
+        flat = w.reshape(-1, 3)
+        c = self._angles(flat, self.phi0) if self.polar else flat[:, :2]
+        out = np.column_stack([np.maximum(s.ev(c[:, 0], c[:, 1]), 0.0) for s in self.splines])
+        return out.reshape(w.shape[:-1] + ((self.regions,) if self.regions is not None else ()))
+
+    def error(self, wo, samples: int = 256, seed: int = 0) -> dict:
+        """The interpolation's error against the exact p at ``samples`` of the views ``wo`` drawn with
+        ``seed``: the largest and median |p_grid - p_exact| / max p_exact, and the largest relative error
+        where p_exact > 1e-3 max p_exact."""
+        flat = _view(wo).reshape(-1, 3)
+        pick = np.random.default_rng(V.seed(seed)).choice(len(flat), min(samples, len(flat)), replace=False)
+        exact = np.asarray(reflection_probability(self.target, self.alpha, flat[pick], self.light, "exact", self.rel_tol))
+        grid = self(flat[pick])
+        scale = max(float(exact.max()), 1e-300)
+        big = exact > 1e-3 * scale
+        rel = np.abs(grid - exact)[big] / exact[big]
+        return {"max_abs_error_over_max_p": float(np.abs(grid - exact).max() / scale),
+                "median_abs_error_over_max_p": float(np.median(np.abs(grid - exact)) / scale),
+                "max_rel_error_p_above_1e-3_max": float(rel.max()) if rel.size else 0.0, "samples": int(len(pick))}
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -192,6 +192,29 @@ class EnvMap:
         """The map with each region replaced by its constant radiance (0 below the horizon)."""
         return np.where(self.labels >= 0, self.region_radiance[np.maximum(self.labels, 0)], 0.0)
 
+    def lookup(self, w, radiance: str = "map", filter: str = "nearest") -> np.ndarray:
+        """The radiance at unit directions ``w`` (..., 3), ``radiance`` "map" (its own values) or "regions"
+        (the partition's constants), 0 below the horizon; ``filter`` "nearest" (the cell holding each
+        direction: the piecewise constant map the exact p and the facet truth read) or "bilinear" (between
+        the cells' centres, wrapping in azimuth: a continuous radiance, for integrals by quadrature)."""
+        V.choice("radiance", radiance, ("map", "regions"))
+        V.choice("filter", filter, ("nearest", "bilinear"))
+        w = V.as_float_array("w", w)
+        rows, cols = self.shape
+        y = np.arccos(np.clip(w[..., 2], -1, 1)) / math.pi * rows
+        x = np.mod(np.arctan2(w[..., 1], w[..., 0]), 2 * math.pi) / (2 * math.pi) * cols
+        img = self.image if radiance == "map" else self.constant_image()
+        if filter == "nearest":
+            out = img[np.minimum(y.astype(int), rows - 1), np.minimum(x.astype(int), cols - 1)]
+        else:
+            y = np.clip(y - 0.5, 0, rows - 1)
+            y0 = np.minimum(np.floor(y).astype(int), rows - 2)
+            x0 = np.floor(x - 0.5).astype(int)
+            fy, fx = y - y0, x - 0.5 - x0
+            a, b = np.mod(x0, cols), np.mod(x0 + 1, cols)
+            out = (img[y0, a] * (1 - fx) + img[y0, b] * fx) * (1 - fy) + (img[y0 + 1, a] * (1 - fx) + img[y0 + 1, b] * fx) * fy
+        return np.where(w[..., 2] > 0, out, 0.0)
+
     def core_args(self, radiance: str = "map"):
         """(rows, cols, regions, labels, radiance) as the core takes them; ``radiance`` "map" (the map's
         own values) or "regions" (the partition's constants)."""

@@ -35,7 +35,7 @@ from .glinty_ndf import IMAGE_METHODS, GlintyNDF, register_image_method
 from .shaders import DEFAULT_TIMEOUT_S, ShaderBacked, ShaderOutputError, kernel_spec
 
 _WORDS = {"float": 1, "vec2": 2, "vec3": 3, "vec4": 4, "uint": 1, "uvec2": 2}
-#: The fields of GlintInput in the order of the 32-word row the wrapper reads: (name, first word, words),
+#: The fields of GlintInput in the order of the row (METHOD_INPUT_WORDS words) the wrapper reads: (name, first word, words),
 #: from the method shader's wrapper declaration (validation/src/method_runner.cpp), the one table.
 GLINT_INPUT_FIELDS = tuple((name, word, _WORDS[kind]) for name, kind, word in _core.METHOD_INPUT_FIELDS)
 _INTEGER_FIELDS = tuple(name for name, kind, _ in _core.METHOD_INPUT_FIELDS if kind.startswith("u"))
@@ -49,7 +49,7 @@ WB16_DEFAULTS = {"WB16_SPARKLE_SIZE": 0.9, "WB16_SPARKLE_DENSITY": 30.0, "WB16_V
 
 
 def pack_inputs(m: int, **fields) -> np.ndarray:
-    """The (m, 32) uint32 rows of ``m`` pixels: every GlintInput field given by name (arrays of shape
+    """The (m, METHOD_INPUT_WORDS) uint32 rows of ``m`` pixels: every GlintInput field given by name (arrays of shape
     (m, k) or broadcastable), floats converted to float32, ``pixel``, ``frame`` and ``seed`` as
     unsigned integers. Missing fields are 0."""
     rows = np.zeros((m, _core.METHOD_INPUT_WORDS), np.uint32)
@@ -152,7 +152,7 @@ class ShaderMethod(ShaderBacked, GlintyNDF):
         raise NotImplementedError(f"method shader {self.name!r} returns an intensity: it has no smooth target")
 
     def run(self, rows) -> np.ndarray:
-        """The shader on packed rows (m, 32) uint32: (m, 4) float32, (r, g, b, channels)."""
+        """The shader on packed rows (m, METHOD_INPUT_WORDS) uint32: (m, 4) float32, (r, g, b, channels)."""
         rows = np.ascontiguousarray(rows, dtype=np.uint32)
         if rows.ndim != 2 or rows.shape[1] != _core.METHOD_INPUT_WORDS:
             V.fail("rows", f"an array of shape {rows.shape}", f"an array of shape (m, {_core.METHOD_INPUT_WORDS})")

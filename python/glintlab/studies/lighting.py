@@ -4,10 +4,15 @@ an environment map's regions counted as a multinomial (numbers: ``validation.lig
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 
 from ..api import lights as gl_lights
 from ..api.lighting import reflection_probability
+from ..api.shaders import NoVulkanDevice
 from ..validation import lighting as VL
+from ..validation import lighting_images as LI
+from ..validation.scene_images import resolve_scene, with_density
+from . import sampling_lighting
 from .base import Context, Tables
 
 NAME = "lighting"
@@ -18,9 +23,21 @@ MEANING = ("The probability that a facet mirrors the view into an extended light
            "and only a joint test over the regions sees a multinomial drawn as independent binomials.")
 DEFAULTS = {"targets": ["beckmann", "ggx"], "alphas": [0.05, 0.2, 0.5], "half_angles": [0.01, 0.05, 0.2],
             "elevations_deg": [20.0, 45.0], "views_deg": [10.0, 40.0, 70.0], "count_half_angles": [0.001, 0.02, 0.1, 0.3],
-            "realizations": 2, "tolerance": 0.05}
-QUICK = {"alphas": [0.05, 0.3], "half_angles": [0.01, 0.1], "elevations_deg": [30.0], "views_deg": [20.0, 60.0],
-         "count_half_angles": [0.001, 0.1, 0.3], "realizations": 1}
+            "realizations": 2, "tolerance": 0.05,
+            # Images of a Table 1 plane under a cap, a window and the sky (validation.lighting_images): this
+            # fraction of 1920 x 1080 per side, N x density_factor x scale^2, frames of the scene images' path
+            # (about 10 s; FULL_SCENE's sizes, 4 minutes, are make bench's: bench/bench_lighting.py).
+            "scene": "plane_25", "scene_scale": 1.0 / 12, "scene_density_factor": 0.25, "scene_frames": 4,
+            "scene_cap_half_angle": 0.2, "scene_rect_half_widths": [0.3, 0.2], "scene_grid_nodes": 11}
+# KPT25's Algorithm 2 under the sky map (studies.sampling_lighting with the map's radiance): pixels of its
+# PIXELS, estimates x samples per estimator, the view's polar angle; |z| above alg2_max_z fails the section.
+DEFAULTS.update({"alg2_pixels": [0, 2], "alg2_repeats": 64, "alg2_samples": 256, "alg2_wo_theta_deg": 30.0,
+                 "alg2_max_z": 4.0})
+FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17}
+QUICK = {"scene_scale": 1.0 / 16, "scene_frames": 3, "scene_grid_nodes": 9,
+         "alphas": [0.05, 0.3], "half_angles": [0.01, 0.1], "elevations_deg": [30.0], "views_deg": [20.0, 60.0],
+         "count_half_angles": [0.001, 0.1, 0.3], "realizations": 1, "alg2_pixels": [0], "alg2_repeats": 32,
+         "alg2_samples": 128}
 NOTEBOOK = "lighting.ipynb"
 TABLE = {
     "lighting_accuracy": ["method", "target", "kind", "half_angle", "configurations", "share_within",
@@ -30,7 +47,15 @@ TABLE = {
     "lighting_point_limit": ["half_angle", "p_exact", "p_point", "ratio", "R_equivalent", "p_db23"],
     "lighting_envmap": ["source", "method", "scheme", "chi2", "dof", "chi2_pvalue", "p_0", "p_1", "p_2"],
     "lighting_images": ["image", "mean_count", "vs_facets", "vs_expected", "lit_share"],
+    "lighting_kpt25_envmap": ["pixel", "estimator", "samples", "reference", "reference_error", "mean", "z",
+                              "relative_std_per_sample", "rmse_ratio_to_alg2"],
+    "lighting_scene_images": ["light", "method", "own_std_ratio", "own_pop_rate", "own_truth_change_rate",
+                              "own_mean_ratio", "smooth_mean_ratio", "lit_facets", "count_ratio", "expected_ratio"],
 }
+#: The shipped area-light shader's lit facets over their expectation at the exact p must lie within this
+#: factor: with the section's ~10^2 to 10^3 expected lit facets per path a Poisson count misses it with probability
+#: far below 1e-6, while the shader without the light's solid angle is off by 1 / Omega (8 for the cap).
+SHADER_FACTOR = 2.0
 PASS = 1e-3  # the chi-square level of the exact paths' checks (their false-failure rate; the seeds are fixed)
 
 
@@ -48,7 +73,12 @@ def compute(params: dict, ctx: Context) -> Tables:
     envtab, partition = VL.envmap_counts(env, realizations=params["realizations"], seed=ctx.seed)
     ctx.progress("images")
     images, image_table = VL.plane_images(window_light(), seed=ctx.seed)
-    failures = []
+    ctx.progress("KPT25's Algorithm 2 under the map")
+    alg2 = kpt25_envmap(params, env, ctx.seed)
+    ctx.progress("scene images under the lights")
+    paths, scene_table = scene_images(params, ctx.seed)
+    failures = [f"KPT25's Algorithm 2 under the sky, {r.pixel}: z = {r.z:.2f} against the quadrature"
+                for r in alg2[alg2.estimator == "kpt25_alg2"].itertuples() if abs(r.z) > params["alg2_max_z"]]
     exact = counts[(counts.method == "exact") & (counts.law == "binomial")]
     for _, r in exact[exact.chi2_pvalue <= PASS].iterrows():
         failures.append(f"facets under a cap of {r.half_angle:g} rad are not Binomial(M, p_exact): p = {r.chi2_pvalue:.2g}")
@@ -57,6 +87,10 @@ def compute(params: dict, ctx: Context) -> Tables:
     e = envtab.set_index(["source", "method", "scheme"]).chi2_pvalue
     if e[("facets", "exact", "")] <= PASS or e[("binomial", "exact", "chain")] <= PASS:
         failures.append("environment map: the facets or the binomial chain are not the exact multinomial")
+    shipped = scene_table[scene_table.method == "area_light (glsl)"]
+    for _, r in shipped.iterrows():
+        if not (1 / SHADER_FACTOR <= r.expected_ratio <= SHADER_FACTOR):
+            failures.append(f"the area-light method shader under the {r.light}: lit facets / expected = {r.expected_ratio:.3g}")
     ms = probs.exact_ms
     stats = {"exact p: CPU ms per (view, light), median / max": f"{ms.median():.3g} / {ms.max():.3g}",
              "exact p: largest error estimate / p (p > 1e-20)":
@@ -64,16 +98,73 @@ def compute(params: dict, ctx: Context) -> Tables:
              f"point p within {params['tolerance']:.0%} of exact (half-angle {min(params['half_angles']):g})":
                  float(accuracy[(accuracy.method == "point") & (accuracy.half_angle == min(params["half_angles"]))]
                        .share_within.mean()),
-             "environment map: partition's relative radiance error": partition["rel_partition_error"]}
+             "environment map: partition's relative radiance error": partition["rel_partition_error"],
+             "scene images: exact p grid's largest relative error (p > 1e-3 max p), over the lights":
+                 max(p.grid_error["max_rel_error_p_above_1e-3_max"] for p in paths)}
     return Tables({"lighting_accuracy": accuracy, "lighting_counts": counts, "lighting_point_limit": limit,
-                   "lighting_envmap": envtab, "lighting_images": image_table}, stats, failures,
-                  extra={"lighting_probabilities": probs}, data={"env": env, "partition": partition, "images": images})
+                   "lighting_envmap": envtab, "lighting_images": image_table, "lighting_scene_images": scene_table,
+                   "lighting_kpt25_envmap": alg2},
+                  stats, failures, extra={"lighting_probabilities": probs},
+                  data={"env": env, "partition": partition, "images": images, "scene_paths": paths})
 
 
 def figures(tables: Tables, ctx: Context) -> list:
     return [ctx.save(accuracy_figure(tables["lighting_probabilities"]), "lighting_accuracy.png"),
             ctx.save(envmap_figure(tables["env"]), "lighting_envmap.png"),
-            ctx.save(images_figure(tables["images"]), "lighting_images.png")]
+            ctx.save(images_figure(tables["images"]), "lighting_images.png"),
+            ctx.save(scene_figure(tables["scene_paths"]), "lighting_scene_images.png")]
+
+
+def kpt25_envmap(params: dict, env, seed: int):
+    """KPT25's Algorithm 2 as the importance sampler of the lighting integral under the map ``env`` (its own
+    radiance, bilinear between the cells' centres: ``EnvMap.lookup``; a continuous radiance lets the reference
+    quadrature converge as for a smooth integral) beside sampling the smooth NDF and the visible normals: per pixel
+    and estimator the bias table of studies.sampling_lighting and each estimator's RMSE over Algorithm 2's at
+    the largest sample count."""
+    rmse, bias = sampling_lighting.study(params["alg2_pixels"], int(params["alg2_repeats"]), int(params["alg2_samples"]),
+                                         float(params["alg2_wo_theta_deg"]), seed,
+                                         light=lambda w: env.lookup(w, filter="bilinear"))
+    last = rmse[rmse.samples == rmse.samples.max()].set_index(["pixel", "estimator"]).ratio_to_alg2
+    bias["rmse_ratio_to_alg2"] = [last[(r.pixel, r.estimator)] for r in bias.itertuples()]
+    return bias
+
+
+def scene_images(params: dict, seed: int):
+    """The plane under a cap, a window (rectangle) and the shipped sky: ([LightPath], their table). The
+    shipped area-light method shader and its wrong variant are rendered under the cap and the window
+    when a Vulkan device is present."""
+    scene = with_density(resolve_scene(params["scene"]).scaled(params["scene_scale"], keep_n=True),
+                         params["scene_density_factor"])
+    lights = [LI.scene_light(scene, "cap", (params["scene_cap_half_angle"], 0.0)),
+              LI.scene_light(scene, "rect", tuple(params["scene_rect_half_widths"]))]
+    mat, _ = LI.plane_material(scene)
+    try:
+        shaders = {"area_light (glsl)": LI.area_light_shader(mat),
+                   "area_light without solid angle (wrong)": LI.area_light_shader(mat, wrong=True)}
+    except NoVulkanDevice:
+        shaders = {}
+    kw = dict(frames=params["scene_frames"], seed=seed, grid_nodes=params["scene_grid_nodes"])
+    paths = [LI.light_path(scene, light, shaders=shaders, **kw) for light in lights]
+    paths.append(LI.light_path(scene, gl_lights.envmap("sky", regions=3), **kw))
+    return paths, pd.concat([LI.light_table(p) for p in paths], ignore_index=True)
+
+
+def scene_figure(paths):
+    """Frame 0 of the plane under each light: the facet truth beside each method (radiance per facet)."""
+    import matplotlib.pyplot as plt
+
+    cols = max(len(p.images) for p in paths)
+    fig, axes = plt.subplots(len(paths), cols, figsize=(2.4 * cols, 1.6 * len(paths)), squeeze=False)
+    for row, path in zip(axes, paths):
+        vmax = max(float(np.percentile(path.images["facets"][0][path.mask[0]], 99.9)), 1e-12)
+        for ax in row:
+            ax.axis("off")
+        for ax, (name, seq) in zip(row, path.images.items()):
+            ax.imshow(seq[0], cmap="inferno", vmin=0, vmax=vmax, interpolation="nearest")
+            ax.set_title(f"{path.light}: {name}", fontsize=6)
+    fig.suptitle(f"{paths[0].scene} under extended lights: each method beside the facets lit the same way (frame 0)", fontsize=8)
+    fig.tight_layout()
+    return fig
 
 
 def window_light():

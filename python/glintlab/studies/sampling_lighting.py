@@ -60,9 +60,10 @@ def radiance(wi) -> np.ndarray:
     return np.where(z > 0, out, 0.0)
 
 
-def weight(ndf, h, wo) -> np.ndarray:
+def weight(ndf, h, wo, light=radiance) -> np.ndarray:
     """g(h) = G2(wo, wi) L(wi) |wo.h| / (wo.n), so that L_o = integral of D(h) g(h) dh (0 where wi is
-    below the horizon; G2 the height-correlated Smith term of the smooth NDF)."""
+    below the horizon; G2 the height-correlated Smith term of the smooth NDF; L = ``light``, unit directions
+    (n, 3) -> radiance (n,): the analytic sky :func:`radiance`, or an environment map's lookup)."""
     h = np.asarray(h, float)
     ok = np.all(np.isfinite(h), axis=1)
     h = np.where(ok[:, None], h, [0.0, 0.0, 1.0])
@@ -72,7 +73,7 @@ def weight(ndf, h, wo) -> np.ndarray:
     lam_o = ndf.smith_lambda(np.array([wo[2]]))[0]
     lam_i = ndf.smith_lambda(np.where(up, wi[:, 2], 1.0))
     g2 = 1.0 / (1.0 + lam_o + lam_i)
-    return np.where(up, g2 * radiance(np.where(up[:, None], wi, [0.0, 0.0, 1.0])) * np.abs(c) / wo[2], 0.0)
+    return np.where(up, g2 * light(np.where(up[:, None], wi, [0.0, 0.0, 1.0])) * np.abs(c) / wo[2], 0.0)
 
 
 def inverse_map(nd, y) -> np.ndarray:
@@ -101,7 +102,7 @@ def _pixel_scales(nd, J) -> tuple[int, float]:
     return max(max(p["levels"]) for p in setups), min(p["sigma"] for p in setups)
 
 
-def reference(nd, nd_none, uv, J, seed, wo, orders=(2, 3), max_level: int | None = None) -> dict:
+def reference(nd, nd_none, uv, J, seed, wo, orders=(2, 3), max_level: int | None = None, light=radiance) -> dict:
     """The lobes' part I_lobes (Algorithm 1 with ``compensation="none"``) and the compensation's part C of
     L_o by tensor Gauss-Legendre quadrature in T-space: dh = dy / ((pi / 4) D(h)(h.n)) (T makes
     D(h)(h.n) uniform on the disk U), over square cells of side 1 / (2 2^l_max m) whose edges hold every
@@ -126,7 +127,7 @@ def reference(nd, nd_none, uv, J, seed, wo, orders=(2, 3), max_level: int | None
         yy, wy = yy[inside], wy[inside]
         h = inverse_map(nd, yy)
         d = nd.smooth(h)
-        g = weight(nd.smooth_ndf, h, wo)
+        g = weight(nd.smooth_ndf, h, wo, light)
         keep = (g > 0) & (d > 0)
         h, g, d, wy = h[keep], g[keep], d[keep], wy[keep]
         n = len(h)
@@ -141,7 +142,7 @@ def reference(nd, nd_none, uv, J, seed, wo, orders=(2, 3), max_level: int | None
             "evaluations": 2 * sum(v[2] for v in out.values())}
 
 
-def draws(nd, nd_none, uv, J, seed, wo, estimator, size, draw_seed, pdf_scale=1.0) -> np.ndarray:
+def draws(nd, nd_none, uv, J, seed, wo, estimator, size, draw_seed, pdf_scale=1.0, light=radiance) -> np.ndarray:
     """``size`` independent terms f_lobes(h) / p(h) of one estimator (h drawn by Algorithm 2 or by a smooth
     sampler, f_lobes = D^f without compensation times g); a lost draw (p = 0) gives 0. ``pdf_scale``
     multiplies Algorithm 2's pdf: a deliberately wrong pdf for the tests."""
@@ -157,7 +158,7 @@ def draws(nd, nd_none, uv, J, seed, wo, estimator, size, draw_seed, pdf_scale=1.
         V.fail("estimator", estimator, "one of " + ", ".join(ESTIMATORS))
     ok = np.all(np.isfinite(h), axis=1) & (p > 0)
     hh = np.where(ok[:, None], h, [0.0, 0.0, 1.0])
-    f = nd_none.evaluate(uvs, Js, hh, seed=seed) * weight(nd.smooth_ndf, hh, wo)
+    f = nd_none.evaluate(uvs, Js, hh, seed=seed) * weight(nd.smooth_ndf, hh, wo, light)
     return np.where(ok, f / np.where(ok, p, 1.0), 0.0)
 
 
@@ -169,23 +170,23 @@ def z_score(terms, target, target_error) -> float:
 
 
 def pixel_study(pixel, repeats: int, max_samples: int, sizes, wo, seed: int = 0, orders=(2, 3), pdf_scale=1.0,
-                estimators=ESTIMATORS, label: str | None = None):
+                estimators=ESTIMATORS, label: str | None = None, light=radiance):
     """One pixel (an index into PIXELS or a tuple (NDF parameters, uv, J, realization seed)): the reference,
     then per estimator the z of the mean of all repeats x max_samples terms against it and the relative
     RMSE over ``repeats`` estimates at each sample count in ``sizes`` (prefixes of each repeat's draws).
-    ``pdf_scale`` multiplies Algorithm 2's pdf (a wrong pdf, for the tests). Returns (rows of the RMSE
-    table, rows of the bias table)."""
+    ``pdf_scale`` multiplies Algorithm 2's pdf (a wrong pdf, for the tests); ``light`` is L (:func:`weight`).
+    Returns (rows of the RMSE table, rows of the bias table)."""
     index = pixel if isinstance(pixel, (int, np.integer)) else 0
     kw, uv, J, real = PIXELS[pixel] if isinstance(pixel, (int, np.integer)) else pixel
     nd = glinty_ndf("kpt25", **kw)
     nd_none = glinty_ndf("kpt25", **{**kw, "compensation": "none"})
-    ref = reference(nd, nd_none, np.asarray(uv), np.asarray(J), real, wo, orders)
+    ref = reference(nd, nd_none, np.asarray(uv), np.asarray(J), real, wo, orders, light=light)
     total = ref["lobes"] + ref["compensation"]
     label = label or f"p{index} {kw['target']} a={kw['alpha']} a*={kw['alpha_star']} k={kw['k']}"
     rmse_rows, bias_rows = [], []
     for j, est in enumerate(estimators):
         t = draws(nd, nd_none, np.asarray(uv), np.asarray(J), real, wo, est, repeats * max_samples,
-                  seed + 1000 * index + j, pdf_scale).reshape(repeats, max_samples)
+                  seed + 1000 * index + j, pdf_scale, light).reshape(repeats, max_samples)
         flat = t.reshape(-1)
         bias_rows.append({"pixel": label, "estimator": est, "samples": flat.size, "reference": total,
                           "reference_error": ref["lobes_error"] + ref["compensation_error"],
@@ -202,9 +203,9 @@ def pixel_study(pixel, repeats: int, max_samples: int, sizes, wo, seed: int = 0,
     return rmse_rows, bias_rows
 
 
-def study(pixels, repeats: int, max_samples: int, wo_theta_deg: float, seed: int = 0, progress=None):
+def study(pixels, repeats: int, max_samples: int, wo_theta_deg: float, seed: int = 0, progress=None, light=radiance):
     """Every pixel of ``pixels`` (indices into PIXELS): the RMSE table (with the ratio smooth / Algorithm 2
-    per pixel and sample count) and the bias table."""
+    per pixel and sample count) and the bias table, under ``light`` (:func:`weight`)."""
     th = math.radians(wo_theta_deg)
     wo = np.array([math.sin(th), 0.0, math.cos(th)])
     sizes = [int(s) for s in 2 ** np.arange(2, int(math.log2(max_samples)) + 1)]
@@ -212,7 +213,7 @@ def study(pixels, repeats: int, max_samples: int, wo_theta_deg: float, seed: int
     for i in pixels:
         if progress:
             progress(f"lighting integral, pixel {i}")
-        r, b = pixel_study(int(i), repeats, max_samples, sizes, wo, seed)
+        r, b = pixel_study(int(i), repeats, max_samples, sizes, wo, seed, light=light)
         rmse += r
         bias += b
     rmse, bias = pd.DataFrame(rmse), pd.DataFrame(bias)

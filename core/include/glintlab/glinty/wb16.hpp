@@ -26,7 +26,9 @@ struct Params {
   double kernel_scale = 1.0;   // multiplies the kernel's threshold (1: as printed)
 };
 
-constexpr std::size_t kInputWords = 32;
+// The method contract's row width (kMethodInputWords of glintlab/validation/method_shader.hpp;
+// bindings/method_shaders.cpp asserts they agree): the twin reads the first 31 words only.
+constexpr std::size_t kInputWords = 38;
 
 // Three values in [0, 1) of a lattice cell and a seed (glintlab_cell_values of the method contract).
 void cell_values(std::int64_t cx, std::int64_t cy, std::int64_t cz, std::uint32_t seed, float out[3]);

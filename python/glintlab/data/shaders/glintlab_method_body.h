@@ -17,12 +17,34 @@ struct GlintInput {
   float3 t;          // tangent along the u axis (unit, orthogonal to n)
   float3 b;          // bitangent n x t
   float3 view;       // camera position - world_pos: NOT normalised (its length is the distance)
-  float3 light;      // unit vector from the surface point towards the light
+  float3 light;      // unit vector from the surface point towards the light (an extended light's centre)
   float3 h;          // unit half vector normalize(normalize(view) + light)
   uint2 pixel;       // (column, row) from the top-left pixel
   uint frame;        // index of the frame along the camera path
   uint seed;         // the realization's seed
+  // The light's extent (docs/math/glint_images.md#glint-contract-lights); all 0 for a point or
+  // directional light, so a point-light method reads the fields above only.
+  uint light_kind;       // GLINTLAB_LIGHT_POINT, GLINTLAB_LIGHT_CAP or GLINTLAB_LIGHT_RECT
+  float light_radiance;  // the light's constant radiance
+  float2 light_size;     // cap: (half-angle in radians, 0); rectangle: half-widths at unit distance
+  float3 light_edge;     // rectangle: unit first axis, orthogonal to light (second: cross(light, light_edge))
 };
+
+// light_kind's values.
+#define GLINTLAB_LIGHT_POINT 0u
+#define GLINTLAB_LIGHT_CAP 1u
+#define GLINTLAB_LIGHT_RECT 2u
+
+// The solid angle of the light in steradians: a cap of half-angle a, 2 pi (1 - cos a); a rectangle of
+// half-widths (x, y) at unit distance facing the point, 4 atan(x y / sqrt(1 + x^2 + y^2)); 0 for a point.
+float glintlab_light_solid_angle(GlintInput g) {
+  if (g.light_kind == GLINTLAB_LIGHT_CAP) return 6.28318530717959 * (1.0 - cos(g.light_size.x));
+  if (g.light_kind == GLINTLAB_LIGHT_RECT) {
+    float x = g.light_size.x, y = g.light_size.y;
+    return 4.0 * atan(x * y / sqrt(1.0 + x * x + y * y));
+  }
+  return 0.0;
+}
 
 // A 3D hash of 32-bit words (three rounds of multiply-add mixing and a xor-shift, after Jarzynski and
 // Olano's pcg3d): every output bit depends on every input bit.

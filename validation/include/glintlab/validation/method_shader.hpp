@@ -14,12 +14,16 @@
 
 namespace glintlab::shader {
 
-// One row of the input buffer: 32 words per pixel. Floats in float32, the integers' bits in the
+// One row of the input buffer: 38 words per pixel. Floats in float32, the integers' bits in the
 // following words (the wrapper reads the buffer as uint and converts).
 //   0..2 world_pos   3..4 uv   5..8 J (du/dx, dv/dx, du/dy, dv/dy)   9..11 n   12..14 t   15..17 b
-//   18..20 view (unnormalised, surface to camera)   21..23 light (unit)   24..26 h (unit)
-//   27..28 pixel (uint column, row from the top left)   29 frame (uint)   30 seed (uint)   31 unused
-constexpr std::size_t kMethodInputWords = 32;
+//   18..20 view (unnormalised, surface to camera)   21..23 light (unit, towards the light's centre)
+//   24..26 h (unit)   27..28 pixel (uint column, row from the top left)   29 frame (uint)   30 seed (uint)
+//   31 light_kind (uint: 0 point or directional, 1 cap, 2 rectangle)   32 light_radiance
+//   33..34 light_size (cap: half-angle, 0; rectangle: half-widths at unit distance)
+//   35..37 light_edge (unit, the rectangle's first axis, orthogonal to light)
+// A point light leaves words 31..37 zero: the point-light contract of the first 31 words is unchanged.
+constexpr std::size_t kMethodInputWords = 38;
 // One row of the output buffer: (r, g, b, channels); a float result is written to r, g and b with
 // channels = 1, a float3 result with channels = 3.
 constexpr std::size_t kMethodOutputWords = 4;

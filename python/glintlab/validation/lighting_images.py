@@ -1,0 +1,300 @@
+"""Glint images of the Table 1 planes under an area light and an environment map, each method beside the
+facet truth lit by the same light, along the scene images' camera path (docs/math/lighting.md#lighting-scene-images).
+
+A distant extended light is one region of directions for every pixel (as the scene images' directional
+light is one direction): a :class:`SceneLight` (a cap or a rectangle, in world space) or an environment
+map in the plane's tangent frame. A pixel's value is the radiance its facets reflect per facet: the facet
+truth's sum of the radiance of the facets whose mirror direction of the view hits the light, over the
+footprint's n = N |det J| facets; a counting method's value is the radiance times K / n, K its count at its
+p; the smooth value is the radiance times the exact p (the pops' reference level, as D(h) is a point
+light's). Only planes: on the sphere the light's region in the tangent frame changes from pixel to pixel,
+while the facet truth takes one region for all of its footprints.
+
+The method-shader path: :func:`light_rows` packs a frame's GlintInput rows with the light's description
+(``light_kind``, ``light_radiance``, ``light_size``, ``light_edge``; docs/math/glint_images.md#glint-contract),
+so a user's area-light method shader (``gl.shader_method(..., returns="intensity")`` returning radiance x
+K / n) is rendered and tabled beside the facets as the shipped example ``area_light_method.glsl`` is.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from ..api import checks as V
+from ..api import lights as gl_lights
+from ..api.glinty_ndf import Material
+from ..api.laws import law as make_law
+from ..api.lighting import ProbabilityGrid, _split, facet_truth, reflection_probability
+from ..api.method_shaders import GLINT_INPUT_FIELDS, cell_values, frame_rows, shader_method
+from ..api.spatial import Ellipse
+from ..resources import data_path
+from .scene import Scene, _unit
+from .scene_images import TAU, camera_path, flicker_metrics, frame_inputs, with_directional_light
+
+#: GlintInput's light_kind per light (GLINTLAB_LIGHT_* of glintlab_method_body.h).
+LIGHT_KINDS = {"point": 0, "cap": 1, "rect": 2}
+#: The counting methods drawn in Python: (label, law, p's method); their uniforms are the shipped shader's.
+#: (KK24's LTC is left out: its p costs a fit and a polygon integral per view in Python, minutes per image;
+#: its error against the exact p is the section's accuracy table.)
+LAW_METHODS = (("binomial (exact p)", "binomial", "exact"), ("gated (exact p)", "gated_shader", "exact"),
+               ("gated (point p)", "gated_shader", "point"))
+#: The environment map's methods: (label, law, scheme, p's method) (docs/math/lighting.md#lighting-multinomial).
+MAP_METHODS = (("binomial chain (exact p)", "binomial", "chain", "exact"),
+               ("dual_gated tree (filtered p)", "dual_gated", "tree", "filtered"),
+               ("binomial independent (exact p)", "binomial", "independent", "exact"))
+
+
+@dataclass(frozen=True)
+class SceneLight:
+    """A distant extended light in world space: ``kind`` "cap" (``size`` = (half-angle, 0)) or "rect" (a
+    rectangle facing the shading point, ``size`` its half-widths at unit distance along ``edge`` and
+    direction x edge), ``direction`` the unit vector towards its centre, ``edge`` a unit vector orthogonal to
+    it, ``radiance`` constant."""
+    kind: str
+    direction: tuple
+    size: tuple
+    edge: tuple
+    radiance: float = 1.0
+
+    def in_frame(self, t, b, n) -> gl_lights.Light:
+        """The light as ``gl.lights`` describes it in the tangent frame (t, b, n)."""
+        rot = np.array([t, b, n], float)
+        d, e = rot @ np.asarray(self.direction), rot @ np.asarray(self.edge)
+        if self.kind == "cap":
+            return gl_lights.cap(d, self.size[0], self.radiance)
+        return gl_lights.rect(d, 2 * self.size[0] * e, 2 * self.size[1] * np.cross(d, e), self.radiance)
+
+    def fields(self) -> dict:
+        """The GlintInput fields of the light's extent (``pack_inputs`` names)."""
+        return {"light_kind": np.uint32(LIGHT_KINDS[self.kind]), "light_radiance": self.radiance,
+                "light_size": list(self.size), "light_edge": list(self.edge)}
+
+
+def scene_light(scene: Scene, kind: str = "cap", size=(0.1, 0.0), radiance: float = 1.0) -> SceneLight:
+    """An extended light centred where the scene's light is (its direction from the look-at point), of
+    ``kind`` "cap" or "rect" and ``size`` (cap: (half-angle, 0) radians; rect: half-widths at unit
+    distance); a rectangle's first axis is horizontal (orthogonal to the world's z and to its direction)."""
+    V.choice("kind", kind, ("cap", "rect"))
+    sx, sy = (V.real("size", s) for s in size)
+    if kind == "cap" and not (0 < sx <= math.pi / 2):
+        V.fail("size", size, "(half-angle in (0, pi/2], 0) for a cap")
+    if kind == "rect" and not (sx > 0 and sy > 0 and math.isfinite(sx * sy)):
+        V.fail("size", size, "two finite half-widths > 0 for a rectangle")
+    d = _unit(with_directional_light(scene).light["direction"])
+    e = np.cross([0.0, 0.0, 1.0], d) if abs(d[2]) < 0.999 else np.array([1.0, 0.0, 0.0])
+    e = _unit(e - (e @ d) * d)
+    return SceneLight(kind, tuple(map(float, d)), (sx, sy), tuple(map(float, e)), V.real("radiance", radiance))
+
+
+def light_rows(inputs, light: SceneLight, seed: int = 0, frame: int = 0):
+    """(rows, mask): a frame's GlintInput rows on the pixels of ``inputs.mask`` with the light's extent
+    filled in (words 31-37; a point light leaves them 0)."""
+    rows, mask = frame_rows(dataclasses.replace(inputs, hit=inputs.mask), seed, frame)
+    words = {name: (lo, k) for name, lo, k in GLINT_INPUT_FIELDS}
+    for name, value in light.fields().items():
+        lo, k = words[name]
+        a = np.asarray(value, np.uint32 if name == "light_kind" else np.float32).reshape(k)
+        rows[:, lo:lo + k] = a.view(np.uint32)
+    return rows, mask
+
+
+def area_light_shader(material: Material, language: str = "glsl", wrong: bool = False):
+    """The shipped example area-light method shader (``area_light_method.glsl`` / ``.hlsl``) for
+    ``material``; ``wrong`` builds its deliberately wrong variant (p without the light's solid angle)."""
+    V.choice("language", language, ("glsl", "hlsl"))
+    defines = {"GLINTLAB_DENSITY": float(material.density), "GLINTLAB_ALPHA": float(material.alpha),
+               "GLINTLAB_GGX": int(material.target == "ggx")}
+    if wrong:
+        defines["AREA_LIGHT_BUG_NO_SOLID_ANGLE"] = 1
+    return shader_method(data_path("shaders", f"area_light_method.{language}"), language=language,
+                         name="area_light" + ("_wrong" if wrong else ""), defines=defines, register=False)
+
+
+def texel_uniforms(uv, J, seed: int, salt: int = 0) -> np.ndarray:
+    """The shipped shader's uniforms (m, 3): glintlab_cell_values of the texel of the footprint's own size
+    (level floor(-log2 |det J| / 2)) holding uv, for ``seed`` + ``salt``."""
+    det = np.abs(J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2])
+    level = np.floor(-0.5 * np.log2(det)).astype(np.int64)
+    cell = np.floor(uv * np.exp2(level)[:, None]).astype(np.int64)
+    s = np.full(len(uv), (int(seed) + int(salt)) & 0xFFFFFFFF, np.uint32)
+    return cell_values(np.column_stack([cell, level]), s).astype(np.float64)
+
+
+def area_light_twin(uv, J, p, n, radiance, seed: int) -> np.ndarray:
+    """The shipped area-light shader's value in float64 from its p: radiance x gated(n, p, u) / n."""
+    k = make_law("gated_shader").evaluate(n, p, texel_uniforms(uv, J, seed)[:, :2])
+    return radiance * k / n
+
+
+def _map_counts(n, probs, law, scheme, uv, J, seed):
+    """Counts per region (m, k) per pixel, drawn as multinomial_counts draws them but with each split's
+    uniforms hashed from the pixel's texel (one salt per split: the image holds still as the camera moves)."""
+    lw = make_law(law)
+    m, k = probs.shape
+    out = np.zeros((m, k))
+    salt = iter(range(1, 10_000))
+
+    def u():
+        return texel_uniforms(uv, J, seed, next(salt))[:, :max(lw.n_uniforms, 1)]
+    if scheme == "independent":
+        for r in range(k):
+            out[:, r] = _split(n, np.ones(m), probs[:, r], lw, u())
+        return out
+    if scheme == "chain":
+        n_rem, q_rem = n.copy(), np.ones(m)
+        for r in range(k):
+            out[:, r] = _split(n_rem, q_rem, probs[:, r], lw, u())
+            n_rem, q_rem = n_rem - out[:, r], q_rem - probs[:, r]
+        return out
+    allp = np.column_stack([probs, np.clip(1 - probs.sum(axis=1), 0, 1)])
+
+    def descend(group, n_group):
+        if len(group) == 1:
+            if group[0] < k:
+                out[:, group[0]] = n_group
+            return
+        left, right = group[: len(group) // 2], group[len(group) // 2:]
+        kl = _split(n_group, allp[:, group].sum(axis=1), allp[:, left].sum(axis=1), lw, u())
+        descend(left, kl)
+        descend(right, n_group - kl)
+    descend(list(range(k + 1)), n.copy())
+    return out
+
+
+@dataclass
+class LightPath:
+    """Images along the camera path under one light: ``images[name]`` (T, H, W) (the facet truth's under
+    "facets"), ``target`` (T, H, W) radiance x the exact p, ``mask`` (T, H, W), ``seconds`` per method,
+    ``n`` (T, H, W) the footprints' facets N |det J|, ``grid_error`` the exact p grid's error."""
+    scene: str
+    light: str
+    images: dict
+    target: np.ndarray
+    mask: np.ndarray
+    seconds: dict
+    n: np.ndarray | None = None
+    grid_error: dict | None = None
+
+
+def _frame_geometry(inp, material_density):
+    """(m, t, b, n, wo, uv, J, nf) of one frame's masked pixels on a plane."""
+    m = inp.mask
+    t, b, n = inp.t[m][0], inp.b[m][0], inp.n[m][0]
+    v = inp.view[m] / np.linalg.norm(inp.view[m], axis=-1, keepdims=True)
+    wo = np.column_stack([v @ t, v @ b, v @ n])
+    J = inp.J[m]
+    nf = material_density * np.abs(J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2])
+    return m, (t, b, n), wo, inp.uv[m], J, nf
+
+
+def _light_frame(light, mat, side, inp, seed, shaders, k, grid):
+    """One frame under a SceneLight or an EnvMap: (mask, {name: values on the masked pixels}, target, {name:
+    seconds}); a counting method's seconds include its p's (each p computed once, charged to its first user)."""
+    m, tbn, wo, uv, J, nf = _frame_geometry(inp, mat.density)
+    fps = [Ellipse.from_uv_derivatives(*j) for j in J]
+    centres = [tuple(c) for c in np.mod(uv, 1.0)]
+    env = isinstance(light, gl_lights.EnvMap)
+    lt = light if env else light.in_frame(*tbn)
+    out, secs, p = {}, {}, {}
+    t0 = time.perf_counter()
+    out["facets"] = facet_truth(mat.target, mat.alpha, side * side, fps, centres, wo, lt, seed=seed).radiance / nf
+    secs["facets"] = time.perf_counter() - t0
+    u = texel_uniforms(uv, J, seed)
+    for label, law, *rest in (MAP_METHODS if env else LAW_METHODS):
+        t0 = time.perf_counter()
+        meth = rest[-1]
+        if meth not in p:  # the exact p from the path's grid (ProbabilityGrid: its error is the path's)
+            p[meth] = np.clip(grid(wo) if meth == "exact" else reflection_probability(mat.target, mat.alpha, wo, lt, meth),
+                              0, 1)
+        if env:
+            out[label] = _map_counts(nf, p[meth], law, rest[0], uv, J, seed) @ light.region_radiance / nf
+        else:
+            lw = make_law(law)
+            out[label] = light.radiance * lw.evaluate(nf, p[meth], u[:, :max(lw.n_uniforms, 1)]) / nf
+        secs[label] = time.perf_counter() - t0
+    for name, sh in shaders.items():
+        t0 = time.perf_counter()
+        rows, _ = light_rows(inp, light, seed, k)
+        out[name] = np.asarray(sh.shade(rows), float)
+        secs[name] = time.perf_counter() - t0
+    target = p["exact"] @ light.region_radiance if env else light.radiance * p["exact"]
+    return m, out, target, secs, nf
+
+
+def plane_material(scene: Scene) -> tuple[Material, int]:
+    """(material, side): the scene's material with its density rounded to the nearest side^2 (the facet
+    truth's stratified layout has one facet per cell of a side x side grid per texture unit)."""
+    mat = Material.of(scene)
+    side = max(1, round(math.sqrt(mat.density)))
+    return dataclasses.replace(mat, density=float(side * side)), side
+
+
+def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom: float = 0.99, seed: int = 1,
+               shaders=None, label: str | None = None, grid_nodes: int = 17) -> LightPath:
+    """Every method's images of the plane ``scene`` under ``light`` (a :class:`SceneLight` or an environment
+    map in the plane's tangent frame, from ``gl.lights.envmap``) along the camera path: the facet truth,
+    the counting laws (``LAW_METHODS``; a map: ``MAP_METHODS``) and ``shaders`` ({name: method shader},
+    rendered with :func:`light_rows`; not for a map, which the contract does not carry). The exact p of
+    every pixel of every frame comes from one :class:`~glintlab.api.lighting.ProbabilityGrid` of
+    ``grid_nodes``^2 views (its error against the exact p: ``LightPath.grid_error``)."""
+    if scene.kind != "plane":
+        V.fail("scene", scene.name, "a plane scene (on the sphere the light's region changes per pixel)")
+    seed = V.seed(seed)
+    shaders = dict(shaders or {})
+    env = isinstance(light, gl_lights.EnvMap)
+    if env and shaders:
+        V.fail("shaders", list(shaders), "none under an environment map (the method contract carries analytic lights)")
+    if not env and not isinstance(light, SceneLight):
+        V.fail("light", light, "a SceneLight (scene_light) or an environment map")
+    spec = with_directional_light(scene).spec  # a copy
+    # The frame's light vector: the light's centre (the map: the plane's normal), as a directional light's.
+    spec["light"] = {"type": "directional", "direction": [float(x) for x in (scene.normal if env else light.direction)]}
+    lit = Scene(spec, name=scene.name, source=scene.source)
+    mat, side = plane_material(lit)
+    shape = (frames, lit.height, lit.width)
+    inputs = [frame_inputs(cam) for cam in camera_path(lit, frames, pan_px, zoom)]
+    t0 = time.perf_counter()
+    geo = [_frame_geometry(inp, mat.density) for inp in inputs]
+    views = np.concatenate([g[2] for g in geo])
+    grid = ProbabilityGrid(mat.target, mat.alpha, light if env else light.in_frame(*geo[0][1]), views, grid_nodes)
+    seconds = {"(exact p grid)": time.perf_counter() - t0}
+    grid_error = grid.error(views, seed=seed)
+    images, target, mask, nf = {}, np.zeros(shape), np.zeros(shape, bool), np.zeros(shape)
+    for k, inp in enumerate(inputs):
+        m, out, tgt, secs, n = _light_frame(light, mat, side, inp, seed, shaders, k, grid)
+        mask[k], target[k][m], nf[k][m] = m, tgt, n
+        for name, values in out.items():
+            images.setdefault(name, np.zeros(shape))[k][m] = values
+            seconds[name] = seconds.get(name, 0.0) + secs.get(name, 0.0)
+    return LightPath(scene.name, label or (f"envmap ({light.regions} regions)" if env else light.kind),
+                     images, target, mask, seconds, nf, grid_error)
+
+
+def light_table(path: LightPath, tau: float = TAU) -> pd.DataFrame:
+    """Per method: its flicker against the facet truth lit by the same light (its own truth:
+    :func:`~glintlab.validation.scene_images.flicker_metrics`) and its mean and RMS difference against the
+    smooth value (radiance x exact p); ``lit_facets`` the radiance-weighted count summed over pixels and
+    frames (sum of value x n), ``count_ratio`` it over the facets' and ``expected_ratio`` over its expectation
+    at the exact p (sums: a pixel of n < 1 showing one facet weighs as one facet, not as 1 / n)."""
+    valid = path.mask.all(axis=0)
+    d = path.target[:, valid]
+    n = path.n[:, valid]
+    facets = float((path.images["facets"][:, valid] * n).sum())
+    rows = []
+    for name, seq in path.images.items():
+        r = flicker_metrics(seq, path.images["facets"], path.target, path.mask, tau)
+        x = seq[:, valid]
+        rows.append(dict(scene=path.scene, light=path.light, method=name, own_truth="facets (same light)",
+                         own_std_ratio=r["std_ratio"], own_pop_rate=r["pop_rate"], own_change_rate=r["change_rate"],
+                         own_truth_change_rate=r["truth_change_rate"], own_mean_ratio=r["mean_ratio"],
+                         smooth_mean_ratio=float(x.mean() / d.mean()),
+                         smooth_rel_rmse=float(np.sqrt(((x - d) ** 2).mean()) / d.mean()),
+                         lit_facets=float((x * n).sum()), count_ratio=float((x * n).sum() / facets) if facets > 0 else math.nan,
+                         expected_ratio=float((x * n).sum() / (d * n).sum()), pixels=r["pixels"],
+                         frames=r["frames"]))
+    return pd.DataFrame(rows)
