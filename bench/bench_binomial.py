@@ -169,60 +169,56 @@ def cpu_model() -> str:
     return platform.processor() or "unknown"
 
 
-def main(argv=None) -> int:
-    args = parse_args(argv)
-    threads = gl.get_num_threads()
-    busy0, own0, wall0 = busy_seconds(), own_cpu_seconds(), time.perf_counter()
-    print(f"bench_binomial: C++ side ({args.cpp}) ...", file=sys.stderr, flush=True)
-    cpp = run_cpp(args.cpp, args.size, args.repeats, args.seed)
-    cpp_by_point = {(pt["n"], pt["p"]): pt for pt in cpp["points"]}
+def measure_point(n: float, p: float, args, threads: int, cpp_by_point: dict) -> dict:
+    """Everything measured at one (n, p): ns per sample of the six methods (Python timed here, C++ from
+    the binary's document), their sanity checks, the ratios of the target and the cores they got."""
+    print(f"bench_binomial: Python side, n = {short(n)}, p = {short(p)} ...", file=sys.stderr,
+          flush=True)
+    py = time_python(n, p, args.size, args.repeats, args.seed, threads)
+    c = cpp_by_point[(float(n), float(p))]
+    methods = {"numpy": py["numpy"], "std_cpp": c["std"], "gl_py_1t": py["gl_py_1t"],
+               "gl_py_mt": py["gl_py_mt"], "gl_cpp_1t": c["gl_1t"], "gl_cpp_mt": c["gl_mt"]}
+    ns = {k: m["ns_per_sample"] for k, m in methods.items()}
+    checks = {k: sanity(m["mean"], m["var"], n, p, args.size) for k, m in methods.items()}
+    z = {k: max(abs(zm), abs(zv)) for k, (_, zm, zv) in checks.items()}
+    sane = all(z[k] <= Z_LIMIT for k in methods if k.startswith("gl_"))
+    return {
+        "n": n, "p": p,
+        "ns_per_sample": ns,
+        "median_ns_per_sample": {k: m["median_ns_per_sample"] for k, m in methods.items()},
+        "runs": {k: m["runs"] for k, m in methods.items()},  # [ns per sample, cores] each
+        "mean": {k: m["mean"] for k, m in methods.items()},
+        "var": {k: m["var"] for k, m in methods.items()},
+        "mean_rel_err": {k: c[0] for k, c in checks.items()},
+        "mean_z": {k: c[1] for k, c in checks.items()},
+        "var_z": {k: c[2] for k, c in checks.items()},
+        "worst_abs_z": z,  # max(|mean_z|, |var_z|)
+        "ratios": {
+            "numpy_over_gl_py_mt": ns["numpy"] / ns["gl_py_mt"],
+            "numpy_over_gl_py_1t": ns["numpy"] / ns["gl_py_1t"],
+            "std_over_gl_cpp_1t": ns["std_cpp"] / ns["gl_cpp_1t"],
+        },
+        # Same seed, and sample i depends only on (seed, i): Python and C++ must draw the same
+        # numbers, whatever the thread count. Integer sums below 2^53 are exact, so means match
+        # exactly (variances could differ in the last bits with the summation order).
+        "gl_same_draws_py_cpp": methods["gl_py_mt"]["mean"] == methods["gl_cpp_mt"]["mean"]
+                                == methods["gl_py_1t"]["mean"] == methods["gl_cpp_1t"]["mean"],
+        "sane": sane,  # glintlab's outputs; the baselines' z scores are in worst_abs_z
+        "cores": {k: methods[k]["cores"] for k in ("gl_py_mt", "gl_cpp_mt")},
+        "faster_than_numpy": sane and ns["gl_py_mt"] < ns["numpy"],
+    }
 
-    points = []
-    for n, p in POINTS:
-        print(f"bench_binomial: Python side, n = {short(n)}, p = {short(p)} ...", file=sys.stderr,
-              flush=True)
-        py = time_python(n, p, args.size, args.repeats, args.seed, threads)
-        c = cpp_by_point[(float(n), float(p))]
-        methods = {"numpy": py["numpy"], "std_cpp": c["std"], "gl_py_1t": py["gl_py_1t"],
-                   "gl_py_mt": py["gl_py_mt"], "gl_cpp_1t": c["gl_1t"], "gl_cpp_mt": c["gl_mt"]}
-        ns = {k: m["ns_per_sample"] for k, m in methods.items()}
-        checks = {k: sanity(m["mean"], m["var"], n, p, args.size) for k, m in methods.items()}
-        z = {k: max(abs(zm), abs(zv)) for k, (_, zm, zv) in checks.items()}
-        sane = all(z[k] <= Z_LIMIT for k in methods if k.startswith("gl_"))
-        points.append({
-            "n": n, "p": p,
-            "ns_per_sample": ns,
-            "median_ns_per_sample": {k: m["median_ns_per_sample"] for k, m in methods.items()},
-            "runs": {k: m["runs"] for k, m in methods.items()},  # [ns per sample, cores] each
-            "mean": {k: m["mean"] for k, m in methods.items()},
-            "var": {k: m["var"] for k, m in methods.items()},
-            "mean_rel_err": {k: c[0] for k, c in checks.items()},
-            "mean_z": {k: c[1] for k, c in checks.items()},
-            "var_z": {k: c[2] for k, c in checks.items()},
-            "worst_abs_z": z,  # max(|mean_z|, |var_z|)
-            "ratios": {
-                "numpy_over_gl_py_mt": ns["numpy"] / ns["gl_py_mt"],
-                "numpy_over_gl_py_1t": ns["numpy"] / ns["gl_py_1t"],
-                "std_over_gl_cpp_1t": ns["std_cpp"] / ns["gl_cpp_1t"],
-            },
-            # Same seed, and sample i depends only on (seed, i): Python and C++ must draw the same
-            # numbers, whatever the thread count. Integer sums below 2^53 are exact, so means match
-            # exactly (variances could differ in the last bits with the summation order).
-            "gl_same_draws_py_cpp": methods["gl_py_mt"]["mean"] == methods["gl_cpp_mt"]["mean"]
-                                    == methods["gl_py_1t"]["mean"] == methods["gl_cpp_1t"]["mean"],
-            "sane": sane,  # glintlab's outputs; the baselines' z scores are in worst_abs_z
-            "cores": {k: methods[k]["cores"] for k in ("gl_py_mt", "gl_cpp_mt")},
-            "faster_than_numpy": sane and ns["gl_py_mt"] < ns["numpy"],
-        })
 
-    T = f"{threads}T"
+def judged_cores(pt: dict, k: str, size: int) -> float:
+    """Cores the best call of method k got at point pt, or nan for a call too short to judge: process
+    CPU time includes other threads' time only as of their last tick or context switch, so the ratio
+    means something only for calls well above a tick (50 ms here)."""
+    long_enough = pt["ns_per_sample"][k] * size >= MIN_JUDGED_S * 1e9
+    return pt["cores"][k] if long_enough else math.nan
 
-    def cores(pt, k):
-        # Process CPU time includes other threads' time only as of their last tick or context
-        # switch, so the ratio means something only for calls well above a tick (50 ms here).
-        long_enough = pt["ns_per_sample"][k] * args.size >= MIN_JUDGED_S * 1e9
-        return pt["cores"][k] if long_enough else math.nan
 
+def summary_table(points: list, T: str, size: int) -> pd.DataFrame:
+    """One row per point: ns per sample of every method, the ratios, the sanity |z| and the cores."""
     rows = []
     for pt in points:
         ns, z = pt["ns_per_sample"], pt["worst_abs_z"]
@@ -237,9 +233,15 @@ def main(argv=None) -> int:
             "gl mean rel err": pt["mean_rel_err"]["gl_py_mt"],
             "gl |z|": max(v for k, v in z.items() if k.startswith("gl_")),
             "numpy |z|": z["numpy"], "std |z|": z["std_cpp"],
-            f"cores Py {T}": cores(pt, "gl_py_mt"), f"cores C++ {T}": cores(pt, "gl_cpp_mt"),
+            f"cores Py {T}": judged_cores(pt, "gl_py_mt", size),
+            f"cores C++ {T}": judged_cores(pt, "gl_cpp_mt", size),
         })
-    table = pd.DataFrame(rows)
+    return pd.DataFrame(rows)
+
+
+def print_tables(table: pd.DataFrame, args, threads: int, other_cores: float | None) -> None:
+    """The times and ratios table, then the sanity and cores table, with their legends."""
+    T = f"{threads}T"
     ns_cols = ["numpy", "std C++", "gl Py 1T", f"gl Py {T}", "gl C++ 1T", f"gl C++ {T}"]
     ratio_cols = [f"numpy/gl Py {T}", "numpy/gl Py 1T", "std/gl C++ 1T"]
     check_cols = ["gl mean rel err", "gl |z|", "numpy |z|", "std |z|", f"cores Py {T}",
@@ -248,12 +250,6 @@ def main(argv=None) -> int:
            "gl mean rel err": "{:+.1e}".format,
            **{c: "{:.1f}".format for c in ["gl |z|", "numpy |z|", "std |z|"]},
            **{c: "{:.2f}".format for c in [f"cores Py {T}", f"cores C++ {T}"]}}
-    other_cores = None
-    busy1 = busy_seconds()
-    if busy0 is not None and busy1 is not None:
-        wall = time.perf_counter() - wall0
-        other_cores = max(0.0, (busy1 - busy0) - (own_cpu_seconds() - own0)) / wall
-
     print(f"binomial sampler: ns/sample, best of {args.repeats} calls of {args.size:g} samples "
           f"(seed {args.seed}); {cpu_model()}, {os.cpu_count()} cores; numpy {np.__version__}; "
           f"glintlab {gl.__version__} default threads: {threads}")
@@ -267,6 +263,10 @@ def main(argv=None) -> int:
     if other_cores is not None:
         print(f"other processes kept {other_cores:.2f} of {os.cpu_count()} cores busy on average "
               f"during this run")
+
+
+def print_point_notes(points: list, threads: int, size: int) -> None:
+    """Per point: a failed sanity check, biased baselines, starved calls, draws that differ."""
     for pt in points:
         where = f"({short(pt['n'])}, {short(pt['p'])})"
         bad = [k for k, v in pt["worst_abs_z"].items() if v > Z_LIMIT]
@@ -276,7 +276,7 @@ def main(argv=None) -> int:
             print(f"note: at {where} the baseline(s) {bad} fail the sanity check: they are biased "
                   f"there, so their times are not those of an exact sampler")
         for k in pt["cores"]:
-            c = cores(pt, k)
+            c = judged_cores(pt, k, size)
             if threads > 1 and c < STARVED * threads:  # False for nan (too short to judge)
                 print(f"warning: at {where} the best {k} call used only {c:.2f} of {threads} "
                       f"cores even after retries: another process held the CPU, so that time "
@@ -285,13 +285,17 @@ def main(argv=None) -> int:
             print(f"note: at {where} glintlab's sample means differ between Python and C++ or "
                   f"between thread counts with the same seed: {pt['mean']}")
 
+
+def print_verdict(points: list, threads: int, size: int) -> tuple[bool, list]:
+    """Prints the target's PASS or FAIL; returns it and the points that failed without all cores."""
+    T = f"{threads}T"
     passed = all(pt["faster_than_numpy"] for pt in points)
     # Points that failed while another process held one of glintlab's cores: the verdict there
     # says more about the machine than about the sampler.
     starved = [short(pt["n"]) + ", " + short(pt["p"]) for pt in points
-               if not pt["faster_than_numpy"] and cores(pt, "gl_py_mt") < STARVED * threads]
+               if not pt["faster_than_numpy"] and judged_cores(pt, "gl_py_mt", size) < STARVED * threads]
     worst = min(points, key=lambda pt: pt["ratios"]["numpy_over_gl_py_mt"])
-    caveat = "" if args.size == TARGET_SIZE else f" [measured with --size {args.size}, not 1e7]"
+    caveat = "" if size == TARGET_SIZE else f" [measured with --size {size}, not 1e7]"
     margin = worst["ratios"]["numpy_over_gl_py_mt"]
     print(f"target: faster than numpy at every point, from Python, 1e7-sample call, {T}: "
           f"{'PASS' if passed else 'FAIL'} (smallest margin x{margin:.2f} at n = "
@@ -299,7 +303,12 @@ def main(argv=None) -> int:
     if starved:
         print(f"  (unreliable: at ({'), ('.join(starved)}) the {T} call did not get all cores; "
               f"rerun on an idle machine)")
+    return passed, starved
 
+
+def write_report(args, threads: int, points: list, cpp: dict, other_cores: float | None, passed: bool,
+                 starved: list) -> None:
+    """Every measurement, the machine and the verdict, as JSON in --json."""
     report = {
         "size": args.size, "repeats": args.repeats, "seed": args.seed,
         "statistic": "min over repeats", "threads": threads,
@@ -315,6 +324,26 @@ def main(argv=None) -> int:
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(report, indent=2) + "\n")
     print(f"wrote {args.json}")
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    threads = gl.get_num_threads()
+    busy0, own0, wall0 = busy_seconds(), own_cpu_seconds(), time.perf_counter()
+    print(f"bench_binomial: C++ side ({args.cpp}) ...", file=sys.stderr, flush=True)
+    cpp = run_cpp(args.cpp, args.size, args.repeats, args.seed)
+    cpp_by_point = {(pt["n"], pt["p"]): pt for pt in cpp["points"]}
+    points = [measure_point(n, p, args, threads, cpp_by_point) for n, p in POINTS]
+    table = summary_table(points, f"{threads}T", args.size)
+    other_cores = None
+    busy1 = busy_seconds()
+    if busy0 is not None and busy1 is not None:
+        wall = time.perf_counter() - wall0
+        other_cores = max(0.0, (busy1 - busy0) - (own_cpu_seconds() - own0)) / wall
+    print_tables(table, args, threads, other_cores)
+    print_point_notes(points, threads, args.size)
+    passed, starved = print_verdict(points, threads, args.size)
+    write_report(args, threads, points, cpp, other_cores, passed, starved)
     return 0
 
 

@@ -145,7 +145,30 @@ def _blend_rows(ns, add, thread_settings, M, seed):
                         note="P log-uniform over [200, 800] per sample (levels 3 to 5)")
 
 
-def main(argv=None):
+class Rows:
+    """The table being measured: ``ns`` times a call (best of ``repeats``, ns per item, on a given number
+    of threads), ``add`` records one row against its baseline and goal."""
+
+    def __init__(self, repeats: int, default_threads: int):
+        self.repeats, self.default_threads, self.rows = repeats, default_threads, []
+
+    def ns(self, fn, count, threads):
+        gl.set_num_threads(threads)
+        try:
+            return best_time(fn, self.repeats) / count * 1e9
+        finally:
+            gl.set_num_threads(self.default_threads)
+
+    def add(self, path, goal, value, baseline, baseline_name, ratio, ok, threads, note=""):
+        self.rows.append(dict(path=path, threads=threads, ns=value, baseline=baseline_name, baseline_ns=baseline,
+                              ratio=ratio, goal=goal, ok=bool(ok), note=note))
+
+    def measured_ns(self, path, threads):
+        """The ns of the row already recorded for path on that many threads."""
+        return [r for r in self.rows if r["path"] == path and r["threads"] == threads][0]["ns"]
+
+
+def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--size", type=int, default=10**7, help="samples of the batch calls (default 1e7)")
     ap.add_argument("--pixels", type=int, default=10**6, help="samples of the per-pixel and blend calls (1e6)")
@@ -157,82 +180,94 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.size < 64 or args.pixels < 64 or args.repeats < 1:
         ap.error("--size >= 64, --pixels >= 64 and --repeats >= 1 are required")
-    R, S, M = args.repeats, args.size, args.pixels
-    default_threads = gl.get_num_threads()
-    thread_settings = sorted({1, default_threads})
-    rng = np.random.default_rng(args.seed)
-    rows = []
+    return args
 
-    def ns(fn, count, threads):
-        gl.set_num_threads(threads)
-        try:
-            return best_time(fn, R) / count * 1e9
-        finally:
-            gl.set_num_threads(default_threads)
 
-    def add(path, goal, value, baseline, baseline_name, ratio, ok, threads, note=""):
-        rows.append(dict(path=path, threads=threads, ns=value, baseline=baseline_name, baseline_ns=baseline,
-                         ratio=ratio, goal=goal, ok=bool(ok), note=note))
-
-    # numpy baselines (one thread; numpy has no other)
-    numpy_ns = {pt: best_time(lambda: rng.binomial(int(pt[0]), pt[1], size=S), R) / S * 1e9 for pt in POINTS}
+def _pixel_parameters(seed, M):
+    """M random (n, p) of the standard grid: the per-pixel calls' parameters."""
     gn, gp = gl.standard_grid()
-    pick = np.random.default_rng(args.seed).integers(0, gn.size * gp.size, M)
-    pix_n, pix_p = gn[pick // gp.size], gp[pick % gp.size]
-    pix_n_int = np.floor(pix_n).astype(np.int64)
-    numpy_pixel_ns = best_time(lambda: rng.binomial(pix_n_int, pix_p), R) / M * 1e9
+    pick = np.random.default_rng(seed).integers(0, gn.size * gp.size, M)
+    return gn[pick // gp.size], gp[pick % gp.size]
 
+
+def _numpy_baselines(rng, S, R, pix_n, pix_p):
+    """numpy's binomial (one thread; numpy has no other): ns per sample at each point for a batch of S,
+    and per pixel on the per-pixel calls' (n, p)."""
+    numpy_ns = {pt: best_time(lambda: rng.binomial(int(pt[0]), pt[1], size=S), R) / S * 1e9 for pt in POINTS}
+    pix_n_int = np.floor(pix_n).astype(np.int64)
+    M = pix_n.size
+    numpy_pixel_ns = best_time(lambda: rng.binomial(pix_n_int, pix_p), R) / M * 1e9
+    return numpy_ns, numpy_pixel_ns
+
+
+def _batch_rows(b, thread_settings, S, seed, numpy_ns):
+    """The batch rows against numpy; returns every law's batch ns by (law, n, p, threads), head_cf's too
+    (its batch is the baseline of its per-pixel row, not a row of its own)."""
     batch_ns = {}
     for name in ("gated", "head_cf", "binomial"):
         law = gl.law(name)
         for t in thread_settings:
             for n, p in POINTS:
-                v = ns(lambda: law.sample(n, p, size=S, seed=args.seed), S, t)
+                v = b.ns(lambda: law.sample(n, p, size=S, seed=seed), S, t)
                 batch_ns[(name, n, p, t)] = v
                 if name == "head_cf":
                     continue  # only its per-pixel row is in the table; the batch is its baseline
                 goal = 10 if name == "gated" else 2
                 r = numpy_ns[(n, p)] / v
-                add(f"batch {name} ({n:g}, {p:g})", f"numpy/law >= {goal}", v, numpy_ns[(n, p)], "numpy binomial",
-                    r, r >= goal, t)
-    # per pixel
+                b.add(f"batch {name} ({n:g}, {p:g})", f"numpy/law >= {goal}", v, numpy_ns[(n, p)], "numpy binomial",
+                      r, r >= goal, t)
+    return batch_ns
+
+
+def _per_pixel_rows(b, thread_settings, seed, pix_n, pix_p, numpy_pixel_ns, batch_ns):
+    """The per-pixel rows: binomial against numpy on the same arrays, gated and head_cf against their
+    own batch (mean of the four points)."""
+    M = pix_n.size
     for name in ("gated", "head_cf", "binomial"):
         law = gl.law(name)
         for t in thread_settings:
-            v = ns(lambda: law.sample(pix_n, pix_p, seed=args.seed), M, t)
+            v = b.ns(lambda: law.sample(pix_n, pix_p, seed=seed), M, t)
             if name == "binomial":
                 r = numpy_pixel_ns / v
-                add(f"per_pixel {name}", "numpy/law >= 2", v, numpy_pixel_ns, "numpy binomial per pixel", r, r >= 2, t)
+                b.add(f"per_pixel {name}", "numpy/law >= 2", v, numpy_pixel_ns, "numpy binomial per pixel", r, r >= 2,
+                      t)
             else:
                 base = float(np.mean([batch_ns[(name, n, p, t)] for n, p in POINTS]))
                 r = v / base
-                add(f"per_pixel {name}", "law/batch <= 2", v, base, f"{name} batch (mean of 4 points)", r, r <= 2, t)
-    # out=: the same calls into a reused buffer: the share of the fresh array's page faults, and the
-    # two-thread speed-up without them
+                b.add(f"per_pixel {name}", "law/batch <= 2", v, base, f"{name} batch (mean of 4 points)", r, r <= 2, t)
+
+
+def _out_buffer_rows(b, thread_settings, S, seed, pix_n, pix_p, batch_ns):
+    """out=: the same calls into a reused buffer: the share of the fresh array's page faults, and the
+    two-thread speed-up without them."""
+    M = pix_n.size
     buf = np.empty(S)
     pbuf = np.empty(M)
     for name in ("gated", "binomial"):
         law = gl.law(name)
         for t in thread_settings:
             for n, p in POINTS if name == "gated" else POINTS[1:2]:
-                v = ns(lambda: law.sample(n, p, size=S, seed=args.seed, out=buf), S, t)
+                v = b.ns(lambda: law.sample(n, p, size=S, seed=seed, out=buf), S, t)
                 base = batch_ns[(name, n, p, t)]
-                add(f"batch {name} ({n:g}, {p:g}) out=", "info", v, base, "same call, fresh array", v / base, True, t)
-            v = ns(lambda: law.sample(pix_n, pix_p, seed=args.seed, out=pbuf), M, t)
-            base = [r for r in rows if r["path"] == f"per_pixel {name}" and r["threads"] == t][0]["ns"]
-            add(f"per_pixel {name} out=", "info", v, base, "same call, fresh array", v / base, True, t)
-    # What bounds the batch rows: the counter-based Philox4x32-10 rows every sampler draws (two uniforms
-    # per sample: one Philox block), generated into memory that malloc reuses (1 MiB calls), and the
-    # first touch of a fresh output array (the kernel zeroes its pages), as ns per float64.
+                b.add(f"batch {name} ({n:g}, {p:g}) out=", "info", v, base, "same call, fresh array", v / base, True, t)
+            v = b.ns(lambda: law.sample(pix_n, pix_p, seed=seed, out=pbuf), M, t)
+            base = b.measured_ns(f"per_pixel {name}", t)
+            b.add(f"per_pixel {name} out=", "info", v, base, "same call, fresh array", v / base, True, t)
+
+
+def _bound_rows(b, thread_settings, S, R, batch_ns):
+    """What bounds the batch rows: the counter-based Philox4x32-10 rows every sampler draws (two uniforms
+    per sample: one Philox block), generated into memory that malloc reuses (1 MiB calls), and the
+    first touch of a fresh output array (the kernel zeroes its pages), as ns per float64."""
     rows_per_call, calls = 1 << 16, max(1, S // (1 << 16))
 
     def philox_rows():
         for _ in range(calls):  # each result dropped at once, so malloc hands the same pages back
             _core.uniforms(0, rows_per_call, 2, 1, 0)
     for t in thread_settings:
-        v = ns(philox_rows, rows_per_call * calls, t)
-        add("bound: Philox rows, 2 uniforms", "info", v, batch_ns[("gated", 16, 0.1, t)],
-            "gated batch (16, 0.1)", v / batch_ns[("gated", 16, 0.1, t)], True, t)
+        v = b.ns(philox_rows, rows_per_call * calls, t)
+        b.add("bound: Philox rows, 2 uniforms", "info", v, batch_ns[("gated", 16, 0.1, t)],
+              "gated batch (16, 0.1)", v / batch_ns[("gated", 16, 0.1, t)], True, t)
     # Fresh pages from mmap itself (malloc may hand back pages it already holds), advised as huge pages
     # as numpy advises its large arrays; numpy's arrays of --size float64 (80 MB) are above glibc's
     # largest mmap threshold (32 MiB), so they are fresh pages too.
@@ -247,57 +282,65 @@ def main(argv=None):
             a.fill(1.0)
             del a
     touch_fresh = best_time(fresh_fill, R) / S * 1e9
-    add("bound: first touch of a fresh array", "info", touch_fresh - touch_reused, touch_reused,
-        "writing a reused array", (touch_fresh - touch_reused) / touch_reused, True, 1,
-        note="ns per float64 (numpy fill, one thread)")
-    _blend_rows(ns, add, thread_settings, M, args.seed)
-    # count_image: ns per pixel per inner evaluation against the per-pixel gated cost
-    if args.image != "0":
-        from glintlab.api.grids import IMAGE_CONFIGS, configured_counter
-        from glintlab.studies.aniso import plane_image
-        w, h = (int(x) for x in args.image.lower().split("x"))
-        uv, J = plane_image(w, h, tilt_deg=60.0)
-        Nimg = 1024.0**2
-        for t in thread_settings:
-            pixel = [r for r in rows if r["path"] == "per_pixel gated" and r["threads"] == t][0]["ns"]
-            for label in IMAGE_CONFIGS:
-                c = configured_counter(IMAGE_CONFIGS[label], "gated", Nimg)
-                res = c.count_image(uv, J, Nimg, 0.1, seed=args.seed)
-                evals = float(res.evaluations.sum())
-                gl.set_num_threads(t)
-                try:
-                    sec = best_time(lambda: c.count_image(uv, J, Nimg, 0.1, seed=args.seed), max(1, R - 1))
-                finally:
-                    gl.set_num_threads(default_threads)
-                per_eval = sec / max(evals, 1) * 1e9
-                r = per_eval / pixel
-                add(f"count_image {label}", "ns/eval / per-pixel gated <= 2", per_eval, pixel, "per_pixel gated",
-                    r, r <= 2, t, note=f"{sec:.3f} s, {sec / (w * h) * 1e9:.0f} ns/pixel, "
-                                       f"{evals / (w * h):.1f} evaluations/pixel")
-    # the shared-machine case: a competing process on one core
-    if args.busy and default_threads > 1:
-        stop = mp.Event()
-        proc = mp.Process(target=_spin, args=(stop,), daemon=True)
-        proc.start()
-        try:
-            time.sleep(0.2)
-            for name in ("gated", "binomial"):
-                law = gl.law(name)
-                n, p = POINTS[1]
-                one = ns(lambda: law.sample(n, p, size=S, seed=args.seed), S, 1)
-                two = ns(lambda: law.sample(n, p, size=S, seed=args.seed), S, default_threads)
-                add(f"busy batch {name} ({n:g}, {p:g})", f"{default_threads}T <= 1T", two, one,
-                    "1 thread, same competing process", two / one, two <= one * 1.05, default_threads)
-                one = ns(lambda: law.sample(pix_n, pix_p, seed=args.seed), M, 1)
-                two = ns(lambda: law.sample(pix_n, pix_p, seed=args.seed), M, default_threads)
-                add(f"busy per_pixel {name}", f"{default_threads}T <= 1T", two, one,
-                    "1 thread, same competing process", two / one, two <= one * 1.05, default_threads)
-        finally:
-            stop.set()
-            proc.join()
+    b.add("bound: first touch of a fresh array", "info", touch_fresh - touch_reused, touch_reused,
+          "writing a reused array", (touch_fresh - touch_reused) / touch_reused, True, 1,
+          note="ns per float64 (numpy fill, one thread)")
 
-    df = pd.DataFrame(rows)
-    # two-thread speed-up of each path (1-thread ns / default-threads ns)
+
+def _count_image_rows(b, thread_settings, image, seed, R):
+    """count_image: ns per pixel per inner evaluation against the per-pixel gated cost."""
+    from glintlab.api.grids import IMAGE_CONFIGS, configured_counter
+    from glintlab.studies.aniso import plane_image
+    w, h = (int(x) for x in image.lower().split("x"))
+    uv, J = plane_image(w, h, tilt_deg=60.0)
+    Nimg = 1024.0**2
+    for t in thread_settings:
+        pixel = b.measured_ns("per_pixel gated", t)
+        for label in IMAGE_CONFIGS:
+            c = configured_counter(IMAGE_CONFIGS[label], "gated", Nimg)
+            res = c.count_image(uv, J, Nimg, 0.1, seed=seed)
+            evals = float(res.evaluations.sum())
+            gl.set_num_threads(t)
+            try:
+                sec = best_time(lambda: c.count_image(uv, J, Nimg, 0.1, seed=seed), max(1, R - 1))
+            finally:
+                gl.set_num_threads(b.default_threads)
+            per_eval = sec / max(evals, 1) * 1e9
+            r = per_eval / pixel
+            b.add(f"count_image {label}", "ns/eval / per-pixel gated <= 2", per_eval, pixel, "per_pixel gated",
+                  r, r <= 2, t, note=f"{sec:.3f} s, {sec / (w * h) * 1e9:.0f} ns/pixel, "
+                                     f"{evals / (w * h):.1f} evaluations/pixel")
+
+
+def _busy_rows(b, S, seed, pix_n, pix_p):
+    """The shared-machine case: 1 and the default threads while a competing process spins on one core."""
+    M = pix_n.size
+    default_threads = b.default_threads
+    stop = mp.Event()
+    proc = mp.Process(target=_spin, args=(stop,), daemon=True)
+    proc.start()
+    try:
+        time.sleep(0.2)
+        for name in ("gated", "binomial"):
+            law = gl.law(name)
+            n, p = POINTS[1]
+            one = b.ns(lambda: law.sample(n, p, size=S, seed=seed), S, 1)
+            two = b.ns(lambda: law.sample(n, p, size=S, seed=seed), S, default_threads)
+            b.add(f"busy batch {name} ({n:g}, {p:g})", f"{default_threads}T <= 1T", two, one,
+                  "1 thread, same competing process", two / one, two <= one * 1.05, default_threads)
+            one = b.ns(lambda: law.sample(pix_n, pix_p, seed=seed), M, 1)
+            two = b.ns(lambda: law.sample(pix_n, pix_p, seed=seed), M, default_threads)
+            b.add(f"busy per_pixel {name}", f"{default_threads}T <= 1T", two, one,
+                  "1 thread, same competing process", two / one, two <= one * 1.05, default_threads)
+    finally:
+        stop.set()
+        proc.join()
+
+
+def _write_and_print(df, args, thread_settings, default_threads):
+    """The two-thread speed-up of each path, then paths.csv, paths.json and paths.md in --out, and the
+    table printed."""
+    R, S, M = args.repeats, args.size, args.pixels
     if len(thread_settings) > 1:
         one = df[df.threads == 1].set_index("path").ns
         speed = df[(df.threads == default_threads)].set_index("path").ns
@@ -329,6 +372,26 @@ def main(argv=None):
     print("== issue 21 paths: " + header)
     print(table.to_string(index=False))
     print(f"wrote {args.out / 'paths.csv'}, paths.json and paths.md")
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    R, S, M = args.repeats, args.size, args.pixels
+    default_threads = gl.get_num_threads()
+    thread_settings = sorted({1, default_threads})
+    b = Rows(R, default_threads)
+    pix_n, pix_p = _pixel_parameters(args.seed, M)
+    numpy_ns, numpy_pixel_ns = _numpy_baselines(np.random.default_rng(args.seed), S, R, pix_n, pix_p)
+    batch_ns = _batch_rows(b, thread_settings, S, args.seed, numpy_ns)
+    _per_pixel_rows(b, thread_settings, args.seed, pix_n, pix_p, numpy_pixel_ns, batch_ns)
+    _out_buffer_rows(b, thread_settings, S, args.seed, pix_n, pix_p, batch_ns)
+    _bound_rows(b, thread_settings, S, R, batch_ns)
+    _blend_rows(b.ns, b.add, thread_settings, M, args.seed)
+    if args.image != "0":
+        _count_image_rows(b, thread_settings, args.image, args.seed, R)
+    if args.busy and default_threads > 1:
+        _busy_rows(b, S, args.seed, pix_n, pix_p)
+    _write_and_print(pd.DataFrame(b.rows), args, thread_settings, default_threads)
 
 
 if __name__ == "__main__":

@@ -93,37 +93,32 @@ def _compare(counts, mu):
     return float(np.mean(counts) / mu), float(np.var(counts, ddof=1) / mu), tv, p
 
 
-def compute(params: dict, ctx: Context) -> Tables:
-    pixels = int(params["pixels"])
-    rows = max(2, int(math.isqrt(pixels)))
-    alpha, gamma, side = float(params["alpha"]), float(params["gamma"]), float(params["cells_per_side"])
-    density = 4.0 / S0**2
-    common = dict(density=density, alpha=alpha, gamma=gamma, T=math.inf, table_res=float(params["table_res"]))
-    seed = ctx.seed
-    kinds = {
-        # Rotated squares straddling cells (fractional overlaps), and squares of whole cells.
-        "straddling": _grid(rows, side * 1.1, (0.37, 0.81), 0.4),
-        "whole cells": _grid(rows, side, (side / 2, side / 2), 0.0),
-    }
-    truth_model = WWH18(**common, dpf="exact")
+def _model_row(footprints, reading, mu, counts):
+    """One row of ``wwh18_readings``: the counts against the truth's exact Poisson law of mean mu."""
+    return {"footprints": footprints, "reading": reading, "mean": mu,
+            **dict(zip(("mean_ratio", "var_ratio", "tv", "chi2_p"), _compare(counts, mu)))}
+
+
+def _readings_table(kinds, common, truth_model, seed, ctx):
+    """``wwh18_readings``: the truth's own counts (the control row), then every reading, per kind of
+    footprint, all on the same flakes."""
     rows_out = []
     for kind, (uv, J) in kinds.items():
         h = np.tile(H, (len(uv), 1))
         mu = float(truth_model.expected_count(J[:1], h[:1])[0])
         ctx.progress(f"wwh18 readings: {kind}")
         ref = truth_model.reference_counts(uv, J, h, seed=seed)
-        rows_out.append({"footprints": kind, "reading": "truth (control)", "mean": mu,
-                         **dict(zip(("mean_ratio", "var_ratio", "tv", "chi2_p"), _compare(ref, mu)))})
+        rows_out.append(_model_row(kind, "truth (control)", mu, ref))
         for label, opts in READINGS:
             w = WWH18(**{**common, **opts})
-            c = w.counts(uv, J, h, seed=seed)
-            rows_out.append({"footprints": kind, "reading": label, "mean": mu,
-                             **dict(zip(("mean_ratio", "var_ratio", "tv", "chi2_p"), _compare(c, mu)))})
-    readings = pd.DataFrame(rows_out)
+            rows_out.append(_model_row(kind, label, mu, w.counts(uv, J, h, seed=seed)))
+    return pd.DataFrame(rows_out)
 
-    # Neighbouring pixels: footprints tiling the plane (rows of touching squares, 2.5 cells a side, so
-    # base cells straddle two pixels). The truth's counts of disjoint footprints are independent (a
-    # Poisson process); the model shares a straddling cell's passing flakes between its pixels.
+
+def _neighbours_table(pixels, common, truth_model, seed, ctx):
+    """``wwh18_neighbours``: footprints tiling the plane (rows of touching squares, 2.5 cells a side, so
+    base cells straddle two pixels). The truth's counts of disjoint footprints are independent (a
+    Poisson process); the model shares a straddling cell's passing flakes between its pixels."""
     ctx.progress("wwh18 neighbours")
     tside, trows = 2.5, max(8, int(math.isqrt(pixels)))
     g = (np.arange(trows) * tside + 0.3) * S0
@@ -141,46 +136,56 @@ def compute(params: dict, ctx: Context) -> Tables:
     for label, opts in READINGS[:1] + READINGS[3:5] + READINGS[6:7]:
         w = WWH18(**{**common, **opts})
         neighbours.append({"reading": label, "corr_neighbours": neighbour_corr(w.counts(tuv, tJ, th, seed=seed))})
-    neighbours = pd.DataFrame(neighbours)
+    return pd.DataFrame(neighbours)
 
-    # The table against quadrature over random (wi, wo) pairs (theta up to 80 degrees).
+
+def _hemisphere_directions(rng, size):
+    """Random directions of the upper hemisphere, theta uniform up to 80 degrees."""
+    t = np.radians(rng.uniform(0, 80, size))
+    f = rng.uniform(0, 2 * np.pi, size)
+    return np.stack([np.sin(t) * np.cos(f), np.sin(t) * np.sin(f), np.cos(t)], -1)
+
+
+def _table_error_row(what, lod, est, exact, keep):
+    """One row of ``wwh18_table``: the relative error of est against exact where exact is not negligible."""
+    rel = np.abs(est[keep] / exact[keep] - 1)
+    return {"what": what, "lod_deg": lod, "rel_err_median": float(np.median(rel)),
+            "rel_err_p90": float(np.quantile(rel, 0.9)),
+            "abs_err_over_mean": float(np.mean(np.abs(est[keep] - exact[keep])) / np.mean(exact[keep]))}
+
+
+def _table_table(params, density, truth_model, rng, ctx):
+    """``wwh18_table``: the directional probability table against quadrature over random (wi, wo) pairs,
+    the accumulation alone, then the table per blur level."""
     ctx.progress("wwh18 table")
-    rng = np.random.default_rng(seed)
+    alpha, gamma, table_res = float(params["alpha"]), float(params["gamma"]), float(params["table_res"])
     n = int(params["table_pairs"])
-
-    def hemi(size):
-        t = np.radians(rng.uniform(0, 80, size))
-        f = rng.uniform(0, 2 * np.pi, size)
-        return np.stack([np.sin(t) * np.cos(f), np.sin(t) * np.sin(f), np.cos(t)], -1)
-
-    wi, wo = hemi(n), hemi(n)
+    wi, wo = _hemisphere_directions(rng, n), _hemisphere_directions(rng, n)
     hv = wi + wo
     hv /= np.linalg.norm(hv, axis=-1, keepdims=True)
     exact = truth_model.cone_mass(hv)
     keep = exact > 1e-6 * exact.max()
     table_rows = []
-
-    def err_row(what, lod, est):
-        rel = np.abs(est[keep] / exact[keep] - 1)
-        table_rows.append({"what": what, "lod_deg": lod, "rel_err_median": float(np.median(rel)),
-                           "rel_err_p90": float(np.quantile(rel, 0.9)),
-                           "abs_err_over_mean": float(np.mean(np.abs(est[keep] - exact[keep])) / np.mean(exact[keep]))})
-
-    for res in (1.0, float(params["table_res"])):
+    for res in (1.0, table_res):
         acc = WWH18(density=density, alpha=alpha, gamma=gamma, dpf="exact", table_res=res)
-        err_row(f"accumulation alone, {res:g} deg cells", 0.0, acc.accumulated(hv))
+        table_rows.append(_table_error_row(f"accumulation alone, {res:g} deg cells", 0.0, acc.accumulated(hv),
+                                           exact, keep))
     for lod in (0.0,) + tuple(LOD_LEVELS):
         ctx.progress(f"wwh18 table level {lod:g}")
-        t = WWH18(density=density, alpha=alpha, gamma=gamma, dpf="table", table_res=float(params["table_res"]),
+        t = WWH18(density=density, alpha=alpha, gamma=gamma, dpf="table", table_res=table_res,
                   lod=lod if lod > 0 else "none")
-        err_row(f"table {params['table_res']:g} deg, " + ("no blur" if lod == 0 else f"blur {lod:g} deg"), lod,
-                t.dpf(wi, wo))
-    table = pd.DataFrame(table_rows)
+        table_rows.append(_table_error_row(
+            f"table {params['table_res']:g} deg, " + ("no blur" if lod == 0 else f"blur {lod:g} deg"), lod,
+            t.dpf(wi, wo), exact, keep))
+    return pd.DataFrame(table_rows)
 
-    # The filtered model against T: footprints of mean counts log-uniform in [0.5, 500].
+
+def _filtered_table(params, density, truth_model, P, rng, seed, ctx):
+    """``wwh18_filtered``: the filtered model against T, on footprints of mean counts log-uniform in
+    [0.5, 500]."""
     ctx.progress("wwh18 filtered")
+    alpha, gamma = float(params["alpha"]), float(params["gamma"])
     m = int(params["filtered_pixels"])
-    P = float(truth_model.cone_mass(H))
     means = np.exp(rng.uniform(math.log(0.5), math.log(500.0), m))
     sides = np.sqrt(means / (density * P))
     spacing = 2 * sides.max() + 8 * S0
@@ -201,10 +206,13 @@ def compute(params: dict, ctx: Context) -> Tables:
         filt_rows.append({"T": T, "filtered_share": float(filtered.mean()),
                           "rel_abs_diff": float(np.mean(np.abs(d["count"] - ref)) / np.mean(ref)),
                           "kept_rel_sd": kept})
-    filt = pd.DataFrame(filt_rows)
+    return pd.DataFrame(filt_rows)
 
-    # TEA's lambda for adjacent node ids (i, j), (i + 1, j).
+
+def _tea_table(params, density, seed, ctx):
+    """``wwh18_tea``: TEA's lambda for adjacent node ids (i, j), (i + 1, j), by rounds, beside Philox."""
     ctx.progress("wwh18 tea")
+    alpha, gamma = float(params["alpha"]), float(params["gamma"])
     q = int(params["tea_pairs"])
     i = np.arange(q, dtype=np.int64)
     j = np.full(q, 12345, dtype=np.int64)
@@ -218,17 +226,45 @@ def compute(params: dict, ctx: Context) -> Tables:
         stat = float(((grid - expected) ** 2 / expected).sum())
         tea_rows.append({"generator": label, "corr_adjacent": float(np.corrcoef(a, b)[0, 1]),
                          "chi2_pairs_p": float(chi2_dist.sf(stat, 255))})
-    tea = pd.DataFrame(tea_rows)
+    return pd.DataFrame(tea_rows)
 
+
+def _headline_stats(readings, neighbours, P, pixels_per_row):
+    """The numbers shown under the section title."""
     printed = readings[(readings.footprints == "straddling") & (readings.reading == READINGS[6][0])].iloc[0]
     flipped = readings[(readings.footprints == "whole cells") & (readings.reading == READINGS[0][0])].iloc[0]
     stats = {"P (exact cone mass at h)": P, "mean flakes-in-cone per pixel (straddling)": float(readings.iloc[0]["mean"]),
              "as printed: mean ratio (straddling)": float(printed.mean_ratio),
              "as printed: variance ratio (straddling)": float(printed.var_ratio),
              "flipped, per flake, exact P: chi2 p on whole cells": float(flipped.chi2_p),
-             "pixels per row": len(kinds["straddling"][0])}
+             "pixels per row": pixels_per_row}
     stats["neighbour correlation, truth / as printed"] = (
         f"{neighbours.corr_neighbours.iloc[0]:.3f} / {neighbours.corr_neighbours.iloc[-1]:.3f}")
+    return stats
+
+
+def compute(params: dict, ctx: Context) -> Tables:
+    pixels = int(params["pixels"])
+    rows = max(2, int(math.isqrt(pixels)))
+    alpha, gamma, side = float(params["alpha"]), float(params["gamma"]), float(params["cells_per_side"])
+    density = 4.0 / S0**2
+    common = dict(density=density, alpha=alpha, gamma=gamma, T=math.inf, table_res=float(params["table_res"]))
+    seed = ctx.seed
+    kinds = {
+        # Rotated squares straddling cells (fractional overlaps), and squares of whole cells.
+        "straddling": _grid(rows, side * 1.1, (0.37, 0.81), 0.4),
+        "whole cells": _grid(rows, side, (side / 2, side / 2), 0.0),
+    }
+    truth_model = WWH18(**common, dpf="exact")
+    readings = _readings_table(kinds, common, truth_model, seed, ctx)
+    neighbours = _neighbours_table(pixels, common, truth_model, seed, ctx)
+    # One generator, in this order: the table's (wi, wo) pairs, then the filtered rows' mean counts.
+    rng = np.random.default_rng(seed)
+    table = _table_table(params, density, truth_model, rng, ctx)
+    P = float(truth_model.cone_mass(H))
+    filt = _filtered_table(params, density, truth_model, P, rng, seed, ctx)
+    tea = _tea_table(params, density, seed, ctx)
+    stats = _headline_stats(readings, neighbours, P, len(kinds["straddling"][0]))
     return Tables({"wwh18_readings": readings, "wwh18_neighbours": neighbours, "wwh18_table": table,
                    "wwh18_filtered": filt, "wwh18_tea": tea}, stats)
 
