@@ -17,7 +17,7 @@ from pathlib import Path
 from .. import _core
 from ..api import checks as V
 
-KINDS = ("experiment", "bounds", "scene", "report")
+KINDS = ("experiment", "bounds", "scene", "report", "pipeline")
 # results.json written by run_experiment: {"glintlab_result": RESULT_FORMAT, "config": ..., "base_dir": ...}
 RESULT_FORMAT = 1
 
