@@ -75,6 +75,18 @@ def _shader_file(stage: Stage, spec: dict, field: str) -> Path:
     return path
 
 
+def _load(stage: Stage, field: str, loader, path: Path, **opts):
+    """``loader(path, **opts)``; a loader of this glintlab that does not take a shader option the file gives
+    (uniforms, textures) is the file's error at that option."""
+    try:
+        return loader(path, **opts)
+    except TypeError as exc:
+        given = [key for key in ("uniforms", "textures") if key in opts]
+        if not given:
+            raise
+        stage.fail(f"{field}/{given[0]}", f"shader options this glintlab's {field} loader takes ({exc})", opts[given[0]])
+
+
 def build_law(stage: Stage):
     spec = stage.spec["law"]
     if isinstance(spec, dict) and "shader" in spec:
@@ -84,7 +96,7 @@ def build_law(stage: Stage):
                 opts[key] = spec[key]
         # As the sampler and method loaders do, glintlab's shader folder is searched last (its preludes).
         opts["include_dirs"] = [*opts["include_dirs"], str(data_path("shaders"))]
-        return shader_law(_shader_file(stage, spec, "law"), register=False, **opts)
+        return _load(stage, "law", shader_law, _shader_file(stage, spec, "law"), register=False, **opts)
     try:
         return resolve_law(spec)
     except ValueError as exc:
@@ -118,7 +130,8 @@ def build_method(stage: Stage):
         for key in ("entry", "returns"):
             if key in spec:
                 opts[key] = spec[key]
-        return shader_method(_shader_file(stage, spec, "method"), register=False, material=material, **opts)
+        return _load(stage, "method", shader_method, _shader_file(stage, spec, "method"), register=False,
+                     material=material, **opts)
     name, params = (spec, {}) if isinstance(spec, str) else (spec["name"], spec.get("params", {}))
     if params:
         stage.fail("method/params", "no parameters (an image method takes the stage's material)", params)
@@ -132,7 +145,8 @@ def build_sampler(stage: Stage):
     spec = stage.spec["sampler"]
     wo = {"wo": tuple(stage.spec["wo"])} if "wo" in stage.spec else {}
     if isinstance(spec, dict) and "shader" in spec:
-        return shader_sampler(_shader_file(stage, spec, "sampler"), **_shader_options(stage, spec, "sampler"), **wo)
+        return _load(stage, "sampler", shader_sampler, _shader_file(stage, spec, "sampler"),
+                     **_shader_options(stage, spec, "sampler"), **wo)
     name, params = (spec, {}) if isinstance(spec, str) else (spec["name"], dict(spec.get("params", {})))
     try:
         return load_sampler(name, **params, **wo)
