@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 import glintlab as gl
-from glintlab.validation import pipeline_metrics  # noqa: F401  (registers the built-in metrics)
+from glintlab.studies import pipeline_metrics  # noqa: F401  (registers the built-in metrics)
 from glintlab.validation.pipeline import format_diff, record
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -39,7 +39,7 @@ from .report.html import write_extremes_report
 from .validation.advisor import Advice, advise
 from .validation.bounds import perturbed_law
 from .validation.pipeline import check, check_pipeline, pipeline_metrics, register_pipeline_metric
-from .validation import pipeline_metrics as _pipeline_metrics  # noqa: F401  (registers the built-in metrics)
+from .studies import pipeline_metrics as _pipeline_metrics  # noqa: F401  (registers the built-in metrics)
 from .studies.experiment_plots import run_experiment
 from .validation.extremes import extremes_summary, extremes_table, invalid_inputs_table
 from .validation.grid import standard_grid

@@ -10,7 +10,7 @@ from ..api import checks as V
 from ..resources import data_path
 from ..validation import bounds as B
 from ..validation import pipeline as P
-from ..validation import pipeline_metrics  # noqa: F401  (registers the built-in stages and metrics)
+from ..studies import pipeline_metrics  # noqa: F401  (registers the built-in stages and metrics)
 from .common import add_plugins, load_plugins
 
 

@@ -10,7 +10,7 @@ rule stated in the file, with the seed, glintlab's version and the machine.
 The metrics are a registry (``PIPELINE_METRICS``): one entry per metric, registered by name with the
 stage kinds it applies to, its direction, what it means, its false-failure rate and its cost. The
 stage kinds are a registry too (``PIPELINE_STAGES``: kind -> the function that builds the stage's object
-from its fields). The built-in entries are in pipeline_metrics.py; a later metric plugs in with
+from its fields). The built-in entries are in studies/pipeline_metrics.py (they reuse the studies' measurements); a later metric plugs in with
 ``register_pipeline_metric``.
 """
 from __future__ import annotations
@@ -29,7 +29,7 @@ from typing import Callable
 
 import pandas as pd
 
-from .. import __version__
+from .._core import __version__
 from ..api import checks as V
 from ..api.registry import Registry
 from .bounds import DEFAULT_BOUNDS, check as check_bounds

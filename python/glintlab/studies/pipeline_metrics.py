@@ -1,5 +1,5 @@
 """The built-in stage kinds and metrics of pipelines (``glintlab check PIPELINE.json``; the registries and
-the check are in pipeline.py, the meaning and cost of each metric in docs/guide/ci_pipeline.md).
+the check are in validation/pipeline.py; this helper sits with the studies whose measurements it reuses, the meaning and cost of each metric in docs/guide/ci_pipeline.md).
 
 Every metric is one glintlab already has, measured over the stage's operating range at the pipeline's
 seed: a law's TV and mean error against the binomial (``sweep``) and a shader's rows against its C++
@@ -35,15 +35,15 @@ from ..api.shaders import shader_law
 from ..api.spatial import Rect, ground_truth
 from .._core import Distribution
 from ..resources import data_path
-from ..studies import aniso, lod
-from ..studies.glinty_ndf import _footprints, _half_vector
-from .bounds import regime_points
-from .furnace import furnace
-from .pipeline import PIPELINE_STAGES, Measured, Stage, register_pipeline_metric
-from .references import resolve_law
-from .sampler_test import sampler_test
-from .shader_check import row_table
-from .sweep import sweep
+from ..validation.bounds import regime_points
+from ..validation.furnace import furnace
+from ..validation.pipeline import PIPELINE_STAGES, Measured, Stage, register_pipeline_metric
+from ..validation.references import resolve_law
+from ..validation.sampler_test import sampler_test
+from ..validation.shader_check import row_table
+from ..validation.sweep import sweep
+from . import aniso, lod
+from .glinty_ndf import _footprints, _half_vector
 
 # The sampler test's significance: the p-value bound --record writes (its false-failure rate per bound).
 SAMPLER_LEVEL = 1e-3
