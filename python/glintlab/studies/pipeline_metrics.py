@@ -84,30 +84,29 @@ def _load(stage: Stage, field: str, loader, path: Path, **opts):
         given = [key for key in ("uniforms", "textures") if key in opts]
         if not given:
             raise
-        stage.fail(f"{field}/{given[0]}", f"shader options this glintlab's {field} loader takes ({exc})", opts[given[0]])
+        stage.fail(f"{field}/{given[0]}", f"shader options this glintlab's shader loader takes ({exc})", opts[given[0]])
 
 
-def build_law(stage: Stage):
-    spec = stage.spec["law"]
+def build_law(stage: Stage, field: str = "law"):
+    spec = stage.spec[field]
     if isinstance(spec, dict) and "shader" in spec:
-        opts = _shader_options(stage, spec, "law")
+        opts = _shader_options(stage, spec, field)
         for key in ("entry", "n_uniforms", "binning"):
             if key in spec:
                 opts[key] = spec[key]
         # As the sampler and method loaders do, glintlab's shader folder is searched last (its preludes).
         opts["include_dirs"] = [*opts["include_dirs"], str(data_path("shaders"))]
-        return _load(stage, "law", shader_law, _shader_file(stage, spec, "law"), register=False, **opts)
+        return _load(stage, field, shader_law, _shader_file(stage, spec, field), register=False, **opts)
     try:
         return resolve_law(spec)
     except ValueError as exc:
-        stage.fail("law", f"a registered law ({exc})", spec)
+        stage.fail(field, f"a registered law ({exc})", spec)
 
 
 def build_blend(stage: Stage):
     spec = stage.spec["blend"]
     name, params = (spec, {}) if isinstance(spec, str) else (spec["name"], dict(spec.get("params", {})))
-    inner_stage = Stage({**stage.spec, "law": stage.spec["inner"]}, stage.pointer, stage.source, stage.base, stage.seed)
-    inner = build_law(inner_stage)
+    inner = build_law(stage, "inner")
     try:
         blended_law(name, inner=inner, **params)
     except ValueError as exc:
