@@ -3,8 +3,9 @@
 bounded, recorded from the values measured now (``glintlab check PIPELINE.json --record``).
 
 The configurations: DB23 as its paper ships it (the gated Gaussian, the distributed blend, the trilinear
-grid), DB23 with its shader's 48 evaluations (tetrahedral, log LOD, realizations blended), ZK16 (its law,
-linear blending of outputs, its anisotropic mip probes), KPT25 (its constant-time NDF, roulette LOD),
+grid, its public shader as a method checked against its C++ twin), DB23 with its shader's 48 evaluations (tetrahedral, log LOD, realizations blended), ZK16 (its law,
+linear blending of outputs, its anisotropic mip probes, its method shader), KPT25 (its constant-time NDF,
+roulette LOD, its method shader),
 and WWH18's filtered model. Each pipeline states its margin rule (data/schema/pipeline.schema.json,
 "margin"): maximum = (measured + 3 standard errors) x 1.25 + 1e-9, rounded up to 3 significant digits;
 a sampler's chi-square p-value keeps its 1e-3 level. Re-running the script re-records every file and
@@ -28,7 +29,11 @@ LAW_BOUNDS = [{"metric": "tv"}, {"metric": "mean_rel_err"}]
 SHADER_BOUNDS = [{"metric": "twin_rows"}, {"metric": "gpu_instructions"}, {"metric": "gpu_vgprs"}]
 BLEND_BOUNDS = [{"metric": "blend_tv"}, {"metric": "blend_pop_rate"}]
 GRID_BOUNDS = [{"metric": "grid_count_bias"}, {"metric": "grid_var_ratio_err"}]
-METHOD_BOUNDS = [{"metric": "mean_d_err"}, {"metric": "furnace_err"}]
+METHOD_BOUNDS = [{"metric": "mean_d_err"}, {"metric": "furnace_err"}, {"metric": "scene_std_ratio_err"},
+                 {"metric": "scene_pop_rate"}]
+METHOD_SHADER_BOUNDS = [{"metric": "twin_pixels"}, {"metric": "gpu_instructions"}, {"metric": "gpu_vgprs"}]
+# The scene metrics' scene: the shipped sphere at a tenth of its resolution per side, 4 frames of its path.
+SCENE = {"file": "sphere", "scale": 0.1, "frames": 4}
 SAMPLER_BOUNDS = [{"metric": "sampler_pvalue"}, {"metric": "sampler_normalization"}, {"metric": "sampler_pdf_mismatch"}]
 # Where the laws are used: a renderer's footprints hold from a few to 10^6 facets, p from 1e-4 to 0.5.
 LAW_RANGE = {"n": {"logspace": [0, 6, 13]}, "p": {"logspace": [-4, -0.30103, 9]}}
@@ -63,7 +68,13 @@ def grid(scheme: str, inner: str) -> dict:
 
 def method(name: str, **extra) -> dict:
     return {"id": "method", "kind": "method", "method": name, "material": MATERIAL, "range": METHOD_RANGE,
-            "bounds": list(METHOD_BOUNDS), "pixels": 4000, **extra}
+            "bounds": list(METHOD_BOUNDS), "pixels": 4000, "scene": SCENE, **extra}
+
+
+def method_shader(name: str) -> dict:
+    """A shipped method shader against its C++ twin on one frame of the plane (pixel by pixel), with its cost."""
+    return {"id": "method_shader", "kind": "method", "method": name, "twin": name,
+            "scene": {"file": "plane_25", "scale": 0.1, "frames": 2}, "bounds": list(METHOD_SHADER_BOUNDS)}
 
 
 def sampler(name: str = "beckmann_vndf", alpha: float = 0.5) -> dict:
@@ -75,15 +86,18 @@ CONFIGURATIONS = {
     "db23_paper": ("DB23 as its paper ships it: the gated Gaussian (C++ and the shipped HLSL shader), the distributed "
                    "binomial blend, the trilinear grid and D_P on it, visible Beckmann normals",
                    [law("gated"), shader("gated", "gated_shader"), blend("distributed", "gated"),
-                    grid("db23_trilinear", "gated"), method("db23_trilinear[gated]"), sampler()]),
+                    grid("db23_trilinear", "gated"), method("db23_trilinear[gated]"), method_shader("db23_shader"),
+                    sampler()]),
     "db23_shader_48": ("DB23 as its shader runs: tetrahedral grid with log LOD weights, realizations blended over 3 "
                        "simplex vertices x 4 angular texels (48 evaluations), the gated Gaussian",
                        [law("gated"), shader("gated", "gated_shader"), blend("distributed", "gated"),
                         grid("db23_shader_48", "gated"), method("db23_shader_48[gated]"), sampler()]),
     "zk16": ("ZK16: its counting law, linear blending of outputs between LOD levels, its anisotropic mip probes",
-             [law("zk16"), blend("zk16_linear", "zk16"), grid("zk16_aniso", "zk16"), method("zk16"), sampler()]),
+             [law("zk16"), blend("zk16_linear", "zk16"), grid("zk16_aniso", "zk16"), method("zk16"),
+              method_shader("zk16_shader"), sampler()]),
     "kpt25": ("KPT25: the constant-time glinty NDF over its own point process, roulette LOD (epsilon 0.1)",
-              [blend("roulette", "binomial", epsilon=0.1), method("kpt25"), sampler("ggx_vndf", 0.3)]),
+              [blend("roulette", "binomial", epsilon=0.1), method("kpt25"), method_shader("kpt25_shader"),
+               sampler("ggx_vndf", 0.3)]),
     "wwh18_filtered": ("WWH18: the discrete-flake model, filtered (its count replaced by its mean) above the "
                        "threshold", [method("wwh18"), sampler()]),
 }

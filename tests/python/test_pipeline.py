@@ -249,3 +249,25 @@ def test_shipped_pipelines_cover_the_configurations_and_are_recorded():
         assert {"method", "sampler"} <= {s["kind"] for s in doc["stages"]}
         for s in doc["stages"]:
             assert all(("maximum" in b) != ("minimum" in b) and b["measured"] is not None for b in s["bounds"])
+
+
+@vulkan
+def test_a_method_shader_against_its_twin_and_on_a_scene(tmp_path):
+    # The shipped DB23 method shader matches its C++ twin on every pixel of a frame; another shader
+    # checked against that twin (the smooth NDF's) does not: the pixel check can fail.
+    scene = {"file": "sphere", "scale": 0.05, "frames": 2}
+    doc = {"stages": [
+        {"id": "db23", "kind": "method", "method": "db23_shader", "twin": "db23_shader", "scene": scene,
+         "bounds": [{"metric": "twin_pixels", "maximum": 1e-9}]},
+        {"id": "other", "kind": "method", "method": "smooth_shader", "twin": "db23_shader", "scene": scene,
+         "bounds": [{"metric": "twin_pixels", "maximum": 1e-9}]},
+        {"id": "scene", "kind": "method", "method": "db23_trilinear[gated]", "scene": scene,
+         "bounds": [{"metric": "scene_std_ratio_err", "maximum": 1.0}, {"metric": "scene_pop_rate", "maximum": 1.0}]}]}
+    table = gl.check(doc).set_index("id")
+    assert table.loc["db23/twin_pixels"].ok and table.loc["db23/twin_pixels"].worst == 0
+    assert not table.loc["other/twin_pixels"].ok and table.loc["other/twin_pixels"].worst > 0.5
+    assert table.loc["scene/scene_std_ratio_err"].ok and table.loc["scene/scene_pop_rate"].ok
+    # A scene metric needs a named image method and a scene: exit 2 at the bound otherwise.
+    doc["stages"][2].pop("scene")
+    with pytest.raises(ValueError, match=r"at /stages/2/bounds/0/metric: expected a metric that applies"):
+        gl.check(doc)

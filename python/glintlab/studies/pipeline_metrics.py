@@ -1,5 +1,6 @@
-"""The built-in stage kinds and metrics of pipelines (``glintlab check PIPELINE.json``; the registries and
-the check are in validation/pipeline.py; this helper sits with the studies whose measurements it reuses, the meaning and cost of each metric in docs/guide/ci_pipeline.md).
+"""The built-in stage kinds and metrics of pipelines (``glintlab check PIPELINE.json``). The registries and
+the check are in validation/pipeline.py; this helper sits with the studies whose measurements it reuses;
+the meaning and cost of each metric are in docs/guide/ci_pipeline.md.
 
 Every metric is one glintlab already has, measured over the stage's operating range at the pipeline's
 seed: a law's TV and mean error against the binomial (``sweep``) and a shader's rows against its C++
@@ -23,12 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from ..api.blends import blended_law
-from ..api.glinty_ndf import Material, make_method
+from ..api.glinty_ndf import Material, image_methods, make_method
 from ..api.gpu_cost import DEFAULT_ARCHS, gpu_cost
 from ..api.grids import IMAGE_CONFIGS
 from ..api.metrics import distance
 from ..api.ndf import NDF
-from ..api.method_shaders import shader_method
+from ..api.method_shaders import shader_method, shipped_method_shaders
 from ..api.samplers import load_sampler
 from ..api.shader_samplers import shader_sampler
 from ..api.shaders import shader_law
@@ -37,9 +38,11 @@ from .._core import Distribution
 from ..resources import data_path
 from ..validation.bounds import regime_points
 from ..validation.furnace import furnace
+from ..validation.method_twins import compare, scene_rows
 from ..validation.pipeline import PIPELINE_STAGES, Measured, Stage, register_pipeline_metric
 from ..validation.references import resolve_law
 from ..validation.sampler_test import sampler_test
+from ..validation.scene_images import own_truth_metrics, render_path, resolve_scene
 from ..validation.shader_check import row_table
 from ..validation.sweep import sweep
 from . import aniso, lod
@@ -121,9 +124,10 @@ def build_grid(stage: Stage):
     return label
 
 
-def build_method(stage: Stage):
+def build_method(stage: Stage, material: Material | None = None):
+    """The stage's method on ``material`` (default: the stage's "material")."""
     spec, m = stage.spec["method"], stage.spec["material"]
-    material = Material(density=m["density"], target=m["target"], alpha=m["alpha"], R=m["R"])
+    material = material or Material(density=m["density"], target=m["target"], alpha=m["alpha"], R=m["R"])
     if isinstance(spec, dict) and "shader" in spec:
         opts = _shader_options(stage, spec, "method")
         for key in ("entry", "returns"):
@@ -310,6 +314,61 @@ def method_furnace_err(stage: Stage) -> Measured:
     return _worst((df.value - 1).abs(), where, df.error, note="|projected area or weak furnace - 1|")
 
 
+def _scene(stage: Stage):
+    sc = stage.spec["scene"]
+    path = stage.path(sc["file"])
+    scene = resolve_scene(str(path) if path.exists() else sc["file"])
+    return scene.scaled(sc["scale"], keep_n=True)
+
+
+def _method_name(stage: Stage) -> str:
+    spec = stage.spec["method"]
+    return spec if isinstance(spec, str) else spec.get("name", "")
+
+
+def _scene_own_truth(stage: Stage) -> dict:
+    def compute():
+        name = _method_name(stage)
+        path = render_path(_scene(stage), methods=[name], frames=stage.spec["scene"]["frames"], seed=stage.seed)
+        return own_truth_metrics(name, path.images[name], path.truths[name], path.target, path.mask)
+    return stage.shared("scene", compute)
+
+
+def _has_scene(stage: Stage) -> bool:
+    """an image method named by its registered name and a "scene\""""
+    return "scene" in stage.spec and _method_name(stage) in image_methods()
+
+
+def method_scene_std_ratio(stage: Stage) -> Measured:
+    r = _scene_own_truth(stage)
+    return Measured(abs(r["own_std_ratio"] - 1.0), f"scene {stage.spec['scene']['file']} against its own truth "
+                    f"({r['own_truth']})", stage.spec["scene"]["frames"], f"std ratio {r['own_std_ratio']:.4g}")
+
+
+def method_scene_pop_rate(stage: Stage) -> Measured:
+    r = _scene_own_truth(stage)
+    return Measured(float(r["own_pop_rate"]), f"scene {stage.spec['scene']['file']} against its own truth "
+                    f"({r['own_truth']})", stage.spec["scene"]["frames"],
+                    f"the own truth changes at {r['own_truth_change_rate']:.3g} of the pixels")
+
+
+def _has_method_twin(stage: Stage) -> bool:
+    """a "twin" naming a shipped method shader and a "scene\""""
+    return "scene" in stage.spec and stage.spec.get("twin") in shipped_method_shaders()
+
+
+def method_twin_pixels(stage: Stage) -> Measured:
+    sc = stage.spec["scene"]
+    rows, material = scene_rows(_scene(stage), scale=1.0, seed=stage.seed)
+    # The method as the scene's material makes it (an NDF shader reads the material as defines); the
+    # shipped shader itself when the stage names its twin.
+    same = _method_name(stage) == stage.spec["twin"]
+    method = None if same else build_method(stage, material)
+    r = compare(rows, material, method=method, explain_limit=0, name=stage.spec["twin"])
+    return Measured(float(r["share"]), f"scene {sc['file']}, frame 0", int(r["pixels"]),
+                    f"largest relative error {r['max_rel_err']:.3g}")
+
+
 # ---------------------------------------------------------------- sampler
 
 def _sampler_result(stage: Stage):
@@ -360,6 +419,8 @@ def _has_twin(stage: Stage) -> bool:
 
 
 _EXACT = "0 when the stage has exact distributions (the value is a deterministic function of the stage)"
+_SCENE = ("fixed seed: the value is reproducible; it carries no standard error, so only the relative margin covers "
+          "a new seed or machine")
 _SEEDED = ("fixed seed: the value is reproducible; --record's noise term (standard errors) bounds the rate a new "
            "seed or machine fails at, about 0.13 % per bound at 3 standard errors")
 for _name, _kinds, _measure, _meaning, _ff, _cost_text, _applies in (
@@ -382,6 +443,13 @@ for _name, _kinds, _measure, _meaning, _ff, _cost_text, _applies in (
          _SEEDED, "`pixels` NDF evaluations per (theta_h, points, anisotropy)", None),
         ("furnace_err", "method", method_furnace_err, "largest |projected area - 1| or |weak furnace - 1| (energy)",
          _SEEDED, "`pixels` x 64 evaluations per case", _has_furnace),
+        ("scene_std_ratio_err", "method", method_scene_std_ratio, "|std of the images / std of the method's own "
+         "truth - 1| on the scene's glint pixels", _SCENE, "`frames` images and their own truths", _has_scene),
+        ("scene_pop_rate", "method", method_scene_pop_rate, "share of glint pixels that pop between frames without "
+         "their own truth changing", _SCENE, "shares the scene's images", _has_scene),
+        ("twin_pixels", "method", method_twin_pixels, "share of a scene's pixels where the method shader and its "
+         "C++ twin differ beyond the twin's allowance", "0: the rows are fixed by the seed",
+         "one frame of the scene, shader and twin", _has_method_twin),
         ("sampler_normalization", "sampler", sampler_normalization, "|integral of the pdf - 1|", _SEEDED,
          "shares the sampler test", None),
         ("sampler_pdf_mismatch", "sampler", sampler_pdf_mismatch, "share of samples whose own pdf disagrees with "
