@@ -10,8 +10,8 @@ rule stated in the file, with the seed, glintlab's version and the machine.
 The metrics are a registry (``PIPELINE_METRICS``): one entry per metric, registered by name with the
 stage kinds it applies to, its direction, what it means, its false-failure rate and its cost. The
 stage kinds are a registry too (``PIPELINE_STAGES``: kind -> the function that builds the stage's object
-from its fields). The built-in entries are in studies/pipeline_metrics.py (they reuse the studies' measurements); a later metric plugs in with
-``register_pipeline_metric``.
+from its fields). The built-in entries are in studies/pipeline_metrics.py (they reuse the studies'
+measurements); a later metric plugs in with ``register_pipeline_metric``.
 """
 from __future__ import annotations
 
@@ -132,10 +132,11 @@ def load_pipeline(source) -> tuple[dict, str, Path | None]:
 
 
 def is_pipeline(source) -> bool:
-    """Whether ``source`` (a dict, JSON text or a path) is a pipeline (an object with "stages") rather
-    than a bounds file."""
+    """Whether ``source`` (a dict, JSON text or a path) is read as a pipeline rather than a bounds file:
+    a JSON object without "bounds" (a bounds file's one required field), so that a pipeline missing
+    "stages" is reported as such."""
     if isinstance(source, dict):
-        return "stages" in source
+        return "bounds" not in source
     text = source if isinstance(source, str) and source.lstrip().startswith("{") else None
     if text is None:
         try:
@@ -146,7 +147,7 @@ def is_pipeline(source) -> bool:
         doc = json.loads(text)
     except ValueError:
         return False
-    return isinstance(doc, dict) and "stages" in doc
+    return isinstance(doc, dict) and "bounds" not in doc
 
 
 def _stages(doc: dict, source: str, base, substitute: dict) -> list[Stage]:
@@ -188,9 +189,10 @@ def _names_for(kind: str) -> list[str]:
 
 
 def _check_applies(stages: list[Stage]) -> None:
-    """Every bound's metric can be measured on its stage (bad input, exit 2, before anything is measured):
-    building each stage's object here also reports a bad law, blend or shader first."""
+    """Every stage's object builds and every bound's metric can be measured on its stage: bad input
+    (exit 2) is reported before anything is measured."""
     for stage in stages:
+        stage.obj  # noqa: B018  (builds it: a bad law, blend, method, sampler or shader fails here)
         for j, b in enumerate(stage.spec["bounds"]):
             metric = PIPELINE_METRICS.get(b["metric"])
             if metric.applies is not None and not metric.applies(stage):
