@@ -4,8 +4,7 @@
 1. A pipeline of every stage at the schema's default sizes (the C++ gated law over the standard grid, the
    shipped gated shader against its C++ twin with its GPU cost, the distributed blend, DB23's trilinear
    grid, KPT25's glinty NDF with its scene metrics, DB23's method shader against its twin, the GGX
-   visible-normal sampler): target under 60 s on 2 cores, the time a CI
-   job tolerates.
+   visible-normal sampler): target under 60 s on 2 cores, the time a CI job tolerates.
 2. The shipped pipelines (python/glintlab/data/pipelines/*.json) one after the other: target under 180 s
    together.
 Wall and CPU seconds, at 2 threads (the CI machine's cores). Writes out/bench/pipeline.json; exits 0 when

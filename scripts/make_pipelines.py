@@ -4,9 +4,9 @@ bounded, recorded from the values measured now (``glintlab check PIPELINE.json -
 
 The configurations: DB23 as its paper ships it (the gated Gaussian, the distributed blend, the trilinear
 grid, its public shader as a method checked against its C++ twin), DB23 with its shader's 48 evaluations
-(tetrahedral, log LOD, realizations blended), ZK16 (its law, linear blending of outputs, its anisotropic mip probes, its method shader), KPT25 (its constant-time NDF,
-roulette LOD, its method shader),
-and WWH18's filtered model. Each pipeline states its margin rule (data/schema/pipeline.schema.json,
+(tetrahedral, log LOD, realizations blended), ZK16 (its law, linear blending of outputs, its anisotropic
+mip probes, its method shader), KPT25 (its constant-time NDF, roulette LOD, its method shader) and
+WWH18's filtered model. Each pipeline states its margin rule (data/schema/pipeline.schema.json,
 "margin"): maximum = (measured + 3 standard errors) x 1.25 + 1e-9, rounded up to 3 significant digits;
 a sampler's chi-square p-value keeps its 1e-3 level. Re-running the script re-records every file and
 prints what changed; .ci/run checks them (make bench times them: bench/bench_pipeline.py).
