@@ -10,7 +10,9 @@ file runs in a few seconds of CPU); the shipped pipelines are timed by bench/ben
 """
 import copy
 import json
+import re
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -228,6 +230,13 @@ def test_a_metric_registered_later_plugs_in():
         P.PIPELINE_METRICS.restore(snapshot)
     with pytest.raises(ValueError, match="kinds"):
         gl.register_pipeline_metric("x", "nope", "max", hellinger, "", "", "")
+
+
+def test_every_registered_metric_has_its_row_in_the_guide():
+    guide = (Path(__file__).resolve().parents[2] / "docs" / "guide" / "ci_pipeline.md").read_text()
+    rows = {m for line in guide.splitlines() if line.startswith("| `") for m in re.findall(r"`(\w+)`", line.split("|")[1])}
+    names = set(gl.pipeline_metrics().name)
+    assert len(names) >= 18 and names <= rows, names - rows
 
 
 def test_shader_uniforms_and_textures_pass_through_only_when_given(tmp_path):
