@@ -7,8 +7,10 @@
    visible-normal sampler): target under 60 s on 2 cores, the time a CI job tolerates.
 2. The shipped pipelines (python/glintlab/data/pipelines/*.json) one after the other: target under 180 s
    together.
-Wall and CPU seconds, at 2 threads (the CI machine's cores). Writes out/bench/pipeline.json; exits 0 when
-the measurements complete (1 with --strict when a target is missed).
+Wall and CPU seconds, at 2 threads (the CI machine's cores). The targets are judged on CPU seconds: the
+check is CPU-bound work in one process, so on an idle machine its wall time is at most its CPU time, while
+on a shared machine the wall time mostly measures the other processes. Writes out/bench/pipeline.json;
+exits 0 when the measurements complete (1 with --strict when a target is missed).
 """
 from __future__ import annotations
 
@@ -66,19 +68,20 @@ def main(argv=None) -> int:
     for p in sorted(data_path("pipelines").glob("*.json")):
         result["shipped"][p.stem] = timed_check(p)
     shipped_wall = sum(r["wall_s"] for r in result["shipped"].values())
+    shipped_cpu = sum(r["cpu_s"] for r in result["shipped"].values())
     result["shipped_total_wall_s"] = round(shipped_wall, 2)
-    result["shipped_total_cpu_s"] = round(sum(r["cpu_s"] for r in result["shipped"].values()), 2)
-    verdicts = {"every_stage": result["every_stage"]["wall_s"] <= TARGETS["every_stage"],
-                "shipped": shipped_wall <= TARGETS["shipped"]}
+    result["shipped_total_cpu_s"] = round(shipped_cpu, 2)
+    verdicts = {"every_stage": result["every_stage"]["cpu_s"] <= TARGETS["every_stage"],
+                "shipped": shipped_cpu <= TARGETS["shipped"]}
     result["targets_s"], result["within_targets"] = TARGETS, verdicts
     (out / "pipeline.json").write_text(json.dumps(result, indent=1))
     e = result["every_stage"]
     print(f"pipeline of every stage: {e['wall_s']:.1f} s wall, {e['cpu_s']:.1f} s CPU ({e['bounds']} bounds; "
-          f"target {TARGETS['every_stage']:.0f} s) per stage {e['per_stage_s']}")
+          f"target {TARGETS['every_stage']:.0f} s CPU) per stage (wall) {e['per_stage_s']}")
     for name, r in result["shipped"].items():
         print(f"  shipped {name}: {r['wall_s']:.1f} s wall, {r['cpu_s']:.1f} s CPU, {r['hold']} of {r['bounds']} hold")
     print(f"shipped pipelines together: {shipped_wall:.1f} s wall, {result['shipped_total_cpu_s']:.1f} s CPU "
-          f"(target {TARGETS['shipped']:.0f} s)")
+          f"(target {TARGETS['shipped']:.0f} s CPU)")
     return 1 if args.strict and not all(verdicts.values()) else 0
 
 
