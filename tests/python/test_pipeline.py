@@ -182,6 +182,23 @@ def test_cli_exit_codes_junit_and_rerecording_diff(recorded, tmp_path, capsys):
     assert "no bound changed" in capsys.readouterr().out
 
 
+@vulkan
+def test_recording_a_failing_stage_says_so(recorded, tmp_path, capsys):
+    d, doc = recorded
+    # A sampler failing its chi-square test keeps its fixed level: recording it is a violation (exit 1).
+    wrong = _wrong(d, doc, "sampler_rec", WRONG["sampler"])
+    assert main(["check", str(wrong), "--record"]) == 1
+    assert "VIOLATED sampler/sampler_pvalue" in capsys.readouterr().err
+    # A shader returning NaN measures nothing: nothing is recorded, and its check fails (exit 1, not 2).
+    (d / "nan_law.hlsl").write_text("float count(float n, float p, float4 u) { return sqrt(-1.0 - u.x); }\n")
+    nan = _wrong(d, doc, "nan", lambda x: _stage(x, "law")["law"].update(shader="nan_law.hlsl"))
+    before = nan.read_text()
+    assert main(["check", str(nan), "--record"]) == 1
+    assert "cannot record law/tv: it measured nan" in capsys.readouterr().err and nan.read_text() == before
+    assert main(["check", str(nan), "--quiet"]) == 1
+    assert "VIOLATED law/tv" in capsys.readouterr().err
+
+
 BAD = [
     ({"stages": []}, "/stages"),
     ({"stages": [{"id": "a", "kind": "law", "law": "gated", "bounds": [{"metric": "tv", "maximum": -1}]}]},

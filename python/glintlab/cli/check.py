@@ -4,6 +4,7 @@ A pipeline file (an object with "stages", docs/guide/ci_pipeline.md) bounds ever
 glint pipeline; ``--record`` measures it and writes its bounds (and shows what changed)."""
 from __future__ import annotations
 
+import math
 import sys
 
 from ..api import checks as V
@@ -54,12 +55,23 @@ def run(args) -> int:
 def _run_pipeline(args) -> int:
     if args.record:
         doc, table, diff = P.record(args.bounds)
+        if args.junit:
+            P.write_junit(table, args.junit)
+        unmeasured = diff[~diff.measured.map(math.isfinite)]
+        for r in unmeasured.itertuples():
+            print(f"glintlab check: cannot record {r.id}: it measured {r.measured} ({r.note or 'no value'})",
+                  file=sys.stderr)
+        if len(unmeasured):
+            print(f"nothing recorded into {args.bounds}", file=sys.stderr)
+            return 1
         print(f"recorded {len(diff)} bounds into {args.bounds} (seed {doc['seed']}, glintlab "
               f"{doc['recorded']['glintlab_version']}):")
         print(P.format_diff(diff))
-        if args.junit:
-            P.write_junit(table, args.junit)
-        return 0
+        # A p-value keeps its fixed level: one measured below it is a failing stage, recorded or not.
+        for r in diff[~diff.holds].itertuples():
+            print(f"glintlab check: VIOLATED {r.id}: {r.measured:.6g} against its level {r.bound:.6g}; {r.note}",
+                  file=sys.stderr)
+        return 1 if (~diff.holds).any() else 0
     table = P.check_pipeline(args.bounds)
     if args.junit:
         P.write_junit(table, args.junit)

@@ -32,6 +32,7 @@ import pandas as pd
 from .._core import __version__
 from ..api import checks as V
 from ..api.registry import Registry
+from ..api.shaders import ShaderOutputError
 from .bounds import DEFAULT_BOUNDS, check as check_bounds
 from .documents import fail, parse_document
 
@@ -215,7 +216,7 @@ def check_pipeline(pipeline, substitute: dict | None = None, progress=None) -> p
         for b in stage.spec["bounds"]:
             metric = PIPELINE_METRICS.get(b["metric"])
             t0 = time.perf_counter()
-            got = metric.measure(stage)
+            got = _measure(stage, metric)
             limit = "maximum" if metric.limit == "max" else "minimum"
             bound = b.get(limit, math.nan)
             ok = _within(got.value, bound, metric.limit)
@@ -239,6 +240,17 @@ def check(source=DEFAULT_BOUNDS, substitute: dict | None = None, progress=None) 
     if is_pipeline(source):
         return check_pipeline(source, substitute=substitute, progress=progress)
     return check_bounds(source, substitute=substitute, progress=progress)
+
+
+def _measure(stage: Stage, metric: PipelineMetric) -> Measured:
+    """The metric on the stage; a shader's NaN, inf or negative output (``ShaderOutputError``, also as
+    the cause of a sweep's error) is a failed bound (NaN, with the message), not bad input."""
+    try:
+        return metric.measure(stage)
+    except ValueError as exc:
+        if isinstance(exc, ShaderOutputError) or isinstance(exc.__cause__, ShaderOutputError):
+            return Measured(math.nan, note=str(exc))
+        raise
 
 
 def _within(value: float, bound: float, limit: str) -> bool:
@@ -278,9 +290,11 @@ def machine() -> str:
 
 def record(pipeline, out=None, substitute: dict | None = None, progress=None) -> tuple[dict, pd.DataFrame, pd.DataFrame]:
     """Measures the pipeline and writes its bounds: (the recorded document, the table measured, the
-    diff against the bounds the file had). Each bound gets ``measured`` and its limit by the file's
-    margin rule; ``recorded`` says the seed, glintlab's version, the machine and the date. ``out``: a
-    path to write the document to (default: the pipeline's own file when it was given as a path)."""
+    diff against the bounds the file had, with ``holds``: whether the measured value is within its new
+    bound). Each bound gets ``measured`` and its limit by the file's margin rule; ``recorded`` says the
+    seed, glintlab's version, the machine and the date. ``out``: a path to write the document to
+    (default: the pipeline's own file when it was given as a path). A metric that could not be measured
+    (NaN: a shader returning NaN, an inconclusive test) has no bound to record: then nothing is written."""
     doc, source, base = load_pipeline(pipeline)
     table = check_pipeline(doc if base is None else pipeline, substitute=substitute, progress=progress)
     by_id = {r.id: r for r in table.itertuples()}
@@ -291,13 +305,13 @@ def record(pipeline, out=None, substitute: dict | None = None, progress=None) ->
             r = by_id[f"{stage['id']}/{metric.name}"]
             limit = "maximum" if metric.limit == "max" else "minimum"
             new = recorded_bound(metric, r.worst, doc["margin"], r.se) if math.isfinite(r.worst) else math.nan
-            diff.append(dict(id=r.id, old_measured=b.get("measured"), measured=r.worst,
-                             old_bound=b.get(limit), bound=new))
+            diff.append(dict(id=r.id, old_measured=b.get("measured"), measured=r.worst, old_bound=b.get(limit),
+                             bound=new, holds=_within(r.worst, new, metric.limit), note=r.note))
             b["measured"], b[limit] = float(r.worst), new
     doc["recorded"] = dict(glintlab_version=__version__, machine=machine(), seed=doc["seed"],
                            date=datetime.date.today().isoformat())
     target = out if out is not None else (source if base is not None else None)
-    if target is not None:
+    if target is not None and all(math.isfinite(d["measured"]) for d in diff):
         Path(target).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
     return doc, table, pd.DataFrame(diff)
 
