@@ -8,13 +8,15 @@ twin (``shader_check.row_table``); a blend's TV against spatialized Bernoulli tr
 transition (``lod.figure4_cases``, ``ground_truth``) and its pops along zoom paths
 (``lod.coherence_metrics``); a grid scheme's count bias and variance ratio against stratified facets in
 the ellipse (``aniso.study``); a glinty NDF's or method's mean of D against the target (KPT25's pixel
-lattice, ``glinty_ndf._footprints``) and its furnace energy (``furnace``); a sampler's chi-square
-p-value, normalization and pdf consistency (``sampler_test``); and a shader's GPU cost (``gpu_cost``,
-RADV null devices).
+lattice, ``glinty_ndf._footprints``), its furnace energy (``furnace``), its flicker on a scene against its own
+truth (``scene_images.own_truth_metrics``) and a method shader's pixels against its C++ twin
+(``method_twins.compare``); a sampler's chi-square p-value, normalization and pdf consistency
+(``sampler_test``); and a shader's GPU cost (``gpu_cost``, RADV null devices).
 
 Stage objects: a law stage's is a Law; a blend stage's a function ``base_area -> BlendedLaw`` (the
 blend on levels whose lower one has that area); a grid stage's the configuration label; a method
-stage's a glinty NDF or method shader; a sampler stage's a sampler.
+stage's a glinty NDF or method shader; a sampler stage's a sampler. The light-response check of a method
+plugs in here as one more metric when it lands.
 """
 from __future__ import annotations
 
