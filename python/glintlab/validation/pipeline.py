@@ -146,7 +146,7 @@ def is_pipeline(source) -> bool:
             return False
     try:
         doc = json.loads(text)
-    except ValueError:
+    except (ValueError, RecursionError):  # the C++ parser then reports it, with the file's name
         return False
     return isinstance(doc, dict) and "bounds" not in doc
 
