@@ -30,7 +30,7 @@ SHADER_BOUNDS = [{"metric": "twin_rows"}, {"metric": "gpu_instructions"}, {"metr
 BLEND_BOUNDS = [{"metric": "blend_tv"}, {"metric": "blend_pop_rate"}]
 GRID_BOUNDS = [{"metric": "grid_count_bias"}, {"metric": "grid_var_ratio_err"}]
 METHOD_BOUNDS = [{"metric": "mean_d_err"}, {"metric": "furnace_err"}, {"metric": "scene_std_ratio_err"},
-                 {"metric": "scene_pop_rate"}]
+                 {"metric": "scene_pop_rate"}, {"metric": "light_response"}]
 METHOD_SHADER_BOUNDS = [{"metric": "twin_pixels"}, {"metric": "gpu_instructions"}, {"metric": "gpu_vgprs"}]
 # The scene metrics' scene: the shipped sphere at a tenth of its resolution per side, 4 frames of its path.
 SCENE = {"file": "sphere", "scale": 0.1, "frames": 4}

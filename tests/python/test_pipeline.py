@@ -57,7 +57,9 @@ def _pipeline() -> dict:
          "bounds": [{"metric": "sampler_pvalue"}, {"metric": "sampler_normalization"}, {"metric": "sampler_pdf_mismatch"}]},
         {"id": "method", "kind": "method", "pixels": 50,
          "method": {"shader": "team_ndf.glsl", "returns": "ndf", "defines": {"COS4": "c2"}},
-         "range": {"theta_h_deg": [20, 40], "points": [30], "anisotropy": [1]}, "bounds": [{"metric": "mean_d_err"}]}]}
+         "range": {"theta_h_deg": [20, 40], "points": [30], "anisotropy": [1]},
+         "scene": {"file": "sphere", "scale": 0.1, "frames": 2},
+         "bounds": [{"metric": "mean_d_err"}, {"metric": "light_response"}]}]}
 
 
 def _stage(doc, sid):
@@ -159,6 +161,8 @@ def test_a_wrong_stage_fails_its_bounds_and_only_there(recorded, stage):
     table = gl.check(str(path), substitute=sub)
     bad = table[~table.ok]
     assert len(bad) and set(bad.stage) == {stage}, table.to_string()
+    if stage == "method":  # the NDF read at the wrong lobe: its light response's lobe check sees it too
+        assert set(bad.metric) == {"mean_d_err", "light_response"}, table.to_string()
 
 
 @vulkan

@@ -15,8 +15,9 @@ truth (``scene_images.own_truth_metrics``) and a method shader's pixels against 
 
 Stage objects: a law stage's is a Law; a blend stage's a function ``base_area -> BlendedLaw`` (the
 blend on levels whose lower one has that area); a grid stage's the configuration label; a method
-stage's a glinty NDF or method shader; a sampler stage's a sampler. The light-response check of a method
-plugs in here as one more metric when it lands.
+stage's a glinty NDF or method shader; a sampler stage's a sampler. A method's light response
+(``gl.light_response``: its image against its truth's as the light and the view move, and its lobe) is one
+more metric of the registry.
 """
 from __future__ import annotations
 
@@ -40,6 +41,7 @@ from .._core import Distribution
 from ..resources import data_path
 from ..validation.bounds import regime_points
 from ..validation.furnace import furnace
+from ..validation.light_response import light_response
 from ..validation.method_twins import compare, scene_rows
 from ..validation.pipeline import PIPELINE_STAGES, Measured, Stage, register_pipeline_metric
 from ..validation.references import resolve_law
@@ -354,6 +356,38 @@ def method_scene_pop_rate(stage: Stage) -> Measured:
                     f"the own truth changes at {r['own_truth_change_rate']:.3g} of the pixels")
 
 
+def _light_response_method(stage: Stage):
+    """What gl.light_response takes: the image method's name, or for a shader a factory material -> the
+    stage's shader built for that material (an NDF shader reads the material as defines). A factory, not
+    the object: gl.light_response copies a user NDF shader's spec as JSON to recompile it, and an object
+    compiled before (shader methods are cached per spec and material) carries its includes' bytes."""
+    spec = stage.spec["method"]
+    if not (isinstance(spec, dict) and "shader" in spec):
+        return _method_name(stage)
+
+    def shader_for(material):
+        return build_method(stage, material)
+    shader_for.__name__ = spec.get("name") or Path(spec["shader"]).stem
+    return shader_for
+
+
+def _has_scene_for_response(stage: Stage) -> bool:
+    """a "scene\" (the light and view move on its first frame)"""
+    return "scene" in stage.spec
+
+
+def method_light_response(stage: Stage) -> Measured:
+    sc = stage.spec["scene"]
+    path = stage.path(sc["file"])
+    res = light_response(_light_response_method(stage), str(path) if path.exists() else sc["file"], seed=stage.seed,
+                         scale=sc["scale"] / 2)
+    applied = res.checks[res.checks.applies]
+    failed = applied[~applied.passed]
+    where = "; ".join(failed.check) if len(failed) else f"{len(applied)} checks on scene {sc['file']}"
+    share = len(failed) / len(applied) if len(applied) else 0.0
+    return Measured(float(share), where, len(applied), "; ".join(res.notes[:3]))
+
+
 def _has_method_twin(stage: Stage) -> bool:
     """a "twin" naming a shipped method shader and a "scene\""""
     return "scene" in stage.spec and stage.spec.get("twin") in shipped_method_shaders()
@@ -449,6 +483,11 @@ for _name, _kinds, _measure, _meaning, _ff, _cost_text, _applies in (
          "truth - 1| on the scene's glint pixels", _SCENE, "`frames` images and their own truths", _has_scene),
         ("scene_pop_rate", "method", method_scene_pop_rate, "share of glint pixels that pop between frames without "
          "their own truth changing", _SCENE, "shares the scene's images", _has_scene),
+        ("light_response", "method", method_light_response, "share of gl.light_response's checks that fail: the "
+         "image decorrelating with the light and view moves as its truth's does, the lobe's shape against D(h)",
+         "the light response's own rates (docs/math/glint_images.md#glint-light-response) per check",
+         "frame 0 of the scene at half its scale, moved 3 x 2 x 3 times, and the lobe sweep",
+         _has_scene_for_response),
         ("twin_pixels", "method", method_twin_pixels, "share of a scene's pixels where the method shader and its "
          "C++ twin differ beyond the twin's allowance", "0: the rows are fixed by the seed",
          "one frame of the scene, shader and twin", _has_method_twin),
