@@ -3,7 +3,7 @@
 
 1. A pipeline of every stage at the schema's default sizes (the C++ gated law over the standard grid, the
    shipped gated shader against its C++ twin with its GPU cost, the distributed blend, DB23's trilinear
-   grid, KPT25's glinty NDF with its scene metrics, DB23's method shader against its twin, the GGX
+   grid, KPT25's glinty NDF with its scene metrics and light response, DB23's method shader against its twin, the GGX
    visible-normal sampler): target under 60 s on 2 cores, the time a CI job tolerates.
 2. The shipped pipelines (python/glintlab/data/pipelines/*.json) one after the other: target under 180 s
    together.
@@ -35,7 +35,7 @@ EVERY_STAGE = {"name": "every_stage", "stages": [
      "bounds": [{"metric": "grid_count_bias"}, {"metric": "grid_var_ratio_err"}]},
     {"id": "method", "kind": "method", "method": "kpt25", "scene": {"file": "sphere"},
      "bounds": [{"metric": "mean_d_err"}, {"metric": "furnace_err"}, {"metric": "scene_std_ratio_err"},
-                {"metric": "scene_pop_rate"}]},
+                {"metric": "scene_pop_rate"}, {"metric": "light_response"}]},
     {"id": "method_shader", "kind": "method", "method": "db23_shader", "twin": "db23_shader", "scene": {"file": "plane_25"},
      "bounds": [{"metric": "twin_pixels"}, {"metric": "gpu_instructions"}]},
     {"id": "sampler", "kind": "sampler", "sampler": "ggx_vndf",
