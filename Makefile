@@ -84,6 +84,8 @@ bench: build-all
 	@$(VENV)/bin/glintlab profile python/glintlab/data/scenes/*.json --out out/bench/scenes
 	@# Issue 32: the report's seconds per section (wall and CPU), full and --quick, against their budgets.
 	@$(VENV)/bin/python bench/bench_report.py --run
+	@# Issue 41: glintlab check on a pipeline of every stage (< 60 s) and on the shipped pipelines (< 3 min).
+	@$(VENV)/bin/python bench/bench_pipeline.py --out out/bench
 
 # The documentation: the API reference from the docstrings (docs/api), the Markdown pages (docs/*.md,
 # docs/math) and the notebooks, built by Sphinx into out/docs/ (open out/docs/index.html). Any Sphinx

@@ -37,7 +37,9 @@ from .api.shaders import emit_shader, shipped_shaders
 from .api.spatial import Ellipse, GroundTruth, Rect, footprint_for_area, ground_truth, joint_counts
 from .report.html import write_extremes_report
 from .validation.advisor import Advice, advise
-from .validation.bounds import check, perturbed_law
+from .validation.bounds import perturbed_law
+from .validation.pipeline import check, check_pipeline, pipeline_metrics, register_pipeline_metric
+from .studies import pipeline_metrics as _pipeline_metrics  # noqa: F401  (registers the built-in metrics)
 from .studies.experiment_plots import run_experiment
 from .validation.extremes import extremes_summary, extremes_table, invalid_inputs_table
 from .validation.grid import standard_grid
@@ -69,7 +71,7 @@ __all__ = [
     "AnisoCounter", "aniso_counter", "NDF", "ndf", "GlintyNDF", "glinty_ndf", "glinty_ndfs", "Scene", "load_scene", "Advice",
     "SceneProfile", "advise",
     "profile_scene", "footprint_shapes", "grid_schemes",
-    "sweep", "check", "perturbed_law", "run_experiment",
+    "sweep", "check", "check_pipeline", "pipeline_metrics", "register_pipeline_metric", "perturbed_law", "run_experiment",
     "BlendedLaw", "Chi2Result", "CustomLaw", "blend_summaries", "blended_law", "blends", "roulette_keep_moments",
     "zk16_variance_ratio", "Distribution", "Ellipse", "GroundTruth", "Law", "METRICS", "Rect", "binomial",
     "chi2_test", "chi2_test_two_sample", "footprint_for_area", "ground_truth", "joint_counts",

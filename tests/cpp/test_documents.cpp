@@ -1,4 +1,4 @@
-// Experiment, bounds, scene and report documents: the schema validator (every keyword glintlab's
+// Experiment, bounds, scene, report and pipeline documents: the schema validator (every keyword glintlab's
 // schemas use), the rules beyond the schema, and the error messages (pointer, expected, got) users see.
 #include <catch2/catch.hpp>
 #include <fstream>
@@ -603,6 +603,31 @@ TEST_CASE("documents: report configurations", "[documents]") {
   CHECK(error_of("report", in).expected() == "an integer >= 0");
 }
 
+TEST_CASE("documents: pipelines", "[documents]") {
+  // A stage's kind picks its fields (allOf and if/then); bounds reuse the bounds schema's regime, which
+  // reuses the experiment schema's axes: three files resolved by name.
+  const json in = json::parse(R"({"stages": [{"id": "l", "kind": "law", "law": "gated", "range": {"n": [8]},
+                                                "bounds": [{"metric": "tv"}]}]})");
+  const json doc = parse_document("pipeline", in.dump(), "p.json");
+  CHECK(doc["seed"] == 1);
+  CHECK(doc["margin"]["relative"] == 0.25);
+  CHECK(doc["stages"][0]["samples"] == 20000);
+  CHECK(doc["stages"][0]["range"]["p"] == "standard");
+  for (const char* name : {"db23_paper", "db23_shader_48", "zk16", "kpt25", "wwh18_filtered"})
+    CHECK_NOTHROW(
+        parse_document("pipeline", read_file(std::string("python/glintlab/data/pipelines/") + name + ".json"), name));
+  json bad = in;
+  bad["stages"][0]["blend"] = "distributed";
+  InputError e = error_of("pipeline", bad);
+  CHECK(e.pointer() == "/stages/0/blend");
+  bad = in;
+  bad["stages"][0]["range"]["n"] = json::array();
+  CHECK(error_of("pipeline", bad).pointer() == "/stages/0/range/n");
+  bad = in;
+  bad["stages"][0]["kind"] = "lod";
+  CHECK(error_of("pipeline", bad).pointer() == "/stages/0/kind");
+}
+
 TEST_CASE("documents: a schema set resolves references across files by name", "[documents]") {
   const SchemaSet set(
       {{"a.json", R"({"type": "object", "properties": {"x": {"$ref": "b.json#/definitions/pair"},
@@ -627,6 +652,8 @@ TEST_CASE("documents: embedded schemas and the standard grid match the data file
   CHECK(json::parse(schema_text("bounds")) == json::parse(read_file("python/glintlab/data/schema/bounds.schema.json")));
   CHECK(json::parse(schema_text("scene")) == json::parse(read_file("python/glintlab/data/schema/scene.schema.json")));
   CHECK(json::parse(schema_text("report")) == json::parse(read_file("python/glintlab/data/schema/report.schema.json")));
+  CHECK(json::parse(schema_text("pipeline")) ==
+        json::parse(read_file("python/glintlab/data/schema/pipeline.schema.json")));
   CHECK_THROWS_AS(schema_text("nope"), std::invalid_argument);
   const json grid = json::parse(read_file("python/glintlab/data/grids/standard.json"));
   CHECK(grid["n"].size() == glintlab::validation::standard_n_count);

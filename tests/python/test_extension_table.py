@@ -27,7 +27,7 @@ import glintlab as gl
 ROOT = Path(__file__).resolve().parents[2]
 DOC = ROOT / "docs" / "architecture.md"
 KINDS = ("law", "law with a vector path", "blend", "grid scheme", "glinty NDF / image method",
-         "method shader with its twin", "sampler", "shader law", "shader sampler", "report section")
+         "method shader with its twin", "sampler", "shader law", "shader sampler", "report section", "pipeline metric")
 
 
 def _table() -> dict[str, dict[str, str]]:

@@ -9,7 +9,7 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  for (const char* kind : {"experiment", "bounds", "scene", "report"}) {
+  for (const char* kind : {"experiment", "bounds", "scene", "report", "pipeline"}) {
     try {
       const nlohmann::json doc = glintlab::validation::parse_document(kind, text, "fuzz.json");
       // A normalized document is a fixed point: it must parse again to itself.

@@ -12,6 +12,7 @@ extern const char experiment_schema_text[];  // generated from python/glintlab/d
 extern const char bounds_schema_text[];
 extern const char scene_schema_text[];
 extern const char report_schema_text[];
+extern const char pipeline_schema_text[];
 }  // namespace detail
 
 namespace {
@@ -22,7 +23,8 @@ const std::map<std::string, std::string>& schema_texts() {
   static const std::map<std::string, std::string> texts{{"experiment", detail::experiment_schema_text},
                                                         {"bounds", detail::bounds_schema_text},
                                                         {"scene", detail::scene_schema_text},
-                                                        {"report", detail::report_schema_text}};
+                                                        {"report", detail::report_schema_text},
+                                                        {"pipeline", detail::pipeline_schema_text}};
   return texts;
 }
 
@@ -31,7 +33,8 @@ const SchemaSet& schemas() {
   static const SchemaSet set({{"experiment.schema.json", schema_text("experiment")},
                               {"bounds.schema.json", schema_text("bounds")},
                               {"scene.schema.json", schema_text("scene")},
-                              {"report.schema.json", schema_text("report")}});
+                              {"report.schema.json", schema_text("report")},
+                              {"pipeline.schema.json", schema_text("pipeline")}});
   return set;
 }
 
@@ -83,7 +86,7 @@ struct Checker {
 const std::string& schema_text(const std::string& name) {
   const auto it = schema_texts().find(name);
   if (it == schema_texts().end())
-    throw std::invalid_argument("unknown schema \"" + name + "\" (experiment, bounds, scene or report)");
+    throw std::invalid_argument("unknown schema \"" + name + "\" (experiment, bounds, scene, report or pipeline)");
   return it->second;
 }
 
@@ -160,12 +163,21 @@ json parse_report(std::string_view text, const std::string& source) {
   return doc;
 }
 
+// Pipelines (glintlab check PIPELINE.json): the schema only. Their stages name registered laws, blends,
+// samplers and shader files, which Python resolves (in the same message format).
+json parse_pipeline(std::string_view text, const std::string& source) {
+  json doc = parse_json(text, source);
+  schemas().validate("pipeline.schema.json", doc, source);
+  return doc;
+}
+
 json parse_document(const std::string& kind, std::string_view text, const std::string& source) {
   if (kind == "experiment") return parse_experiment(text, source);
   if (kind == "bounds") return parse_bounds(text, source);
   if (kind == "scene") return parse_scene(text, source);
   if (kind == "report") return parse_report(text, source);
-  throw std::invalid_argument("unknown document kind \"" + kind + "\" (experiment, bounds, scene or report)");
+  if (kind == "pipeline") return parse_pipeline(text, source);
+  throw std::invalid_argument("unknown document kind \"" + kind + "\" (experiment, bounds, scene, report or pipeline)");
 }
 
 }  // namespace glintlab::validation

@@ -9,4 +9,4 @@ the report (:mod:`glintlab.report.sections`) discovers them: every module here t
 
 # The modules of this package that are not report sections (shared code). A new helper joins this
 # list (or starts with "_"); any other module must be a complete study.
-HELPERS = ("base", "convergence", "lod", "experiment_plots", "sampling_lighting", "scene_frames")
+HELPERS = ("base", "convergence", "lod", "experiment_plots", "sampling_lighting", "scene_frames", "pipeline_metrics")

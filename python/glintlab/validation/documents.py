@@ -17,7 +17,7 @@ from pathlib import Path
 from .. import _core
 from ..api import checks as V
 
-KINDS = ("experiment", "bounds", "scene", "report")
+KINDS = ("experiment", "bounds", "scene", "report", "pipeline")
 # results.json written by run_experiment: {"glintlab_result": RESULT_FORMAT, "config": ..., "base_dir": ...}
 RESULT_FORMAT = 1
 
@@ -39,7 +39,7 @@ def render(value, limit: int = 60) -> str:
 
 def parse_document(kind: str, source) -> tuple[dict, str, Path | None]:
     """(normalized document, source name, base directory for relative paths) of a document of ``kind``
-    (experiment, bounds, scene or report) given as a path, JSON text, or an already-loaded dict.
+    (experiment, bounds, scene, report or pipeline) given as a path, JSON text, or an already-loaded dict.
     A string that starts with "{" is JSON text, any other a path. An experiment may also be a results
     file (results.json), whose stored configuration is re-run with paths relative to where it ran."""
     V.choice("kind", kind, KINDS, f"one of {', '.join(KINDS)}")

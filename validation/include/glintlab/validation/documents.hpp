@@ -26,10 +26,12 @@ nlohmann::json parse_experiment(std::string_view text, const std::string& source
 nlohmann::json parse_bounds(std::string_view text, const std::string& source);
 nlohmann::json parse_scene(std::string_view text, const std::string& source);
 nlohmann::json parse_report(std::string_view text, const std::string& source);
-// kind "experiment", "bounds", "scene" or "report" (std::invalid_argument otherwise).
+nlohmann::json parse_pipeline(std::string_view text, const std::string& source);
+// kind "experiment", "bounds", "scene", "report" or "pipeline" (std::invalid_argument otherwise).
 nlohmann::json parse_document(const std::string& kind, std::string_view text, const std::string& source);
 
-// The embedded schema text; name "experiment", "bounds", "scene" or "report" (std::invalid_argument otherwise).
+// The embedded schema text; name "experiment", "bounds", "scene", "report" or "pipeline" (std::invalid_argument
+// otherwise).
 const std::string& schema_text(const std::string& name);
 
 }  // namespace glintlab::validation
