@@ -147,6 +147,7 @@ def test_a_vector_path_is_the_files_the_table_names():
 def test_shipped_shaders_are_declared_by_traits_and_the_registry(listed):
     from glintlab.api.method_shaders import shipped_method_shaders
     from glintlab.api.shader_samplers import SHIPPED_SAMPLERS, WRONG_SAMPLERS
+    from glintlab.validation.lighting_images import AREA_LIGHT_SHADER
     row = _table()["shader law"]
     assert "`shader`" in row["files to touch"] and "`LawTraits::shader`" in row["registered by"]
     declared = {s: law for law, s in listed["traits_shaders"].items() if s}
@@ -157,13 +158,15 @@ def test_shipped_shaders_are_declared_by_traits_and_the_registry(listed):
             assert (shaders / f"{stem}{suffix}").exists(), f"{stem}{suffix}"
     # Every shipped .glsl/.hlsl file is a law's wrapper (declared by the traits), a shipped sampler
     # (SHIPPED_SAMPLERS, or a deliberately wrong one of WRONG_SAMPLERS) or a method shader of the registry of
-    # image methods; each has its one body.
+    # image methods, or the area-light contract's example (lighting_images.AREA_LIGHT_SHADER); each has its
+    # one body.
     assert "`register_image_method`" in _table()["method shader with its twin"]["registered by"]
     files = {p.name for p in [*shaders.glob("*.glsl"), *shaders.glob("*.hlsl")]}
     laws = {f for f in files if f.rsplit(".", 1)[0] in listed["shipped"]}
     samplers = {f for f in files if f.rsplit(".", 1)[0] in {*SHIPPED_SAMPLERS, *WRONG_SAMPLERS}}
     methods = {f"{e.files}.{lang}" for e in shipped_method_shaders().values() for lang in ("glsl", "hlsl")}
-    assert files - laws - samplers == methods
+    examples = {f"{AREA_LIGHT_SHADER}.{lang}" for lang in ("glsl", "hlsl")}
+    assert files - laws - samplers - examples == methods
     for name in files:
         assert (shaders / (name.rsplit(".", 1)[0] + "_body.h")).exists(), name
     assert "`SHIPPED_SAMPLERS`" in _table()["shader sampler"]["registered by"]

@@ -103,6 +103,11 @@ def light_rows(inputs, light: SceneLight, seed: int = 0, frame: int = 0):
     return rows, mask
 
 
+#: The shipped example area-light method shader's file stem (one body, area_light_method_body.h, behind the GLSL
+#: and HLSL wrappers): an example of the light-aware contract, not an image method of the registry.
+AREA_LIGHT_SHADER = "area_light_method"
+
+
 def area_light_shader(material: Material, language: str = "glsl", wrong: bool = False):
     """The shipped example area-light method shader (``area_light_method.glsl`` / ``.hlsl``) for
     ``material``; ``wrong`` builds its deliberately wrong variant (p without the light's solid angle)."""
@@ -111,7 +116,7 @@ def area_light_shader(material: Material, language: str = "glsl", wrong: bool = 
                "GLINTLAB_GGX": int(material.target == "ggx")}
     if wrong:
         defines["AREA_LIGHT_BUG_NO_SOLID_ANGLE"] = 1
-    return shader_method(data_path("shaders", f"area_light_method.{language}"), language=language,
+    return shader_method(data_path("shaders", f"{AREA_LIGHT_SHADER}.{language}"), language=language,
                          name="area_light" + ("_wrong" if wrong else ""), defines=defines, register=False)
 
 
