@@ -105,6 +105,7 @@ def test_a_user_ndf_shader_object_is_compiled_for_each_material(sphere):
     object and the name give the same curves (an object used as built would run at 1/16 x scale^-2 the
     facets per pixel of the truth's, and read its glints wrongly)."""
     obj = gl.shader_method(SHADERS / "wide_lobe.glsl", returns="ndf", register=False)
+    assert obj.spirv  # compiled before use: its spec now carries its #included files' bytes
     try:
         by_name = gl.light_response(gl.shader_method(SHADERS / "wide_lobe.glsl", returns="ndf").name, "sphere",
                                     setup=sphere)

@@ -157,6 +157,9 @@ def user_ndf_method(spec: dict, material: Material | None = None) -> NdfShaderMe
     if clash:
         V.fail("defines", clash[0], "a name glintlab does not set for an NDF shader (it sets the material's)")
     spec = dict(spec, defines=sorted([*map(tuple, spec["defines"]), *ours.items()]))
+    if "includes" in spec:
+        # A spec compiled once carries its #included files' bytes: hex in the cache key (JSON has no bytes).
+        spec["includes"] = [(path, bytes(content).hex()) for path, content in spec["includes"]]
     return _user_ndf(json.dumps(spec, sort_keys=True), material)
 
 
@@ -165,6 +168,8 @@ def _user_ndf(spec_json: str, material: Material) -> NdfShaderMethod:
     # One compiled method per (shader, material): the scene images ask for a scene's method once per frame.
     spec = json.loads(spec_json)
     spec["defines"] = [tuple(d) for d in spec["defines"]]
+    if "includes" in spec:
+        spec["includes"] = [(path, bytes.fromhex(content)) for path, content in spec["includes"]]
     return NdfShaderMethod(spec, material.target, material.alpha, material.density)
 
 
