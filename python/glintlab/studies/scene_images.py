@@ -3,6 +3,7 @@ opening picture, its image viewer (``scene_frames``; the page: ``report.viewer``
 (numbers: ``validation.scene_images``; docs/math/glint_images.md)."""
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -114,16 +115,10 @@ def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
     by_name = {s.name: s for s in scenes}
     if params["timing_scene"] not in by_name:
         V.fail("timing_scene", params["timing_scene"], f"one of the scenes {', '.join(by_name)}")
-    paths, rows, views = {}, [], {}
-    for sc in scenes:
-        ctx.progress(sc.name)
-        small = with_density(sc.scaled(scale, keep_n=True), params["density_factor"])
-        path = render_path(small, methods, params["frames"], params["pan_px"], params["zoom"], seed=ctx.seed,
-                           angular_texel=params["angular_texel"])
-        paths[sc.name] = path
-        rows.append(flicker_table(path, tau=params["tau"]))
-        views[sc.name] = viewer_scene(sc, path, methods, params, ctx)
-    flicker = pd.concat(rows, ignore_index=True)
+    done = scenes_rendered(scenes, methods, params, ctx)
+    paths = {n: d[0] for n, d in done.items()}
+    views = {n: d[2] for n, d in done.items()}
+    flicker = pd.concat([d[1] for d in done.values()], ignore_index=True)
     ctx.progress("timing")
     timing_scale = V.real("timing_scale", params["timing_scale"])
     if timing_scale == V.real("viewer_scale", params["viewer_scale"]):
@@ -162,6 +157,39 @@ def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
                         "density_factor": params["density_factor"],
                         "exposure": (V.real("exposure_percentile", params["exposure_percentile"]),
                                      V.real("exposure_white", params["exposure_white"]))})
+
+
+#: Scenes rendered at once: each render's numpy part runs on one core, its C++ part on every core (OpenMP),
+#: so two scenes keep both cores of the report's machine busy. Every pixel's value depends only on the
+#: seed and the scene, never on which thread renders it (tests/python/test_scene_images.py). Only when
+#: every method is one glintlab ships as C++ or numpy: a method shader's kernel (and a user's method,
+#: whose thread safety nobody promised) is called from one thread at a time.
+SCENE_THREADS = 2
+
+
+def _scene_threads(methods) -> int:
+    entries = [IMAGE_METHODS.get(m) for m in methods]
+    safe = all(e.origin == "glintlab" and e.shader is None and e.returns == "ndf" for e in entries)
+    return SCENE_THREADS if safe else 1
+
+
+def scenes_rendered(scenes, methods, params: dict, ctx: Context) -> dict:
+    """Per scene (in ``scenes``' order) its camera path, flicker table and viewer frames. The timing
+    scene is rendered first and alone, so that the timing table's seconds are not shared with another
+    scene's render; the others ``SCENE_THREADS`` at a time."""
+    def one(sc):
+        ctx.progress(sc.name)
+        small = with_density(sc.scaled(V.real("scale", params["scale"]), keep_n=True), params["density_factor"])
+        path = render_path(small, methods, params["frames"], params["pan_px"], params["zoom"], seed=ctx.seed,
+                           angular_texel=params["angular_texel"])
+        return path, flicker_table(path, tau=params["tau"]), viewer_scene(sc, path, methods, params, ctx)
+
+    first = [sc for sc in scenes if sc.name == params["timing_scene"]]
+    done = {sc.name: one(sc) for sc in first}
+    with ThreadPoolExecutor(max_workers=_scene_threads(methods)) as pool:
+        rest = [sc for sc in scenes if sc.name not in done]
+        done.update(zip((sc.name for sc in rest), pool.map(one, rest)))
+    return {sc.name: done[sc.name] for sc in scenes}
 
 
 def viewer_scene(sc, path, methods, params: dict, ctx: Context):
@@ -203,7 +231,7 @@ def _aliasing(scenes, params: dict, ctx: Context, stats: dict) -> dict:
         names = _usable(names, stats)
         scale = V.real("aliasing_scale", params["aliasing_scale"])
         rows = []
-        for sc in scenes:
+        for sc in scenes:  # one at a time: a method shader's kernel runs one call at a time
             ctx.progress(f"aliasing {sc.name}")
             small = with_density(sc.scaled(scale, keep_n=True), params["density_factor"])
             rows.append(aliasing_table(small, names, params["aliasing_frames"], int(params["aliasing_supersample"]),
