@@ -316,10 +316,12 @@ def test_render_builds_only_the_camera_it_renders(monkeypatch):
         gl.render("smooth", sc, frame=99_999, frames=100_000)
 
 
-def test_scenes_rendered_two_at_once_are_those_rendered_one_by_one(monkeypatch):
+@pytest.mark.parametrize("viewer_scale", [1.0, 1.5])  # the viewer's frames from the path, or rendered apart
+def test_scenes_rendered_two_at_once_are_those_rendered_one_by_one(monkeypatch, viewer_scale):
     scenes = [s.scaled(1 / 40, keep_n=True) for s in table1_scenes()[:4]]
     methods = ["truth", "smooth", "db23_trilinear[gated]", "kpt25"]
-    params = {**study.DEFAULTS, "scale": 1.0, "viewer_scale": 1.0, "frames": 3, "timing_scene": scenes[1].name}
+    params = {**study.DEFAULTS, "scale": 1.0, "viewer_scale": viewer_scale, "frames": 3,
+              "timing_scene": scenes[1].name}
     ctx = Context(".", 3)
     assert study._scene_threads(methods) == 2 and study._scene_threads(methods + ["wb16"]) == 1
     together = study.scenes_rendered(scenes, methods, params, ctx)
@@ -328,7 +330,10 @@ def test_scenes_rendered_two_at_once_are_those_rendered_one_by_one(monkeypatch):
     assert list(together) == [s.name for s in scenes]  # the scenes' order, the timing scene's included
     for name, (path, flicker, view) in together.items():
         path1, flicker1, view1 = alone[name]
-        assert path.scene == view.name == name
+        assert path.scene == view.name == name and view.width == round(path.target.shape[2] * viewer_scale)
+        assert view.path["frames"] == 3 and set(view.path["tiles"]) == set(view1.path["tiles"])
+        for key, tiles in view.path["tiles"].items():
+            assert np.array_equal(tiles, view1.path["tiles"][key]), (name, key)
         for m in methods:
             assert np.array_equal(path.images[m], path1.images[m]), (name, m)
         assert np.array_equal(path.truths["kpt25"], path1.truths["kpt25"]), name

@@ -174,39 +174,42 @@ def _scene_threads(methods) -> int:
 
 
 def scenes_rendered(scenes, methods, params: dict, ctx: Context) -> dict:
-    """Per scene (in ``scenes``' order) its camera path, flicker table and viewer frames. The timing
-    scene is rendered first and alone, so that the timing table's seconds are not shared with another
-    scene's render; the others ``SCENE_THREADS`` at a time."""
-    def one(sc):
+    """Per scene (in ``scenes``' order) its camera path, flicker table and viewer frames, ``SCENE_THREADS``
+    scenes at a time. The renders the timing table's seconds come from (the timing scene's viewer frames,
+    or its whole path when the viewer takes its frames from the path) run first and alone, so that no
+    other scene's render shares the machine with them."""
+    from_path = V.real("viewer_scale", params["viewer_scale"]) == V.real("scale", params["scale"])
+
+    def one(sc, view=None):
         ctx.progress(sc.name)
         small = with_density(sc.scaled(V.real("scale", params["scale"]), keep_n=True), params["density_factor"])
         path = render_path(small, methods, params["frames"], params["pan_px"], params["zoom"], seed=ctx.seed,
                            angular_texel=params["angular_texel"])
-        return path, flicker_table(path, tau=params["tau"]), viewer_scene(sc, path, methods, params, ctx)
+        view = view or viewer_scene(sc, path, methods, params, ctx)
+        view.path = path_tiles(path, methods, view.white, params["tau"])
+        return path, flicker_table(path, tau=params["tau"]), view
 
-    first = [sc for sc in scenes if sc.name == params["timing_scene"]]
-    done = {sc.name: one(sc) for sc in first}
+    timed = [sc for sc in scenes if sc.name == params["timing_scene"]]
+    done = {sc.name: one(sc) for sc in timed} if from_path else {}
+    views = {} if from_path else {sc.name: viewer_scene(sc, None, methods, params, ctx) for sc in timed}
     with ThreadPoolExecutor(max_workers=_scene_threads(methods)) as pool:
         rest = [sc for sc in scenes if sc.name not in done]
-        done.update(zip((sc.name for sc in rest), pool.map(one, rest)))
+        done.update(zip((sc.name for sc in rest), pool.map(lambda sc: one(sc, views.get(sc.name)), rest)))
     return {sc.name: done[sc.name] for sc in scenes}
 
 
 def viewer_scene(sc, path, methods, params: dict, ctx: Context):
-    """What the image viewer shows of scene ``sc`` (``scene_frames.ViewerScene``): frame 0 of every method
-    and own truth at ``viewer_scale`` (taken from the camera path when that is its scale, else rendered once
-    more at the viewer's resolution), and the path's frames with their pops."""
+    """What the image viewer shows of scene ``sc`` (``scene_frames.ViewerScene``) but its camera path:
+    frame 0 of every method and own truth at ``viewer_scale``, taken from the camera path ``path`` when
+    that is its scale, else rendered once more at the viewer's resolution (``path`` unused)."""
     viewer_scale = V.real("viewer_scale", params["viewer_scale"])
     exposure = (V.real("exposure_percentile", params["exposure_percentile"]),
                 V.real("exposure_white", params["exposure_white"]))
     if viewer_scale == V.real("scale", params["scale"]):
-        view = frames_of_path(path, methods, exposure)
-    else:
-        ctx.progress(f"{sc.name} at the viewer's resolution")
-        big = with_density(sc.scaled(viewer_scale, keep_n=True), params["density_factor"])
-        view = render_frames(big, methods, ctx.seed, params["angular_texel"], exposure)
-    view.path = path_tiles(path, methods, view.white, params["tau"])
-    return view
+        return frames_of_path(path, methods, exposure)
+    ctx.progress(f"{sc.name} at the viewer's resolution")
+    big = with_density(sc.scaled(viewer_scale, keep_n=True), params["density_factor"])
+    return render_frames(big, methods, ctx.seed, params["angular_texel"], exposure)
 
 
 def density_statement(methods) -> str:
