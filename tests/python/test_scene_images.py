@@ -343,3 +343,25 @@ def test_scenes_rendered_two_at_once_are_those_rendered_one_by_one(monkeypatch, 
         cols = [c for c in flicker.columns if "second" not in c]
         assert flicker[cols].equals(flicker1[cols]), name
         assert path.images["truth"].max() > 0, name
+
+
+def test_highlight_look_puts_the_mirror_direction_at_the_image_centre():
+    for sc in table1_scenes():
+        assert study.with_look(sc, "files", 0.3) is sc  # the report's default: the files' light and material
+        lit = study.with_look(sc.scaled(1 / 40), "highlight", 0.3)
+        assert lit.spec["material"]["alpha"] == 0.3 and lit.light["type"] == "directional"
+        if sc.kind == "heightfield":
+            continue  # mirrored about the base plane: the waves tilt the shading normal
+        # The centre ray's half vector is the shading normal: the smooth lobe peaks there (away from grazing).
+        tr = lit.trace(np.array([lit.width / 2]), np.array([lit.height / 2]))
+        view = lit.position - tr["x"][0]
+        h = view / np.linalg.norm(view) + np.asarray(lit.light["direction"])
+        assert np.allclose(h / np.linalg.norm(h), tr["shading_normal"][0], atol=1e-12), sc.name
+        # The file's light (a point light beside the camera) is not that direction: the check can fail.
+        d = np.asarray(sc.light["position"], float) - tr["x"][0]
+        h_file = view / np.linalg.norm(view) + d / np.linalg.norm(d)
+        assert not np.allclose(h_file / np.linalg.norm(h_file), tr["shading_normal"][0], atol=1e-3), sc.name
+    with pytest.raises(ValueError, match="look = 'shiny'"):
+        study.with_look(sc, "shiny", 0.3)
+    with pytest.raises(ValueError, match="highlight_alpha = 1.5"):
+        study.with_look(sc, "highlight", 1.5)

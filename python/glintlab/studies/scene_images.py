@@ -3,6 +3,7 @@ opening picture, its image viewer (``scene_frames``; the page: ``report.viewer``
 (numbers: ``validation.scene_images``; docs/math/glint_images.md)."""
 from __future__ import annotations
 
+import copy
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -14,7 +15,7 @@ from ..api.glinty_ndf import panel_methods
 from ..api.method_shaders import shipped_method_shaders
 from ..resources import data_path
 from ..validation import light_response as LR
-from ..validation.scene import table1_scenes
+from ..validation.scene import Scene, table1_scenes
 from ..validation.scene_images import (ANGULAR_TEXEL, IMAGE_METHODS, SUPERSAMPLE, TAU, aliasing_table,
                                        flicker_table, render_path, sparkle_table, time_methods, with_density)
 from .base import Context, Tables
@@ -72,6 +73,13 @@ DEFAULTS = {
     "response_scene": "sphere",
     "response_scale": 0.05,
     "response_lobe_scale": 0.1,
+    # The look (docs/guide/scenes.md#scene-images-look): "files" keeps each scene file's light (as a direction from
+    # the look-at point) and material, DB23's Table 1 setups as the `scenes` section profiles them; "highlight"
+    # puts a directional light in the mirror direction of the ray through the image's centre and sets the
+    # Beckmann/GGX alpha to highlight_alpha, so the highlight and its falloff are in view (at alpha 1 D(h)
+    # varies by 4/e at most: there is no highlight). Every figure of the section follows the look chosen.
+    "look": "files",
+    "highlight_alpha": 0.3,
 }
 QUICK = {"scale": 1.0 / 12, "frames": 4, "timing_scale": 1.0 / 6, "viewer_scale": 1.0 / 6, "aliasing_scale": 0.02,
          "aliasing_frames": 2, "sparkle_scale": 1.0 / 12, "response_scale": 0.04, "response_lobe_scale": 0.05}
@@ -105,9 +113,40 @@ def compute(params: dict, ctx: Context) -> Tables:
     return compute_scenes(table1_scenes(ctx.path(params["scenes"])), params, ctx)
 
 
+LOOKS = ("files", "highlight")
+
+
+def with_look(scene, look: str, alpha: float):
+    """``scene`` as the section renders it: unchanged for look "files"; for "highlight", lit by a directional
+    light in the mirror direction (about the surface's normal) of the camera ray through the image's centre,
+    its material's alpha set to ``alpha``: the smooth lobe's peak near the centre (at grazing views the
+    off-specular peak moves it towards the horizon), its falloff across the image. A centre ray that misses
+    the surface (a sphere too small) takes the normal facing the camera."""
+    look = V.choice("look", look, LOOKS)
+    if look == "files":
+        return scene
+    alpha = V.real("highlight_alpha", alpha)
+    if not 0 < alpha <= 1:
+        V.fail("highlight_alpha", alpha, "an alpha in (0, 1]")
+    tr = scene.trace(np.array([scene.width / 2]), np.array([scene.height / 2]))
+    hit = bool(tr["hit"][0])
+    d = tr["x"][0] - scene.position if hit else scene.forward
+    d = d / np.linalg.norm(d)
+    if scene.kind == "sphere":
+        n = tr["shading_normal"][0] if hit else -scene.forward
+    else:  # a heightfield: its base plane's normal, the lobe's mean over the waves
+        n = scene.normal
+    mirror = d - 2 * np.dot(d, n) * n
+    spec = copy.deepcopy(scene.spec)
+    spec["light"] = {"type": "directional", "direction": [float(x) for x in mirror]}
+    spec["material"]["alpha"] = float(alpha)
+    return Scene(spec, name=scene.name, source=scene.source)
+
+
 def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
     """The section's tables for any list of scenes (``compute`` uses the Table 1 scenes of
     ``params["scenes"]``; ``glintlab images`` the files it is given)."""
+    scenes = [with_look(sc, params["look"], params["highlight_alpha"]) for sc in scenes]
     methods = _names("methods", params["methods"])
     if "truth" not in methods:
         V.fail("methods", params["methods"], "a list that includes the ground truth 'truth'")
