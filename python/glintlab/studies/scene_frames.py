@@ -29,10 +29,11 @@ from ..validation.scene_images import (INTENSITY_GLINT_LEVEL, IMAGE_METHODS, SUP
 FACETS, SMOOTH = "truth", "smooth"
 #: The tolerance of the viewer's own-truth references where the method takes one (KPT25: the lobes that
 #: would move a pixel by less than this x D(h) x W / K_P are left out; docs/math/glinty_ndf.md#glinty-reference-reach):
-#: far below the stored images' 2^-8 relative precision (measured: 1.5e-8 D(h) at most from the exact sum
-#: on plane_25 and heightfield_25 at 960 x 540), and 40 % faster than 1e-15 (the camera path's own truth
-#: uses the same, ``IMAGE_REFERENCE_TOL``).
-VIEWER_REFERENCE_TOL = 1e-6
+#: 1e-3, the bound below the stored images' 2^-7 relative precision at the lobe's level (measured: 2.1e-5
+#: D(h) at most from the 1e-6 sums over the five scenes at 960 x 540), and 24 % less CPU than 1e-6 (2.1 s
+#: of the section's 66). The camera path's own truth, which the pops are counted against, keeps
+#: ``IMAGE_REFERENCE_TOL`` (1e-6): the viewer shows the reference, the table counts against it.
+VIEWER_REFERENCE_TOL = 1e-3
 
 
 @dataclass
