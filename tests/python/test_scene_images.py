@@ -10,6 +10,8 @@ import pytest
 import glintlab as gl
 from glintlab.api.glinty_ndf import DB23
 from glintlab.api.image_ndfs import FacetNDF, SmoothNDF, facet_counts
+from glintlab.studies import scene_images as study
+from glintlab.studies.base import Context
 from glintlab.validation import scene_images as si
 from glintlab.validation.scene import table1_scenes
 
@@ -312,3 +314,54 @@ def test_render_builds_only_the_camera_it_renders(monkeypatch):
     assert np.array_equal(img, gl.render("smooth", sc, frame=3, frames=100_000), equal_nan=True)
     with pytest.raises(ValueError, match="frame = 99999 is invalid; expected a frame whose camera has not reached"):
         gl.render("smooth", sc, frame=99_999, frames=100_000)
+
+
+@pytest.mark.parametrize("viewer_scale", [1.0, 1.5])  # the viewer's frames from the path, or rendered apart
+def test_scenes_rendered_two_at_once_are_those_rendered_one_by_one(monkeypatch, viewer_scale):
+    scenes = [s.scaled(1 / 40, keep_n=True) for s in table1_scenes()[:4]]
+    methods = ["truth", "smooth", "db23_trilinear[gated]", "kpt25"]
+    params = {**study.DEFAULTS, "scale": 1.0, "viewer_scale": viewer_scale, "frames": 3,
+              "timing_scene": scenes[1].name}
+    ctx = Context(".", 3)
+    assert study._scene_threads(methods) == 2 and study._scene_threads(methods + ["wb16"]) == 1
+    together = study.scenes_rendered(scenes, methods, params, ctx)
+    monkeypatch.setattr(study, "SCENE_THREADS", 1)
+    alone = {s.name: study.scenes_rendered([s], methods, params, ctx)[s.name] for s in scenes}
+    assert list(together) == [s.name for s in scenes]  # the scenes' order, the timing scene's included
+    for name, (path, flicker, view) in together.items():
+        path1, flicker1, view1 = alone[name]
+        assert path.scene == view.name == name and view.width == round(path.target.shape[2] * viewer_scale)
+        assert view.path["frames"] == 3 and set(view.path["tiles"]) == set(view1.path["tiles"])
+        for key, tiles in view.path["tiles"].items():
+            assert np.array_equal(tiles, view1.path["tiles"][key]), (name, key)
+        for m in methods:
+            assert np.array_equal(path.images[m], path1.images[m]), (name, m)
+        assert np.array_equal(path.truths["kpt25"], path1.truths["kpt25"]), name
+        assert set(view.images) == set(view1.images)
+        for key in view.images:
+            assert np.array_equal(view.images[key], view1.images[key]), (name, key)
+        cols = [c for c in flicker.columns if "second" not in c]
+        assert flicker[cols].equals(flicker1[cols]), name
+        assert path.images["truth"].max() > 0, name
+
+
+def test_highlight_look_puts_the_mirror_direction_at_the_image_centre():
+    for sc in table1_scenes():
+        assert study.with_look(sc, "files", 0.3) is sc  # the report's default: the files' light and material
+        lit = study.with_look(sc.scaled(1 / 40), "highlight", 0.3)
+        assert lit.spec["material"]["alpha"] == 0.3 and lit.light["type"] == "directional"
+        if sc.kind == "heightfield":
+            continue  # mirrored about the base plane: the waves tilt the shading normal
+        # The centre ray's half vector is the shading normal: the smooth lobe peaks there (away from grazing).
+        tr = lit.trace(np.array([lit.width / 2]), np.array([lit.height / 2]))
+        view = lit.position - tr["x"][0]
+        h = view / np.linalg.norm(view) + np.asarray(lit.light["direction"])
+        assert np.allclose(h / np.linalg.norm(h), tr["shading_normal"][0], atol=1e-12), sc.name
+        # The file's light (a point light beside the camera) is not that direction: the check can fail.
+        d = np.asarray(sc.light["position"], float) - tr["x"][0]
+        h_file = view / np.linalg.norm(view) + d / np.linalg.norm(d)
+        assert not np.allclose(h_file / np.linalg.norm(h_file), tr["shading_normal"][0], atol=1e-3), sc.name
+    with pytest.raises(ValueError, match="look = 'shiny'"):
+        study.with_look(sc, "shiny", 0.3)
+    with pytest.raises(ValueError, match="highlight_alpha = 1.5"):
+        study.with_look(sc, "highlight", 1.5)

@@ -3,6 +3,8 @@ opening picture, its image viewer (``scene_frames``; the page: ``report.viewer``
 (numbers: ``validation.scene_images``; docs/math/glint_images.md)."""
 from __future__ import annotations
 
+import copy
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +15,7 @@ from ..api.glinty_ndf import panel_methods
 from ..api.method_shaders import shipped_method_shaders
 from ..resources import data_path
 from ..validation import light_response as LR
-from ..validation.scene import table1_scenes
+from ..validation.scene import Scene, table1_scenes
 from ..validation.scene_images import (ANGULAR_TEXEL, IMAGE_METHODS, SUPERSAMPLE, TAU, aliasing_table,
                                        flicker_table, render_path, sparkle_table, time_methods, with_density)
 from .base import Context, Tables
@@ -71,6 +73,13 @@ DEFAULTS = {
     "response_scene": "sphere",
     "response_scale": 0.05,
     "response_lobe_scale": 0.1,
+    # The look (docs/guide/scenes.md#scene-images-look): "files" keeps each scene file's light (as a direction from
+    # the look-at point) and material, DB23's Table 1 setups as the `scenes` section profiles them; "highlight"
+    # puts a directional light in the mirror direction of the ray through the image's centre and sets the
+    # Beckmann/GGX alpha to highlight_alpha, so the highlight and its falloff are in view (at alpha 1 D(h)
+    # varies by 4/e at most: there is no highlight). Every figure of the section follows the look chosen.
+    "look": "files",
+    "highlight_alpha": 0.3,
 }
 QUICK = {"scale": 1.0 / 12, "frames": 4, "timing_scale": 1.0 / 6, "viewer_scale": 1.0 / 6, "aliasing_scale": 0.02,
          "aliasing_frames": 2, "sparkle_scale": 1.0 / 12, "response_scale": 0.04, "response_lobe_scale": 0.05}
@@ -104,9 +113,40 @@ def compute(params: dict, ctx: Context) -> Tables:
     return compute_scenes(table1_scenes(ctx.path(params["scenes"])), params, ctx)
 
 
+LOOKS = ("files", "highlight")
+
+
+def with_look(scene, look: str, alpha: float):
+    """``scene`` as the section renders it: unchanged for look "files"; for "highlight", lit by a directional
+    light in the mirror direction (about the surface's normal) of the camera ray through the image's centre,
+    its material's alpha set to ``alpha``: the smooth lobe's peak near the centre (at grazing views the
+    off-specular peak moves it towards the horizon), its falloff across the image. A centre ray that misses
+    the surface (a sphere too small) takes the normal facing the camera."""
+    look = V.choice("look", look, LOOKS)
+    if look == "files":
+        return scene
+    alpha = V.real("highlight_alpha", alpha)
+    if not 0 < alpha <= 1:
+        V.fail("highlight_alpha", alpha, "an alpha in (0, 1]")
+    tr = scene.trace(np.array([scene.width / 2]), np.array([scene.height / 2]))
+    hit = bool(tr["hit"][0])
+    d = tr["x"][0] - scene.position if hit else scene.forward
+    d = d / np.linalg.norm(d)
+    if scene.kind == "sphere":
+        n = tr["shading_normal"][0] if hit else -scene.forward
+    else:  # a heightfield: its base plane's normal, the lobe's mean over the waves
+        n = scene.normal
+    mirror = d - 2 * np.dot(d, n) * n
+    spec = copy.deepcopy(scene.spec)
+    spec["light"] = {"type": "directional", "direction": [float(x) for x in mirror]}
+    spec["material"]["alpha"] = float(alpha)
+    return Scene(spec, name=scene.name, source=scene.source)
+
+
 def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
     """The section's tables for any list of scenes (``compute`` uses the Table 1 scenes of
     ``params["scenes"]``; ``glintlab images`` the files it is given)."""
+    scenes = [with_look(sc, params["look"], params["highlight_alpha"]) for sc in scenes]
     methods = _names("methods", params["methods"])
     if "truth" not in methods:
         V.fail("methods", params["methods"], "a list that includes the ground truth 'truth'")
@@ -114,16 +154,10 @@ def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
     by_name = {s.name: s for s in scenes}
     if params["timing_scene"] not in by_name:
         V.fail("timing_scene", params["timing_scene"], f"one of the scenes {', '.join(by_name)}")
-    paths, rows, views = {}, [], {}
-    for sc in scenes:
-        ctx.progress(sc.name)
-        small = with_density(sc.scaled(scale, keep_n=True), params["density_factor"])
-        path = render_path(small, methods, params["frames"], params["pan_px"], params["zoom"], seed=ctx.seed,
-                           angular_texel=params["angular_texel"])
-        paths[sc.name] = path
-        rows.append(flicker_table(path, tau=params["tau"]))
-        views[sc.name] = viewer_scene(sc, path, methods, params, ctx)
-    flicker = pd.concat(rows, ignore_index=True)
+    done = scenes_rendered(scenes, methods, params, ctx)
+    paths = {n: d[0] for n, d in done.items()}
+    views = {n: d[2] for n, d in done.items()}
+    flicker = pd.concat([d[1] for d in done.values()], ignore_index=True)
     ctx.progress("timing")
     timing_scale = V.real("timing_scale", params["timing_scale"])
     if timing_scale == V.real("viewer_scale", params["viewer_scale"]):
@@ -164,21 +198,57 @@ def compute_scenes(scenes, params: dict, ctx: Context) -> Tables:
                                      V.real("exposure_white", params["exposure_white"]))})
 
 
+#: Scenes rendered at once: each render's numpy part runs on one core, its C++ part on every core (OpenMP),
+#: so two scenes keep both cores of the report's machine busy. Every pixel's value depends only on the
+#: seed and the scene, never on which thread renders it (tests/python/test_scene_images.py). Only when
+#: every method is one glintlab ships as C++ or numpy: a method shader's kernel (and a user's method,
+#: whose thread safety nobody promised) is called from one thread at a time.
+SCENE_THREADS = 2
+
+
+def _scene_threads(methods) -> int:
+    entries = [IMAGE_METHODS.get(m) for m in methods]
+    safe = all(e.origin == "glintlab" and e.shader is None and e.returns == "ndf" for e in entries)
+    return SCENE_THREADS if safe else 1
+
+
+def scenes_rendered(scenes, methods, params: dict, ctx: Context) -> dict:
+    """Per scene (in ``scenes``' order) its camera path, flicker table and viewer frames, ``SCENE_THREADS``
+    scenes at a time. The renders the timing table's seconds come from (the timing scene's viewer frames,
+    or its whole path when the viewer takes its frames from the path) run first and alone, so that no
+    other scene's render shares the machine with them."""
+    from_path = V.real("viewer_scale", params["viewer_scale"]) == V.real("scale", params["scale"])
+
+    def one(sc, view=None):
+        ctx.progress(sc.name)
+        small = with_density(sc.scaled(V.real("scale", params["scale"]), keep_n=True), params["density_factor"])
+        path = render_path(small, methods, params["frames"], params["pan_px"], params["zoom"], seed=ctx.seed,
+                           angular_texel=params["angular_texel"])
+        view = view or viewer_scene(sc, path, methods, params, ctx)
+        view.path = path_tiles(path, methods, view.white, params["tau"])
+        return path, flicker_table(path, tau=params["tau"]), view
+
+    timed = [sc for sc in scenes if sc.name == params["timing_scene"]]
+    done = {sc.name: one(sc) for sc in timed} if from_path else {}
+    views = {} if from_path else {sc.name: viewer_scene(sc, None, methods, params, ctx) for sc in timed}
+    with ThreadPoolExecutor(max_workers=_scene_threads(methods)) as pool:
+        rest = [sc for sc in scenes if sc.name not in done]
+        done.update(zip((sc.name for sc in rest), pool.map(lambda sc: one(sc, views.get(sc.name)), rest)))
+    return {sc.name: done[sc.name] for sc in scenes}
+
+
 def viewer_scene(sc, path, methods, params: dict, ctx: Context):
-    """What the image viewer shows of scene ``sc`` (``scene_frames.ViewerScene``): frame 0 of every method
-    and own truth at ``viewer_scale`` (taken from the camera path when that is its scale, else rendered once
-    more at the viewer's resolution), and the path's frames with their pops."""
+    """What the image viewer shows of scene ``sc`` (``scene_frames.ViewerScene``) but its camera path:
+    frame 0 of every method and own truth at ``viewer_scale``, taken from the camera path ``path`` when
+    that is its scale, else rendered once more at the viewer's resolution (``path`` unused)."""
     viewer_scale = V.real("viewer_scale", params["viewer_scale"])
     exposure = (V.real("exposure_percentile", params["exposure_percentile"]),
                 V.real("exposure_white", params["exposure_white"]))
     if viewer_scale == V.real("scale", params["scale"]):
-        view = frames_of_path(path, methods, exposure)
-    else:
-        ctx.progress(f"{sc.name} at the viewer's resolution")
-        big = with_density(sc.scaled(viewer_scale, keep_n=True), params["density_factor"])
-        view = render_frames(big, methods, ctx.seed, params["angular_texel"], exposure)
-    view.path = path_tiles(path, methods, view.white, params["tau"])
-    return view
+        return frames_of_path(path, methods, exposure)
+    ctx.progress(f"{sc.name} at the viewer's resolution")
+    big = with_density(sc.scaled(viewer_scale, keep_n=True), params["density_factor"])
+    return render_frames(big, methods, ctx.seed, params["angular_texel"], exposure)
 
 
 def density_statement(methods) -> str:
@@ -203,7 +273,7 @@ def _aliasing(scenes, params: dict, ctx: Context, stats: dict) -> dict:
         names = _usable(names, stats)
         scale = V.real("aliasing_scale", params["aliasing_scale"])
         rows = []
-        for sc in scenes:
+        for sc in scenes:  # one at a time: a method shader's kernel runs one call at a time
             ctx.progress(f"aliasing {sc.name}")
             small = with_density(sc.scaled(scale, keep_n=True), params["density_factor"])
             rows.append(aliasing_table(small, names, params["aliasing_frames"], int(params["aliasing_supersample"]),

@@ -354,7 +354,8 @@
   function drawFlicker() {
     const sc = scene(), v = sc.video, c = column();
     if (!v || shownFrame < 0) return;
-    const keys = [c.method, c.own, sc.facets].filter((k, j, all) => all.indexOf(k) === j);
+    // The smooth render has no tile (no glints to flicker): its column shows the facet truth alone.
+    const keys = [c.method, c.own, sc.facets].filter((k, j, all) => all.indexOf(k) === j && k in v.at);
     // The crop of each tile shown (all of it, or 1 / zoom of it around the chosen centre), at s canvas pixels per pixel.
     const cw0 = Math.max(1, Math.round(v.width / S.fzoom)), ch0 = Math.max(1, Math.round(v.height / S.fzoom));
     const cx0 = Math.min(v.width - cw0, Math.max(0, Math.round(S.fcenter[0] * v.width - cw0 / 2)));
@@ -383,8 +384,8 @@
       tg.putImageData(img, 0, 0);
       const x = x0 + n * (cw0 * s + gap);
       g.drawImage(tile, 0, 0, cw0, ch0, x, head, cw0 * s, ch0 * s);
-      let title = n === 0 ? c.label : key === sc.facets ? "facet truth" : `own truth (${c.truth_kind})`;
-      if (n === 0 && frame > 0) {
+      let title = key === c.method ? c.label : key === sc.facets ? "facet truth" : `own truth (${c.truth_kind})`;
+      if (key === c.method && frame > 0) {
         title += ` · pops ${frame}→${frame + 1}: ${(1000 * count / v.valid).toFixed(1)}‰`;
         if (S.pops && popBits && count) {
           const popped = popRow(v, c.method, pair);
