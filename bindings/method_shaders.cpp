@@ -5,12 +5,9 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include <optional>
-
 #include "bindings.hpp"
 #include "glintlab/base/errors.hpp"
 #include "glintlab/glinty/wb16.hpp"
-#include "glintlab/validation/dispatch_timing.hpp"
 #include "glintlab/validation/method_shader.hpp"
 
 namespace py = pybind11;
@@ -67,29 +64,20 @@ void bind_method_shaders(py::module_& m) {
                              })
       .def(
           "run",
-          [](const MethodKernel& k, const Rows& rows, double timeout,
-             bool timing) -> py::
-                              object {
-                                if (rows.ndim() != 2 ||
-                                    static_cast<std::size_t>(rows.shape(1)) != shader::kMethodInputWords)
-                                  glintlab::throw_invalid_message("rows must have shape (count, " +
-                                                                  std::to_string(shader::kMethodInputWords) + ")");
-                                const auto count = static_cast<std::size_t>(rows.shape(0));
-                                py::array_t<float> out({static_cast<py::ssize_t>(count),
-                                                        static_cast<py::ssize_t>(shader::kMethodOutputWords)});
-                                const auto* in = reinterpret_cast<const float*>(rows.data());
-                                float* od = out.mutable_data();
-                                std::vector<double> ms;
-                                {
-                                  glintlab::bindings::LongCall release;
-                                  std::optional<shader::DispatchTiming> timer;
-                                  if (timing) timer.emplace();
-                                  shader::run_method(*k.kernel, in, count, od, timeout);
-                                  if (timer) ms = timer->milliseconds();
-                                }
-                                if (!timing) return out;
-                                return py::make_tuple(out, ms);
-                              },
+          [](const MethodKernel& k, const Rows& rows, double timeout, bool timing) {
+            if (rows.ndim() != 2 || static_cast<std::size_t>(rows.shape(1)) != shader::kMethodInputWords)
+              glintlab::throw_invalid_message("rows must have shape (count, " +
+                                              std::to_string(shader::kMethodInputWords) + ")");
+            const auto count = static_cast<std::size_t>(rows.shape(0));
+            py::array_t<float> out(
+                {static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(shader::kMethodOutputWords)});
+            const auto* in = reinterpret_cast<const float*>(rows.data());
+            float* od = out.mutable_data();
+            const auto ms =
+                long_call_timed(timing, [&] { shader::run_method(*k.kernel, in, count, od, timeout); });
+            if (!timing) return py::object(out);
+            return py::object(py::make_tuple(out, ms));
+          },
           py::arg("rows"), py::arg("timeout"), py::arg("timing") = false);
 }
 

@@ -4,11 +4,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include <optional>
-
 #include "bindings.hpp"
 #include "glintlab/base/errors.hpp"
-#include "glintlab/validation/dispatch_timing.hpp"
 #include "glintlab/validation/shader.hpp"
 
 namespace py = pybind11;
@@ -71,8 +68,7 @@ void bind_shaders(py::module_& m) {
                              })
       .def(
           "run",
-          [](const Kernel& k, const Array& n, const Array& p, const Array& u, double timeout,
-             bool timing) -> py::object {
+          [](const Kernel& k, const Array& n, const Array& p, const Array& u, double timeout, bool timing) {
             const auto count = static_cast<std::size_t>(u.ndim() == 2 ? u.shape(0) : 0);
             const auto kk = static_cast<std::size_t>(k.n_uniforms());
             if (u.ndim() != 2 || static_cast<std::size_t>(u.shape(1)) != kk)
@@ -83,16 +79,9 @@ void bind_shaders(py::module_& m) {
             const double* ud = u.data();
             float* od = out.mutable_data();
             const auto ns = static_cast<std::size_t>(n.size()), ps = static_cast<std::size_t>(p.size());
-            std::vector<double> ms;
-            {
-              glintlab::bindings::LongCall release;
-              std::optional<shader::DispatchTiming> timer;  // timestamps around each dispatch when asked
-              if (timing) timer.emplace();
-              k.run(nd, ns, pd, ps, ud, count, od, timeout);
-              if (timer) ms = timer->milliseconds();
-            }
-            if (!timing) return out;
-            return py::make_tuple(out, ms);
+            const auto ms = long_call_timed(timing, [&] { k.run(nd, ns, pd, ps, ud, count, od, timeout); });
+            if (!timing) return py::object(out);
+            return py::object(py::make_tuple(out, ms));
           },
           py::arg("n"), py::arg("p"), py::arg("u"), py::arg("timeout"), py::arg("timing") = false);
 }
