@@ -74,6 +74,9 @@ bench: build-all
 	@$(VENV)/bin/python bench/bench_shader.py
 	@$(VENV)/bin/python bench/bench_method_shader.py
 	@$(VENV)/bin/python bench/bench_counting_shaders.py
+	@# Issue 39: glintlab cost for three architectures (budget 5 s), and the advisor's law costs per pixel.
+	@$(VENV)/bin/python bench/bench_gpu_cost.py
+	@$(VENV)/bin/python bench/bench_advisor_costs.py
 	@$(VENV)/bin/python bench/bench_scene_trace.py --no-numpy
 	@# Issue 40: the exact p of an extended light per call (the hidden Catch2 case) and per 960 x 540 frame.
 	@$(VENV)/bin/python bench/bench_lighting.py

@@ -10,8 +10,11 @@
 
 #include <csignal>
 #include <exception>
+#include <optional>
+#include <vector>
 
 #include "glintlab/base/errors.hpp"
+#include "glintlab/validation/dispatch_timing.hpp"
 
 namespace glintlab::bindings {
 
@@ -53,6 +56,17 @@ class LongCall {
   bool installed_;
   pybind11::gil_scoped_release release_;  // last: released after the handler is in place, taken back last
 };
+
+// Runs `call` as a LongCall (the GIL released, Ctrl-C honoured); with `timing`, its thread's dispatches
+// timed (shader::DispatchTiming): their milliseconds, else an empty list.
+template <class F>
+std::vector<double> long_call_timed(bool timing, F&& call) {
+  LongCall release;
+  std::optional<shader::DispatchTiming> timer;
+  if (timing) timer.emplace();
+  call();
+  return timer ? timer->milliseconds() : std::vector<double>{};
+}
 
 void bind_errors(pybind11::module_& m);                // errors.cpp: NotImplementedError, Ctrl-C, interrupts
 void bind_documents(pybind11::module_& m);             // documents.cpp: experiment and bounds documents

@@ -38,7 +38,8 @@ void bind_method_shaders(py::module_& m) {
                        const std::string& language, const std::vector<std::pair<std::string, std::string>>& defines,
                        const std::vector<std::string>& include_dirs, const std::string& device,
                        const std::vector<std::pair<std::string, std::string>>& include_files) {
-             shader::KernelSpec spec{source, source_name, entry, language, 0, defines, include_dirs, device, include_files};
+             shader::KernelSpec spec{source,  source_name,  entry,  language,     0,
+                                     defines, include_dirs, device, include_files};
              glintlab::bindings::LongCall release;
              return MethodKernel{shader::method_kernel(spec)};
            }),
@@ -63,7 +64,7 @@ void bind_method_shaders(py::module_& m) {
                              })
       .def(
           "run",
-          [](const MethodKernel& k, const Rows& rows, double timeout) {
+          [](const MethodKernel& k, const Rows& rows, double timeout, bool timing) {
             if (rows.ndim() != 2 || static_cast<std::size_t>(rows.shape(1)) != shader::kMethodInputWords)
               glintlab::throw_invalid_message("rows must have shape (count, " +
                                               std::to_string(shader::kMethodInputWords) + ")");
@@ -72,13 +73,12 @@ void bind_method_shaders(py::module_& m) {
                 {static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(shader::kMethodOutputWords)});
             const auto* in = reinterpret_cast<const float*>(rows.data());
             float* od = out.mutable_data();
-            {
-              glintlab::bindings::LongCall release;
-              shader::run_method(*k.kernel, in, count, od, timeout);
-            }
-            return out;
+            const auto ms =
+                long_call_timed(timing, [&] { shader::run_method(*k.kernel, in, count, od, timeout); });
+            if (!timing) return py::object(out);
+            return py::object(py::make_tuple(out, ms));
           },
-          py::arg("rows"), py::arg("timeout"));
+          py::arg("rows"), py::arg("timeout"), py::arg("timing") = false);
 }
 
 }  // namespace glintlab::bindings

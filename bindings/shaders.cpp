@@ -68,7 +68,7 @@ void bind_shaders(py::module_& m) {
                              })
       .def(
           "run",
-          [](const Kernel& k, const Array& n, const Array& p, const Array& u, double timeout) {
+          [](const Kernel& k, const Array& n, const Array& p, const Array& u, double timeout, bool timing) {
             const auto count = static_cast<std::size_t>(u.ndim() == 2 ? u.shape(0) : 0);
             const auto kk = static_cast<std::size_t>(k.n_uniforms());
             if (u.ndim() != 2 || static_cast<std::size_t>(u.shape(1)) != kk)
@@ -79,13 +79,11 @@ void bind_shaders(py::module_& m) {
             const double* ud = u.data();
             float* od = out.mutable_data();
             const auto ns = static_cast<std::size_t>(n.size()), ps = static_cast<std::size_t>(p.size());
-            {
-              glintlab::bindings::LongCall release;
-              k.run(nd, ns, pd, ps, ud, count, od, timeout);
-            }
-            return out;
+            const auto ms = long_call_timed(timing, [&] { k.run(nd, ns, pd, ps, ud, count, od, timeout); });
+            if (!timing) return py::object(out);
+            return py::object(py::make_tuple(out, ms));
           },
-          py::arg("n"), py::arg("p"), py::arg("u"), py::arg("timeout"));
+          py::arg("n"), py::arg("p"), py::arg("u"), py::arg("timeout"), py::arg("timing") = false);
 }
 
 }  // namespace glintlab::bindings

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import glintlab as gl
-from glintlab.api.gpu_cost import gpu_driver
+from glintlab.api.gpu_cost import compile_stats, gpu_driver
 from glintlab.validation import gpu_model as M
 
 needs_radv = pytest.mark.skipif(bool(gpu_driver()["error"]) or not gl.vulkan_devices(),
@@ -128,3 +128,17 @@ def test_zk16_trip_counts_are_the_twins():
         np.testing.assert_array_equal(trials[ok], expected)
     # A wrong trip count (one probe per pixel) is caught by the same comparison.
     assert not np.array_equal(counts.evaluations[ok], 2 * np.ones(ok.sum()))
+
+
+@needs_radv
+def test_architectures_on_threads_give_the_single_compiles_statistics():
+    # gpu_cost compiles every architecture on a thread of its own (compile_stats_many); each row must be
+    # what one compile on this thread gives (same SPIR-V, same driver: the same statistics).
+    law = gl.shader_law(LOOP, register=False)
+    archs = ["navi21", "polaris10", "gfx1100"]
+    table = gl.gpu_cost(law, arch=archs, wrapper=False)
+    for arch, row in zip(archs, table.itertuples()):
+        one = compile_stats(law.spirv, arch)
+        assert row.arch == arch
+        for col in ("instructions", "vgprs", "sgprs", "waves_per_simd", "latency", "inverse_throughput", "code_size"):
+            assert getattr(row, col) == one[col], (arch, col)

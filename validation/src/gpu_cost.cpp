@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -14,6 +15,7 @@
 #include <mutex>
 #include <regex>
 #include <sstream>
+#include <thread>
 
 #include "glintlab/base/errors.hpp"
 
@@ -45,8 +47,13 @@ struct Driver {
   std::string path;
   std::string error;
   PFN_vkGetInstanceProcAddr gipa = nullptr;
-  std::string image;  // the library's bytes, searched for family names
+  std::vector<std::string> families;  // the names of architectures() found in the library's bytes
 };
+
+std::string upper(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+  return s;
+}
 
 Driver& driver() {
   static Driver d = [] {
@@ -73,8 +80,14 @@ Driver& driver() {
       out.handle = h;
       out.gipa = gipa;
       out.path = dladdr(reinterpret_cast<void*>(gipa), &info) && info.dli_fname ? info.dli_fname : lib;
-      std::ifstream in(out.path, std::ios::binary);
-      out.image.assign(std::istreambuf_iterator<char>(in), {});
+      // One read of the library (8-9 MB), searched once per family name and then dropped.
+      std::ifstream in(out.path, std::ios::binary | std::ios::ate);
+      std::string image(static_cast<std::size_t>(std::max<std::streamoff>(in.tellg(), 0)), '\0');
+      in.seekg(0);
+      in.read(image.data(), static_cast<std::streamsize>(image.size()));
+      for (const auto& a : architectures())
+        if (image.find(std::string(1, '\0') + upper(a.name) + std::string(1, '\0')) != std::string::npos)
+          out.families.push_back(a.name);
       return out;
     }
     out.error = std::string(kPackage) + " is not available (" + tried + ")";
@@ -83,16 +96,11 @@ Driver& driver() {
   return d;
 }
 
-std::string upper(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
-  return s;
-}
-
 // RADV matches RADV_FORCE_FAMILY against its family names (ac_get_family_name, upper case in the
 // library, compared case-insensitively) and aborts on any other: the name must be there.
 bool driver_knows(const std::string& name) {
-  const std::string needle = std::string(1, '\0') + upper(name) + std::string(1, '\0');
-  return driver().image.find(needle) != std::string::npos;
+  const auto& f = driver().families;
+  return std::find(f.begin(), f.end(), name) != f.end();
 }
 
 std::string known_list() {
@@ -131,7 +139,7 @@ struct NullDevice {
   VkPhysicalDevice physical = VK_NULL_HANDLE;
   VkDevice device = VK_NULL_HANDLE;
   std::string name, driver;
-  std::mutex mutex;  // one compile at a time per device
+  std::mutex mutex;  // the device's creation and one compile at a time
   PFN_vkGetDeviceProcAddr gdpa = nullptr;
 };
 
@@ -156,7 +164,9 @@ class EnvOverride {  // sets a variable for a scope, restoring the previous valu
   bool had_ = false;
 };
 
-NullDevice& null_device(const Architecture& arch) {
+// The instance and physical device of `arch`'s null device, made once under one process-wide lock with
+// RADV_FORCE_FAMILY set for that moment only (both read the environment; about a millisecond).
+NullDevice& null_instance(const Architecture& arch) {
   static std::mutex creation;
   static std::map<std::string, std::unique_ptr<NullDevice>> devices;
   std::lock_guard<std::mutex> lock(creation);
@@ -193,7 +203,16 @@ NullDevice& null_device(const Architecture& arch) {
   props2(nd->physical, &p);
   nd->name = p.properties.deviceName;
   nd->driver = std::string(dp.driverName) + " " + dp.driverInfo;
+  slot = std::move(nd);
+  return *slot;
+}
 
+// With nd.mutex held: the logical device, made on first use. Apart from the instance's lock because on
+// RDNA2 and later RADV compiles its ray-tracing build shaders here (about 0.2 s of CPU per device), and
+// several architectures' devices can then be made at once (compile_stats_many).
+void open_device(NullDevice& nd) {
+  if (nd.device) return;
+  const Driver& d = driver();
   float priority = 1.0f;
   auto q = vk<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
   q.queueCount = 1;
@@ -212,11 +231,9 @@ NullDevice& null_device(const Architecture& arch) {
   dci.pQueueCreateInfos = &q;
   dci.enabledExtensionCount = 2;
   dci.ppEnabledExtensionNames = extensions;
-  auto create_device = reinterpret_cast<PFN_vkCreateDevice>(d.gipa(nd->instance, "vkCreateDevice"));
-  check(create_device(nd->physical, &dci, nullptr, &nd->device), "vkCreateDevice (RADV null device)");
-  nd->gdpa = reinterpret_cast<PFN_vkGetDeviceProcAddr>(d.gipa(nd->instance, "vkGetDeviceProcAddr"));
-  slot = std::move(nd);
-  return *slot;
+  auto create_device = reinterpret_cast<PFN_vkCreateDevice>(d.gipa(nd.instance, "vkCreateDevice"));
+  check(create_device(nd.physical, &dci, nullptr, &nd.device), "vkCreateDevice (RADV null device)");
+  nd.gdpa = reinterpret_cast<PFN_vkGetDeviceProcAddr>(d.gipa(nd.instance, "vkGetDeviceProcAddr"));
 }
 
 // The compute entry point's name (OpEntryPoint GLCompute), refusing anything else.
@@ -384,8 +401,9 @@ DriverStatus driver_status() {
 PipelineStats compile_stats(const std::vector<std::uint32_t>& spirv, const std::string& arch, bool representations) {
   const Architecture& a = lookup(arch);
   const std::string entry = compute_entry(spirv);
-  NullDevice& nd = null_device(a);
+  NullDevice& nd = null_instance(a);
   std::lock_guard<std::mutex> lock(nd.mutex);
+  open_device(nd);
   PipelineStats out;
   out.arch = a.name;
   out.device_name = nd.name;
@@ -393,6 +411,45 @@ PipelineStats compile_stats(const std::vector<std::uint32_t>& spirv, const std::
   PipelineObjects objects{nd};
   create_pipeline(objects, spirv, entry, static_cast<std::uint32_t>(a.wave_size), representations);
   read_executable(nd, objects.pipeline, representations, out);
+  return out;
+}
+
+void open_devices(const std::vector<std::string>& archs, bool devices) {
+  std::vector<NullDevice*> nds;
+  for (const auto& a : archs) nds.push_back(&null_instance(lookup(a)));
+  if (!devices) return;
+  std::vector<std::exception_ptr> errors(nds.size());
+  std::vector<std::thread> threads;
+  for (std::size_t i = 0; i < nds.size(); ++i)
+    threads.emplace_back([&, i] {
+      try {
+        std::lock_guard<std::mutex> lock(nds[i]->mutex);
+        open_device(*nds[i]);
+      } catch (...) { errors[i] = std::current_exception(); }
+    });
+  for (auto& t : threads) t.join();
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
+std::vector<PipelineStats> compile_stats_many(const std::vector<std::vector<std::uint32_t>>& spirvs,
+                                              const std::vector<std::string>& archs, bool representations) {
+  // Everything that can be refused, and every environment change (the instances), before any thread.
+  for (const auto& s : spirvs) compute_entry(s);
+  open_devices(archs, false);
+  const std::size_t n = spirvs.size();
+  std::vector<PipelineStats> out(archs.size() * n);
+  std::vector<std::exception_ptr> errors(archs.size());
+  std::vector<std::thread> threads;
+  for (std::size_t i = 0; i < archs.size(); ++i)
+    threads.emplace_back([&, i] {
+      try {
+        for (std::size_t j = 0; j < n; ++j) out[i * n + j] = compile_stats(spirvs[j], archs[i], representations);
+      } catch (...) { errors[i] = std::current_exception(); }
+    });
+  for (auto& t : threads) t.join();
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
   return out;
 }
 

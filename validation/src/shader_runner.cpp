@@ -13,6 +13,7 @@
 #include <functional>
 #include <sstream>
 
+#include "dispatch_timing.hpp"
 #include "glintlab/base/float32.hpp"
 #include "vulkan_device.hpp"
 
@@ -108,7 +109,9 @@ class Submission {
     vkCmdBindPipeline(command, VK_PIPELINE_BIND_POINT_COMPUTE, pl_.pipeline);
     vkCmdBindDescriptorSets(command, VK_PIPELINE_BIND_POINT_COMPUTE, pl_.layout, 0, 1, &set_, 0, nullptr);
     vkCmdPushConstants(command, pl_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &push);
+    const bool timed = detail::timestamp_before(d_, command);  // DispatchTiming on this thread
     vkCmdDispatch(command, (push.count + kWorkGroupSize - 1) / kWorkGroupSize, 1, 1);
+    if (timed) detail::timestamp_after(d_, command);
     VkMemoryBarrier barrier{};  // the shader's writes, visible to the host after the fence
     barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
     barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
@@ -133,6 +136,7 @@ class Submission {
       throw ShaderTimeout(msg.str());
     }
     check(r, "vkWaitForFences");
+    if (timed) detail::timestamp_read(d_);
   }
 
  private:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import functools
 import os
 import re
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pandas as pd
@@ -80,7 +81,10 @@ def compile_stats(spirv: bytes, arch: str, isa: bool = False) -> dict:
     table's columns, plus ``driver``, ``device`` and, when ``isa``, ``isa`` (the assembly) and ``aco_ir``."""
     if not isinstance(spirv, (bytes, bytearray)):
         V.fail("spirv", type(spirv).__name__, "the SPIR-V as bytes (a shader object's .spirv)")
-    raw = _core.gpu_compile_stats(bytes(spirv), arch, bool(isa))
+    return _stats_row(_core.gpu_compile_stats(bytes(spirv), arch, bool(isa)), isa)
+
+
+def _stats_row(raw: dict, isa: bool) -> dict:
     stats = dict(raw["statistics"])
     out = {"arch": raw["arch"], "wave_size": raw["subgroup_size"]}
     out.update({col: stats.get(name, float("nan")) for name, col in STATISTICS.items()})
@@ -187,13 +191,22 @@ def gpu_cost(shader, arch=DEFAULT_ARCHS, isa: bool = False, wrapper: bool = True
     ``options`` as ``glintlab shader``). An unknown architecture raises ValueError naming the known ones;
     a missing RADV raises RuntimeError."""
     archs = _archs(arch)
-    obj = resolve_shader(shader, kind=kind, **options)
-    empty = empty_twin(obj) if wrapper else None
+    # The null devices' instances here (refusing an unknown architecture before any compile), their devices
+    # (RADV compiles its own shaders then, ~0.2 s of CPU each on RDNA2 and later) on a thread beside the
+    # SPIR-V compiles.
+    _core.gpu_open_devices(list(archs), False)
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        opening = pool.submit(_core.gpu_open_devices, list(archs), True)
+        obj = resolve_shader(shader, kind=kind, **options)
+        modules = [obj.spirv] + ([empty_twin(obj).spirv] if wrapper else [])
+        opening.result()
+    # Every architecture on a thread of its own (its device's creation and its compiles side by side).
+    raw = _core.gpu_compile_stats_many(modules, list(archs), bool(isa))
     rows = []
-    for a in archs:
-        row = {"shader": getattr(obj, "name", str(shader)), **compile_stats(obj.spirv, a, isa)}
-        if empty is not None:
-            base = compile_stats(empty.spirv, a)
+    for i in range(len(archs)):
+        row = {"shader": getattr(obj, "name", str(shader)), **_stats_row(raw[i * len(modules)], isa)}
+        if wrapper:
+            base = _stats_row(raw[i * len(modules) + 1], False)
             for col in ADDITIVE:
                 row[f"wrapper_{col}"] = base[col]
                 row[f"function_{col}"] = row[col] - base[col]

@@ -151,12 +151,18 @@ class ShaderMethod(ShaderBacked, GlintyNDF):
     def smooth(self, h):
         raise NotImplementedError(f"method shader {self.name!r} returns an intensity: it has no smooth target")
 
-    def run(self, rows) -> np.ndarray:
-        """The shader on packed rows (m, METHOD_INPUT_WORDS) uint32: (m, 4) float32, (r, g, b, channels)."""
+    def run(self, rows, timing: bool = False):
+        """The shader on packed rows (m, METHOD_INPUT_WORDS) uint32: (m, 4) float32, (r, g, b, channels). With
+        ``timing``, the pair (output, milliseconds): the device's time of each dispatch (one per 262,144 rows),
+        read from Vulkan timestamps written before and after it (the upload and read-back outside; on
+        lavapipe, a CPU device, its CPU threads' time). A device without timestamps raises RuntimeError."""
         rows = np.ascontiguousarray(rows, dtype=np.uint32)
         if rows.ndim != 2 or rows.shape[1] != _core.METHOD_INPUT_WORDS:
             V.fail("rows", f"an array of shape {rows.shape}", f"an array of shape (m, {_core.METHOD_INPUT_WORDS})")
-        return self._kernel.run(rows, self._spec["timeout"])
+        if not timing:
+            return self._kernel.run(rows, self._spec["timeout"])
+        out, ms = self._kernel.run(rows, self._spec["timeout"], timing=True)
+        return out, np.asarray(ms, dtype=np.float64)
 
     def shade(self, rows) -> np.ndarray:
         """The shader's values per row: (m,) for a float method, (m, 3) for a colour one."""

@@ -5,7 +5,7 @@ import json
 from pathlib import Path
 
 from ..api.laws import parse_law_label
-from ..validation.advisor import advise
+from ..validation.advisor import COST_AXES, GPU_ARCH, advise
 from ..validation.profile import profile_scene
 from ..validation.scene import load_scene
 from .common import add_costs, add_outputs, add_scale, add_seed, print_table, scene_costs
@@ -23,6 +23,10 @@ def add_parser(sub):
     p.add_argument("--per-regime", action="store_true", help="one law per n band, combined SIMD cost")
     p.add_argument("--scheme", default="db23_tetrahedral", help="grid scheme the cost is modelled on "
                                                                   "(default: db23_tetrahedral)")
+    p.add_argument("--cost-axis", choices=list(COST_AXES), default="cpu",
+                   help="cpu: the laws' recorded CPU ns per evaluation (default); gpu: their shader twins' ACO "
+                        "latency in cycles on --gpu-arch (RADV null devices; the laws with a shader only)")
+    p.add_argument("--gpu-arch", default=GPU_ARCH, help=f"the GPU axis's architecture (default: {GPU_ARCH}, RDNA3)")
     add_scale(p, 1.0, "resolution factor per side (default: 1)")
     add_costs(p, "law costs (law, ns_per_eval, ns_per_trial) instead of the costs recorded with the package; "
                  "'measure' times the laws in this process (then the pick may follow the machine's load)")
@@ -45,7 +49,7 @@ def run(args) -> int:
     prof = profile_scene(scene, laws=laws, seed=args.seed, scale=args.scale, costs=costs,
                          schemes=sorted({args.scheme, "zk16_aniso", "db23_tetrahedral"}))
     advice = advise(prof, max_tv=args.max_tv, max_rel_error=args.max_rel_error, coverage=args.coverage,
-                    per_regime=args.per_regime, scheme=args.scheme)
+                    per_regime=args.per_regime, scheme=args.scheme, cost_axis=args.cost_axis, gpu_arch=args.gpu_arch)
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)

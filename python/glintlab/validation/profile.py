@@ -10,8 +10,9 @@ Pixels with p = 0 (unlit, or D(h) = 0) have K = 0 under every law: error 0.
 
 Cost model (modelled cost units = ns of one CPU evaluation, not GPU milliseconds). The cost of a
 pixel under (grid scheme, law) is evaluations x c_law, the evaluations counted per pixel by
-``count_image``, c_law the law's ns per evaluation (mean over fixed (n, p) points: a constant, which
-flatters laws whose cost grows with n p, e.g. the binomial's inversion below its switch). A law whose
+``count_image``, c_law the law's ns per evaluation (mean over fixed (n, p) points, each draw at its own
+(n, p) within a factor 2 of the point, so that a law's per-(n, p) setup is paid per draw as at a scene's
+pixels: a constant, which flatters laws whose cost grows with n p). A law whose
 cost grows with (n, p) declares a cost model with its code (``law.work_units``; zk16: min(ceil n_t,
 cap) Bernoulli trials when n_t p <= 5, DB23 §7.1) and the points that separate its terms
 (``cost_points``): c_law and the ns per work unit are fitted to its timings there, and each term of a
@@ -98,7 +99,8 @@ COST_POINTS = ((3.5, 0.5), (16.0, 0.1), (1e3, 1e-2), (1e6, 0.3))
 
 def measure_costs(laws=None, size: int = 100_000, repeats: int = 5) -> pd.DataFrame:
     """ns per evaluation of each law, measured in this process (``law.sample`` on one core, its CPU
-    time, best of ``repeats``): what ``costs="measure"`` uses (profiles default to the recorded table,
+    time, best of ``repeats``; at each point ``size`` draws, each at its own (n, p) around the point,
+    :func:`spread_point`): what ``costs="measure"`` uses (profiles default to the recorded table,
     ``recorded_costs``). A constant-cost law: the mean over COST_POINTS, ``ns_per_trial`` 0. A law with a cost
     model (``law.work_units`` and its declared ``cost_points``): ns = ns_per_eval + ns_per_trial x
     work_units fitted by least squares to its timings at those points (zk16: its Gaussian branch and
@@ -122,7 +124,8 @@ def measure_costs(laws=None, size: int = 100_000, repeats: int = 5) -> pd.DataFr
         for label, lw in todo.items():
             if has_cost_model(lw):
                 pts = points(lw)
-                work = np.array([float(lw.work_units(n, p)) for n, p in pts])
+                # The mean work of the draws timed at each point (they spread around it: spread_point).
+                work = np.array([float(np.mean(lw.work_units(*spread_point(n, p, size)))) for n, p in pts])
                 ns = np.array([best[label, n, p] for n, p in pts])
                 (fixed, per_unit), *_ = np.linalg.lstsq(np.stack([np.ones_like(work), work], axis=1), ns, rcond=None)
                 _COST_CACHE[label, size, repeats] = {"ns_per_eval": max(float(fixed), 0.0),
@@ -133,14 +136,32 @@ def measure_costs(laws=None, size: int = 100_000, repeats: int = 5) -> pd.DataFr
     return pd.DataFrame([{"law": label, **_COST_CACHE[label, size, repeats]} for label in laws])
 
 
+#: Each timed draw has its own (n, p): the point's times a log-uniform factor in [1/SPREAD, SPREAD] each
+#: (p at most P_SPREAD_MAX), seeded.
+SPREAD, P_SPREAD_MAX, SPREAD_SEED = 2.0, 0.99, 1
+
+
+def spread_point(n: float, p: float, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """``size`` (n, p) pairs around the point, each its own: a scene's pixels each have their own (n, p), so
+    a law's per-(n, p) setup (the binomial's sampler constants, a law's regime and tables) is paid at every
+    draw, as in a scene. 100,000 draws at one (n, p) paid it once: the exact binomial timed 8.7 ns there
+    and 15-29 ns over the shipped scenes' own pixels (bench/bench_advisor_costs.py)."""
+    rng = np.random.default_rng(SPREAD_SEED)
+    f = np.exp(rng.uniform(-math.log(SPREAD), math.log(SPREAD), (2, size)))
+    return n * f[0], np.minimum(p * f[1], P_SPREAD_MAX)
+
+
 def rounds(todo, points, best, repeats, size):
     # The calling thread's CPU time (the draws run on it: one thread): a busy machine delays a timing
     # but adds little to it (wall-clock timings of one law varied 8x under a load of 10 on 2 cores).
+    pairs = {}
     for _ in range(repeats):
         for label, lw in todo.items():
             for n, p in points(lw):
+                if (n, p) not in pairs:
+                    pairs[n, p] = spread_point(n, p, size)
                 t0 = time.thread_time()
-                lw.sample(n, p, size=size, seed=1)
+                lw.sample(*pairs[n, p], seed=1)
                 dt = (time.thread_time() - t0) / size * 1e9
                 best[label, n, p] = min(best.get((label, n, p), math.inf), dt)
 

@@ -9,7 +9,8 @@
 // Policy: the driver library is opened directly (dlopen, its ICD entry point), never through the Vulkan
 // loader, so the shader runner's own instance (lavapipe) never sees a null device. RADV reads
 // RADV_FORCE_FAMILY when an instance enumerates its devices: each architecture gets its own instance and
-// device, created once per process under a lock with the variable set for the creation only, and kept.
+// device, created once per process (the instance under a lock with the variable set for that moment only, the
+// device under the architecture's own lock, so architectures' devices are made side by side), and kept.
 // RADV aborts the process on a family it does not know, so a name is checked first against this
 // table and against the driver library's own family names.
 #pragma once
@@ -68,5 +69,18 @@ struct PipelineStats {
 // driver refuses the pipeline.
 PipelineStats compile_stats(const std::vector<std::uint32_t>& spirv, const std::string& arch,
                             bool representations = false);
+
+// Makes the null devices of `archs` ahead of their compiles: their instances on this thread (RADV reads the
+// environment then), and with `devices` their logical devices, each on a thread of its own. The same
+// refusals as compile_stats for an unknown architecture or a missing RADV. A caller can run the second
+// step (devices = true, after a first call with false) on a thread of its own beside other work.
+void open_devices(const std::vector<std::string>& archs, bool devices);
+
+// compile_stats of every module of `spirvs` for every architecture of `archs`, the architectures on
+// threads of their own (a device's creation, about 0.2 s of CPU on RDNA2 and later, and the compiles run
+// side by side): element [i * spirvs.size() + j] is module j on archs[i]. The same refusals, before any
+// compile.
+std::vector<PipelineStats> compile_stats_many(const std::vector<std::vector<std::uint32_t>>& spirvs,
+                                              const std::vector<std::string>& archs, bool representations = false);
 
 }  // namespace glintlab::gpu_cost
