@@ -13,6 +13,7 @@
 #include "bindings.hpp"
 #include "glintlab/base/errors.hpp"
 #include "glintlab/glinty/glinty_ndf.hpp"
+#include "glintlab/lighting/lighting.hpp"
 
 namespace py = pybind11;
 
@@ -172,7 +173,27 @@ void bind_kpt25_evaluation(Kpt25Class& cls) {
             }
             return out;
           },
-          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("radius"));
+          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("radius"))
+      .def(
+          "light_counts",
+          [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, const Array& wo, std::uint64_t seed,
+             const lighting::LightHit& hit, bool mirror) {
+            const std::size_t n = pixels(uv, &jac, h);
+            if (static_cast<std::size_t>(wo.size()) != 3 * n)
+              glintlab::throw_invalid_message("glinty_ndf: wo must hold 3 numbers per pixel");
+            const auto k = static_cast<py::ssize_t>(hit.channels());
+            py::array_t<double> counts({static_cast<py::ssize_t>(n), k}), rad(static_cast<py::ssize_t>(n)),
+                points(static_cast<py::ssize_t>(n));
+            double* c = counts.mutable_data();
+            double* r = rad.mutable_data();
+            double* p = points.mutable_data();
+            {
+              glintlab::bindings::LongCall release;
+              g.light_counts(uv.data(), jac.data(), h.data(), wo.data(), n, seed, hit, mirror, c, r, p);
+            }
+            return py::make_tuple(counts, rad, points);
+          },
+          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("wo"), py::arg("seed"), py::arg("hit"), py::arg("mirror"));
 }
 
 // Per-facet colour (RGB evaluate and reference).

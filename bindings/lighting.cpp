@@ -121,6 +121,15 @@ py::tuple truth_tuple(const lighting::FacetTruth& t, std::size_t count, std::siz
 }
 
 void bind_facets(py::module_& m) {
+  // The one "mirror direction hits the light" test, handed to the methods' own truths (KPT25, WWH18).
+  py::class_<lighting::LightHit>(m, "LightHit")
+      .def(py::init<std::vector<Light>, std::vector<double>>(), py::arg("lights"), py::arg("radiance"))
+      .def(py::init([](int rows, int cols, int regions, const std::vector<int>& labels,
+                       const std::vector<double>& radiance) {
+             return lighting::LightHit(region_map(rows, cols, regions, labels, radiance));
+           }),
+           py::arg("rows"), py::arg("cols"), py::arg("regions"), py::arg("labels"), py::arg("radiance"))
+      .def_property_readonly("channels", &lighting::LightHit::channels);
   m.def(
       "region_probabilities",
       [](const std::string& target, double alpha, std::array<double, 3> wo, int rows, int cols, int regions,

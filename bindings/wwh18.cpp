@@ -9,6 +9,7 @@
 #include "bindings.hpp"
 #include "glintlab/base/errors.hpp"
 #include "glintlab/glinty/wwh18.hpp"
+#include "glintlab/lighting/lighting.hpp"
 
 namespace py = pybind11;
 
@@ -132,6 +133,24 @@ void bind_wwh18_counts(WwhClass& cls) {
            return out;
          },
          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("wi") = py::none())
+      .def(
+          "light_counts",
+          [](const Wwh18Ndf& g, const Array& uv, const Array& jac, const Array& wo, std::uint64_t seed,
+             const lighting::LightHit& hit, bool mirror) {
+            const std::size_t n = pixels(uv, jac, wo);
+            const auto k = static_cast<py::ssize_t>(hit.channels());
+            py::array_t<double> counts({static_cast<py::ssize_t>(n), k}), rad(static_cast<py::ssize_t>(n)),
+                flakes(static_cast<py::ssize_t>(n));
+            double* c = counts.mutable_data();
+            double* r = rad.mutable_data();
+            double* f = flakes.mutable_data();
+            {
+              LongCall release;
+              g.light_counts(uv.data(), jac.data(), wo.data(), n, seed, hit, mirror, c, r, f);
+            }
+            return py::make_tuple(counts, rad, flakes);
+          },
+          py::arg("uv"), py::arg("J"), py::arg("wo"), py::arg("seed"), py::arg("hit"), py::arg("mirror"))
       .def(
           "counts",
           [](const Wwh18Ndf& g, const Array& uv, const Array& jac, const Array& h, const py::object& wi_obj,

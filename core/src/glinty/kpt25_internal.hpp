@@ -1,8 +1,9 @@
 // Private helpers of KPT25's glinty NDF, shared by its source files (glinty_ndf.cpp: the maps, the pixel
 // set-up, Algorithm 1 and the reference; kpt25_disk.cpp: the disk integrals; kpt25_sampling.cpp:
-// Algorithm 2; kpt25_triplanar.cpp: the UV-free glints). One enumeration of the point process
-// (for_each_point) and one roulette weight per point (point_keep) serve every caller, so the evaluation,
-// the reference, the sampler, its pdf and the visible counts see the same points by construction.
+// Algorithm 2; kpt25_triplanar.cpp: the UV-free glints; kpt25_lights.cpp: the points under a light). One
+// enumeration of the point process (for_each_point) and one roulette weight per point (point_keep) serve
+// every caller, so the evaluation, the reference, the sampler, its pdf, the visible counts and the counts
+// under a light see the same points by construction.
 // docs/math/glinty_ndf.md.
 #pragma once
 

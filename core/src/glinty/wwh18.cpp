@@ -14,6 +14,7 @@
 #include "base/parallel.hpp"
 #include "glintlab/base/errors.hpp"
 #include "glintlab/base/rng.hpp"
+#include "glintlab/lighting/lighting.hpp"
 
 namespace glintlab {
 
@@ -616,9 +617,34 @@ bool Wwh18Ndf::flake_counts(const double m[3], const double h[3], const double w
   return dx * dx + dy * dy + dz * dz <= chord2_;
 }
 
+template <class F>
+void Wwh18Ndf::for_each_flake(const Footprint& fp, std::size_t index, std::uint64_t seed, F&& f) const {
+  const double a2 = p_.alpha * p_.alpha;
+  const auto i0 = static_cast<std::int64_t>(std::floor(fp.xmin / s0_)),
+             i1 = static_cast<std::int64_t>(std::floor(fp.xmax / s0_));
+  const auto j0 = static_cast<std::int64_t>(std::floor(fp.ymin / s0_)),
+             j1 = static_cast<std::int64_t>(std::floor(fp.ymax / s0_));
+  check_cells(static_cast<double>(i1 - i0 + 1) * static_cast<double>(j1 - j0 + 1), index);
+  for (std::int64_t i = i0; i <= i1; ++i)
+    for (std::int64_t j = j0; j <= j1; ++j) {
+      const std::uint32_t n = cell_count(seed, i, j);
+      for (std::uint32_t k = 0; k < n; ++k) {
+        const auto r = flake_block(seed, i, j, 1 + k);
+        const double x = (static_cast<double>(i) + unit32(r[0])) * s0_;
+        const double y = (static_cast<double>(j) + unit32(r[1])) * s0_;
+        if (!fp.inside(x, y)) continue;
+        // The normal, drawn exactly from D(m)(m.n) by inverting the closed-form CDF of theta_m.
+        const double u1 = unit32(r[2]), phi = 2.0 * kPi * unit32(r[3]);
+        const double tan2 = p_.target == GlintTarget::beckmann ? -a2 * std::log(u1) : a2 * u1 / (1.0 - u1);
+        const double ct = 1.0 / std::sqrt(1.0 + tan2), st = std::sqrt(tan2) * ct;
+        const double mv[3] = {st * std::cos(phi), st * std::sin(phi), ct};
+        f(mv);
+      }
+    }
+}
+
 void Wwh18Ndf::reference_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
                                 double* out, const double* wi) const {
-  const double a2 = p_.alpha * p_.alpha;
   detail::parallel_chunks(m, 8, 16, [&](std::size_t first, std::size_t last) {
     for (std::size_t px = first; px < last; ++px) {
       check_pixel(uv, h, px);
@@ -634,29 +660,41 @@ void Wwh18Ndf::reference_counts(const double* uv, const double* jac, const doubl
       normalise(wi ? wi + 3 * px : hn, wn);  // the light direction (wi = h: wo = h)
       const double d = 2.0 * (wn[0] * hn[0] + wn[1] * hn[1] + wn[2] * hn[2]);
       for (int c = 0; c < 3; ++c) wo[c] = d * hn[c] - wn[c];
-      const auto i0 = static_cast<std::int64_t>(std::floor(fp.xmin / s0_)),
-                 i1 = static_cast<std::int64_t>(std::floor(fp.xmax / s0_));
-      const auto j0 = static_cast<std::int64_t>(std::floor(fp.ymin / s0_)),
-                 j1 = static_cast<std::int64_t>(std::floor(fp.ymax / s0_));
-      check_cells(static_cast<double>(i1 - i0 + 1) * static_cast<double>(j1 - j0 + 1), px);
       double count = 0.0;
-      for (std::int64_t i = i0; i <= i1; ++i)
-        for (std::int64_t j = j0; j <= j1; ++j) {
-          const std::uint32_t n = cell_count(seed, i, j);
-          for (std::uint32_t k = 0; k < n; ++k) {
-            const auto r = flake_block(seed, i, j, 1 + k);
-            const double x = (static_cast<double>(i) + unit32(r[0])) * s0_;
-            const double y = (static_cast<double>(j) + unit32(r[1])) * s0_;
-            if (!fp.inside(x, y)) continue;
-            // The normal, drawn exactly from D(m)(m.n) by inverting the closed-form CDF of theta_m.
-            const double u1 = unit32(r[2]), phi = 2.0 * kPi * unit32(r[3]);
-            const double tan2 = p_.target == GlintTarget::beckmann ? -a2 * std::log(u1) : a2 * u1 / (1.0 - u1);
-            const double ct = 1.0 / std::sqrt(1.0 + tan2), st = std::sqrt(tan2) * ct;
-            const double mv[3] = {st * std::cos(phi), st * std::sin(phi), ct};
-            if (flake_counts(mv, hn, wn, wo)) count += 1.0;
-          }
-        }
+      for_each_flake(fp, px, seed, [&](const double* mv) {
+        if (flake_counts(mv, hn, wn, wo)) count += 1.0;
+      });
       out[px] = count;
+    }
+  });
+}
+
+void Wwh18Ndf::light_counts(const double* uv, const double* jac, const double* wo, std::size_t m, std::uint64_t seed,
+                            const lighting::LightHit& hit, bool mirror, double* counts, double* radiance,
+                            double* flakes) const {
+  const int channels = hit.channels();
+  detail::parallel_chunks(m, 1, 4, [&](std::size_t first, std::size_t last) {
+    for (std::size_t px = first; px < last; ++px) {
+      for (int c = 0; c < 2; ++c)
+        if (!std::isfinite(uv[2 * px + c]) || std::abs(uv[2 * px + c]) > 1e9)
+          throw_invalid(kWhere, indexed_name("uv", 2 * px + c, true), uv[2 * px + c], "a finite position, |uv| <= 1e9");
+      check_direction(wo, px, "wo");
+      double v[3];
+      normalise(wo + 3 * px, v);
+      if (!(v[2] > 0.0)) throw_invalid(kWhere, indexed_name("wo", 3 * px + 2, true), v[2], "a view above the horizon");
+      const Footprint fp(uv[2 * px], uv[2 * px + 1], jac + 4 * px, px);
+      check_range(fp, px);
+      double* c = counts + px * static_cast<std::size_t>(channels);
+      for (int k = 0; k < channels; ++k) c[k] = 0.0;
+      radiance[px] = flakes[px] = 0.0;
+      for_each_flake(fp, px, seed, [&](const double* mv) {
+        flakes[px] += 1.0;
+        double rad = 0.0;
+        const int k = hit.hit({v[0], v[1], v[2]}, {mv[0], mv[1], mv[2]}, rad, mirror);
+        if (k < 0) return;
+        c[k] += 1.0;
+        radiance[px] += rad;
+      });
     }
   });
 }

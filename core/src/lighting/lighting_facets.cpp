@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <utility>
 
 #include "base/parallel.hpp"
 #include "glintlab/base/errors.hpp"
@@ -43,12 +44,12 @@ void check_common(std::string_view where, double alpha, std::int64_t side, const
   }
 }
 
-// classify(wi, &channel, &radiance): the channel (-1: none) and radiance a facet reflecting wi receives.
-template <class Classify>
+// Every facet of the layout inside each footprint, counted for the channel `hit` gives it.
 FacetTruth count_facets(Target target, double alpha, std::int64_t side, const std::vector<spatial::Placed>& fps,
-                        const std::vector<double>& wo, int channels, std::uint64_t seed, Classify classify) {
+                        const std::vector<double>& wo, const LightHit& hit, std::uint64_t seed) {
   FacetTruth out;
   const std::size_t count = fps.size();
+  const int channels = hit.channels();
   out.counts.assign(count * channels, 0.0);
   out.radiance.assign(count, 0.0);
   out.facets.assign(count, 0.0);
@@ -71,14 +72,8 @@ FacetTruth count_facets(Target target, double alpha, std::int64_t side, const st
           if (!fp.contains(px - x, py - y)) continue;
           out.facets[i] += 1;
           const double u = rng.uniform(), w = rng.uniform();
-          const Vec3 mn = sample_normal(target, alpha, u, w);
-          const double c = v.x * mn.x + v.y * mn.y + v.z * mn.z;
-          if (!(c > 0)) continue;  // a facet turned away from the viewer reflects nothing towards it
-          const Vec3 wi{2 * c * mn.x - v.x, 2 * c * mn.y - v.y, 2 * c * mn.z - v.z};
-          if (!(wi.z > 0)) continue;  // hidden by the surface
-          int channel = -1;
           double radiance = 0;
-          classify(wi, channel, radiance);
+          const int channel = hit.hit(v, sample_normal(target, alpha, u, w), radiance);
           if (channel < 0) continue;
           out.counts[i * channels + channel] += 1;
           out.radiance[i] += radiance;
@@ -113,33 +108,49 @@ void check_region_map(const RegionMap& map) {
   }
 }
 
+LightHit::LightHit(std::vector<Light> lights, std::vector<double> radiance)
+    : lights_(std::move(lights)), radiance_(std::move(radiance)), channels_(int(lights_.size())) {
+  check_length("light hit", "radiance", radiance_.size(), lights_.size());
+  if (lights_.empty()) throw_invalid("light hit", "lights", 0.0, "at least one light");
+}
+
+LightHit::LightHit(RegionMap map) : map_(std::move(map)), is_map_(true) {
+  check_region_map(map_);
+  channels_ = map_.regions;
+}
+
+int LightHit::hit(Vec3 wo, Vec3 m, double& radiance, bool mirror) const {
+  const double c = wo.x * m.x + wo.y * m.y + wo.z * m.z;
+  if (!(c > 0)) return -1;  // a facet turned away from the viewer reflects nothing towards it
+  const Vec3 wi = mirror ? Vec3{2 * c * m.x - wo.x, 2 * c * m.y - wo.y, 2 * c * m.z - wo.z} : m;
+  if (!(wi.z > 0)) return -1;  // hidden by the surface
+  if (is_map_) {
+    const int cell = map_.cell(wi);
+    radiance = map_.radiance[cell];
+    return map_.labels[cell];
+  }
+  for (int k = 0; k < channels_; ++k)
+    if (lights_[k].contains(wi)) {
+      radiance = radiance_[k];
+      return k;
+    }
+  return -1;
+}
+
 FacetTruth facet_truth_lights(Target target, double alpha, std::int64_t side,
                               const std::vector<spatial::Placed>& footprints, const std::vector<double>& wo,
                               const std::vector<Light>& lights, const std::vector<double>& radiance,
                               std::uint64_t seed) {
   check_common("facet_truth_lights", alpha, side, footprints, wo);
   check_length("facet_truth_lights", "radiance", radiance.size(), lights.size());
-  const int channels = int(lights.size());
-  return count_facets(target, alpha, side, footprints, wo, channels, seed, [&](Vec3 wi, int& ch, double& rad) {
-    for (int k = 0; k < channels; ++k)
-      if (lights[k].contains(wi)) {
-        ch = k;
-        rad = radiance[k];
-        return;
-      }
-  });
+  return count_facets(target, alpha, side, footprints, wo, LightHit(lights, radiance), seed);
 }
 
 FacetTruth facet_truth_map(Target target, double alpha, std::int64_t side,
                            const std::vector<spatial::Placed>& footprints, const std::vector<double>& wo,
                            const RegionMap& map, std::uint64_t seed) {
   check_common("facet_truth_map", alpha, side, footprints, wo);
-  check_region_map(map);
-  return count_facets(target, alpha, side, footprints, wo, map.regions, seed, [&](Vec3 wi, int& ch, double& rad) {
-    const int c = map.cell(wi);
-    ch = map.labels[c];
-    rad = map.radiance[c];
-  });
+  return count_facets(target, alpha, side, footprints, wo, LightHit(map), seed);
 }
 
 namespace {

@@ -46,6 +46,8 @@ TABLE = {
                         "law_sd"],
     "lighting_point_limit": ["half_angle", "p_exact", "p_point", "ratio", "R_equivalent", "p_db23"],
     "lighting_envmap": ["source", "method", "scheme", "chi2", "dof", "chi2_pvalue", "p_0", "p_1", "p_2"],
+    "lighting_own_truths": ["method", "light", "expected", "count", "z", "z_normal_variant", "z_no_solid_angle",
+                            "pass"],
     "lighting_images": ["image", "mean_count", "vs_facets", "vs_expected", "lit_share"],
     "lighting_kpt25_envmap": ["pixel", "estimator", "samples", "reference", "reference_error", "mean", "z",
                               "relative_std_per_sample", "rmse_ratio_to_alg2"],
@@ -71,6 +73,8 @@ def compute(params: dict, ctx: Context) -> Tables:
     ctx.progress("environment map")
     env = gl_lights.envmap("sky", regions=3)
     envtab, partition = VL.envmap_counts(env, realizations=params["realizations"], seed=ctx.seed)
+    ctx.progress("KPT25's points and WWH18's flakes under the lights")
+    own = VL.own_truth_table(seed=ctx.seed)
     ctx.progress("images")
     images, image_table = VL.plane_images(window_light(), seed=ctx.seed)
     ctx.progress("KPT25's Algorithm 2 under the map")
@@ -84,6 +88,9 @@ def compute(params: dict, ctx: Context) -> Tables:
         failures.append(f"facets under a cap of {r.half_angle:g} rad are not Binomial(M, p_exact): p = {r.chi2_pvalue:.2g}")
     if abs(limit.ratio.iloc[-1] - 1) > 1e-6:
         failures.append(f"point-light limit: p_exact / p_point = {limit.ratio.iloc[-1]:.9g} at the smallest cap")
+    for r in own[~own["pass"]].itertuples():
+        failures.append(f"{r.method}'s own truth under the {r.light}: z = {r.z:.2f}, the normal variant's "
+                        f"{r.z_normal_variant:.2f}, without the solid angle {r.z_no_solid_angle:.2f}")
     e = envtab.set_index(["source", "method", "scheme"]).chi2_pvalue
     if e[("facets", "exact", "")] <= PASS or e[("binomial", "exact", "chain")] <= PASS:
         failures.append("environment map: the facets or the binomial chain are not the exact multinomial")
@@ -102,8 +109,8 @@ def compute(params: dict, ctx: Context) -> Tables:
              "scene images: exact p grid's largest relative error (p > 1e-3 max p), over the lights":
                  max(p.grid_error["max_rel_error_p_above_1e-3_max"] for p in paths)}
     return Tables({"lighting_accuracy": accuracy, "lighting_counts": counts, "lighting_point_limit": limit,
-                   "lighting_envmap": envtab, "lighting_images": image_table, "lighting_scene_images": scene_table,
-                   "lighting_kpt25_envmap": alg2},
+                   "lighting_envmap": envtab, "lighting_own_truths": own, "lighting_images": image_table,
+                   "lighting_scene_images": scene_table, "lighting_kpt25_envmap": alg2},
                   stats, failures, extra={"lighting_probabilities": probs},
                   data={"env": env, "partition": partition, "images": images, "scene_paths": paths})
 

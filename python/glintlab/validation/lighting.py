@@ -18,12 +18,15 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 
+from ..api import light_truths as LT
 from ..api import lights as gl_lights
+from ..api.glinty_ndf import KPT25
 from ..api.laws import law as make_law
 from ..api.lighting import facet_truth, multinomial_counts, reflection_probability
 from ..api.metrics import chi2_test, distance
 from ..api.ndf import ndf
 from ..api.spatial import Ellipse, Rect
+from ..api.wwh18 import WWH18
 
 APPROXIMATIONS = ("ltc", "cap", "point")
 COUNTING_LAWS = ("binomial", "gated", "gated_continuous", "dual_gated")
@@ -262,3 +265,52 @@ def plane_images(light, target="ggx", alpha=0.2, side=1024, seed=0, width=64, he
                  vs_expected=float(v.mean() / max((n * p["exact"]).mean(), 1e-300)), lit_share=float(np.mean(v > 0)))
             for k, v in images.items()]
     return images, pd.DataFrame(rows)
+
+
+def own_truth_lights():
+    """The lights of :func:`own_truth_table`: (name, light, view), each light off the view's mirror direction
+    so that the wrong variant (the normal tested in place of its mirror direction) sees other facets."""
+    return [("cap", gl_lights.cap((0.8, 0.0, 1.0), 0.1), (-0.8, 0.0, 1.0)),
+            ("rect", gl_lights.rect((0.5, 0.2, 1.0), (0.3, 0.0, 0.0), (0.0, 0.2, 0.0)), (-0.4, -0.1, 1.0)),
+            ("disk", gl_lights.disk((-0.3, 0.3, 1.0), (0.3, -0.3, -1.0), 0.1), (0.2, -0.3, 1.0)),
+            ("sky", gl_lights.envmap("sky", regions=3), (0.5, 0.0, 1.0))]
+
+
+def own_truth_table(seed: int = 0, pixels: int = 128, footprint: float = 0.02, density: float = 1e6,
+                    z_max: float = 4.5) -> pd.DataFrame:
+    """KPT25's points and WWH18's flakes lit by each light of :func:`own_truth_lights`
+    (docs/math/lighting.md#lighting-own-truths): the counts pooled over ``pixels`` disjoint square
+    footprints of side ``footprint`` in one realization against E[count] = (facets per unit area and p)
+    |det J| p_exact, as a z (Poisson spread; for the map a chi-square over the regions on the same scale,
+    :func:`_own_z`), beside the same check of the two wrong variants: the normal tested in place of its
+    mirror direction, and the light's solid angle left out of p."""
+    side = math.ceil(math.sqrt(pixels))
+    k = np.arange(pixels)
+    uv = np.stack([(k % side + 0.5) / side, (k // side + 0.5) / side], -1)
+    J = np.broadcast_to([footprint, 0.0, 0.0, footprint], (pixels, 4))
+    methods = [("kpt25", KPT25(density=density, alpha=0.3), LT.kpt25_light_truth),
+               ("wwh18", WWH18(density=density, alpha=0.3, dpf="exact"), LT.wwh18_light_truth)]
+    rows = []
+    for (name, light, wo), (method, nd, truth) in itertools.product(own_truth_lights(), methods):
+        expected = LT.expected_light_counts(nd, J, wo, light).sum(axis=0)
+        counts = truth(nd, uv, J, wo, light, seed=seed).counts.sum(axis=0)
+        normal = truth(nd, uv, J, wo, light, seed=seed, test="normal").counts.sum(axis=0)
+        z, z_normal = _own_z(counts, expected), _own_z(normal, expected)
+        z_omega = float("nan")  # a map's regions have no one solid angle to leave out
+        if not isinstance(light, gl_lights.EnvMap):
+            no_omega = LT.expected_light_counts(nd, J, wo, light, method="point").sum(axis=0) / light.solid_angle
+            z_omega = _own_z(counts, no_omega)
+        rows.append({"method": method, "light": name, "expected": float(expected.sum()), "count": float(counts.sum()),
+                     "z": z, "z_normal_variant": z_normal, "z_no_solid_angle": z_omega,
+                     "pass": abs(z) < z_max and abs(z_normal) > z_max and not abs(z_omega) <= z_max})
+    return pd.DataFrame(rows)
+
+
+def _own_z(counts, expected):
+    """One light: (count - E) / sqrt(E). Several regions: Pearson's chi-square over them on the normal scale
+    by Wilson and Hilferty's cube root (finite where its tail probability underflows; above 4.5 it rejects
+    at about the upper-tail rate of one light's z)."""
+    if counts.size == 1:
+        return float((counts[0] - expected[0]) / math.sqrt(expected[0]))
+    chi2, k = float(np.sum((counts - expected) ** 2 / expected)), counts.size
+    return float(((chi2 / k) ** (1 / 3) - (1 - 2 / (9 * k))) / math.sqrt(2 / (9 * k)))

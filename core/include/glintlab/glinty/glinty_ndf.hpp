@@ -17,6 +17,9 @@
 namespace glintlab {
 
 class CounterRng;
+namespace lighting {
+class LightHit;
+}
 
 enum class GlintTarget { beckmann, ggx };
 
@@ -174,6 +177,15 @@ class Kpt25Ndf {
   // the points in DB23's footprint ellipse whose normal lies within radius x sigma of T(h).
   void visible_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
                       double radius, double* out) const;
+  // The point process lit by an extended light (docs/math/lighting.md#lighting-own-truths): the points of the
+  // levels KPT25 sums at half vector h[3i..] (h selects the levels and their roulette, nothing else), inside
+  // DB23's footprint ellipse (as visible_counts), each a facet of normal T^-1 of its point in U, counted
+  // with its roulette weight for the channel `hit` gives its mirror direction of the view wo[3i..] (mirror
+  // false: the wrong variant of LightHit::hit). counts[i * channels + c], radiance[i] (weighted sums),
+  // points[i] (the weighted points in the ellipse). Cost: every point in the filter's box.
+  void light_counts(const double* uv, const double* jac, const double* h, const double* wo, std::size_t m,
+                    std::uint64_t seed, const lighting::LightHit& hit, bool mirror, double* counts, double* radiance,
+                    double* points) const;
   // UV-free glints (KPT25 §3.3.6, docs/math/glinty_ndf.md#glinty-triplanar). Per pixel i: P[3i..] the
   // world position, dP[6i..] = (dP/dx, dP/dy) its screen derivatives, n[3i..] the normal (weights and
   // shading frame), h[3i..] the half vector in world space (normalised here; h.n <= 0 gives 0). Each

@@ -22,6 +22,10 @@
 
 namespace glintlab {
 
+namespace lighting {
+class LightHit;
+}
+
 // Which lambda a flake is tested with (Algorithm 1's psi <- lambda(k); eq. 8's lambda(x)).
 enum class WwhLambdaSeeding {
   node,   // as printed: one lambda per node (seeded by the node id), shared by every flake of the node
@@ -112,6 +116,12 @@ class Wwh18Ndf {
   // mode[i] (if not null) receives a WwhMode, p_out[i] (if not null) the P used.
   void counts(const double* uv, const double* jac, const double* h, const double* wi, std::size_t m, std::uint64_t seed,
               double* out, int* mode = nullptr, double* p_out = nullptr) const;
+  // The truth's flakes lit by an extended light (docs/math/lighting.md#lighting-own-truths): every flake of the
+  // footprint parallelogram counted for the channel `hit` gives its mirror direction of the view wo[3i..]
+  // (mirror false: the wrong variant of LightHit::hit). counts[i * channels + c], radiance[i] (the sum of
+  // their radiance), flakes[i] (the flakes in the footprint).
+  void light_counts(const double* uv, const double* jac, const double* wo, std::size_t m, std::uint64_t seed,
+                    const lighting::LightHit& hit, bool mirror, double* counts, double* radiance, double* flakes) const;
 
   // lambda of (level, i, j, k) as the model draws it (exposed for the generator's quality tests).
   double lambda(std::uint64_t seed, int level, std::int64_t i, std::int64_t j, std::uint32_t k) const;
@@ -128,6 +138,10 @@ class Wwh18Ndf {
   double traverse(const Footprint& fp, std::uint64_t seed, double p) const;
   void check_range(const Footprint& fp, std::size_t index) const;
   bool passes(double psi, double p) const;
+  // f(m) for the unit normal m of every flake of the truth inside the footprint (one enumeration for
+  // reference_counts and light_counts).
+  template <class F>
+  void for_each_flake(const Footprint& fp, std::size_t index, std::uint64_t seed, F&& f) const;
   bool flake_counts(const double m[3], const double h[3], const double wi[3], const double wo[3]) const;
   double band_mass(double t0, double t1) const;  // mass of D(m)(m.n) with theta_m in [t0, t1], radians
   void build_cells();

@@ -115,6 +115,29 @@ void check_region_map(const RegionMap& map);  // std::invalid_argument naming th
 std::vector<Integral> region_probabilities(Target target, double alpha, Vec3 wo, const RegionMap& map,
                                            double rel_tol = 1e-6);
 
+// Which light or region a facet reflects the view into: the one test of "its mirror direction hits the
+// light" that every truth under a light shares (the stratified facets below, KPT25's points, WWH18's
+// flakes; docs/math/lighting.md#lighting-facets, #lighting-own-truths). Channels: the lights (the first
+// that contains the direction) or the map's regions.
+class LightHit {
+ public:
+  LightHit(std::vector<Light> lights, std::vector<double> radiance);  // one radiance per light
+  explicit LightHit(RegionMap map);                                   // checked (check_region_map)
+  int channels() const { return channels_; }
+  // The channel (-1: none) a facet of unit normal m lit through the unit view wo reflects, and in `radiance`
+  // the radiance it receives: none when wo.m <= 0 (turned away from the viewer) or the mirror direction
+  // 2 (wo.m) m - wo is below the horizon. mirror = false tests m itself in place of the mirror direction:
+  // a deliberately wrong variant the tests use to show that their checks can fail.
+  int hit(Vec3 wo, Vec3 m, double& radiance, bool mirror = true) const;
+
+ private:
+  std::vector<Light> lights_;
+  std::vector<double> radiance_;
+  RegionMap map_;
+  bool is_map_ = false;
+  int channels_ = 0;
+};
+
 // The facet truth under lights (docs/math/lighting.md#lighting-facets): the stratified layout of side
 // `side` (one facet per cell, jittered; density side^2), each facet with its normal drawn from
 // D(m)(m.n); in each placed footprint, every facet inside, whose mirror direction of its pixel's view
