@@ -54,6 +54,7 @@ from .validation.furnace import furnace
 from .api.shader_samplers import ShaderSampler, shader_sampler, shipped_sampler
 from .api import lights  # gl.lights.cap / rect / disk / envmap (docs/math/lighting.md#lighting-lights)
 from .api.lighting import facet_truth, multinomial_counts, reflection_probability
+from .api.light_truths import expected_light_counts, kpt25_light_truth, wwh18_light_truth
 
 
 def set_num_threads(threads: int) -> None:
@@ -91,4 +92,5 @@ __all__ += ["gpu_architectures", "gpu_cost"]  # shaders compiled for AMD GPUs wi
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)
 __all__ += ["matched_density", "db23_visible_glints"]  # KPT25 <-> DB23 (docs/math/glinty_ndf.md#glinty-matched)
 __all__ += ["lights", "reflection_probability", "facet_truth", "multinomial_counts"]  # docs/math/lighting.md
+__all__ += ["kpt25_light_truth", "wwh18_light_truth", "expected_light_counts"]  # docs/math/lighting.md
 __all__ += ["LightResponse", "light_response"]  # docs/math/glint_images.md#glint-light-response
