@@ -236,8 +236,20 @@ def test_images_command_binds_textures_and_uniforms(tmp_path, capsys):
         assert "'gian'" in capsys.readouterr().err
         assert main(["images", *common, "--uniform", "gain", "--out", str(tmp_path / "d")]) == 2
         assert "--uniform" in capsys.readouterr().err
+        # A .npy file given for a name the shader declares as a storage buffer binds as that buffer.
+        np.save(tmp_path / "lut.npy", np.full(4, 0.5, np.float32))
+        table = tmp_path / "table_method.glsl"
+        table.write_text("layout(std430) readonly buffer Lut { float lut[]; };\n"
+                         "float glint(GlintInput g) { return lut[3]; }\n")
+        assert main(["images", scene, "--scale", "0.03", "--frames", "2", "--timing-scale", "0.03", "--quiet",
+                     "--method", str(table), "--texture", f"Lut={tmp_path / 'lut.npy'}",
+                     "--out", str(tmp_path / "e")]) == 0
+        assert main(["images", scene, "--scale", "0.03", "--frames", "2", "--quiet", "--texture",
+                     f"Lut={tmp_path / 'lut.npy'}", "--out", str(tmp_path / "f")]) == 2
+        assert "--texture" in capsys.readouterr().err  # no --method to bind it to
     finally:
         IMAGE_METHODS._items.pop("lit_by_texture", None)
+        IMAGE_METHODS._items.pop("table_method", None)
 
 
 def test_shader_and_sampler_commands_take_the_same_options(tmp_path, capsys):
@@ -253,3 +265,6 @@ def test_shader_and_sampler_commands_take_the_same_options(tmp_path, capsys):
         "float pdf_h(float2 uv, float4 J, float3 wo, float3 h) { return k.SampleLevel(s, 0.5, 0); }\n")
     assert main(["sampler", str(sampler_file), "--samples", "1000", "--out", str(tmp_path / "p")]) == 2
     assert "'k'" in capsys.readouterr().err
+    # A registered sampler compiles nothing: resources for it are refused by flag.
+    assert main(["sampler", "ggx", "--uniform", "a=1", "--samples", "1000", "--out", str(tmp_path / "q")]) == 2
+    assert "--uniform" in capsys.readouterr().err
