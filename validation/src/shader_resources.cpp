@@ -2,7 +2,7 @@
 // read-only resources"): the descriptor set layout of what the code declares (set 1), and the images,
 // samplers and buffers holding the data bound to it by name, uploaded once per bind and shared by every
 // call of the kernel (a timed-out call's retired job keeps them alive).
-#include "glintlab/errors.hpp"
+#include "glintlab/base/errors.hpp"
 #include "vulkan_device.hpp"
 
 #include <algorithm>
