@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import glintlab as gl
+from glintlab import _core
 from glintlab.api import fragment_shaders as FS
 from glintlab.api import method_shaders as MS
 from glintlab.resources import data_path
@@ -19,11 +20,12 @@ RNG = np.random.default_rng(4)
 
 
 def rows_with(m, dpdx=0.0, dpdy=0.0, dndx=0.0, dndy=0.0, **fields):
-    """Fragment rows: pack_inputs' 32 words, then the differentials."""
-    rows = np.zeros((m, 48), np.uint32)
-    rows[:, :32] = MS.pack_inputs(m, **fields)
+    """Fragment rows: pack_inputs' words, then the differentials."""
+    w = _core.METHOD_INPUT_WORDS
+    rows = np.zeros((m, _core.FRAGMENT_INPUT_WORDS), np.uint32)
+    rows[:, :w] = MS.pack_inputs(m, **fields)
     for k, a in enumerate((dpdx, dpdy, dndx, dndy)):
-        rows[:, 32 + 3 * k:35 + 3 * k] = np.broadcast_to(np.asarray(a, np.float32), (m, 3)).view(np.uint32)
+        rows[:, w + 3 * k:w + 3 + 3 * k] = np.broadcast_to(np.asarray(a, np.float32), (m, 3)).view(np.uint32)
     return rows
 
 
@@ -116,4 +118,4 @@ def test_a_fragment_image_is_the_method_contracts_image():
     assert a.shape == b.shape and inp.hit.sum() > 100
     np.testing.assert_array_equal(a, b)
     rows, hit = FS.fragment_rows(inp)
-    assert rows.shape == (hit.sum(), 48)
+    assert rows.shape == (hit.sum(), _core.FRAGMENT_INPUT_WORDS)

@@ -44,6 +44,7 @@ WrapperDeclaration fragment_wrapper(const std::string& assign, const std::string
   d.header = "glintlab_fragment";
   d.push = {"in_stride", "out_stride", "pad"};
   d.buffers = {{0, "glintlab_in", "GlintlabIn", "uint", false}, {3, "glintlab_out", "GlintlabOut", "float", true}};
+  constexpr int kDifferentials = static_cast<int>(kMethodInputWords);  // they follow GlintInput's words
   const auto word = [](int w) {
     return "glintlab_in[(i >> 2u) * glintlab_push.in_stride + " + std::to_string(w) + "u]";
   };
@@ -64,10 +65,10 @@ WrapperDeclaration fragment_wrapper(const std::string& assign, const std::string
               {"glintlab_pixel0", "uvec2", "uvec2(" + word(27) + ", " + word(28) + ")"},
               {"glintlab_frame", "uint", word(29)},
               {"glintlab_seed", "uint", word(30)},
-              {"glintlab_dpdx", "vec3", floats("vec3", 32, 3)},
-              {"glintlab_dpdy", "vec3", floats("vec3", 35, 3)},
-              {"glintlab_dndx", "vec3", floats("vec3", 38, 3)},
-              {"glintlab_dndy", "vec3", floats("vec3", 41, 3)}};
+              {"glintlab_dpdx", "vec3", floats("vec3", kDifferentials, 3)},
+              {"glintlab_dpdy", "vec3", floats("vec3", kDifferentials + 3, 3)},
+              {"glintlab_dndx", "vec3", floats("vec3", kDifferentials + 6, 3)},
+              {"glintlab_dndy", "vec3", floats("vec3", kDifferentials + 9, 3)}};
   d.call =
       "  float glintlab_ox = float(i & 1u), glintlab_oy = float((i >> 1u) & 1u);\n"
       "  vec3 glintlab_world_pos = glintlab_p0 + glintlab_ox * glintlab_dpdx + glintlab_oy * glintlab_dpdy;\n"

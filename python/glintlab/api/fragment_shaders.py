@@ -121,7 +121,7 @@ def _assignment(name: str, typ: str, field: str) -> str:
 
 
 def fragment_rows(inputs, seed: int = 0, frame: int = 0, method: str = "a fragment shader"):
-    """(rows, hit): frame_rows' 32 words per hit pixel, then the differentials the quad's lanes move by:
+    """(rows, hit): frame_rows' words per hit pixel, then the differentials the quad's lanes move by:
     the position's per pixel (the ray differentials) and the normal's (its difference to the right /
     lower neighbour where that pixel sees the surface, else to the left / upper one, else 0)."""
     base, hit = frame_rows(inputs, seed, frame, method)
@@ -131,7 +131,8 @@ def fragment_rows(inputs, seed: int = 0, frame: int = 0, method: str = "a fragme
     rows = np.zeros((base.shape[0], _core.FRAGMENT_INPUT_WORDS), np.uint32)
     rows[:, :base.shape[1]] = base
     extra = [inputs.dxdpx, inputs.dxdpy, _neighbour_difference(n, hit, 1), _neighbour_difference(n, hit, 0)]
-    rows[:, 32:44] = np.concatenate([np.asarray(a, np.float32)[hit] for a in extra], axis=-1).view(np.uint32)
+    w = base.shape[1]  # the differentials follow GlintInput's words
+    rows[:, w:w + 12] = np.concatenate([np.asarray(a, np.float32)[hit] for a in extra], axis=-1).view(np.uint32)
     return rows, hit
 
 
@@ -163,7 +164,7 @@ class FragmentMethod(ShaderMethod):
                                            s["device"], includes)
 
     def run(self, rows) -> np.ndarray:
-        """The shader on packed fragment rows (m, 48) uint32: (m, 4) float32, (r, g, b, 3)."""
+        """The shader on packed fragment rows (m, _core.FRAGMENT_INPUT_WORDS) uint32: (m, 4) float32, (r, g, b, 3)."""
         rows = np.ascontiguousarray(rows, dtype=np.uint32)
         words = _core.FRAGMENT_INPUT_WORDS
         if rows.ndim != 2 or rows.shape[1] != words:

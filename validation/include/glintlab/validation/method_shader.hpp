@@ -51,9 +51,10 @@ void run_method(const Kernel& kernel, const float* in, std::size_t count, float*
 // four invocations per pixel, a quad: lane 0 the pixel, lane 1 one pixel right, lane 2 one pixel down,
 // lane 3 both, each lane's inputs moved by the pixel's differentials. dFdx, dFdy and fwidth are then the
 // differences across the quad (subgroup quad operations), as a GPU's fragment derivatives are, and
-// texture() picks its mip level from them. The row: GlintInput's 32 words, then the differentials.
-//   32..34 dpdx   35..37 dpdy (world position per pixel)   38..40 dndx   41..43 dndy (shading normal)
-constexpr std::size_t kFragmentInputWords = 48;
+// texture() picks its mip level from them. The row: GlintInput's kMethodInputWords words, then the
+// differentials, from word kMethodInputWords (W) on:
+//   W..W+2 dpdx   W+3..W+5 dpdy (world position per pixel)   W+6..W+8 dndx   W+9..W+11 dndy (shading normal)
+constexpr std::size_t kFragmentInputWords = kMethodInputWords + 12;
 
 // The fragment mode's declaration: `assign` is GLSL run in each lane before the call, setting the user's
 // globals from the lane's values (glintlab_world_pos, glintlab_uv, glintlab_J, glintlab_n, glintlab_t,
