@@ -16,6 +16,10 @@
 #include "glintlab/base/errors.hpp"
 #include "glintlab/validation/dispatch_timing.hpp"
 
+namespace glintlab::shader {
+class Kernel;
+}
+
 namespace glintlab::bindings {
 
 inline unsigned long g_main_thread = 0;  // PyThread_get_thread_ident() of the thread that imported _core
@@ -67,6 +71,11 @@ std::vector<double> long_call_timed(bool timing, F&& call) {
   call();
   return timer ? timer->milliseconds() : std::vector<double>{};
 }
+
+// shaders.cpp: a kernel's declared resources as a list of dicts, and data bound to them from a list of
+// dicts (name, levels, extent, channels, filter, address); shared by every kind of shader kernel.
+pybind11::list declared_resources(const glintlab::shader::Kernel& k);
+void bind_resources(glintlab::shader::Kernel& k, const pybind11::list& data);
 
 void bind_errors(pybind11::module_& m);                // errors.cpp: NotImplementedError, Ctrl-C, interrupts
 void bind_documents(pybind11::module_& m);             // documents.cpp: experiment and bounds documents

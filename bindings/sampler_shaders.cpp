@@ -58,6 +58,9 @@ void bind_sampler_shaders(py::module_& m) {
       .def_property_readonly("device", [](const SamplerKernel& k) { return k.kernel->device_name(); })
       .def_property_readonly("device_type", [](const SamplerKernel& k) { return k.kernel->device_type(); })
       .def_property_readonly("unbounded_loops", [](const SamplerKernel& k) { return k.kernel->unbounded_loops(); })
+      .def_property_readonly("declared_resources", [](const SamplerKernel& k) { return declared_resources(*k.kernel); })
+      .def("bind_resources", [](const SamplerKernel& k, const py::list& data) { bind_resources(*k.kernel, data); },
+           py::arg("data"))
       .def_property_readonly("included_files", [](const SamplerKernel& k) {
              py::list out;  // content as bytes: a header need not be valid UTF-8
              for (const auto& [path, content] : k.kernel->included_files())

@@ -12,6 +12,59 @@ namespace py = pybind11;
 
 namespace glintlab::bindings {
 
+py::list declared_resources(const shader::Kernel& k) {
+  py::list out;
+  for (const auto& r : k.declared_resources()) {
+    py::dict x;
+    x["name"] = r.name;
+    x["kind"] = r.kind;
+    x["binding"] = r.binding;
+    x["dims"] = r.dims;
+    x["arrayed"] = r.arrayed;
+    x["scalar"] = r.scalar;
+    x["channels"] = r.channels;
+    x["size"] = r.size;
+    py::list members;
+    for (const auto& mb : r.members) {
+      py::dict y;
+      y["name"] = mb.name;
+      y["offset"] = mb.offset;
+      y["scalar"] = mb.scalar;
+      y["components"] = mb.components;
+      y["count"] = mb.count;
+      y["array_stride"] = mb.array_stride;
+      members.append(y);
+    }
+    x["members"] = members;
+    out.append(x);
+  }
+  return out;
+}
+
+void bind_resources(shader::Kernel& k, const py::list& data) {
+  using Words = py::array_t<std::uint32_t, py::array::c_style | py::array::forcecast>;
+  std::vector<shader::ResourceData> out;
+  for (const auto& item : data) {
+    const auto d = item.cast<py::dict>();
+    shader::ResourceData r;
+    r.name = d["name"].cast<std::string>();
+    for (const auto& level : d["levels"].cast<py::list>()) {
+      const Words w = level.cast<Words>();
+      r.levels.emplace_back(w.data(), w.data() + w.size());
+    }
+    if (d.contains("extent")) {
+      const auto e = d["extent"].cast<std::vector<std::uint32_t>>();
+      for (std::size_t i = 0; i < 4 && i < e.size(); ++i) r.extent[i] = e[i];
+    }
+    if (d.contains("channels")) r.channels = d["channels"].cast<int>();
+    if (d.contains("filter")) r.filter = d["filter"].cast<std::string>();
+    if (d.contains("address")) r.address = d["address"].cast<std::string>();
+    out.push_back(std::move(r));
+  }
+  glintlab::bindings::LongCall release;
+  k.bind_resources(out);
+}
+
 void bind_shaders(py::module_& m) {
   using shader::Kernel;
   using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
@@ -61,6 +114,9 @@ void bind_shaders(py::module_& m) {
                                return out;
                              })
       .def_property_readonly("unbounded_loops", &Kernel::unbounded_loops)
+      .def_property_readonly("declared_resources", [](const Kernel& k) { return declared_resources(k); })
+      .def(
+          "bind_resources", [](Kernel& k, const py::list& data) { bind_resources(k, data); }, py::arg("data"))
       .def_property_readonly("spirv",
                              [](const Kernel& k) {
                                return py::bytes(reinterpret_cast<const char*>(k.spirv().data()),

@@ -34,6 +34,9 @@ PACKAGES=(
   flake8 clang-format
   # images: the print panel and the viewer's animated WebP (Pillow); matplotlib's animations (ffmpeg)
   python3-pil ffmpeg
+  # textures from image files (glintlab shader|sampler|images --texture NAME=FILE): PNG through Pillow
+  # (above), OpenEXR (float textures: noise, tables) through OpenImageIO's Python module
+  python3-openimageio
 )
 
 missing=()

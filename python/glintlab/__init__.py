@@ -21,6 +21,7 @@ from .api.wwh18 import WWH18  # registers the "wwh18" glinty NDF (docs/math/wwh1
 from .api.glinty_ndf import image_methods
 from .api.glinty_ndf import matched_density, db23_visible_glints
 from .api.method_shaders import ShaderMethod, shader_method
+from .api import fragment_shaders  # noqa: F401 -- registers the fragment mode of shader_method
 # Registers the "db23_shader" and "kpt25_shader" image methods (docs/math/glint_images.md#glint-db23-shader).
 from .api import counting_shaders  # noqa: F401
 from .api import zk16_shaders  # noqa: F401  (ZK16, its gated variant and the no-glints baseline as method shaders)
@@ -52,6 +53,7 @@ from .api.samplers import Sampler, sampler, samplers, wrong_sampler
 from .validation.sampler_test import SamplerTestResult, sampler_test
 from .validation.furnace import furnace
 from .api.shader_samplers import ShaderSampler, shader_sampler, shipped_sampler
+from .api.shader_resources import SamplerState
 from .api import lights  # gl.lights.cap / rect / disk / envmap (docs/math/lighting.md#lighting-lights)
 from .api.lighting import facet_truth, multinomial_counts, reflection_probability
 from .api.light_truths import expected_light_counts, kpt25_light_truth, wwh18_light_truth
@@ -88,6 +90,7 @@ __all__ = [
 ]
 __all__ += ["emit_shader", "shipped_shaders"]  # shipped shaders: declared in law traits, emitted paste-ready
 __all__ += ["ShaderSampler", "shader_sampler", "shipped_sampler"]  # samplers as shaders (docs/math/sampling.md#shader-samplers)
+__all__ += ["SamplerState"]  # how a shader's texture is read (docs/guide/shaders.md#textures-buffers-and-uniforms)
 __all__ += ["gpu_architectures", "gpu_cost"]  # shaders compiled for AMD GPUs without one (docs/guide/gpu_cost.md)
 __all__ += ["WWH18"]  # the "wwh18" glinty NDF's class (docs/math/wwh18.md)
 __all__ += ["matched_density", "db23_visible_glints"]  # KPT25 <-> DB23 (docs/math/glinty_ndf.md#glinty-matched)

@@ -129,17 +129,52 @@ std::string error_of(const KernelSpec& s, const WrapperDeclaration& kind) {
 }
 }  // namespace
 
-TEST_CASE("shader runner: a resource the contract does not bind is refused by name, before the driver", "[shader]") {
+TEST_CASE("shader runner: the user's resources move to set 1 and run only once bound", "[shader]") {
   if (!have_device()) return;
-  // Descriptor set 1 crashed lavapipe inside vkCreateComputePipelines / the dispatch.
-  const std::string set1 =
-      error_of(spec("layout(std430, set = 1, binding = 0) buffer Extra { float extra[]; };\n"
-                    "float count(float n, float p, vec4 u) { return extra[0]; }"));
-  CHECK(set1.find("'Extra' (storage buffer, set 1, binding 0) is not bound by glintlab") != std::string::npos);
-  const std::string cbuffer = error_of(
-      spec("cbuffer Params : register(b0) { float scale; };\nfloat count(float n, float p, float4 u) { return scale; }",
+  // Descriptor set 1 crashed lavapipe inside vkCreateComputePipelines / the dispatch when the pipeline
+  // layout lacked it; now the user's resources are reflected, moved to set 1 and bound by name.
+  Kernel set1(
+      spec("layout(std430, set = 1, binding = 3) readonly buffer Extra { float extra[]; };\n"
+           "float count(float n, float p, vec4 u) { return extra[1] * n; }"));
+  REQUIRE(set1.declared_resources().size() == 1);
+  CHECK(set1.declared_resources()[0].name == "Extra");
+  CHECK(set1.declared_resources()[0].kind == "storage buffer");
+  CHECK(set1.declared_resources()[0].size == 4);
+  const double n = 3, p = 0.5;
+  std::vector<double> u{0.5, 0.5};
+  float out = 0;
+  try {
+    set1.run(&n, 1, &p, 1, u.data(), 1, &out, 60.0);
+    FAIL("a kernel with an unbound resource ran");
+  } catch (const std::invalid_argument& e) {
+    CHECK(std::string(e.what()).find("'Extra' (storage buffer) is declared but no data is bound") != std::string::npos);
+  }
+  ResourceData extra;
+  extra.name = "Extra";
+  float values[2] = {0.25f, 7.0f};
+  std::uint32_t words[2];
+  std::memcpy(words, values, sizeof words);
+  extra.levels = {{words[0], words[1]}};
+  set1.bind_resources({extra});
+  set1.run(&n, 1, &p, 1, u.data(), 1, &out, 60.0);
+  CHECK(out == 21.0f);
+  ResourceData other = extra;
+  other.name = "Other";
+  CHECK_THROWS_WITH(set1.bind_resources({extra, other}),
+                    Catch::Contains("'Other' is given but the shader does not declare it"));
+  // A cbuffer is a uniform buffer with its members' names and offsets.
+  Kernel cbuffer(
+      spec("cbuffer Params : register(b0) { float scale; float3 tint; };\nfloat count(float n, float p, float4 u) { "
+           "return scale; }",
            "hlsl"));
-  CHECK(cbuffer.find("'Params' (uniform buffer, set 0, binding 0)") != std::string::npos);
+  REQUIRE(cbuffer.declared_resources().size() == 1);
+  const auto& block = cbuffer.declared_resources()[0];
+  CHECK((block.kind == "uniform buffer" && block.members.size() == 2));
+  CHECK((block.members[1].name == "tint" && block.members[1].offset >= 4 && block.members[1].components == 3));
+  // A storage image is not read-only: refused by name before the driver sees it.
+  CHECK(error_of(spec("layout(r32f) uniform image2D img;\n"
+                      "float count(float n, float p, vec4 u) { return imageLoad(img, ivec2(0)).r; }"))
+            .find("'img' (image) is not bound by glintlab: a storage image") != std::string::npos);
   // The wrapper's own resources are exactly the allowed ones.
   for (const std::string language : {"glsl", "hlsl"}) {
     const Kernel ok(spec(language == "glsl" ? "float count(float n, float p, vec4 u) { return n * p + u.x; }"

@@ -32,7 +32,7 @@ def files(tmp_path):
     f["latin1_shader"] = tmp_path / "latin1.hlsl"
     f["latin1_shader"].write_bytes(b"// caf\xe9\nfloat count(float n, float p, float4 u) { return n; }\n")
     f["set1_shader"] = tmp_path / "set1.glsl"
-    f["set1_shader"].write_text("layout(std430, set = 1, binding = 0) buffer X { float x[]; };\n"
+    f["set1_shader"].write_text("layout(std430, set = 1, binding = 0) readonly buffer X { float x[]; };\n"
                                 "float count(float n, float p, vec4 u) { return x[0]; }\n")
     f["cycle_shader"] = tmp_path / "cycle.hlsl"
     f["cycle_shader"].write_text('#include "cycle.hlsl"\nfloat count(float n, float p, float4 u) { return n; }\n')
@@ -92,7 +92,7 @@ CASES = [
     (["shader", "typo.txt", "--out", "{folder}/s"], "source = 'typo.txt'"),
     (["shader", "{folder}", "--out", "{folder}/s"], "not a folder"),
     (["shader", "{latin1_shader}", "--out", "{folder}/s"], "byte 0xe9 at offset 6"),
-    (["shader", "{set1_shader}", "--out", "{folder}/s"], "'X' (storage buffer, set 1, binding 0)"),
+    (["shader", "{set1_shader}", "--out", "{folder}/s"], "data for the storage buffer 'X'"),
     (["shader", "{cycle_shader}", "--out", "{folder}/s"], "#include cycle cycle.hlsl -> cycle.hlsl"),
     (["shader", "{bad_shader}", "--samples", "1.5", "--out", "{folder}/s"], "--samples"),
     (["shader", "{bad_shader}", "--samples", "1e400", "--out", "{folder}/s"], "--samples"),

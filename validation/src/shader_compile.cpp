@@ -416,9 +416,13 @@ class Includer final : public shaderc::CompileOptions::IncluderInterface {
 shaderc::CompileOptions options(const KernelSpec& spec, std::shared_ptr<IncludeState> state) {
   shaderc::CompileOptions o;
   o.SetSourceLanguage(spec.language == "hlsl" ? shaderc_source_language_hlsl : shaderc_source_language_glsl);
-  o.SetTargetEnvironment(shaderc_target_env_vulkan, shaderc_env_version_vulkan_1_0);
+  o.SetTargetEnvironment(shaderc_target_env_vulkan,
+                         spec.vulkan_1_1 ? shaderc_env_version_vulkan_1_1 : shaderc_env_version_vulkan_1_0);
   o.SetOptimizationLevel(shaderc_optimization_level_performance);
   o.SetGenerateDebugInfo();  // no effect on the code; keeps names in the SPIR-V for inspection
+  // The user's own textures, buffers and uniform blocks may come without a binding: shaderc gives them
+  // one, and the runner moves them all to set 1 anyway (remap_user_resources).
+  o.SetAutoBindUniforms(true);
   // A define without a value (Python None, the empty string) is `#define NAME`, as `-D NAME` would be.
   for (const auto& [name, value] : spec.defines) o.AddMacroDefinition(name, value);
   o.AddMacroDefinition("GLINTLAB_N_UNIFORMS", std::to_string(spec.n_uniforms));

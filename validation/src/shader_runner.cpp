@@ -62,10 +62,12 @@ void make_pipeline(Device& d, Pipeline& pl, const std::string& entry_point) {
   set.pBindings = bindings;
   check(vkCreateDescriptorSetLayout(d.dev, &set, nullptr, &pl.set_layout), "vkCreateDescriptorSetLayout");
   VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push)};
+  VkDescriptorSetLayout sets[2] = {pl.set_layout, VK_NULL_HANDLE};
+  if (!pl.user.empty()) sets[1] = pl.user_layout = detail::user_set_layout(d, pl.user);
   VkPipelineLayoutCreateInfo layout{};
   layout.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
-  layout.setLayoutCount = 1;
-  layout.pSetLayouts = &pl.set_layout;
+  layout.setLayoutCount = pl.user.empty() ? 1 : 2;
+  layout.pSetLayouts = sets;
   layout.pushConstantRangeCount = 1;
   layout.pPushConstantRanges = &range;
   check(vkCreatePipelineLayout(d.dev, &layout, nullptr, &pl.layout), "vkCreatePipelineLayout");
@@ -88,11 +90,13 @@ void check_timeout(double timeout_s) {
 // buffers (bindings 0-3, host-visible, binding 3 read back), and the one path every chunk takes.
 class Submission {
  public:
-  Submission(Device& d, const Pipeline& pl, const std::array<VkDeviceSize, 4>& bytes, double timeout_s)
+  Submission(Device& d, const Pipeline& pl, const std::array<VkDeviceSize, 4>& bytes, double timeout_s,
+             std::shared_ptr<detail::BoundResources> user)
       : d_(d), pl_(pl), lock_(d.mutex), job_(std::make_unique<Job>(d)), timeout_s_(timeout_s) {
     detail::wait_for_retired(d, timeout_s);
     for (int i = 0; i < 4; ++i) job_->make_buffer(i, bytes[static_cast<std::size_t>(i)], i == 3);
-    set_ = job_->bind(pl.set_layout);
+    job_->user = std::move(user);
+    set_ = job_->bind(pl.set_layout, pl.user_layout);
   }
   float* buffer(int binding) const { return static_cast<float*>(job_->buffers[binding].mapped); }
 
@@ -107,7 +111,9 @@ class Submission {
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     check(vkBeginCommandBuffer(command, &begin), "vkBeginCommandBuffer");
     vkCmdBindPipeline(command, VK_PIPELINE_BIND_POINT_COMPUTE, pl_.pipeline);
-    vkCmdBindDescriptorSets(command, VK_PIPELINE_BIND_POINT_COMPUTE, pl_.layout, 0, 1, &set_, 0, nullptr);
+    const VkDescriptorSet sets[2] = {set_, job_->user_set};
+    vkCmdBindDescriptorSets(command, VK_PIPELINE_BIND_POINT_COMPUTE, pl_.layout, 0, job_->user ? 2 : 1, sets, 0,
+                            nullptr);
     vkCmdPushConstants(command, pl_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &push);
     const bool timed = detail::timestamp_before(d_, command);  // DispatchTiming on this thread
     vkCmdDispatch(command, (push.count + kWorkGroupSize - 1) / kWorkGroupSize, 1, 1);
@@ -155,6 +161,18 @@ struct Kernel::Impl {
   std::shared_ptr<Pipeline> pipeline;
   int n_uniforms = 0;
   std::vector<std::pair<std::string, std::string>> included;
+  std::string source_name;
+  std::shared_ptr<detail::BoundResources> bound;  // the data of the declared resources, once bound
+
+  // The bound resources a call uses; throws naming the first declared resource when none are bound.
+  std::shared_ptr<detail::BoundResources> resources() const {
+    if (!pipeline->user.empty() && !bound) {
+      const auto& r = pipeline->user.front();
+      glintlab::throw_invalid_message("shader " + source_name + ": resource '" + r.name + "' (" + r.kind +
+                                      ") is declared but no data is bound to it (bind_resources)");
+    }
+    return bound;
+  }
 };
 
 Kernel::Kernel(const KernelSpec& spec) : Kernel(spec, law_wrapper(spec.entry)) {}
@@ -164,6 +182,7 @@ Kernel::Kernel(const KernelSpec& spec, const WrapperDeclaration& kind) : impl_(s
   Device& d = detail::device(detail::choose_device(spec.device));
   impl_->device = &d;
   impl_->n_uniforms = spec.n_uniforms;
+  impl_->source_name = spec.source_name;
   const std::string entry_point = spec.language == "hlsl" ? "glintlab_main" : "main";
   const std::string wrapper = generate_wrapper(kind, spec.language, spec.source_name);
   const std::string signature = wrapper_signature(kind, spec.language);
@@ -179,11 +198,15 @@ Kernel::Kernel(const KernelSpec& spec, const WrapperDeclaration& kind) : impl_(s
   }
   auto pl = std::make_shared<Pipeline>();
   pl->spirv = compile_spirv(spec, wrapper, entry_point, signature);
-  // Before the driver sees it: a resource the pipeline layout lacks (descriptor set 1) crashes lavapipe.
-  require_resources(pl->spirv, wrapper_resources(kind), spec.source_name,
-                    "only the arguments of " + signature +
-                        " (glintlab's own buffers at set 0, bindings 0-3, and its push constant); pass data "
-                        "through the uniforms or as constants and defines");
+  // Before the driver sees it: the user's resources move to set 1 (a resource the pipeline layout lacks
+  // crashes lavapipe), and one the runner cannot bind is refused by name.
+  pl->user = remap_user_resources(pl->spirv, wrapper_resources(kind));
+  for (const auto& r : pl->user)
+    if (!r.refused.empty())
+      glintlab::throw_invalid_message("shader " + spec.source_name + ": resource '" + r.name + "' (" + r.kind +
+                                      ") is not bound by glintlab: " + r.refused + "; expected the arguments of " +
+                                      signature +
+                                      " and read-only textures, samplers, storage buffers and uniform blocks");
   pl->unbounded_loops = shader::unbounded_loops(pl->spirv);
   make_pipeline(d, *pl, entry_point);
   d.pipelines[key.str()] = pl;
@@ -198,6 +221,13 @@ int Kernel::n_uniforms() const { return impl_->n_uniforms; }
 const std::vector<std::uint32_t>& Kernel::spirv() const { return impl_->pipeline->spirv; }
 const std::vector<std::pair<std::string, std::string>>& Kernel::included_files() const { return impl_->included; }
 int Kernel::unbounded_loops() const { return impl_->pipeline->unbounded_loops; }
+const std::vector<DeclaredResource>& Kernel::declared_resources() const { return impl_->pipeline->user; }
+
+void Kernel::bind_resources(const std::vector<ResourceData>& data) {
+  Device& d = *impl_->device;
+  std::lock_guard<std::mutex> lock(d.mutex);
+  impl_->bound = detail::bind_user_resources(d, impl_->pipeline->user, data, impl_->source_name);
+}
 
 void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size_t p_size, const double* u,
                  std::size_t count, float* out, double timeout_s) const {
@@ -210,7 +240,7 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
   Submission call(*impl_->device, *impl_->pipeline,
                   {(n_size == 1 ? 1 : chunk) * sizeof(float), (p_size == 1 ? 1 : chunk) * sizeof(float),
                    chunk * 4 * sizeof(float), chunk * sizeof(float)},
-                  timeout_s);
+                  timeout_s, impl_->resources());
   float* nb = call.buffer(0);
   float* pb = call.buffer(1);
   float* ub = call.buffer(2);
@@ -236,21 +266,22 @@ void Kernel::run(const double* n, std::size_t n_size, const double* p, std::size
 // The row kinds' path (method shaders, shader samplers): binding 0 holds in_stride words per row,
 // binding 3 receives out_stride floats per row; bindings 1 and 2 are one-word placeholders.
 void Kernel::run_rows(const float* in, std::size_t in_stride, std::size_t count, float* out, std::size_t out_stride,
-                      double timeout_s) const {
+                      double timeout_s, std::uint32_t lanes) const {
   if (count == 0) return;
   check_timeout(timeout_s);
-  if (in_stride == 0 || out_stride == 0) glintlab::throw_invalid_message("run_rows: strides must be > 0");
+  if (in_stride == 0 || out_stride == 0 || lanes == 0 || lanes > 4)
+    glintlab::throw_invalid_message("run_rows: strides must be > 0, lanes 1 to 4");
   const std::size_t chunk = std::min(count, kChunkRows / 4);
   Submission call(
       *impl_->device, *impl_->pipeline,
       {chunk * in_stride * sizeof(float), 4 * sizeof(float), 4 * sizeof(float), chunk * out_stride * sizeof(float)},
-      timeout_s);
+      timeout_s, impl_->resources());
   float* ib = call.buffer(0);
   const float* ob = call.buffer(3);
   for (std::size_t base = 0; base < count; base += chunk) {
     const std::size_t rows = std::min(chunk, count - base);
     std::memcpy(ib, in + base * in_stride, rows * in_stride * sizeof(float));
-    call.dispatch({static_cast<std::uint32_t>(rows), static_cast<std::uint32_t>(in_stride),
+    call.dispatch({static_cast<std::uint32_t>(rows) * lanes, static_cast<std::uint32_t>(in_stride),
                    static_cast<std::uint32_t>(out_stride), 0u},
                   base);
     std::memcpy(out + base * out_stride, ob, rows * out_stride * sizeof(float));

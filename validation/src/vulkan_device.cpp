@@ -243,13 +243,15 @@ void Job::make_buffer(int i, VkDeviceSize size, bool readback) {
   check(vkMapMemory(d.dev, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory");
 }
 
-VkDescriptorSet Job::bind(VkDescriptorSetLayout layout) {
-  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4};
+VkDescriptorSet Job::bind(VkDescriptorSetLayout layout, VkDescriptorSetLayout user_layout) {
+  std::vector<VkDescriptorPoolSize> sizes{{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4}};
+  if (user)
+    for (const auto& e : user->entries) sizes.push_back({e.type, 1});
   VkDescriptorPoolCreateInfo pool_info{};
   pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  pool_info.maxSets = 1;
-  pool_info.poolSizeCount = 1;
-  pool_info.pPoolSizes = &size;
+  pool_info.maxSets = user ? 2 : 1;
+  pool_info.poolSizeCount = static_cast<std::uint32_t>(sizes.size());
+  pool_info.pPoolSizes = sizes.data();
   check(vkCreateDescriptorPool(d.dev, &pool_info, nullptr, &descriptor_pool), "vkCreateDescriptorPool");
   VkDescriptorSetAllocateInfo alloc{};
   alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
@@ -270,6 +272,7 @@ VkDescriptorSet Job::bind(VkDescriptorSetLayout layout) {
     writes[i].pBufferInfo = &infos[i];
   }
   vkUpdateDescriptorSets(d.dev, 4, writes, 0, nullptr);
+  if (user) write_user_set(*user, user_layout);
   VkCommandBufferAllocateInfo cmd{};
   cmd.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
   cmd.commandPool = d.pool;
@@ -280,6 +283,35 @@ VkDescriptorSet Job::bind(VkDescriptorSetLayout layout) {
   fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
   check(vkCreateFence(d.dev, &fence_info, nullptr, &fence), "vkCreateFence");
   return set;
+}
+
+void Job::write_user_set(const BoundResources& bound, VkDescriptorSetLayout user_layout) {
+  VkDescriptorSetAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  alloc.descriptorPool = descriptor_pool;
+  alloc.descriptorSetCount = 1;
+  alloc.pSetLayouts = &user_layout;
+  check(vkAllocateDescriptorSets(d.dev, &alloc, &user_set), "vkAllocateDescriptorSets");
+  const std::size_t n = bound.entries.size();
+  std::vector<VkDescriptorImageInfo> images(n);
+  std::vector<VkDescriptorBufferInfo> buffers_info(n);
+  std::vector<VkWriteDescriptorSet> writes(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& e = bound.entries[i];
+    writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    writes[i].dstSet = user_set;
+    writes[i].dstBinding = static_cast<std::uint32_t>(i);
+    writes[i].descriptorCount = 1;
+    writes[i].descriptorType = e.type;
+    if (e.type == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER || e.type == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER) {
+      buffers_info[i] = {e.buffer.buffer, 0, VK_WHOLE_SIZE};
+      writes[i].pBufferInfo = &buffers_info[i];
+    } else {
+      images[i] = {e.sampler, e.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+      writes[i].pImageInfo = &images[i];
+    }
+  }
+  vkUpdateDescriptorSets(d.dev, static_cast<std::uint32_t>(n), writes.data(), 0, nullptr);
 }
 
 namespace {

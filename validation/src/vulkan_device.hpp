@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "glintlab/validation/shader.hpp"
+
 namespace glintlab::shader::detail {
 
 constexpr const char* kInstallHint =
@@ -25,10 +27,13 @@ std::string vk_error(const char* what, VkResult r);
 void check(VkResult r, const char* what);
 
 // A compiled kernel's pipeline: its layout (four storage buffers at set 0, bindings 0-3, and a push
-// constant of four words) is the same for every kind of kernel.
+// constant of four words) is the same for every kind of kernel; the user's own resources, when the code
+// declares any, are set 1 (kUserSet).
 struct Pipeline {
   VkShaderModule module = VK_NULL_HANDLE;
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+  VkDescriptorSetLayout user_layout = VK_NULL_HANDLE;  // set 1, when `user` is not empty
+  std::vector<DeclaredResource> user;
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline pipeline = VK_NULL_HANDLE;
   std::vector<std::uint32_t> spirv;
@@ -63,11 +68,41 @@ struct Buffer {
   VkDeviceSize size = 0;
 };
 
+// The Vulkan objects holding the data bound to a kernel's declared resources (Kernel::bind_resources),
+// one entry per declared resource in binding order; shared by the jobs that use them, so a retired job
+// keeps them alive until its fence signals.
+struct BoundResources {
+  Device& d;
+  struct Entry {
+    VkDescriptorType type = VK_DESCRIPTOR_TYPE_SAMPLER;
+    VkImage image = VK_NULL_HANDLE;
+    VkImageView view = VK_NULL_HANDLE;
+    VkSampler sampler = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;  // the image's
+    Buffer buffer;                           // storage and uniform buffers
+  };
+  std::vector<Entry> entries;
+  explicit BoundResources(Device& device) : d(device) {}
+  ~BoundResources();
+  BoundResources(const BoundResources&) = delete;
+  BoundResources& operator=(const BoundResources&) = delete;
+};
+
+// The descriptor set layout of the declared resources (set 1).
+VkDescriptorSetLayout user_set_layout(Device& d, const std::vector<DeclaredResource>& user);
+// The data bound to `user` on device d (with d.mutex held: uploads use the queue). Throws
+// std::invalid_argument naming a resource left unbound, one not declared, or data that does not fit.
+std::shared_ptr<BoundResources> bind_user_resources(Device& d, const std::vector<DeclaredResource>& user,
+                                                    const std::vector<ResourceData>& data,
+                                                    const std::string& source_name);
+
 // One call's resources. Freed when the call returns, or, when its kernel passed its timeout, retired to
 // the device and freed once its fence signals.
 struct Job {
   Device& d;
-  Buffer buffers[4];  // bindings 0-3
+  Buffer buffers[4];                     // bindings 0-3
+  std::shared_ptr<BoundResources> user;  // set 1, when the kernel declares resources
+  VkDescriptorSet user_set = VK_NULL_HANDLE;
   VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
   VkCommandBuffer command = VK_NULL_HANDLE;
   VkFence fence = VK_NULL_HANDLE;
@@ -78,9 +113,11 @@ struct Job {
   Job& operator=(const Job&) = delete;
   // Buffer i, host-visible and mapped (`readback`: cached memory where the device has it).
   void make_buffer(int i, VkDeviceSize size, bool readback);
-  // Binds the four buffers as storage buffers 0-3 of a descriptor set of `layout` and allocates the
-  // command buffer and fence of this job. Returns the set.
-  VkDescriptorSet bind(VkDescriptorSetLayout layout);
+  // Binds the four buffers as storage buffers 0-3 of a descriptor set of `layout` (and `user`'s
+  // resources to a set of `user_layout`, into user_set) and allocates the command buffer and fence of
+  // this job. Returns the set.
+  VkDescriptorSet bind(VkDescriptorSetLayout layout, VkDescriptorSetLayout user_layout = VK_NULL_HANDLE);
+  void write_user_set(const BoundResources& bound, VkDescriptorSetLayout user_layout);
 };
 
 // With d.mutex held, before a submission: an earlier kernel that passed its timeout and still runs

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..resources import data_path
 from . import checks as V
+from . import shader_resources
 from .glinty_ndf import DB23, KPT25, GlintyNDF, Material, matched_density, pixel_arrays, register_image_method
 from .grids import aniso_counter, footprint_shapes
 from .method_shaders import (ShaderMethod, ShippedShader, check_output, frame_rows, pack_inputs,
@@ -160,16 +161,24 @@ def user_ndf_method(spec: dict, material: Material | None = None) -> NdfShaderMe
     if "includes" in spec:
         # A spec compiled once carries its #included files' bytes: hex in the cache key (JSON has no bytes).
         spec["includes"] = [(path, bytes(content).hex()) for path, content in spec["includes"]]
-    return _user_ndf(json.dumps(spec, sort_keys=True), material)
+    # The resources' arrays are no JSON: the cache keys them by their digest and keeps them aside.
+    resources = spec.pop("resources", None) or {}
+    key = shader_resources.digest(resources).hex() if resources else ""
+    _RESOURCES.setdefault(key, resources)
+    return _user_ndf(json.dumps(spec, sort_keys=True), key, material)
+
+
+_RESOURCES: dict = {}  # digest -> the resources of the NDF shaders made (what _user_ndf's key names)
 
 
 @functools.lru_cache(maxsize=16)
-def _user_ndf(spec_json: str, material: Material) -> NdfShaderMethod:
+def _user_ndf(spec_json: str, resources_key: str, material: Material) -> NdfShaderMethod:
     # One compiled method per (shader, material): the scene images ask for a scene's method once per frame.
     spec = json.loads(spec_json)
     spec["defines"] = [tuple(d) for d in spec["defines"]]
     if "includes" in spec:
         spec["includes"] = [(path, bytes.fromhex(content)) for path, content in spec["includes"]]
+    spec["resources"] = _RESOURCES[resources_key]
     return NdfShaderMethod(spec, material.target, material.alpha, material.density)
 
 
@@ -178,17 +187,46 @@ register_ndf_shader_factory(user_ndf_method)
 
 @functools.lru_cache(maxsize=16)
 def _db23(key: tuple) -> NdfShaderMethod:
-    material, lod_bias, key_salt, language = key
-    spec = _spec(db23_shader(language), "db23_shader", db23_defines(material, lod_bias, key_salt))
+    material, lod_bias, key_salt, language, texture_key = key
+    defines = db23_defines(material, lod_bias, key_salt)
+    spec = _spec(db23_shader(language), "db23_shader", defines)
+    if texture_key:
+        texture = _RESOURCES[texture_key]
+        spec = _spec(db23_shader(language), "db23_shader",
+                     dict(defines, DB23_RANDOM_TEXTURE=1, DB23_RANDOM_TILE=texture.shape[0]))
+        spec["resources"] = shader_resources.resource_spec(
+            textures={"DB23RandomTex": (texture, {"filter": "nearest", "address": "wrap"})})
     return NdfShaderMethod(spec, material.target, material.alpha, material.density)
 
 
-def db23_method(material: Material, lod_bias: int = 0, key_salt: int = 0, language: str = "glsl") -> NdfShaderMethod:
+def db23_random_texture(tile: int = 64, seed: int = 0) -> np.ndarray:
+    """A texture of precomputed random numbers for DB23's shader (``db23_method(random_texture=...)``):
+    (tile, tile, 2) float32 uniforms, each (k + 1/2) / 2^23 for a uniform integer k < 2^23 (never 0 or 1,
+    the float32 rule of glintlab's uniforms), from numpy's PCG64 seeded with ``seed``."""
+    V.integer("tile", tile, 1, 4096)
+    k = np.random.default_rng(V.seed(seed)).integers(0, 2**23, (tile, tile, 2))
+    return ((k + 0.5) / 2.0**23).astype(np.float32)
+
+
+def db23_method(material: Material, lod_bias: int = 0, key_salt: int = 0, language: str = "glsl",
+                random_texture=None) -> NdfShaderMethod:
     """DB23's counting pipeline as a method shader for ``material`` (GLSL or HLSL: one body), compiled on
-    first use, once per parameter set."""
+    first use, once per parameter set. ``random_texture``: None (each cell's two uniforms hashed from
+    glintlab's keys, the C++ twin's numbers) or a (tile, tile, 2) array of uniforms in (0, 1)
+    (:func:`db23_random_texture`) that the shader reads instead, as DB23's public shaders read a texture
+    of precomputed random numbers (DB23_RANDOM_TEXTURE; the hashed key still offsets each grid's tiling)."""
     if not isinstance(material, Material):
         V.fail("material", material, "a glintlab Material (density, target, alpha, R, angular texel)")
-    return _db23((material, int(lod_bias), int(key_salt), _language(language)))
+    texture_key = ""
+    if random_texture is not None:
+        t = np.asarray(random_texture)
+        if t.ndim != 3 or t.shape[0] != t.shape[1] or t.shape[2] != 2 or t.dtype.kind != "f":
+            V.fail("random_texture", f"an array of shape {t.shape} ({t.dtype})", "a (tile, tile, 2) float array")
+        if not ((t > 0) & (t < 1)).all():
+            V.fail("random_texture", "values outside (0, 1)", "uniforms in the open interval (0, 1)")
+        texture_key = "db23:" + shader_resources.digest({"textures": {"t": {"array": t}}}).hex()
+        _RESOURCES.setdefault(texture_key, np.array(t, np.float32))
+    return _db23((material, int(lod_bias), int(key_salt), _language(language), texture_key))
 
 
 def db23_twin_ndf(material: Material) -> DB23:

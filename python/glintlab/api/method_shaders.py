@@ -30,7 +30,7 @@ import numpy as np
 from .. import _core
 from ..resources import data_path
 from . import checks as V
-from . import fpmath
+from . import fpmath, shader_resources
 from .glinty_ndf import IMAGE_METHODS, GlintyNDF, register_image_method
 from .shaders import DEFAULT_TIMEOUT_S, ShaderBacked, ShaderOutputError, kernel_spec
 
@@ -205,6 +205,16 @@ def check_output(name: str, values, where: str, what: str = "intensity") -> None
 _NDF_SHADER_FACTORY = [None]
 
 
+# What builds a fragment-mode method, ``factory(spec, varyings, output)``: fragment_shaders.fragment_method,
+# registered when that module is imported (glintlab's __init__ imports it).
+_FRAGMENT_FACTORY = [None]
+
+
+def register_fragment_factory(factory) -> None:
+    """Sets what ``shader_method(..., mode="fragment")`` builds (api/fragment_shaders.py calls it)."""
+    _FRAGMENT_FACTORY[0] = factory
+
+
 def register_ndf_shader_factory(factory) -> None:
     """Sets what ``shader_method(..., returns="ndf")`` builds (api/counting_shaders.py calls it)."""
     _NDF_SHADER_FACTORY[0] = factory
@@ -227,7 +237,9 @@ def _check_method_name(name: str) -> None:
 def shader_method(source, language: str | None = None, entry: str = "glint", name: str | None = None,
                   defines: dict | None = None, include_dirs=(), device: str = "auto",
                   timeout: float = DEFAULT_TIMEOUT_S, register: bool = True, returns: str = "intensity",
-                  material=None) -> ShaderMethod:
+                  material=None, textures: dict | None = None, samplers: dict | None = None,
+                  buffers: dict | None = None, uniforms: dict | None = None, mode: str | None = None,
+                  varyings: dict | None = None, output: str | None = None) -> ShaderMethod:
     """A whole glint method written as a shader function, compiled and run by Vulkan.
 
     ``source``: a file path (``.hlsl``, ``.glsl``, ...) or the code as a string, defining
@@ -250,10 +262,30 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
     built-in NDF method). An NDF shader is compiled once per scene material, which it reads as the defines
     GLINTLAB_DENSITY (facets per unit texture area), GLINTLAB_ALPHA, GLINTLAB_GGX (1 for GGX, 0 for
     Beckmann) and GLINTLAB_R; the object returned is the method for ``material`` (a :class:`Material`;
-    default: the sphere scene's), with ``evaluate(uv, J, h, seed)`` as every glinty NDF."""
+    default: the sphere scene's), with ``evaluate(uv, J, h, seed)`` as every glinty NDF.
+
+    ``textures``, ``samplers``, ``buffers``, ``uniforms``: the data of the read-only resources the code
+    declares, by name (``glintlab.api.shader_resources``: a dictionary texture, a table in a storage
+    buffer, a cbuffer's members).
+
+    ``mode``: "method" (the contract above) or "fragment" (GLSL fragment-shader code as written:
+    ``#version``, ``in``/``out``, loose uniforms, ``void main()``, ``dFdx``/``dFdy``/``fwidth``,
+    ``texture()``; ``glintlab.api.fragment_shaders``); default "fragment" for a ``.frag`` file. In the
+    fragment mode ``varyings`` ({"vUv": "uv", ...}) sets the shader's ``in`` variables (and uniforms the
+    scene drives, e.g. a light direction) from GlintInput's fields, and ``output`` names the ``out``
+    variable holding the colour when there are several."""
     V.choice("returns", returns, ("intensity", "ndf"))
+    if mode is None:
+        mode = "fragment" if str(source).lower().endswith(".frag") else "method"
+    V.choice("mode", mode, ("method", "fragment"))
+    if mode == "method" and (varyings is not None or output is not None):
+        V.fail("varyings" if varyings is not None else "output", varyings if varyings is not None else output,
+               "None outside the fragment mode (mode='fragment')")
+    if mode == "fragment" and returns != "intensity":
+        V.fail("returns", returns, "'intensity' in the fragment mode (the shader's colour is the pixel's)")
     spec = kernel_spec(source, language, entry, defines, include_dirs, device, timeout,
-                       defaults=(data_path("shaders"),), none_defines=False)
+                       defaults=(data_path("shaders"),), none_defines=False,
+                       resources=shader_resources.resource_spec(textures, samplers, buffers, uniforms))
     if name is None:
         name = Path(spec["source_name"]).stem if spec["source_name"] != "<string>" else "shader_method"
     if not isinstance(name, str) or not name:
@@ -261,6 +293,12 @@ def shader_method(source, language: str | None = None, entry: str = "glint", nam
     if register:
         _check_method_name(name)
     spec["name"] = name
+    if mode == "fragment":
+        method = _FRAGMENT_FACTORY[0](spec, varyings, output)
+        if register:
+            register_image_method(name, lambda m, method=method: method, label=name, replace=True,
+                                  returns="intensity", origin="shader_method")
+        return method
     if returns == "ndf":
         factory = _NDF_SHADER_FACTORY[0]
         if register:
@@ -322,21 +360,45 @@ def wb16_shader(language: str = "glsl") -> Path:
 
 @functools.lru_cache(maxsize=16)
 def _wb16(defines: tuple, language: str) -> ShaderMethod:
-    return shader_method(wb16_shader(language), language=language, name="wb16", defines=dict(defines),
-                         register=False)
+    textures = samplers = None
+    defines = dict(defines)
+    if "WB16_NOISE_TEXTURE" in defines:  # the seed of the texture's cell values; the shader's switch is 1
+        textures = {"WB16NoiseTex": (wb16_noise_texture(defines["WB16_NOISE_TEXTURE"]),
+                                     {"filter": "linear", "address": "wrap"})}
+        defines["WB16_NOISE_TEXTURE"] = 1
+        samplers = {"WB16NoiseSampler": {"filter": "linear", "address": "wrap"}} if language == "hlsl" else None
+    return shader_method(wb16_shader(language), language=language, name="wb16", defines=defines,
+                         register=False, textures=textures, samplers=samplers)
+
+
+@functools.lru_cache(maxsize=2)
+def wb16_noise_texture(seed: int = 0, size: int = 128) -> np.ndarray:
+    """WB16's 3D noise texture (WB16_NOISE_TEXTURE 1): (size, size, size, 3) float32, texel (z, y, x)
+    holding glintlab_cell_values((x, y, z), seed), so that the texture read with linear filtering and
+    wrapping is the hashed noise glintlab_noise3 of that seed (at size 128)."""
+    V.integer("size", size, 1, 512)
+    z, y, x = np.meshgrid(np.arange(size), np.arange(size), np.arange(size), indexing="ij")
+    cells = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    values = cell_values(cells, np.full(len(cells), V.integer("seed", seed, 0, 2**32 - 1), np.uint32))
+    return values.reshape(size, size, size, 3)
 
 
 _WB16_SWITCHES = ("WB16_SHAPE", "WB16_NOISE", "WB16_ANISOTROPIC")
 
 
-def wb16_method(language: str = "glsl", **params) -> ShaderMethod:
+def wb16_method(language: str = "glsl", noise_texture=None, **params) -> ShaderMethod:
     """WB16's sparkle shader, compiled once per language and parameter set: ``params`` are its defines
     without the ``WB16_`` prefix, lower case (``sparkle_size=0.9``, ``shape=1`` for Shopf's star,
     ``noise=1`` for Shopf's lookup jitter, ...; ``WB16_DEFAULTS``); ``language`` "glsl" or "hlsl"
-    (the same body, the same image)."""
+    (the same body, the same image). ``noise_texture``: None (the hashed noise) or the seed whose cell
+    values fill WB16's 3D noise texture, read instead (WB16_NOISE_TEXTURE 1, :func:`wb16_noise_texture`:
+    the same noise for frames of that seed)."""
     if language not in WB16_SHADERS:
         V.fail("language", language, "'hlsl' or 'glsl'")
     defines = {}
+    if noise_texture is not None:
+        defines["WB16_NOISE_TEXTURE"] = V.integer("noise_texture", noise_texture, 0, 2**32 - 1,
+                                                  expected="None or a seed in [0, 2^32)")
     for key, value in params.items():
         macro = "WB16_" + str(key).upper()
         if macro not in WB16_DEFAULTS:

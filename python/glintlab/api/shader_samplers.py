@@ -42,6 +42,7 @@ import numpy as np
 from .. import _core
 from ..resources import data_path
 from . import checks as V
+from . import shader_resources
 from .samplers import SAMPLER_LOADERS, Sampler, _points, _size, _unit
 from .shaders import (_ERROR_LINE, _EXTENSIONS, _WRAPPER_FILE, DEFAULT_TIMEOUT_S, LANGUAGES, ShaderBacked,
                       ShaderCompileError, ShaderOutputError, _utf8, compile_error, kernel_spec)
@@ -367,7 +368,9 @@ def _pick_contract(spec: dict, contract) -> str:
 def shader_sampler(source, language: str | None = None, name: str | None = None, defines: dict | None = None,
                    wo=DEFAULT_WO, uv=DEFAULT_UV, J=DEFAULT_J, domain: str = "hemisphere", include_dirs=(),
                    device="auto", timeout: float = DEFAULT_TIMEOUT_S, *, contract: str | None = None,
-                   directions: str | None = None, clamp_pdf: bool = False) -> ShaderSampler:
+                   directions: str | None = None, clamp_pdf: bool = False, textures: dict | None = None,
+                   samplers: dict | None = None, buffers: dict | None = None,
+                   uniforms: dict | None = None) -> ShaderSampler:
     """A direction sampler written as a shader: ``sample_h`` and ``pdf_h``, or ``sample_l`` and
     ``pdf_l`` (module docstring), compiled by shaderc and run by Vulkan for one pixel and one outgoing
     direction.
@@ -385,13 +388,16 @@ def shader_sampler(source, language: str | None = None, name: str | None = None,
     (the test's notes say how often) instead of refused. A shader that does not compile, or lacks either
     function or gives it another signature, raises ``ShaderCompileError`` (a ``ValueError``; one line
     naming file:line, the compiler's text in ``.messages``); no Vulkan device raises ``RuntimeError``.
+    ``textures``, ``samplers``, ``buffers``, ``uniforms``: the data of the read-only resources the code
+    declares, by name (``glintlab.api.shader_resources``).
 
     >>> s = shader_sampler(shipped_sampler("ggx_vndf"), defines={"ALPHA": 0.5})  # doctest: +SKIP
     >>> gl.sampler_test(s, samples=10**5).passed                                 # doctest: +SKIP
     True
     """
     spec = kernel_spec(source, language, SAMPLE_ENTRY, defines, include_dirs, device, timeout,
-                       defaults=(data_path("shaders"),))
+                       defaults=(data_path("shaders"),),
+                       resources=shader_resources.resource_spec(textures, samplers, buffers, uniforms))
     for d in spec["include_dirs"][:-1]:  # the caller's (glintlab's own comes last)
         if not os.path.isdir(d):
             V.fail("include_dirs", d, "existing folders")
@@ -426,7 +432,7 @@ def shipped_sampler(name: str = "ggx_vndf", language: str = "hlsl") -> Path:
 
 
 _KEYWORDS = ("language", "name", "wo", "uv", "J", "domain", "device", "timeout", "contract", "directions",
-             "clamp_pdf", "include_dirs")
+             "clamp_pdf", "include_dirs", "textures", "samplers", "buffers", "uniforms")
 
 
 def load_shader_sampler(path: str, **params) -> ShaderSampler:
@@ -438,5 +444,5 @@ def load_shader_sampler(path: str, **params) -> ShaderSampler:
     return shader_sampler(path, defines=params, **kwargs)
 
 
-for _suffix in _EXTENSIONS:
+for _suffix in (x for x in _EXTENSIONS if x != ".frag"):  # a fragment shader is a method, never a sampler
     SAMPLER_LOADERS.register(_suffix, load_shader_sampler)

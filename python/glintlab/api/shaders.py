@@ -25,11 +25,13 @@ import numpy as np
 from .. import _core
 from ..resources import data_path
 from . import checks as v
+from . import shader_resources
+from .hlsl_dialect import dxc_only_hint
 from .laws import BINNINGS, CustomLaw, _require_finite, _uniform_rows, law
 from .plugins import CUSTOM_LAWS
 
 LANGUAGES = ("hlsl", "glsl")
-_EXTENSIONS = {".hlsl": "hlsl", ".hlsli": "hlsl", ".fx": "hlsl", ".glsl": "glsl", ".comp": "glsl"}
+_EXTENSIONS = {".hlsl": "hlsl", ".hlsli": "hlsl", ".fx": "hlsl", ".glsl": "glsl", ".comp": "glsl", ".frag": "glsl"}
 DEFAULT_TIMEOUT_S = 60.0
 _CHUNK = 1 << 22  # rows handed to the runner at once (the runner submits 2^20 at a time)
 
@@ -319,11 +321,18 @@ class ShaderBacked:
             s = self._spec
             sealed = [(path, content) for path, content in s.get("includes", ())]
             try:
-                self._compiled = self._make_kernel(s, sealed)
+                kernel = self._make_kernel(s, sealed)
             except ValueError as exc:
                 if is_compile_failure(exc):
-                    raise self._compile_failure(exc) from None
+                    error = self._compile_failure(exc)
+                    # HLSL that only DXC compiles: say which construct, and how glslang takes it.
+                    hint = dxc_only_hint(s["code"]) if s["language"] == "hlsl" else ""
+                    raise (ShaderCompileError(f"{error}; {hint}", error.messages) if hint else error) from None
                 raise
+            # The data of the textures, buffers and uniforms the code declares, checked against the
+            # declarations (a kernel whose resources do not fit is never kept).
+            shader_resources.bind(kernel, s.get("resources", {}), s["source_name"])
+            self._compiled = kernel
             if "includes" not in s:
                 s["includes"] = [(path, bytes(content)) for path, content in self._compiled.included_files]
         return self._compiled
@@ -359,7 +368,9 @@ class ShaderBacked:
         """The first 16 hex digits of the sha256 of the SPIR-V, the device's name and ``extra``: what an
         identity names (the compiled code with its #includes and defines, and the device that runs it:
         GPUs differ in pow, exp, log)."""
-        return hashlib.sha256(self._kernel.spirv + self.device.encode() + extra).hexdigest()[:16]
+        resources = self._spec.get("resources")
+        bound = shader_resources.digest(resources) if resources else b""
+        return hashlib.sha256(self._kernel.spirv + self.device.encode() + extra + bound).hexdigest()[:16]
 
     def _reduce_args(self) -> tuple:
         return (self._spec,)
@@ -371,12 +382,13 @@ class ShaderBacked:
 
 
 def kernel_spec(source, language, entry, defines, include_dirs, device, timeout, defaults: tuple = (),
-                none_defines: bool = True) -> dict:
+                none_defines: bool = True, resources: dict | None = None) -> dict:
     """The spec every shader-backed object starts from: the code and its file's name (``source``: a path
     or the code; ``language`` from the extension when None, "hlsl" for code in a string), ``entry``,
     the defines as sorted (name, text) pairs (:func:`_define_value`; ``none_defines`` False refuses
     None as a value), the include folders (then ``defaults``, glintlab's own), the device request
-    (:func:`_device_request`: "auto", "gpu", "cpu", an index or part of a name) and the timeout."""
+    (:func:`_device_request`: "auto", "gpu", "cpu", an index or part of a name), the timeout and the
+    ``resources`` (``shader_resources.resource_spec``: textures, samplers, buffers, uniforms)."""
     if language is not None and language not in LANGUAGES:
         v.fail("language", language, "'hlsl' or 'glsl'")
     code, source_name, language = _read_source(source, language)
@@ -394,7 +406,7 @@ def kernel_spec(source, language, entry, defines, include_dirs, device, timeout,
     return {"code": code, "source_name": source_name, "entry": entry, "language": language,
             "defines": sorted((k, _define_value(k, val)) for k, val in defines.items()),
             "include_dirs": [_utf8("include_dirs", os.fspath(d)) for d in include_dirs] + [str(d) for d in defaults],
-            "device": _device_request(device), "timeout": float(timeout)}
+            "device": _device_request(device), "timeout": float(timeout), "resources": dict(resources or {})}
 
 
 class ShaderLaw(ShaderBacked, CustomLaw):
@@ -466,7 +478,9 @@ class ShaderLaw(ShaderBacked, CustomLaw):
 
 def shader_law(source, entry: str = "count", language: str | None = None, n_uniforms: int = 2,
                name: str | None = None, defines: dict | None = None, include_dirs=(), device: str = "auto",
-               binning: str = "round", timeout: float = DEFAULT_TIMEOUT_S, register: bool = True) -> ShaderLaw:
+               binning: str = "round", timeout: float = DEFAULT_TIMEOUT_S, register: bool = True,
+               textures: dict | None = None, samplers: dict | None = None, buffers: dict | None = None,
+               uniforms: dict | None = None) -> ShaderLaw:
     """A counting law computed by a shader function, compiled by shaderc and run by Vulkan.
 
     ``source``: a file path (``.hlsl``, ``.glsl``, ...) or the code as a string (a string on one line
@@ -483,13 +497,17 @@ def shader_law(source, entry: str = "count", language: str | None = None, n_unif
 
     Unless ``register`` is False, the law is registered as a custom law under ``name`` (default: the
     file's name, e.g. "gated.hlsl", or "shader"), so
-    experiments, sweeps and bounds can name it. A shader that does not compile raises ``ValueError``
-    with the compiler's messages (file:line), as does one reading a resource glintlab does not bind
-    (its own buffer, a cbuffer, a texture) and an ``#include`` cycle; no Vulkan device raises
+    experiments, sweeps and bounds can name it. ``textures``, ``samplers``, ``buffers``, ``uniforms``:
+    the data of the read-only resources the code declares, by name (``glintlab.api.shader_resources``;
+    a declared resource left unbound, a name never declared or data that does not fit its declaration is
+    a ``ValueError`` naming it). A shader that does not compile raises ``ValueError``
+    with the compiler's messages (file:line), as does one declaring a resource glintlab cannot bind
+    (a storage image, a push constant of its own) and an ``#include`` cycle; no Vulkan device raises
     ``RuntimeError`` naming the package to install. A NaN, infinite or negative count from ``sample``
     or ``evaluate`` raises ``ShaderOutputError`` (a ``ValueError``).
     """
-    spec = kernel_spec(source, language, entry, defines, include_dirs, device, timeout)
+    spec = kernel_spec(source, language, entry, defines, include_dirs, device, timeout,
+                       resources=shader_resources.resource_spec(textures, samplers, buffers, uniforms))
     v.integer("n_uniforms", n_uniforms, 0, 4, expected="an integer from 0 to 4")
     if name is None:
         name = Path(spec["source_name"]).name if spec["source_name"] != "<string>" else "shader"

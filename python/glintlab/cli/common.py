@@ -15,6 +15,7 @@ from pathlib import Path
 import pandas as pd
 
 from ..api.plugins import load_plugin
+from ..api.shader_resources import read_image
 from ..studies.experiment_plots import run_experiment
 from ..api import checks as V
 
@@ -196,6 +197,57 @@ def given_shader_options(args) -> dict:
 
 
 # ---------------------------------------------------------------- runtime helpers
+
+def add_resource_options(p):
+    """--texture NAME=FILE and --uniform NAME=VALUE: the data of the read-only resources a shader
+    declares (``shader``, ``sampler``, ``images``; docs/guide/shaders.md#textures-buffers-and-uniforms)."""
+    p.add_argument("--texture", action="append", default=[], metavar="NAME=FILE",
+                   help="bind an image file (PNG, OpenEXR, or a .npy array: 3D textures, tables) to the texture "
+                        "NAME the shader declares (repeatable; a storage buffer NAME takes a .npy file too)")
+    p.add_argument("--uniform", action="append", default=[], metavar="NAME=VALUE",
+                   help="a uniform / cbuffer member by name: a number or comma-separated numbers (repeatable; "
+                        "floats are rounded to the nearest float32)")
+
+
+def _number(flag, item, text):
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        V.fail(flag, item, "NAME=VALUE with finite numbers (VALUE: 0.5, 3, or 1,0.5,0.25)")
+    return value
+
+
+def given_resource_options(args) -> dict:
+    """--texture and --uniform as given, {flag: values} (for a command to refuse them where no shader takes
+    them)."""
+    given = {"--texture": getattr(args, "texture", []), "--uniform": getattr(args, "uniform", [])}
+    return {flag: value for flag, value in given.items() if value}
+
+
+def resource_options(args) -> dict:
+    """The keywords (``textures``, ``buffers``, ``uniforms``) of --texture and --uniform: each file read
+    here (a missing or unreadable one is bad input naming it); a .npy file whose NAME the shader declares
+    as a storage buffer is bound as one (the shader decides, once compiled: both dicts carry it)."""
+    textures, uniforms = {}, {}
+    for item in getattr(args, "texture", []):
+        name, sep, path = item.partition("=")
+        if not sep or not name or not path:
+            V.fail("--texture", item, "NAME=FILE")
+        textures[name] = read_image(Path(path))
+    for item in getattr(args, "uniform", []):
+        name, sep, value = item.partition("=")
+        if not sep or not name or not value:
+            V.fail("--uniform", item, "NAME=VALUE")
+        numbers = [_number("--uniform", item, x.strip()) for x in value.split(",")]
+        uniforms[name] = numbers[0] if len(numbers) == 1 else numbers
+    return {"textures": textures, "uniforms": uniforms}
+
 
 def load_plugins(paths):
     for path in paths or []:

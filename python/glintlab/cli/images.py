@@ -13,8 +13,8 @@ from ..report.runner import write_section_files
 from ..studies import scene_images as image_study
 from ..studies.base import Context
 from ..validation.scene_images import Material, frame_inputs, make_method, resolve_scene, with_directional_light
-from .common import (add_outputs, add_scale, add_scenes, add_seed, add_shader_options, given_shader_options,
-                     print_table, shader_options)
+from .common import (add_outputs, add_resource_options, add_scale, add_scenes, add_seed, add_shader_options,
+                     given_resource_options, given_shader_options, print_table, resource_options, shader_options)
 
 
 def add_parser(sub):
@@ -41,6 +41,7 @@ def add_parser(sub):
     p.add_argument("--method", action="append", metavar="FILE.hlsl",
                    help="your own method shader (float glint(GlintInput g), docs/guide/shaders.md), rendered "
                         "beside the truth and the smooth image; repeatable")
+    add_resource_options(p)
     p.add_argument("--method-returns", choices=("intensity", "ndf"), default="intensity",
                    help="what the --method shaders return: an intensity (default), or a glinty NDF value D that "
                         "is shaded with the microfacet BRDF as the built-in NDF methods (the material as defines "
@@ -60,7 +61,7 @@ def run(args) -> int:
               "density_factor": args.density_factor, "tau": args.tau, "timing_scale": args.timing_scale}
     if args.methods:
         params["methods"] = args.methods
-    for flag, value in given_shader_options(args).items():
+    for flag, value in {**given_shader_options(args), **given_resource_options(args)}.items():
         if not args.method:  # the shader options compile the --method files, and only those
             V.fail(flag, value, f"a --method shader file to compile with {flag}")
     try:
@@ -115,7 +116,7 @@ def add_method_shaders(args, scenes, params) -> None:
             V.fail("--method", path, f"files with distinct names: {by_name[stem]} has the name {stem!r} too "
                                      "(a method shader is named after its file's stem; rename one)")
         by_name[stem] = path
-    names = [shader_method(Path(path), returns=args.method_returns, **shader_options(args)).name
+    names = [shader_method(Path(path), returns=args.method_returns, **shader_options(args), **resource_options(args)).name
              for path in args.method]
     base = args.methods or "truth,smooth"
     params["methods"] = ",".join(dict.fromkeys(base.split(",") + names))

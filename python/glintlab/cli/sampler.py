@@ -7,7 +7,8 @@ from ..api import checks as V
 from ..api.samplers import SAMPLERS, WRONG_KINDS, load_sampler, wrong_sampler
 from ..api.shaders import ShaderOutputError
 from ..validation.sampler_test import sampler_test
-from .common import add_outputs, add_samples, add_seed, add_shader_options, given_shader_options, shader_options
+from .common import (add_outputs, add_resource_options, add_samples, add_seed, add_shader_options,
+                     given_resource_options, given_shader_options, resource_options, shader_options)
 
 
 def add_parser(sub):
@@ -23,6 +24,7 @@ def add_parser(sub):
                    help="a sampler parameter (repeatable): alpha=0.3, wo=0.6,0,0.8")
     add_samples(p, "samples (default: 1e6)", default=10**6)
     add_seed(p, help="seed (default: 1)")
+    add_resource_options(p)
     p.add_argument("--bins", default="adaptive", help="'adaptive' (default) or a fixed grid N1xN2, e.g. 30x60")
     p.add_argument("--significance", type=float, default=1e-3,
                    help="fail below this p-value (the false-failure rate; default 1e-3)")
@@ -93,7 +95,8 @@ def check_sampler(sampler, args) -> int:
 def shader_sampler_params(args) -> dict:
     """The flags that only a shader sampler file takes, as its loader's keywords; refused by name for a
     registered sampler, which compiles nothing."""
-    given = {**given_shader_options(args), "--domain": args.domain, "--clamp-pdf": args.clamp_pdf or None}
+    given = {**given_shader_options(args), **given_resource_options(args), "--domain": args.domain,
+             "--clamp-pdf": args.clamp_pdf or None}
     given = {flag: value for flag, value in given.items() if value is not None}
     if args.sampler in SAMPLERS:
         for flag, value in given.items():
@@ -101,7 +104,8 @@ def shader_sampler_params(args) -> dict:
                                 "sampler files")
         return {}
     options = shader_options(args)
-    params = {**options.pop("defines"), **options}
+    params = {**options.pop("defines"), **options,
+              **{k: given for k, given in resource_options(args).items() if given}}
     if args.domain:
         params["directions"] = args.domain
     if args.clamp_pdf:

@@ -12,8 +12,8 @@ from ..studies.shaders import verdict_files, verdict_tables
 from ..validation.bounds import check
 from ..validation.references import resolve_law
 from ..validation.shader_check import shader_verdict
-from .common import (add_count, add_outputs, add_samples, add_seed, add_shader_options, load_plugins, print_table,
-                     shader_options)
+from .common import (add_count, add_outputs, add_resource_options, add_samples, add_seed, add_shader_options,
+                     load_plugins, print_table, resource_options, shader_options)
 from ..api import checks as V
 
 COUNTS = ("samples", "grid_samples", "grid_stride", "rows", "speed_evaluations")
@@ -42,6 +42,7 @@ def add_parser(sub):
     add_count(p, "--grid-stride", "every k-th n and p of the standard grid (default: 2)", 2)
     add_count(p, "--rows", "rows per point compared with --twin (default: 1e6)", 10**6)
     add_count(p, "--speed-evaluations", "evaluations per timed call (default: 1e6)", 10**6)
+    add_resource_options(p)
     p.add_argument("--timeout", type=float, default=60.0, help="seconds a kernel submission may run (default: 60)")
     add_seed(p)
     add_outputs(p, "out/shader")
@@ -63,7 +64,7 @@ def run(args) -> int:
         V.fail("--timeout", args.timeout, "seconds > 0")
     try:  # FILE is always a path, never code (a mistyped name is reported missing)
         law = shader_law(Path(args.file), entry=args.entry, language=args.lang, n_uniforms=args.uniforms,
-                         timeout=args.timeout, **shader_options(args))
+                         timeout=args.timeout, **shader_options(args), **resource_options(args))
     except RuntimeError as exc:  # no Vulkan device: the environment, not the shader
         print(f"glintlab shader: {exc}", file=sys.stderr)
         return 2

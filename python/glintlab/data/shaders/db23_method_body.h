@@ -46,6 +46,27 @@
 #ifndef DB23_KEY_SALT
 #define DB23_KEY_SALT 0u
 #endif
+#ifndef DB23_RANDOM_TEXTURE
+#define DB23_RANDOM_TEXTURE 0  // 0: each cell's two uniforms hashed; 1: read from DB23RandomTex
+#endif
+#ifndef DB23_RANDOM_TILE
+#define DB23_RANDOM_TILE 64    // DB23RandomTex's size (square), when DB23_RANDOM_TEXTURE is 1
+#endif
+
+// DB23's public shaders read their random numbers from a texture of precomputed ones rather than hashing
+// them. DB23_RANDOM_TEXTURE 1 does so: DB23RandomTex (DB23_RANDOM_TILE^2 texels, two channels: the
+// cell's two uniforms in (0, 1)) is read without filtering at the cell's coordinates, offset per grid
+// and angular texel by the same key the hashed form derives the numbers from, so that grids and texels
+// tile the texture differently (glintlab.api.counting_shaders.db23_method(random_texture=...)).
+#if DB23_RANDOM_TEXTURE == 1
+#if defined(GLINTLAB_GLSL)
+uniform sampler2D DB23RandomTex;
+#define DB23_RANDOM(x, y) texelFetch(DB23RandomTex, ivec2((x), (y)), 0).xy
+#else
+Texture2D<float2> DB23RandomTex;
+#define DB23_RANDOM(x, y) DB23RandomTex.Load(int3((x), (y), 0)).xy
+#endif
+#endif
 
 // ---- DB23's pipeline -----------------------------------------------------------------------------
 #define DB23_PI 3.14159265358979
@@ -82,10 +103,19 @@ float db23_term(int scale, int ratio, int orientation, float area, float weight,
   key = glintlab_mix64(glintlab_u64_add(glintlab_u64_add(key, ta), tb));
   uint2 ca = glintlab_u64_mul(glintlab_u64_from_int(cell.x), uint2(0xD192ED03u, 0xD1B54A32u));
   uint2 cb = glintlab_u64_mul(glintlab_u64_from_int(cell.y), uint2(0xFB8FAC03u, 0xABC98388u));
+#if DB23_RANDOM_TEXTURE == 1
+  int tile = DB23_RANDOM_TILE;
+  int tx = ((cell.x % tile) + tile + int(key.x % uint(tile))) % tile;
+  int ty = ((cell.y % tile) + tile + int(key.y % uint(tile))) % tile;
+  float2 r = DB23_RANDOM(tx, ty);
+  float u0 = r.x;
+  float u1 = r.y;
+#else
   uint2 input_ = glintlab_u64_add(glintlab_u64_add(key, ca), cb);
   uint2 h = glintlab_mix64(input_);
   float u0 = glintlab_unit53(h);
   float u1 = glintlab_unit53(glintlab_mix64(glintlab_u64_add(h, uint2(0x2F3D8DD7u, 0x8CB92BA7u))));
+#endif
   return count(trials, p, float4(u0, u1, 0.0, 0.0));
 }
 

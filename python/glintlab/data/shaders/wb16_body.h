@@ -41,6 +41,27 @@
 #ifndef WB16_KERNEL_SCALE
 #define WB16_KERNEL_SCALE 1.0      // multiplies the threshold 1 - size (1: as printed; tests break it)
 #endif
+#ifndef WB16_NOISE_TEXTURE
+#define WB16_NOISE_TEXTURE 0       // 0: glintlab's hashed value noise; 1: WB16's own, a 3D noise texture
+#endif
+
+// WB16 read their noise from a 3D texture. glintlab's default hashes it (glintlab_noise3: the texture a
+// 128^3 wrapped, trilinearly filtered grid of hashed cell values would be, with no texture to bind);
+// WB16_NOISE_TEXTURE 1 reads the real texture, WB16NoiseTex (128^3, 3 channels, linear, wrap), which
+// glintlab.api.method_shaders.wb16_noise_texture fills with those cell values for one seed (the
+// texture does not change with GlintInput's seed).
+#if WB16_NOISE_TEXTURE == 1
+#if defined(GLINTLAB_GLSL)
+uniform sampler3D WB16NoiseTex;
+#define WB16_NOISE3(p, seed) textureLod(WB16NoiseTex, (p), 0.0).xyz
+#else
+Texture3D<float4> WB16NoiseTex;
+SamplerState WB16NoiseSampler;
+#define WB16_NOISE3(p, seed) WB16NoiseTex.SampleLevel(WB16NoiseSampler, (p), 0).xyz
+#endif
+#else
+#define WB16_NOISE3(p, seed) glintlab_noise3((p), (seed))
+#endif
 
 float glint(GlintInput g) {
   float3 world_pos = g.world_pos * WB16_UNIT;
@@ -68,7 +89,7 @@ float glint(GlintInput g) {
 #if WB16_NOISE == 1
   // Shopf's baseline: the noise jitters the lookup itself (distorting the sparkle's shape); the
   // sparkle then sits at the cell's centre.
-  pos += WB16_NOISE_AMOUNT * glintlab_noise3(noise_dens * world_pos, g.seed);
+  pos += WB16_NOISE_AMOUNT * WB16_NOISE3(noise_dens * world_pos, g.seed);
 #endif
 
 #if WB16_SHAPE == 1
@@ -84,7 +105,7 @@ float glint(GlintInput g) {
   float3 P_x = pos - g_index - 0.5;
 #else
   // Offset to the jittered cell centre (lines 31-33): the centre lies in [0.25, 0.75) of the cell.
-  float3 noise = WB16_NOISE_AMOUNT * glintlab_noise3(noise_dens * P_c, g.seed);
+  float3 noise = WB16_NOISE_AMOUNT * WB16_NOISE3(noise_dens * P_c, g.seed);
   float3 offset = float3(0.75, 0.75, 0.75);
   float3 P_x = pos - g_index + 0.5 * frac(noise + 0.5) - offset;
 #endif

@@ -44,4 +44,28 @@ std::shared_ptr<Kernel> method_kernel(KernelSpec spec);
 // out (count x kMethodOutputWords) = the entry applied to each row of in (count x kMethodInputWords).
 void run_method(const Kernel& kernel, const float* in, std::size_t count, float* out, double timeout_s);
 
+// ---------------------------------------------------------------- fragment mode
+// A fragment shader's glint code as written (docs/guide/shaders.md#fragment-shader-mode): the user's
+// `void main()` (renamed glintlab_fragment_main by the Python layer, which also turns its `in`/`out`
+// globals into plain globals and its loose uniforms into uniform blocks) runs in a compute kernel with
+// four invocations per pixel, a quad: lane 0 the pixel, lane 1 one pixel right, lane 2 one pixel down,
+// lane 3 both, each lane's inputs moved by the pixel's differentials. dFdx, dFdy and fwidth are then the
+// differences across the quad (subgroup quad operations), as a GPU's fragment derivatives are, and
+// texture() picks its mip level from them. The row: GlintInput's kMethodInputWords words, then the
+// differentials, from word kMethodInputWords (W) on:
+//   W..W+2 dpdx   W+3..W+5 dpdy (world position per pixel)   W+6..W+8 dndx   W+9..W+11 dndy (shading normal)
+constexpr std::size_t kFragmentInputWords = kMethodInputWords + 12;
+
+// The fragment mode's declaration: `assign` is GLSL run in each lane before the call, setting the user's
+// globals from the lane's values (glintlab_world_pos, glintlab_uv, glintlab_J, glintlab_n, glintlab_t,
+// glintlab_b, glintlab_view, glintlab_light, glintlab_h, glintlab_pixel, glintlab_frame, glintlab_seed,
+// and gl_FragCoord's glintlab_frag_coord); `output` is the expression stored after it (lane 0, as vec3).
+WrapperDeclaration fragment_wrapper(const std::string& assign, const std::string& output);
+std::string fragment_wrapper_source(const std::string& assign, const std::string& output,
+                                    const std::string& include_name);
+// Compiles a fragment-mode shader (GLSL only; spec.source already adapted).
+std::shared_ptr<Kernel> fragment_kernel(KernelSpec spec, const std::string& assign, const std::string& output);
+// out (count x kMethodOutputWords) from in (count x kFragmentInputWords): four invocations per row.
+void run_fragment(const Kernel& kernel, const float* in, std::size_t count, float* out, double timeout_s);
+
 }  // namespace glintlab::shader

@@ -70,6 +70,8 @@ struct KernelSpec {
   // the disk: the files a kernel read when it was first compiled (Kernel::included_files), so that a
   // pickled law compiles the same code anywhere, whatever happened to the files since.
   std::vector<std::pair<std::string, std::string>> include_files;
+  // Compile for Vulkan 1.1 (SPIR-V 1.3): the fragment mode's quad operations (its dFdx, dFdy) need it.
+  bool vulkan_1_1 = false;
 };
 
 // A resource a SPIR-V module declares: a variable in the UniformConstant (samplers, images),
@@ -79,6 +81,54 @@ struct SpirvResource {
   std::string kind;  // "storage buffer", "uniform buffer", "push constant", "sampler or image"
   int set = -1;      // DescriptorSet decoration (-1: none)
   int binding = -1;  // Binding decoration (-1: none)
+};
+
+// ---------------------------------------------------------------- the user's own read-only resources
+// Textures, samplers, storage buffers and uniform blocks (cbuffers, HLSL's $Global) the user's code
+// declares, beside glintlab's own buffers. Whatever set and binding the code gives them (or none:
+// shaderc binds them automatically), the runner moves them to descriptor set 1, bindings 0, 1, ... in
+// declaration order, so they never collide with the wrapper's set 0, and binds the data given for
+// each by name (Kernel::bind_resources). docs/guide/shaders.md#textures-buffers-and-uniforms.
+constexpr int kUserSet = 1;
+
+// A member of a uniform block (a cbuffer's or a GLSL uniform block's), as the SPIR-V lays it out.
+struct BlockMember {
+  std::string name;
+  std::uint32_t offset = 0;  // bytes from the block's start
+  std::string scalar;        // "float", "int", "uint" (32-bit); "" for a type the runner cannot fill
+  int components = 1;        // 1 (scalar) to 4 (vector)
+  int count = 0;             // array length; 0 for a member that is not an array
+  std::uint32_t array_stride = 0;
+};
+
+// A resource the user's code declares, reflected from the SPIR-V.
+struct DeclaredResource {
+  std::string name;  // the variable's name (GLSL blocks: the instance's name, else the block type's)
+  // "texture" (an image with its sampler: GLSL sampler2D), "image" (an image without sampler: HLSL
+  // Texture2D), "sampler" (HLSL SamplerState, GLSL sampler), "storage buffer", "uniform buffer"
+  std::string kind;
+  int binding = 0;         // at set kUserSet, after remapping
+  int dims = 0;            // textures and images: 1, 2 or 3
+  bool arrayed = false;    // a texture array (Texture2DArray, sampler2DArray)
+  std::string scalar;      // textures: the sampled type ("float", "int", "uint"); buffers: the element's
+  int channels = 0;        // textures: from a declared format (0: any of 1 to 4); storage buffers: 32-bit
+                           // words per element
+  std::uint32_t size = 0;  // storage buffers: bytes per element (ArrayStride); uniform buffers: the block's bytes
+  std::vector<BlockMember> members;  // uniform buffers
+  std::string refused;               // why the runner cannot bind it ("" when it can)
+};
+
+// The data bound to one declared resource. Textures: levels[k] holds mip level k's texels, layer by
+// layer, then depth, row, column, channel (32-bit words: float32 bits or integers); extent is level
+// 0's (width, height, depth, layers), 1 where unused. Storage and uniform buffers: levels[0] is the
+// bytes as 32-bit words. Textures with their sampler, and samplers: the sampler state.
+struct ResourceData {
+  std::string name;
+  std::vector<std::vector<std::uint32_t>> levels;
+  std::uint32_t extent[4] = {1, 1, 1, 1};
+  int channels = 1;               // textures: 1, 2 or 4 (3-channel data arrives padded to 4)
+  std::string filter = "linear";  // "nearest" or "linear" (also between mip levels)
+  std::string address = "wrap";   // "wrap", "clamp" or "mirror"
 };
 
 // ---------------------------------------------------------------- wrapper kernels, one generator
@@ -162,6 +212,13 @@ class Kernel {
   const std::vector<std::pair<std::string, std::string>>& included_files() const;
   // Loops of the SPIR-V whose trip count is not a known constant of at most 65535 (loop_report).
   int unbounded_loops() const;
+  // The resources the user's code declares (at set kUserSet), in binding order.
+  const std::vector<DeclaredResource>& declared_resources() const;
+  // Binds data to every declared resource, by name (replacing earlier data). Throws
+  // std::invalid_argument naming a declared resource left unbound, a resource given that the code does
+  // not declare, or data that does not fit its declaration. A kernel that declares resources runs
+  // only once they are bound.
+  void bind_resources(const std::vector<ResourceData>& data);
 
   // out[i] = entry(float(n[i]), float(p[i]), u_f32(row i)); n and p have size 1 (broadcast) or
   // count; u holds count rows of n_uniforms() uniforms. timeout_s bounds each submission.
@@ -171,8 +228,10 @@ class Kernel {
   // Raw rows, for kernels with their own wrapper: binding 0 holds count rows of in_stride 32-bit
   // words, binding 3 receives count rows of out_stride floats; the push constants are (rows,
   // in_stride, out_stride, 0); bindings 1 and 2 are one-word placeholders.
+  // `lanes` invocations serve each row (the fragment mode's quads: 4); the push constant's count is then
+  // rows * lanes.
   void run_rows(const float* in, std::size_t in_stride, std::size_t count, float* out, std::size_t out_stride,
-                double timeout_s) const;
+                double timeout_s, std::uint32_t lanes = 1) const;
 
   struct Impl;
 
@@ -209,6 +268,13 @@ std::vector<std::uint32_t> compile_spirv(const KernelSpec& spec, const std::stri
                                          const std::string& entry_point, const std::string& signature = "");
 
 std::vector<SpirvResource> spirv_resources(const std::vector<std::uint32_t>& spirv);
+
+// The resources of `spirv` that are not in `allowed` (the wrapper's own), reflected, and `spirv`
+// rewritten so that they sit at set kUserSet, bindings 0, 1, ... in that order. A resource the runner
+// cannot bind (a storage image, a texel buffer, an array of textures, a push constant) comes back with
+// its `refused` reason.
+std::vector<DeclaredResource> remap_user_resources(std::vector<std::uint32_t>& spirv,
+                                                   const std::vector<SpirvResource>& allowed);
 
 // Throws std::invalid_argument naming the first resource of `spirv` that is not in `allowed` (same
 // name, kind, set and binding): a resource the runner does not bind reads garbage or crashes the
