@@ -33,7 +33,10 @@ def _failed(r, prefix):
     return int((c.applies & ~c.passed).sum())
 
 
-@pytest.mark.parametrize("name", ["truth", "db23_trilinear[gated]", "db23_shader_48[gated]", "zk16", "kpt25"])
+# kpt25_shader: its float32 compensation was negative on 2 of the sphere's 1114 pixels before it was
+# written as a sum (docs/math/glint_images.md#glint-kpt25-shader): the output check failed.
+@pytest.mark.parametrize("name", ["truth", "db23_trilinear[gated]", "db23_shader_48[gated]", "zk16", "kpt25",
+                                  pytest.param("kpt25_shader", marks=needs_vulkan)])
 def test_shipped_ndf_methods_pass(sphere, name):
     r = gl.light_response(name, "sphere", setup=sphere)
     assert r.passed, r.notes
