@@ -180,3 +180,16 @@ def test_the_section_reports_a_failing_method_as_a_failure(tmp_path):
         assert "1 of 2" in next(v for k, v in stats.items() if k.startswith("light response"))
     finally:
         IMAGE_METHODS._items.pop(name, None)
+
+
+def test_wwh18_keeps_its_glints_in_place_and_the_note_says_why(sphere):
+    """WWH18 fails the decorrelation by its model's design, not by a port's bug: its flakes' lambda is
+    fixed whatever the directions (docs/math/wwh18.md#wwh18-light); the note names that cause."""
+    r = gl.light_response("wwh18", "sphere", setup=sphere)
+    c = r.checks.set_index("check")
+    assert not r.passed and not c.passed["light along t"] and c.value["light along t"] < 0.01
+    failed = [n for n in r.notes if n.startswith(("light along", "view along")) and "FAIL" in n]
+    assert failed and all("by its model's design" in n and "wwh18-light" in n for n in failed), failed
+    # The deliberately wrong one-float variant fails without that note: its cause is a bug.
+    bad = gl.light_response(_variant("h read as (h.x, h.x, h.x)"), "sphere", setup=sphere)
+    assert any("ignores this component of h" in n for n in bad.notes)
