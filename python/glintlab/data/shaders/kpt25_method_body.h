@@ -75,9 +75,11 @@ float kpt25_normal_mass(float a, float b) {
   if (a > 40.0 || b < -40.0) return 0.0;
   if (a < -8.5 && b > 8.5) return 1.0;
   float s = 0.70710678118654752;
-  if (a >= 0.0) return 0.5 * (kpt25_erfc(a * s) - kpt25_erfc(b * s));
-  if (b <= 0.0) return 0.5 * (kpt25_erfc(-b * s) - kpt25_erfc(-a * s));
-  return 1.0 - 0.5 * (kpt25_erfc(-a * s) + kpt25_erfc(b * s));
+  // The twin's three branches with their erfc arguments selected, so that the device compiles two erfc
+  // calls, not six (the compensation takes six masses per level).
+  bool upper = a >= 0.0, lower = b <= 0.0;
+  float ex = kpt25_erfc((upper ? a : (lower ? -b : -a)) * s), ey = kpt25_erfc((upper ? b : (lower ? -a : b)) * s);
+  return upper || lower ? 0.5 * (ex - ey) : 1.0 - 0.5 * (ex + ey);
 }
 float kpt25_mass_1d(float c, float sigma, float lo, float hi) {
   return kpt25_normal_mass((lo - c) / sigma, (hi - c) / sigma);
