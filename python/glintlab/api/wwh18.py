@@ -78,6 +78,12 @@ class WWH18(GlintyNDF):
     docs/math/wwh18.md)."""
 
     name = "wwh18"
+    #: Why ``gl.light_response`` finds the model's glints in place where its truth's move: a property of the
+    #: model as printed, whatever the reading (docs/math/wwh18.md#wwh18-light), named in the check's note.
+    static_glints = ("WWH18's test lights a flake when its lambda, drawn per node (or flake, or pixel) whatever the "
+                     "directions, is below P(wi, wo), a smooth function of h: the flakes lit at one h are those lit at "
+                     "another of larger P, so a move of h only changes how many of the same flakes show, by |dP| / P, "
+                     "and one that keeps P (around the normal) none (docs/math/wwh18.md#wwh18-light)")
 
     def __init__(self, density: float = 1e6, target: str = "beckmann", alpha: float = 0.5, gamma: float = 6.0,
                  lambda_seeding: str = "node", threshold_test: str = "printed", T: float = 16.0,

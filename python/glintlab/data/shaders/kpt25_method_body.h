@@ -75,9 +75,11 @@ float kpt25_normal_mass(float a, float b) {
   if (a > 40.0 || b < -40.0) return 0.0;
   if (a < -8.5 && b > 8.5) return 1.0;
   float s = 0.70710678118654752;
-  if (a >= 0.0) return 0.5 * (kpt25_erfc(a * s) - kpt25_erfc(b * s));
-  if (b <= 0.0) return 0.5 * (kpt25_erfc(-b * s) - kpt25_erfc(-a * s));
-  return 1.0 - 0.5 * (kpt25_erfc(-a * s) + kpt25_erfc(b * s));
+  // The twin's three branches with their erfc arguments selected, so that the device compiles two erfc
+  // calls, not six (the compensation takes six masses per level).
+  bool upper = a >= 0.0, lower = b <= 0.0;
+  float ex = kpt25_erfc((upper ? a : (lower ? -b : -a)) * s), ey = kpt25_erfc((upper ? b : (lower ? -a : b)) * s);
+  return upper || lower ? 0.5 * (ex - ey) : 1.0 - 0.5 * (ex + ey);
 }
 float kpt25_mass_1d(float c, float sigma, float lo, float hi) {
   return kpt25_normal_mass((lo - c) / sigma, (hi - c) / sigma);
@@ -141,18 +143,24 @@ float kpt25_level_sum(Kpt25Pixel px, int level, float weight, float2 uv, uint2 k
   return sum / (2.0 * KPT25_PI * px.sigma * px.sigma);
 }
 
-// Eq. 10: the lobe's mass in the unit square minus its mass in B(k) (products of 1D normal masses).
+// Eq. 10: the lobe's mass in the unit square minus its mass in B(k) (products of 1D normal masses),
+// written as sq_x out_y + in_y out_x, out = the 1D mass of [0, 1] outside B(k)'s interval (none past an
+// end that is the square's edge, decided on the cell index), so that it is >= 0 by construction. The
+// twin's difference of the two products cancels in float32 when the lobe lies in B(k) within a few
+// stds of the square's edge, and the device rounds that edge (1, and the block's end) differently in
+// the two masses (by up to 1e-3 lobe stds on lavapipe): D came out negative, down to -0.04 D(h)
+// (docs/math/glint_images.md#glint-kpt25-shader).
 float kpt25_compensation(Kpt25Pixel px, int level) {
   int na = 1 << level;
   float fna = float(na);
   int a0 = kpt25_block_first(px.xa * fna, na), a1 = na <= 2 ? na - 1 : a0 + 1;
   int b0 = kpt25_block_first(px.ya * fna, na), b1 = na <= 2 ? na - 1 : b0 + 1;
-  float inv = 1.0 / fna;
   float s = px.sigma;
-  float square = kpt25_mass_1d(px.xa, s, 0.0, 1.0) * kpt25_mass_1d(px.ya, s, 0.0, 1.0);
-  float in_b = kpt25_mass_1d(px.xa, s, float(a0) * inv, float(a1 + 1) * inv) *
-               kpt25_mass_1d(px.ya, s, float(b0) * inv, float(b1 + 1) * inv);
-  return square - in_b;
+  float ax = GLINTLAB_LDEXP(float(a0), -level), bx = GLINTLAB_LDEXP(float(a1 + 1), -level);
+  float ay = GLINTLAB_LDEXP(float(b0), -level), by = GLINTLAB_LDEXP(float(b1 + 1), -level);
+  float out_x = (a0 > 0 ? kpt25_mass_1d(px.xa, s, 0.0, ax) : 0.0) + (a1 + 1 < na ? kpt25_mass_1d(px.xa, s, bx, 1.0) : 0.0);
+  float out_y = (b0 > 0 ? kpt25_mass_1d(px.ya, s, 0.0, ay) : 0.0) + (b1 + 1 < na ? kpt25_mass_1d(px.ya, s, by, 1.0) : 0.0);
+  return kpt25_mass_1d(px.xa, s, 0.0, 1.0) * out_y + kpt25_mass_1d(px.ya, s, ay, by) * out_x;
 }
 
 float glint(GlintInput g) {
