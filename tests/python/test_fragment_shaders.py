@@ -1,4 +1,4 @@
-"""The fragment mode of method shaders (docs/guide/shaders.md#fragment-shader-mode): GLSL fragment code
+"""The fragment mode of method shaders (docs/guide/shaders.md#shaders-fragment): GLSL fragment code
 as written (#version, in/out, loose uniforms, void main), its derivatives taken across glintlab's quads
 (checked against the differentials the rows carry), texture() choosing its mip level from them, and its
 image against the same function written in the method contract."""

@@ -260,14 +260,26 @@ def test_every_registered_metric_has_its_row_in_the_guide():
     assert len(names) >= 18 and names <= rows, names - rows
 
 
-def test_shader_uniforms_and_textures_pass_through_only_when_given(tmp_path):
-    (tmp_path / "s.hlsl").write_text(LAW)
-    doc = {"stages": [{"id": "a", "kind": "law", "law": {"shader": str(tmp_path / "s.hlsl"), "uniforms": {"k": 1}},
-                       "bounds": [{"metric": "tv"}]}]}
-    # Accepted by the schema and handed to the loader as a keyword; a loader that does not take it is the
-    # file's error at that option (exit 2), not a crash.
-    with pytest.raises(ValueError, match=r"at /stages/0/law/uniforms: expected shader options"):
-        gl.check(doc)
+# A team's law whose count is DB23's gated law plus a uniform offset: 0 is the gated law, 1 the K+1 bug.
+OFFSET_LAW = ('#define GLINTLAB_HLSL\n#include "glintlab_prelude.h"\n#define count gated_count\n'
+              '#include "gated_body.h"\n#undef count\ncbuffer Team { float team_offset; };\n'
+              'float count(float n, float p, float4 u) { return gated_count(n, p, u) + team_offset; }\n')
+
+
+@vulkan
+def test_shader_uniforms_pass_through_only_when_given(tmp_path):
+    (tmp_path / "s.hlsl").write_text(OFFSET_LAW)
+
+    def doc(**options):
+        law = {"shader": str(tmp_path / "s.hlsl"), **options}
+        return {"seed": 3, "stages": [{"id": "a", "kind": "law", "law": law, "bounds": [{"metric": "tv"}]}]}
+    # Given, the uniform reaches the shader: offset 0 is the gated law, offset 1 its K+1 bug (larger TV).
+    tv = {k: P.check_pipeline(doc(uniforms={"team_offset": k}))["worst"].iloc[0] for k in (0.0, 1.0)}
+    shipped = {"seed": 3, "stages": [{"id": "a", "kind": "law", "law": "gated_shader", "bounds": [{"metric": "tv"}]}]}
+    assert tv[0.0] == pytest.approx(P.check_pipeline(shipped)["worst"].iloc[0], rel=1e-9) and tv[1.0] > tv[0.0]
+    # Not given, the shader's declared block is left unbound: the file's error naming it (exit 2), not a crash.
+    with pytest.raises(ValueError, match="team_offset|Team"):
+        gl.check(doc())
 
 
 def test_shipped_pipelines_cover_the_configurations_and_are_recorded():

@@ -20,7 +20,7 @@ runs that file unchanged (``shader_method("glints.frag")``, or ``mode="fragment"
   view / eye -> view; light -> light; half -> h); one that matches nothing is refused naming it;
 - the pixel's value is the one ``out`` variable's rgb (``output=`` picks one among several).
 
-docs/guide/shaders.md#fragment-shader-mode.
+docs/guide/shaders.md#shaders-fragment.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-// glintlab's fragment-shader mode (docs/guide/shaders.md#fragment-shader-mode): what a GLSL fragment
+// glintlab's fragment-shader mode (docs/guide/shaders.md#shaders-fragment): what a GLSL fragment
 // shader's glint code finds when it runs in glintlab's compute kernel, four invocations per pixel (a
 // quad: the pixel, one right, one down, both). dFdx, dFdy, fwidth (and their Fine / Coarse forms) are the
 // differences across the quad, as a GPU computes them between neighbouring pixels; texture() and

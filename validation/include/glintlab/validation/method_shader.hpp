@@ -45,7 +45,7 @@ std::shared_ptr<Kernel> method_kernel(KernelSpec spec);
 void run_method(const Kernel& kernel, const float* in, std::size_t count, float* out, double timeout_s);
 
 // ---------------------------------------------------------------- fragment mode
-// A fragment shader's glint code as written (docs/guide/shaders.md#fragment-shader-mode): the user's
+// A fragment shader's glint code as written (docs/guide/shaders.md#shaders-fragment): the user's
 // `void main()` (renamed glintlab_fragment_main by the Python layer, which also turns its `in`/`out`
 // globals into plain globals and its loose uniforms into uniform blocks) runs in a compute kernel with
 // four invocations per pixel, a quad: lane 0 the pixel, lane 1 one pixel right, lane 2 one pixel down,
