@@ -26,26 +26,9 @@ std::uint32_t find_memory(const Device& d, std::uint32_t bits, VkMemoryPropertyF
   throw std::runtime_error("Vulkan: device '" + d.name + "' has no memory type for a resource");
 }
 
-// A host-visible, mapped buffer holding `words`.
+// A host-visible, mapped buffer holding `words` (zero-padded to at least 16 bytes).
 Buffer host_buffer(Device& d, const std::vector<std::uint32_t>& words, VkBufferUsageFlags usage) {
-  Buffer b;
-  b.size = std::max<VkDeviceSize>(16, words.size() * sizeof(std::uint32_t));
-  VkBufferCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-  info.size = b.size;
-  info.usage = usage;
-  info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-  check(vkCreateBuffer(d.dev, &info, nullptr, &b.buffer), "vkCreateBuffer");
-  VkMemoryRequirements req{};
-  vkGetBufferMemoryRequirements(d.dev, b.buffer, &req);
-  VkMemoryAllocateInfo alloc{};
-  alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-  alloc.allocationSize = req.size;
-  alloc.memoryTypeIndex =
-      find_memory(d, req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-  check(vkAllocateMemory(d.dev, &alloc, nullptr, &b.memory), "vkAllocateMemory");
-  check(vkBindBufferMemory(d.dev, b.buffer, b.memory, 0), "vkBindBufferMemory");
-  check(vkMapMemory(d.dev, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory");
+  Buffer b = create_host_buffer(d, std::max<VkDeviceSize>(16, words.size() * sizeof(std::uint32_t)), usage, false);
   std::memset(b.mapped, 0, static_cast<std::size_t>(b.size));
   if (!words.empty()) std::memcpy(b.mapped, words.data(), words.size() * sizeof(std::uint32_t));
   return b;

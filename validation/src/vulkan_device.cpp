@@ -223,13 +223,13 @@ Job::~Job() {
   }
 }
 
-void Job::make_buffer(int i, VkDeviceSize size, bool readback) {
-  Buffer& b = buffers[i];
+Buffer create_host_buffer(const Device& d, VkDeviceSize size, VkBufferUsageFlags usage, bool readback) {
+  Buffer b;
   b.size = size;
   VkBufferCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
   info.size = size;
-  info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  info.usage = usage;
   info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   check(vkCreateBuffer(d.dev, &info, nullptr, &b.buffer), "vkCreateBuffer");
   VkMemoryRequirements req{};
@@ -241,6 +241,11 @@ void Job::make_buffer(int i, VkDeviceSize size, bool readback) {
   check(vkAllocateMemory(d.dev, &alloc, nullptr, &b.memory), "vkAllocateMemory");
   check(vkBindBufferMemory(d.dev, b.buffer, b.memory, 0), "vkBindBufferMemory");
   check(vkMapMemory(d.dev, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory");
+  return b;
+}
+
+void Job::make_buffer(int i, VkDeviceSize size, bool readback) {
+  buffers[i] = create_host_buffer(d, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, readback);
 }
 
 VkDescriptorSet Job::bind(VkDescriptorSetLayout layout, VkDescriptorSetLayout user_layout) {

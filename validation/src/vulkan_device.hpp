@@ -68,6 +68,10 @@ struct Buffer {
   VkDeviceSize size = 0;
 };
 
+// A host-visible, coherent buffer of `size` bytes for `usage`, bound and mapped (`readback`: cached memory
+// where the device has it); the one place buffers are made, for the jobs' buffers and the bound resources.
+Buffer create_host_buffer(const Device& d, VkDeviceSize size, VkBufferUsageFlags usage, bool readback);
+
 // The Vulkan objects holding the data bound to a kernel's declared resources (Kernel::bind_resources),
 // one entry per declared resource in binding order; shared by the jobs that use them, so a retired job
 // keeps them alive until its fence signals.
