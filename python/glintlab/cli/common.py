@@ -22,17 +22,24 @@ from ..api import checks as V
 
 # ---------------------------------------------------------------- argument types
 
-def count_arg(text: str) -> int:
-    """A count flag (--samples 1e6, 100000, 2.5e5): an integer, or a float in any notation whose value
-    is a whole number (as the help texts write the defaults)."""
+def _int_or_float(text: str) -> int | float:
+    """``text`` as an int when it is one (exact beyond 2^53), else as a float; NaN when it is neither."""
     try:
         return int(text)
     except ValueError:
         pass
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
-        value = math.nan
+        return math.nan
+
+
+def count_arg(text: str) -> int:
+    """A count flag (--samples 1e6, 100000, 2.5e5): an integer, or a float in any notation whose value
+    is a whole number (as the help texts write the defaults)."""
+    value = _int_or_float(text)
+    if isinstance(value, int):
+        return value
     if not (math.isfinite(value) and value == int(value)):
         raise argparse.ArgumentTypeError(f"{text!r} is invalid; expected a whole number (1000000 or 1e6)")
     return int(value)
@@ -210,14 +217,7 @@ def add_resource_options(p):
 
 
 def _number(flag, item, text):
-    try:
-        return int(text)
-    except ValueError:
-        pass
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
+    value = _int_or_float(text)
     if not math.isfinite(value):
         V.fail(flag, item, "NAME=VALUE with finite numbers (VALUE: 0.5, 3, or 1,0.5,0.25)")
     return value
