@@ -85,6 +85,7 @@ CASES = [
     (["images", "{bad_scene}", "--out", "{folder}/i"], "/material/R"),
     (["images", "{deep}", "--out", "{folder}/i"], "deep.json"),
     (["images", SCENE, "--out", "{a_file}"], "--out"),
+    (["images", SCENE, "--look", "highlight", "--highlight-alpha", "1.5", "--out", "{folder}/i"], "highlight_alpha = 1.5"),
     (["shader", "{folder}/missing.hlsl", "--out", "{folder}/s"], "missing.hlsl"),
     (["shader", "{syntax}", "--out", "{folder}/s"], "language = None"),
     (["shader", "{bad_shader}", "--out", "{folder}/s"], "broken.hlsl:2"),

@@ -14,6 +14,7 @@ from glintlab.studies import scene_images as study
 from glintlab.studies.base import Context
 from glintlab.validation import scene_images as si
 from glintlab.validation.scene import table1_scenes
+from glintlab.cli.main import main
 
 SEED = 7
 
@@ -365,3 +366,18 @@ def test_highlight_look_puts_the_mirror_direction_at_the_image_centre():
         study.with_look(sc, "shiny", 0.3)
     with pytest.raises(ValueError, match="highlight_alpha = 1.5"):
         study.with_look(sc, "highlight", 1.5)
+
+
+def test_images_command_passes_the_look_to_the_section(monkeypatch, tmp_path):
+    seen = {}
+
+    def fake_compute(scenes, params, ctx):
+        seen.update(params)
+        raise SystemExit(0)  # the wiring is what is tested: stop before any rendering
+    monkeypatch.setattr(study, "compute_scenes", fake_compute)
+    with pytest.raises(SystemExit):
+        main(["images", "plane_25", "--look", "highlight", "--highlight-alpha", "0.2", "--out", str(tmp_path)])
+    assert seen["look"] == "highlight" and seen["highlight_alpha"] == 0.2
+    with pytest.raises(SystemExit):
+        main(["images", "plane_25", "--out", str(tmp_path)])
+    assert seen["look"] == "files"  # the default: the report's

@@ -37,6 +37,12 @@ def add_parser(sub):
     p.add_argument("--density-factor", type=float, default=0.0625,
                    help="facet density x this (default: 1/16, sparse glints; 1: the files' N)")
     p.add_argument("--tau", type=float, default=2.0, help="glint threshold in units of D(h) (default: 2)")
+    p.add_argument("--look", choices=image_study.LOOKS, default="files",
+                   help="'files' (default): each scene file's light and material; 'highlight': lit in the mirror "
+                        "direction of the image's centre ray, alpha set to --highlight-alpha, so the lobe's peak and "
+                        "falloff are in view (docs/guide/scenes.md#scene-images-look)")
+    p.add_argument("--highlight-alpha", type=float, default=image_study.DEFAULTS["highlight_alpha"],
+                   help="the material's alpha under --look highlight (default: %(default)s)")
     p.add_argument("--methods", help="comma-separated image methods (default: all registered; must include truth)")
     p.add_argument("--method", action="append", metavar="FILE.hlsl",
                    help="your own method shader (float glint(GlintInput g), docs/guide/shaders.md), rendered "
@@ -58,7 +64,8 @@ def add_parser(sub):
 def run(args) -> int:
     scenes = [resolve_scene(name) for name in args.scenes]  # all validated before any work
     params = {"scale": args.scale, "frames": args.frames, "pan_px": args.pan_px, "zoom": args.zoom,
-              "density_factor": args.density_factor, "tau": args.tau, "timing_scale": args.timing_scale}
+              "density_factor": args.density_factor, "tau": args.tau, "timing_scale": args.timing_scale,
+              "look": args.look, "highlight_alpha": args.highlight_alpha}
     if args.methods:
         params["methods"] = args.methods
     for flag, value in {**given_shader_options(args), **given_resource_options(args)}.items():
