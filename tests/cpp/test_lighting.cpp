@@ -112,7 +112,8 @@ TEST_CASE("the lobes' light rule integrates each light's solid angle and leaves 
     const auto nodes = light_nodes(LightHit({light}, {1.0}), {8, 12});
     double total = 0.0;
     for (double w : nodes.weight) total += w;
-    CHECK(total == Approx(light.solid_angle()).epsilon(1e-8));  // a rectangle: its corners split the sectors
+    // A rectangle: 6 Gauss-Legendre sectors between corners, 2e-5; equal sectors would miss by 0.6 %.
+    CHECK(total == Approx(light.solid_angle()).epsilon(light.corners().empty() ? 1e-8 : 5e-5));
   }
   // Two overlapping caps: the second one's nodes leave out the first's directions.
   const auto second = Light::cap({0.3, 0.1, 1.0}, 0.3);

@@ -741,8 +741,10 @@ double Wwh18Ndf::cone_over_light(const lighting::LightHit& hit, const lighting::
   const auto& lights = hit.lights();
   // The integrand on the ray at angle rho: inside the cone (and in no earlier light), times the Jacobian
   // 1 / (4 v.h) of a cone of half vectors.
+  double edge = 0.0;  // the last value's |a - ctr|^2 - chord^2: continuous, negative inside the cone
   auto value = [&](Vec3 w, bool& inside) {
     inside = false;
+    edge = 1.0;
     double a[3] = {w.x, w.y, w.z}, jac = 1.0;
     if (!outgoing) {
       const double sum[3] = {v[0] + w.x, v[1] + w.y, v[2] + w.z};
@@ -753,7 +755,8 @@ double Wwh18Ndf::cone_over_light(const lighting::LightHit& hit, const lighting::
       jac = 1.0 / (4.0 * vh);
     }
     const double dx = a[0] - ctr.x, dy = a[1] - ctr.y, dz = a[2] - ctr.z;
-    if (!(dx * dx + dy * dy + dz * dz <= chord2_)) return 0.0;
+    edge = dx * dx + dy * dy + dz * dz - chord2_;
+    if (!(edge <= 0.0)) return 0.0;
     for (int j = 0; j < k; ++j)
       if (lights[j].contains(w)) return 0.0;
     inside = true;
@@ -765,8 +768,13 @@ double Wwh18Ndf::cone_over_light(const lighting::LightHit& hit, const lighting::
   constexpr double kGw[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
   double total = 0.0;
   for (int s = 0; s < sectors; ++s) {
-    const double phi = nodes.phi[k][s];
-    auto at = [&](double rho) { return lighting::polar_direction(c, nodes.t1[k], nodes.t2[k], rho, phi); };
+    const double phi = nodes.phi[k][s], cp = std::cos(phi), sp = std::sin(phi);
+    const Vec3 t1 = nodes.t1[k], t2 = nodes.t2[k];
+    const Vec3 d{cp * t1.x + sp * t2.x, cp * t1.y + sp * t2.y, cp * t1.z + sp * t2.z};
+    auto at = [&](double rho) {
+      const double cr = std::cos(rho), sr = std::sin(rho);
+      return Vec3{cr * c.x + sr * d.x, cr * c.y + sr * d.y, cr * c.z + sr * d.z};
+    };
     auto piece = [&](double r0, double r1) {  // the smooth part over [r0, r1], all inside
       double sum = 0.0;
       bool inside;
@@ -780,23 +788,49 @@ double Wwh18Ndf::cone_over_light(const lighting::LightHit& hit, const lighting::
     double sector = 0.0;
     bool in0;
     value(at(0.0), in0);
+    double e0 = edge;
     for (int r = 0; r < rings; ++r) {
       const double r0 = rho_max * r / rings, r1 = rho_max * (r + 1) / rings;
       bool in1;
       value(at(r1), in1);
+      const double e1 = edge;
       if (in0 && in1) {
         sector += piece(r0, r1);
-      } else if (in0 != in1) {  // one crossing of the edge assumed in the piece: bisection to rounding
+      } else if (in0 != in1) {  // one crossing in the piece assumed
         double lo = r0, hi = r1;
-        for (int it = 0; it < 60 && hi - lo > 1e-15 * rho_max; ++it) {
-          const double mid_rho = 0.5 * (lo + hi);
-          bool in;
-          value(at(mid_rho), in);
-          (in == in0 ? lo : hi) = mid_rho;
+        if ((e0 <= 0.0) != (e1 <= 0.0)) {
+          // The cone's edge: the Illinois variant of regula falsi on the continuous `edge`, to 1e-13 of the ray.
+          double flo = e0, fhi = e1;
+          int side = 0;
+          for (int it = 0; it < 60 && hi - lo > 1e-13 * rho_max; ++it) {
+            const double x = (lo * fhi - hi * flo) / (fhi - flo);
+            bool in;
+            value(at(x), in);
+            if ((edge <= 0.0) == (flo <= 0.0)) {
+              lo = x;
+              flo = edge;
+              if (side == -1) fhi *= 0.5;
+              side = -1;
+            } else {
+              hi = x;
+              fhi = edge;
+              if (side == 1) flo *= 0.5;
+              side = 1;
+            }
+            if (edge == 0.0) lo = hi = x;
+          }
+        } else {  // an earlier light's edge (or the half vector turning away): bisection on the indicator
+          for (int it = 0; it < 60 && hi - lo > 1e-12 * rho_max; ++it) {
+            const double mid_rho = 0.5 * (lo + hi);
+            bool in;
+            value(at(mid_rho), in);
+            (in == in0 ? lo : hi) = mid_rho;
+          }
         }
         sector += in0 ? piece(r0, lo) : piece(hi, r1);
       }
       in0 = in1;
+      e0 = e1;
     }
     total += nodes.phi_weight[k][s] * sector;
   }

@@ -40,8 +40,10 @@ void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
 }
 
 void LobeRule::check() const {
-  if (!(rings >= 1 && rings <= 256)) throw_invalid("lobe rule", "rings", static_cast<double>(rings), "an integer in [1, 256]");
-  if (!(sectors >= 1 && sectors <= 256)) throw_invalid("lobe rule", "sectors", static_cast<double>(sectors), "an integer in [1, 256]");
+  if (!(rings >= 1 && rings <= 256))
+    throw_invalid("lobe rule", "rings", static_cast<double>(rings), "an integer in [1, 256]");
+  if (!(sectors >= 1 && sectors <= 256))
+    throw_invalid("lobe rule", "sectors", static_cast<double>(sectors), "an integer in [1, 256]");
 }
 
 void tangent_frame(Vec3 c, Vec3& t1, Vec3& t2) {
@@ -87,7 +89,7 @@ void sector_angles(const Light& light, Vec3 t1, Vec3 t2, int sectors, std::vecto
     cuts.push_back(std::atan2(p.x * t2.x + p.y * t2.y + p.z * t2.z, p.x * t1.x + p.y * t1.y + p.z * t1.z));
   std::sort(cuts.begin(), cuts.end());
   cuts.push_back(cuts.front() + 2.0 * kPi);
-  const int per_edge = sectors;  // a parallelogram's rule: `sectors` per edge
+  const int per_edge = std::max(2, (sectors + 1) / 2);  // a parallelogram's rule: half the sectors per edge
   std::vector<double> x, w;
   gauss_legendre(per_edge, x, w);
   for (std::size_t e = 0; e + 1 < cuts.size(); ++e)
