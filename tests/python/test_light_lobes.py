@@ -138,4 +138,4 @@ def test_bad_lobe_options_are_named():
     with pytest.raises(ValueError, match="test"):
         truth(nd, UV16[:1], J16[:1], (0, 0, 1), cap, lit_as="normal", test="unnormalised")
     with pytest.raises(ValueError, match="lit_as"):
-        lt.expected_light_counts(_method("wwh18")[0], J16, (0, 0, 1), gl.lights.envmap("sky", regions=3))
+        lt.expected_light_counts(nd, J16, (0, 0, 1), cap, lit_as="cone")

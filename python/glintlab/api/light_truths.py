@@ -169,23 +169,41 @@ def points_per_p(ndf) -> float:
 CONE_P_NODES = (24, 48)
 
 
-def cone_blurred_p(ndf: WWH18, views, light: Light, nodes=CONE_P_NODES) -> np.ndarray:
-    """E[lobe count] / (N |det J|) of WWH18's flakes under ``light`` for each view (rows of ``views``): the
-    integral over the light of the cone's mass per steradian of light, p_gamma(h) / (sigma(gamma) 4 (wo.h))
-    (cone of half vectors) or the outgoing cone's mass / sigma(gamma), by the light's rule of the lobes
-    (docs/math/lighting.md#lighting-lobes): the NDF blurred by the cone, which tends to p as gamma -> 0."""
-    dirs, w, _, _, _ = _core.light_nodes(light_hit(light), *nodes)
+def _cone_density(ndf: WWH18, wo, dirs):
+    """Per direction of light (rows of ``dirs``, above the horizon): the cone's mass per steradian of light,
+    p_gamma(h) / (sigma(gamma) 4 (wo.h)) (cone of half vectors) or the outgoing cone's mass / sigma(gamma),
+    beside the unblurred D(h) (h.n) / (4 wo.h); 0 where wo.h <= 0."""
+    h = wo + dirs
+    h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+    woh = h @ wo
+    ok = woh > 0
+    h = np.where(ok[:, None], h, [0.0, 0.0, 1.0])
+    jac = np.where(ok, 1 / (4 * np.where(ok, woh, 1.0)), 0.0)
+    if ndf.cone == "outgoing":
+        blurred = ndf.outgoing_cone_mass(dirs, np.broadcast_to(wo, dirs.shape)) / ndf.cone_solid_angle
+    else:
+        blurred = ndf.cone_mass(h) * jac / ndf.cone_solid_angle
+    return np.where(ok, blurred, 0.0), ndf.ndf.D(h[:, 2]) * h[:, 2] * jac
+
+
+def cone_blurred_p(ndf: WWH18, views, light, nodes=CONE_P_NODES) -> np.ndarray:
+    """E[lobe count] / (N |det J|) of WWH18's flakes under ``light`` per view (rows of ``views``; (views,
+    channels)): the integral over the light of the cone's mass per steradian of light (:func:`_cone_density`),
+    p blurred by the cone, which tends to p as gamma -> 0 (docs/math/lighting.md#lighting-lobes). A Light: the
+    lobes' light rule at ``nodes``; a map: the exact p per region plus the blur (blurred less unblurred
+    density, smooth on the scale of alpha) integrated over RIM_LOSS_SUBNODES^2 nodes per cell."""
     out = []
+    if isinstance(light, EnvMap):
+        dirs, omega, labels = _map_nodes(light, RIM_LOSS_SUBNODES)
+        p = reflection_probability(ndf.target, ndf.alpha, views, light).reshape(len(views), -1)
+        for wo, pv in zip(np.asarray(views, dtype=float).reshape(-1, 3), p):
+            blurred, plain = _cone_density(ndf, wo, dirs)
+            out.append(pv + np.bincount(labels, (blurred - plain) * omega, minlength=light.regions))
+        return np.array(out)
+    dirs, w, _, _, _ = _core.light_nodes(light_hit(light), *nodes)
     for wo in np.asarray(views, dtype=float).reshape(-1, 3):
-        h = wo + dirs
-        h /= np.linalg.norm(h, axis=-1, keepdims=True)
-        woh = h @ wo
-        if ndf.cone == "outgoing":
-            density = ndf.outgoing_cone_mass(dirs, np.broadcast_to(wo, dirs.shape)) / ndf.cone_solid_angle
-        else:
-            density = ndf.cone_mass(h) / (ndf.cone_solid_angle * 4 * woh)
-        out.append(np.sum(np.where(woh > 0, w * density, 0.0)))
-    return np.array(out)[:, None]
+        out.append([np.sum(w * _cone_density(ndf, wo, dirs)[0])])
+    return np.array(out)
 
 
 # Sub-nodes per side of each map cell for KPT25's rim loss under a map (a smooth integrand).
@@ -245,7 +263,7 @@ def expected_light_counts(ndf, J, wo, light, method: str = "exact", rel_tol: flo
     """E[counts] (..., channels) of :func:`kpt25_light_truth` or :func:`wwh18_light_truth` over
     realizations: ``points_per_p(ndf)`` |det J| p(wo, L), p from :func:`reflection_probability` with
     ``method`` ("exact", or "point": the point-light limit (L2)). ``light``: one Light or an EnvMap.
-    ``lit_as="lobe"`` (``method`` "exact"): WWH18's p becomes :func:`cone_blurred_p` (lights only), KPT25's
+    ``lit_as="lobe"`` (``method`` "exact"): WWH18's p becomes :func:`cone_blurred_p`, KPT25's
     :func:`kpt25_lobe_p` (uniform points under eq. 4's lobes stay uniform in U but at U's rim: (L8))."""
     scale = points_per_p(ndf)
     _, J, _, shape = pixel_arrays(np.zeros(np.shape(J)[:-1] + (2,)), J, None)
@@ -256,9 +274,6 @@ def expected_light_counts(ndf, J, wo, light, method: str = "exact", rel_tol: flo
     # One cubature per distinct view (a map's regions cost milliseconds each; pixels often share a view).
     views, inverse = np.unique(wo.reshape(-1, 3), axis=0, return_inverse=True)
     if isinstance(ndf, WWH18) and lit_as == "lobe" and method == "exact":
-        if isinstance(light, EnvMap):
-            V.fail("lit_as", lit_as, '"normal" for WWH18 under an environment map (the cone-blurred p per '
-                   "region is not computed)")
         p = cone_blurred_p(ndf, views, light)
     elif lit_as == "lobe" and method == "exact":
         p = kpt25_lobe_p(ndf, views, light)

@@ -279,8 +279,8 @@ def own_truth_lights():
 def own_truth_table(seed: int = 0, pixels: int = 128, footprint: float = 0.02, density: float = 1e6,
                     z_max: float = 4.5) -> pd.DataFrame:
     """KPT25's points and WWH18's flakes lit by each light of :func:`own_truth_lights`, each glint's lobe
-    integrated over the light (``lit_as``: "lobe"; WWH18 under the map as normals, whose cone-blurred p per
-    region is not computed; docs/math/lighting.md#lighting-own-truths, #lighting-lobes): the counts pooled
+    integrated over the light (``lit_as`` "lobe"; docs/math/lighting.md#lighting-own-truths, #lighting-lobes):
+    the counts pooled
     over ``pixels`` disjoint square footprints of side ``footprint`` in one realization against their
     expectation (:func:`glintlab.api.light_truths.expected_light_counts`) as a z (Poisson spread; for the
     map a chi-square over the regions on the same scale, :func:`_own_z`), beside the same check of the wrong
@@ -295,7 +295,7 @@ def own_truth_table(seed: int = 0, pixels: int = 128, footprint: float = 0.02, d
     rows = []
     for (name, light, wo), (method, nd, truth) in itertools.product(own_truth_lights(), methods):
         is_map = isinstance(light, gl_lights.EnvMap)
-        lit_as = "normal" if is_map and method == "wwh18" else "lobe"
+        lit_as = "lobe"
         expected = LT.expected_light_counts(nd, J, wo, light, lit_as=lit_as).sum(axis=0)
 
         def z_of(test, expected=expected, truth=truth, nd=nd, light=light, wo=wo, lit_as=lit_as):
