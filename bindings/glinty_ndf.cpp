@@ -14,6 +14,7 @@
 #include "glintlab/base/errors.hpp"
 #include "glintlab/glinty/glinty_ndf.hpp"
 #include "glintlab/lighting/lighting.hpp"
+#include "glintlab/lighting/lobes.hpp"
 
 namespace py = pybind11;
 
@@ -173,11 +174,28 @@ void bind_kpt25_evaluation(Kpt25Class& cls) {
             }
             return out;
           },
-          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("radius"))
+          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"), py::arg("radius"));
+}
+
+// KPT25's points lit by an extended light (docs/math/lighting.md#lighting-lobes).
+void bind_kpt25_lights(Kpt25Class& cls) {
+  cls.def(
+         "footprint_ndf",
+         [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, std::uint64_t seed) {
+           const std::size_t n = pixels(uv, &jac, h);
+           py::array_t<double> out(static_cast<py::ssize_t>(n));
+           double* o = out.mutable_data();
+           {
+             glintlab::bindings::LongCall release;
+             g.footprint_ndf(uv.data(), jac.data(), h.data(), n, seed, o);
+           }
+           return out;
+         },
+         py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("seed"))
       .def(
           "light_counts",
           [](const Kpt25Ndf& g, const Array& uv, const Array& jac, const Array& h, const Array& wo, std::uint64_t seed,
-             const lighting::LightHit& hit, bool mirror) {
+             const lighting::LightHit& hit, const lighting::GlintLightOptions& opt) {
             const std::size_t n = pixels(uv, &jac, h);
             if (static_cast<std::size_t>(wo.size()) != 3 * n)
               glintlab::throw_invalid_message("glinty_ndf: wo must hold 3 numbers per pixel");
@@ -189,11 +207,12 @@ void bind_kpt25_evaluation(Kpt25Class& cls) {
             double* p = points.mutable_data();
             {
               glintlab::bindings::LongCall release;
-              g.light_counts(uv.data(), jac.data(), h.data(), wo.data(), n, seed, hit, mirror, c, r, p);
+              g.light_counts(uv.data(), jac.data(), h.data(), wo.data(), n, seed, hit, opt, c, r, p);
             }
             return py::make_tuple(counts, rad, points);
           },
-          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("wo"), py::arg("seed"), py::arg("hit"), py::arg("mirror"));
+          py::arg("uv"), py::arg("J"), py::arg("h"), py::arg("wo"), py::arg("seed"), py::arg("hit"),
+          py::arg("options"));
 }
 
 // Per-facet colour (RGB evaluate and reference).
@@ -358,6 +377,7 @@ void bind_glinty_ndf(py::module_& m) {
   Kpt25Class cls(m, "Kpt25Ndf");
   bind_kpt25_init(cls);
   bind_kpt25_evaluation(cls);
+  bind_kpt25_lights(cls);
   bind_kpt25_colour(cls);
   bind_kpt25_triplanar(cls);
   bind_kpt25_sampling(cls);

@@ -12,6 +12,7 @@
 #include "bindings.hpp"
 #include "conversions.hpp"
 #include "glintlab/lighting/lighting.hpp"
+#include "glintlab/lighting/lobes.hpp"
 
 namespace py = pybind11;
 
@@ -182,12 +183,46 @@ void bind_facets(py::module_& m) {
       py::arg("rows"), py::arg("cols"), py::arg("regions"), py::arg("labels"), py::arg("radiance"), py::arg("seed"));
 }
 
+// The lobes of the methods' own truths (lobes.hpp).
+void bind_lobes(py::module_& m) {
+  // How the methods' own truths light their glints (lobes.hpp): "lobe" or "normal", the product rules'
+  // nodes, and the wrong variants (mirror false, unnormalised true).
+  py::class_<lighting::GlintLightOptions>(m, "GlintLightOptions")
+      .def(py::init([](const std::string& lit_as, int rings, int sectors, bool mirror, bool unnormalised) {
+             if (lit_as != "lobe" && lit_as != "normal")
+               throw_invalid("light truth", "lit_as", lit_as, "\"lobe\" or \"normal\"");
+             lighting::GlintLightOptions o;
+             o.lit_as = lit_as == "lobe" ? lighting::GlintLight::kLobe : lighting::GlintLight::kNormal;
+             o.rule = {rings, sectors};
+             o.rule.check();
+             o.mirror = mirror;
+             o.unnormalised = unnormalised;
+             return o;
+           }),
+           py::arg("lit_as"), py::arg("rings"), py::arg("sectors"), py::arg("mirror"), py::arg("unnormalised"));
+  m.def(
+      "light_nodes",
+      [](const lighting::LightHit& hit, int rings, int sectors) {
+        const auto nodes = lighting::light_nodes(hit, {rings, sectors});
+        py::array_t<double> dirs({static_cast<py::ssize_t>(nodes.dir.size()), py::ssize_t{3}});
+        double* d = dirs.mutable_data();
+        for (std::size_t k = 0; k < nodes.dir.size(); ++k) {
+          d[3 * k] = nodes.dir[k].x;
+          d[3 * k + 1] = nodes.dir[k].y;
+          d[3 * k + 2] = nodes.dir[k].z;
+        }
+        return py::make_tuple(dirs, to_numpy(nodes.weight), nodes.first, nodes.last, to_numpy(nodes.radius));
+      },
+      py::arg("hit"), py::arg("rings"), py::arg("sectors"));
+}
+
 }  // namespace
 
 void bind_lighting(py::module_& m) {
   bind_light(m);
   bind_probabilities(m);
   bind_facets(m);
+  bind_lobes(m);
 }
 
 }  // namespace glintlab::bindings

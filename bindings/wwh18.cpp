@@ -10,6 +10,7 @@
 #include "glintlab/base/errors.hpp"
 #include "glintlab/glinty/wwh18.hpp"
 #include "glintlab/lighting/lighting.hpp"
+#include "glintlab/lighting/lobes.hpp"
 
 namespace py = pybind11;
 
@@ -136,7 +137,7 @@ void bind_wwh18_counts(WwhClass& cls) {
       .def(
           "light_counts",
           [](const Wwh18Ndf& g, const Array& uv, const Array& jac, const Array& wo, std::uint64_t seed,
-             const lighting::LightHit& hit, bool mirror) {
+             const lighting::LightHit& hit, const lighting::GlintLightOptions& opt) {
             const std::size_t n = pixels(uv, jac, wo);
             const auto k = static_cast<py::ssize_t>(hit.channels());
             py::array_t<double> counts({static_cast<py::ssize_t>(n), k}), rad(static_cast<py::ssize_t>(n)),
@@ -146,11 +147,11 @@ void bind_wwh18_counts(WwhClass& cls) {
             double* f = flakes.mutable_data();
             {
               LongCall release;
-              g.light_counts(uv.data(), jac.data(), wo.data(), n, seed, hit, mirror, c, r, f);
+              g.light_counts(uv.data(), jac.data(), wo.data(), n, seed, hit, opt, c, r, f);
             }
             return py::make_tuple(counts, rad, flakes);
           },
-          py::arg("uv"), py::arg("J"), py::arg("wo"), py::arg("seed"), py::arg("hit"), py::arg("mirror"))
+          py::arg("uv"), py::arg("J"), py::arg("wo"), py::arg("seed"), py::arg("hit"), py::arg("options"))
       .def(
           "counts",
           [](const Wwh18Ndf& g, const Array& uv, const Array& jac, const Array& h, const py::object& wi_obj,

@@ -8,6 +8,7 @@
 
 #include "../../core/src/lighting/lighting_cubature.hpp"
 #include "glintlab/lighting/lighting.hpp"
+#include "glintlab/lighting/lobes.hpp"
 
 using namespace glintlab::lighting;
 
@@ -100,4 +101,27 @@ TEST_CASE("bad lights and views are refused by name", "[lighting]") {
   CHECK_THROWS_WITH(Light::disk({0, 0, 1}, {0, 0, 1}, -1.0), Catch::Contains("radius"));
   CHECK_THROWS_WITH(reflection_probability(Target::kGgx, 0.1, {0, 0, -1}, Light::cap({0, 0, 1}, 0.1)),
                     Catch::Contains("wo[2]"));
+}
+
+TEST_CASE("the lobes' light rule integrates each light's solid angle and leaves overlaps to the first light",
+          "[lighting]") {
+  const auto cap = Light::cap({0.2, 0.1, 1.0}, 0.3);
+  const auto tilted = Light::rect({0.3, -0.2, 1.5}, {0.8, 0.1, 0.2}, {-0.1, 0.5, 0.1});
+  const auto disk = Light::disk({0.0, 0.0, 2.0}, {0.0, 0.0, 1.0}, 0.5);
+  for (const auto& light : {cap, tilted, disk}) {
+    const auto nodes = light_nodes(LightHit({light}, {1.0}), {8, 12});
+    double total = 0.0;
+    for (double w : nodes.weight) total += w;
+    // A rectangle: 6 Gauss-Legendre sectors between corners, 2e-5; equal sectors would miss by 0.6 %.
+    CHECK(total == Approx(light.solid_angle()).epsilon(light.corners().empty() ? 1e-8 : 5e-5));
+  }
+  // Two overlapping caps: the second one's nodes leave out the first's directions.
+  const auto second = Light::cap({0.3, 0.1, 1.0}, 0.3);
+  const auto nodes = light_nodes(LightHit({cap, second}, {1.0, 1.0}), {64, 96});
+  double share = 0.0;
+  for (int n = nodes.first[1]; n < nodes.last[1]; ++n) share += nodes.weight[n];
+  CHECK(share < 0.5 * second.solid_angle());
+  CHECK(share > 0.0);
+  LobeRule bad{0, 12};
+  CHECK_THROWS_WITH(bad.check(), Catch::Contains("rings"));
 }

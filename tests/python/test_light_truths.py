@@ -8,6 +8,7 @@ independent Poisson; KPT25's are sums of independent per-cell terms in [0, 1] (r
 variance is at most their mean. The z-tests at |z| < 4.5 then fail falsely with probability below 7e-6
 each (normal approximation, conservative for KPT25), the chi-square tests over regions at the 1 - 1e-5
 quantile below 1e-5."""
+import functools
 import math
 
 import numpy as np
@@ -90,20 +91,22 @@ def test_radiance_is_the_sum_of_the_lit_facets_radiance(method):
 
 @pytest.mark.parametrize("method", ["kpt25", "wwh18"])
 def test_point_light_limit(method):
-    """As the cap shrinks, E[count] / solid angle tends to the point light's (L2) as a^2, and the pooled
-    counts of a small cap divided by its solid angle match the point light's expectation."""
+    """Glints as normals: as the cap shrinks, E[count] / solid angle tends to the point light's (L2) as a^2,
+    and the pooled counts of a small cap divided by its solid angle match the point light's expectation.
+    (The lobes' own limit: test_light_lobes.py.)"""
     nd, truth = _method(method, "beckmann", 0.1)
+    truth = functools.partial(truth, lit_as="normal")
     wo, centre = (-0.2, 0.1, 1.0), (0.25, -0.05, 1.0)
     errors = []
     for a in (0.08, 0.04, 0.02, 0.01):
         cap = gl.lights.cap(centre, a)
-        exact = lt.expected_light_counts(nd, J[:1], wo, cap, rel_tol=1e-9)[0, 0]
+        exact = lt.expected_light_counts(nd, J[:1], wo, cap, rel_tol=1e-9, lit_as="normal")[0, 0]
         point = lt.expected_light_counts(nd, J[:1], wo, cap, method="point")[0, 0]
         errors.append(abs(exact / point - 1))
     assert all(e1 < e0 / 3 for e0, e1 in zip(errors, errors[1:])) and errors[-1] < 2e-3
     cap = gl.lights.cap(centre, 0.03)
     point = lt.expected_light_counts(nd, J, wo, cap, method="point")
-    exact = lt.expected_light_counts(nd, J, wo, cap)
+    exact = lt.expected_light_counts(nd, J, wo, cap, lit_as="normal")
     counts = truth(nd, UV, J, wo, cap, seed=9).counts
     assert point.sum() > 300
     bias = abs(exact.sum() - point.sum())

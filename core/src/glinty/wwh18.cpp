@@ -15,6 +15,7 @@
 #include "glintlab/base/errors.hpp"
 #include "glintlab/base/rng.hpp"
 #include "glintlab/lighting/lighting.hpp"
+#include "glintlab/lighting/lobes.hpp"
 
 namespace glintlab {
 
@@ -669,11 +670,181 @@ void Wwh18Ndf::reference_counts(const double* uv, const double* jac, const doubl
   });
 }
 
+void Wwh18Ndf::cone_counts(const lighting::LightHit& hit, const lighting::GlintLightOptions& opt,
+                           const lighting::LightNodes& nodes, const double v[3], const double m[3],
+                           std::vector<char>& light_rule, double* c, double& radiance) const {
+  using lighting::Vec3;
+  const bool outgoing = p_.cone == WwhCone::outgoing;
+  const double vm = v[0] * m[0] + v[1] * m[1] + v[2] * m[2];
+  // The cone's centre: the normal (a cone of half vectors) or its mirror direction of the view (a cone of
+  // directions of light, the outgoing cone reflected about m: reflection keeps angles).
+  Vec3 ctr{m[0], m[1], m[2]};
+  if (outgoing) {
+    if (!(vm > 0.0)) return;
+    ctr = {2.0 * vm * m[0] - v[0], 2.0 * vm * m[1] - v[1], 2.0 * vm * m[2] - v[2]};
+  }
+  const double gamma = p_.gamma_deg * kDeg, density = opt.unnormalised ? 1.0 : 1.0 / cone_solid_angle_;
+  // The cone's radius in directions of light: gamma, or about 2 gamma for a cone of half vectors.
+  const double r_lobe = outgoing ? gamma : 2.0 * gamma;
+  const int lights = hit.is_map() ? 0 : static_cast<int>(hit.lights().size());
+  bool any_lobe_rule = lights == 0 || !opt.mirror;
+  for (int k = 0; k < lights; ++k) {
+    light_rule[k] = opt.mirror && nodes.radius[k] < r_lobe;
+    if (!light_rule[k]) {
+      any_lobe_rule = true;
+      continue;
+    }
+    const double s = cone_over_light(hit, nodes, k, opt.rule.rings, v, ctr);
+    c[k] += density * s;
+    radiance += density * s * hit.light_radiance(k);
+  }
+  if (!any_lobe_rule) return;
+  // The cone's rule: cells of equal solid angle (rings x sectors), each sigma(gamma) / cells of the cone.
+  const int rings = opt.rule.rings, sectors = opt.rule.sectors;
+  const double w = density * cone_solid_angle_ / (rings * sectors);
+  Vec3 t1, t2;
+  lighting::tangent_frame(ctr, t1, t2);
+  for (int r = 0; r < rings; ++r) {
+    const double rho = lighting::cap_ring_angle(r, rings, gamma);
+    for (int s = 0; s < sectors; ++s) {
+      const Vec3 d = lighting::polar_direction(ctr, t1, t2, rho, 2.0 * kPi * (s + 0.5) / sectors);
+      double a[3] = {d.x, d.y, d.z};
+      if (outgoing) {  // the normal that mirrors v into d
+        const double sum[3] = {v[0] + d.x, v[1] + d.y, v[2] + d.z};
+        if (!(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2] > 1e-24)) continue;
+        normalise(sum, a);
+      }
+      double rad = 0.0;
+      const int k = hit.hit({v[0], v[1], v[2]}, {a[0], a[1], a[2]}, rad, opt.mirror);
+      if (k < 0 || (k < lights && light_rule[k])) continue;
+      c[k] += w;
+      radiance += w * rad;
+    }
+  }
+}
+
+double Wwh18Ndf::cone_over_light(const lighting::LightHit& hit, const lighting::LightNodes& nodes, int k, int rings,
+                                 const double v[3], const lighting::Vec3& ctr) const {
+  using lighting::Vec3;
+  const bool outgoing = p_.cone == WwhCone::outgoing;
+  const double gamma = p_.gamma_deg * kDeg;
+  const Vec3 c = nodes.centre[k];
+  // The cone in directions of light: within gamma of ctr (outgoing), or within 2 gamma of the mirror direction
+  // of v about m (a reflection about h moves by at most twice the angle h moves): far from the light, nothing.
+  Vec3 mid = ctr;
+  if (!outgoing) {
+    const double vm = v[0] * ctr.x + v[1] * ctr.y + v[2] * ctr.z;
+    mid = {2.0 * vm * ctr.x - v[0], 2.0 * vm * ctr.y - v[1], 2.0 * vm * ctr.z - v[2]};
+  }
+  const double cos_gap = std::clamp(mid.x * c.x + mid.y * c.y + mid.z * c.z, -1.0, 1.0);
+  if (std::acos(cos_gap) > nodes.radius[k] + (outgoing ? 1.0 : 2.0) * gamma + 1e-9) return 0.0;
+  const auto& lights = hit.lights();
+  // The integrand on the ray at angle rho: inside the cone (and in no earlier light), times the Jacobian
+  // 1 / (4 v.h) of a cone of half vectors.
+  double edge = 0.0;  // the last value's |a - ctr|^2 - chord^2: continuous, negative inside the cone
+  auto value = [&](Vec3 w, bool& inside) {
+    inside = false;
+    edge = 1.0;
+    double a[3] = {w.x, w.y, w.z}, jac = 1.0;
+    if (!outgoing) {
+      const double sum[3] = {v[0] + w.x, v[1] + w.y, v[2] + w.z};
+      if (!(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2] > 1e-24)) return 0.0;
+      normalise(sum, a);
+      const double vh = v[0] * a[0] + v[1] * a[1] + v[2] * a[2];
+      if (!(vh > 0.0)) return 0.0;
+      jac = 1.0 / (4.0 * vh);
+    }
+    const double dx = a[0] - ctr.x, dy = a[1] - ctr.y, dz = a[2] - ctr.z;
+    edge = dx * dx + dy * dy + dz * dz - chord2_;
+    if (!(edge <= 0.0)) return 0.0;
+    for (int j = 0; j < k; ++j)
+      if (lights[j].contains(w)) return 0.0;
+    inside = true;
+    return jac;
+  };
+  const auto& exits = nodes.exits[k];
+  const int sectors = static_cast<int>(exits.size());
+  constexpr double kGx[3] = {-0.7745966692414834, 0.0, 0.7745966692414834};
+  constexpr double kGw[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
+  double total = 0.0;
+  for (int s = 0; s < sectors; ++s) {
+    const double phi = nodes.phi[k][s], cp = std::cos(phi), sp = std::sin(phi);
+    const Vec3 t1 = nodes.t1[k], t2 = nodes.t2[k];
+    const Vec3 d{cp * t1.x + sp * t2.x, cp * t1.y + sp * t2.y, cp * t1.z + sp * t2.z};
+    auto at = [&](double rho) {
+      const double cr = std::cos(rho), sr = std::sin(rho);
+      return Vec3{cr * c.x + sr * d.x, cr * c.y + sr * d.y, cr * c.z + sr * d.z};
+    };
+    auto piece = [&](double r0, double r1) {  // the smooth part over [r0, r1], all inside
+      double sum = 0.0;
+      bool inside;
+      for (int g = 0; g < 3; ++g) {
+        const double rho = 0.5 * (r0 + r1) + 0.5 * (r1 - r0) * kGx[g];
+        sum += kGw[g] * value(at(rho), inside) * std::sin(rho);
+      }
+      return 0.5 * (r1 - r0) * sum;
+    };
+    const double rho_max = exits[s];
+    double sector = 0.0;
+    bool in0;
+    value(at(0.0), in0);
+    double e0 = edge;
+    for (int r = 0; r < rings; ++r) {
+      const double r0 = rho_max * r / rings, r1 = rho_max * (r + 1) / rings;
+      bool in1;
+      value(at(r1), in1);
+      const double e1 = edge;
+      if (in0 && in1) {
+        sector += piece(r0, r1);
+      } else if (in0 != in1) {  // one crossing in the piece assumed
+        double lo = r0, hi = r1;
+        if ((e0 <= 0.0) != (e1 <= 0.0)) {
+          // The cone's edge: the Illinois variant of regula falsi on the continuous `edge`, to 1e-13 of the ray.
+          double flo = e0, fhi = e1;
+          int side = 0;
+          for (int it = 0; it < 60 && hi - lo > 1e-13 * rho_max; ++it) {
+            const double x = (lo * fhi - hi * flo) / (fhi - flo);
+            bool in;
+            value(at(x), in);
+            if ((edge <= 0.0) == (flo <= 0.0)) {
+              lo = x;
+              flo = edge;
+              if (side == -1) fhi *= 0.5;
+              side = -1;
+            } else {
+              hi = x;
+              fhi = edge;
+              if (side == 1) flo *= 0.5;
+              side = 1;
+            }
+            if (edge == 0.0) lo = hi = x;
+          }
+        } else {  // an earlier light's edge (or the half vector turning away): bisection on the indicator
+          for (int it = 0; it < 60 && hi - lo > 1e-12 * rho_max; ++it) {
+            const double mid_rho = 0.5 * (lo + hi);
+            bool in;
+            value(at(mid_rho), in);
+            (in == in0 ? lo : hi) = mid_rho;
+          }
+        }
+        sector += in0 ? piece(r0, lo) : piece(hi, r1);
+      }
+      in0 = in1;
+      e0 = e1;
+    }
+    total += nodes.phi_weight[k][s] * sector;
+  }
+  return total;
+}
+
 void Wwh18Ndf::light_counts(const double* uv, const double* jac, const double* wo, std::size_t m, std::uint64_t seed,
-                            const lighting::LightHit& hit, bool mirror, double* counts, double* radiance,
-                            double* flakes) const {
+                            const lighting::LightHit& hit, const lighting::GlintLightOptions& opt, double* counts,
+                            double* radiance, double* flakes) const {
   const int channels = hit.channels();
+  const bool lobes = opt.lit_as == lighting::GlintLight::kLobe;
+  const lighting::LightNodes nodes = lobes ? lighting::light_nodes(hit, opt.rule) : lighting::LightNodes{};
   detail::parallel_chunks(m, 1, 4, [&](std::size_t first, std::size_t last) {
+    std::vector<char> light_rule(hit.is_map() ? 0 : hit.lights().size(), 0);
     for (std::size_t px = first; px < last; ++px) {
       for (int c = 0; c < 2; ++c)
         if (!std::isfinite(uv[2 * px + c]) || std::abs(uv[2 * px + c]) > 1e9)
@@ -689,8 +860,12 @@ void Wwh18Ndf::light_counts(const double* uv, const double* jac, const double* w
       radiance[px] = flakes[px] = 0.0;
       for_each_flake(fp, px, seed, [&](const double* mv) {
         flakes[px] += 1.0;
+        if (lobes) {
+          cone_counts(hit, opt, nodes, v, mv, light_rule, c, radiance[px]);
+          return;
+        }
         double rad = 0.0;
-        const int k = hit.hit({v[0], v[1], v[2]}, {mv[0], mv[1], mv[2]}, rad, mirror);
+        const int k = hit.hit({v[0], v[1], v[2]}, {mv[0], mv[1], mv[2]}, rad, opt.mirror);
         if (k < 0) return;
         c[k] += 1.0;
         radiance[px] += rad;

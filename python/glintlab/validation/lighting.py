@@ -278,12 +278,14 @@ def own_truth_lights():
 
 def own_truth_table(seed: int = 0, pixels: int = 128, footprint: float = 0.02, density: float = 1e6,
                     z_max: float = 4.5) -> pd.DataFrame:
-    """KPT25's points and WWH18's flakes lit by each light of :func:`own_truth_lights`
-    (docs/math/lighting.md#lighting-own-truths): the counts pooled over ``pixels`` disjoint square
-    footprints of side ``footprint`` in one realization against E[count] = (facets per unit area and p)
-    |det J| p_exact, as a z (Poisson spread; for the map a chi-square over the regions on the same scale,
-    :func:`_own_z`), beside the same check of the two wrong variants: the normal tested in place of its
-    mirror direction, and the light's solid angle left out of p."""
+    """KPT25's points and WWH18's flakes lit by each light of :func:`own_truth_lights`, each glint's lobe
+    integrated over the light (``lit_as`` "lobe"; docs/math/lighting.md#lighting-own-truths, #lighting-lobes):
+    the counts pooled
+    over ``pixels`` disjoint square footprints of side ``footprint`` in one realization against their
+    expectation (:func:`glintlab.api.light_truths.expected_light_counts`) as a z (Poisson spread; for the
+    map a chi-square over the regions on the same scale, :func:`_own_z`), beside the same check of the wrong
+    variants: the normal tested in place of its mirror direction, the light's solid angle left out of p, and
+    the lobe without its normalisation."""
     side = math.ceil(math.sqrt(pixels))
     k = np.arange(pixels)
     uv = np.stack([(k % side + 0.5) / side, (k // side + 0.5) / side], -1)
@@ -292,17 +294,27 @@ def own_truth_table(seed: int = 0, pixels: int = 128, footprint: float = 0.02, d
                ("wwh18", WWH18(density=density, alpha=0.3, dpf="exact"), LT.wwh18_light_truth)]
     rows = []
     for (name, light, wo), (method, nd, truth) in itertools.product(own_truth_lights(), methods):
-        expected = LT.expected_light_counts(nd, J, wo, light).sum(axis=0)
-        counts = truth(nd, uv, J, wo, light, seed=seed).counts.sum(axis=0)
-        normal = truth(nd, uv, J, wo, light, seed=seed, test="normal").counts.sum(axis=0)
-        z, z_normal = _own_z(counts, expected), _own_z(normal, expected)
-        z_omega = float("nan")  # a map's regions have no one solid angle to leave out
-        if not isinstance(light, gl_lights.EnvMap):
+        is_map = isinstance(light, gl_lights.EnvMap)
+        lit_as = "lobe"
+        expected = LT.expected_light_counts(nd, J, wo, light, lit_as=lit_as).sum(axis=0)
+
+        def z_of(test, expected=expected, truth=truth, nd=nd, light=light, wo=wo, lit_as=lit_as):
+            counts = truth(nd, uv, J, wo, light, seed=seed, test=test, lit_as=lit_as).counts.sum(axis=0)
+            return _own_z(counts, expected), counts
+
+        z, counts = z_of("mirror")
+        z_normal = z_of("normal")[0]
+        z_omega = z_unnorm = float("nan")  # a map's regions have no one solid angle to leave out
+        if not is_map:
             no_omega = LT.expected_light_counts(nd, J, wo, light, method="point").sum(axis=0) / light.solid_angle
             z_omega = _own_z(counts, no_omega)
-        rows.append({"method": method, "light": name, "expected": float(expected.sum()), "count": float(counts.sum()),
-                     "z": z, "z_normal_variant": z_normal, "z_no_solid_angle": z_omega,
-                     "pass": abs(z) < z_max and abs(z_normal) > z_max and not abs(z_omega) <= z_max})
+        if lit_as == "lobe":
+            z_unnorm = z_of("unnormalised")[0]
+        rows.append({"method": method, "light": name, "lit_as": lit_as, "expected": float(expected.sum()),
+                     "count": float(counts.sum()), "z": z, "z_normal_variant": z_normal, "z_no_solid_angle": z_omega,
+                     "z_unnormalised": z_unnorm,
+                     "pass": abs(z) < z_max and abs(z_normal) > z_max and not abs(z_omega) <= z_max
+                     and not abs(z_unnorm) <= z_max})
     return pd.DataFrame(rows)
 
 

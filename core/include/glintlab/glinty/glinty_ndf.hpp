@@ -19,6 +19,10 @@ namespace glintlab {
 class CounterRng;
 namespace lighting {
 class LightHit;
+struct GlintLightOptions;
+}  // namespace lighting
+namespace kpt25 {
+struct LobeView;  // kpt25_lights.cpp: one pixel's view of the lights for the lobes
 }
 
 enum class GlintTarget { beckmann, ggx };
@@ -179,13 +183,19 @@ class Kpt25Ndf {
                       double radius, double* out) const;
   // The point process lit by an extended light (docs/math/lighting.md#lighting-own-truths): the points of the
   // levels KPT25 sums at half vector h[3i..] (h selects the levels and their roulette, nothing else), inside
-  // DB23's footprint ellipse (as visible_counts), each a facet of normal T^-1 of its point in U, counted
-  // with its roulette weight for the channel `hit` gives its mirror direction of the view wo[3i..] (mirror
-  // false: the wrong variant of LightHit::hit). counts[i * channels + c], radiance[i] (weighted sums),
-  // points[i] (the weighted points in the ellipse). Cost: every point in the filter's box.
+  // DB23's footprint ellipse (as visible_counts), each counted with its roulette weight. opt.lit_as kNormal:
+  // a facet of normal T^-1 of its point in U, for the channel `hit` gives its mirror direction of the view
+  // wo[3i..]; kLobe: its lobe of eq. 4 integrated over each light or region (lobes.hpp,
+  // docs/math/lighting.md#lighting-lobes). counts[i * channels + c], radiance[i] (weighted sums), points[i]
+  // (the weighted points in the ellipse). Cost: every point in the filter's box.
   void light_counts(const double* uv, const double* jac, const double* h, const double* wo, std::size_t m,
-                    std::uint64_t seed, const lighting::LightHit& hit, bool mirror, double* counts, double* radiance,
-                    double* points) const;
+                    std::uint64_t seed, const lighting::LightHit& hit, const lighting::GlintLightOptions& opt,
+                    double* counts, double* radiance, double* points) const;
+  // The glinty D of the points light_counts counts at half vector h[3i..] (the same levels, roulette and
+  // ellipse; no filter weights, no compensation): D(h) sum_i keep_i N(T(h); mu_i, alpha_* sqrt(D(h))) / K_P,
+  // the point-light value their lobes tend to as a light shrinks (docs/math/lighting.md#lighting-lobes).
+  void footprint_ndf(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
+                     double* out) const;
   // UV-free glints (KPT25 §3.3.6, docs/math/glinty_ndf.md#glinty-triplanar). Per pixel i: P[3i..] the
   // world position, dP[6i..] = (dP/dx, dP/dy) its screen derivatives, n[3i..] the normal (weights and
   // shading frame), h[3i..] the half vector in world space (normalised here; h.n <= 0 gives 0). Each
@@ -230,6 +240,12 @@ class Kpt25Ndf {
   double compensation(const GlintPixel& px, int level) const;
   void footprint(GlintPixel& px, const double* jac, std::size_t index) const;
   double disk_D(double x, double y) const;  // D(T^-1(x, y)), the target at a point of U
+  // One point's lobe (centre (mx, my) in U, roulette weight keep) integrated over the lights of `view`:
+  // adds its share of each channel to c and of the radiance to radiance.
+  void lobe_counts(const kpt25::LobeView& view, double mx, double my, double keep, double* c, double& radiance) const;
+  // Its lobe's rule over the annulus r0 <= |u - mu| <= r1 (kpt25_lights.cpp).
+  void lobe_annulus(const kpt25::LobeView& view, double mx, double my, double r0, double r1, double keep, double* c,
+                    double& radiance) const;
   double level_pdf(const GlintPixel& px, int level, double u, double v, std::uint64_t seed, double x, double y) const;
   double pixel_pdf(const GlintPixel& px, double u, double v, std::uint64_t seed, double x, double y) const;
   bool draw_from_block(const GlintPixel& px, int li, double u, double v, std::uint64_t seed, double xa, double ya,

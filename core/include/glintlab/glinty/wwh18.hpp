@@ -24,7 +24,10 @@ namespace glintlab {
 
 namespace lighting {
 class LightHit;
-}
+struct GlintLightOptions;
+struct LightNodes;
+struct Vec3;
+}  // namespace lighting
 
 // Which lambda a flake is tested with (Algorithm 1's psi <- lambda(k); eq. 8's lambda(x)).
 enum class WwhLambdaSeeding {
@@ -117,11 +120,14 @@ class Wwh18Ndf {
   void counts(const double* uv, const double* jac, const double* h, const double* wi, std::size_t m, std::uint64_t seed,
               double* out, int* mode = nullptr, double* p_out = nullptr) const;
   // The truth's flakes lit by an extended light (docs/math/lighting.md#lighting-own-truths): every flake of the
-  // footprint parallelogram counted for the channel `hit` gives its mirror direction of the view wo[3i..]
-  // (mirror false: the wrong variant of LightHit::hit). counts[i * channels + c], radiance[i] (the sum of
-  // their radiance), flakes[i] (the flakes in the footprint).
+  // footprint parallelogram, opt.lit_as kNormal: counted for the channel `hit` gives its mirror direction of
+  // the view wo[3i..]; kLobe: its cone of half-angle gamma (the model's cone: around the normal in half
+  // vectors, or around the mirror direction in directions of light), of density 1 / sigma(gamma) there,
+  // integrated over each light or region (lobes.hpp, docs/math/lighting.md#lighting-lobes).
+  // counts[i * channels + c], radiance[i] (the sum of their radiance), flakes[i] (the flakes in the footprint).
   void light_counts(const double* uv, const double* jac, const double* wo, std::size_t m, std::uint64_t seed,
-                    const lighting::LightHit& hit, bool mirror, double* counts, double* radiance, double* flakes) const;
+                    const lighting::LightHit& hit, const lighting::GlintLightOptions& opt, double* counts,
+                    double* radiance, double* flakes) const;
 
   // lambda of (level, i, j, k) as the model draws it (exposed for the generator's quality tests).
   double lambda(std::uint64_t seed, int level, std::int64_t i, std::int64_t j, std::uint32_t k) const;
@@ -143,6 +149,16 @@ class Wwh18Ndf {
   template <class F>
   void for_each_flake(const Footprint& fp, std::size_t index, std::uint64_t seed, F&& f) const;
   bool flake_counts(const double m[3], const double h[3], const double wi[3], const double wo[3]) const;
+  // One flake's cone (normal m, view v) integrated over the lights: adds its share of each channel to c and
+  // of the radiance to radiance; light_rule: per light, scratch.
+  void cone_counts(const lighting::LightHit& hit, const lighting::GlintLightOptions& opt,
+                   const lighting::LightNodes& nodes, const double v[3], const double m[3],
+                   std::vector<char>& light_rule, double* c, double& radiance) const;
+  // The cone's share of light k (centre ctr: the normal for a cone of half vectors, the mirror direction for
+  // the outgoing cone) by the rays of its light rule: the cone's edge located on each ray by bisection, the
+  // pieces inside integrated by 3-point Gauss-Legendre (cone_counts; docs/math/lighting.md#lighting-lobes).
+  double cone_over_light(const lighting::LightHit& hit, const lighting::LightNodes& nodes, int k, int rings,
+                         const double v[3], const lighting::Vec3& ctr) const;
   double band_mass(double t0, double t1) const;  // mass of D(m)(m.n) with theta_m in [t0, t1], radians
   void build_cells();
   void build_table();

@@ -129,6 +129,9 @@ class LightHit {
   // 2 (wo.m) m - wo is below the horizon. mirror = false tests m itself in place of the mirror direction:
   // a deliberately wrong variant the tests use to show that their checks can fail.
   int hit(Vec3 wo, Vec3 m, double& radiance, bool mirror = true) const;
+  bool is_map() const { return is_map_; }
+  const std::vector<Light>& lights() const { return lights_; }  // none for a map
+  double light_radiance(int k) const { return radiance_[k]; }
 
  private:
   std::vector<Light> lights_;
