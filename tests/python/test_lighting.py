@@ -184,3 +184,11 @@ def test_user_maps_load_from_npy_and_pfm(tmp_path):
     assert np.allclose(a.region_radiance, b.region_radiance, rtol=1e-6)
     with pytest.raises(ValueError, match="path"):
         gl.lights.envmap(tmp_path / "missing.exr")
+
+
+def test_a_small_caps_solid_angle_keeps_its_digits():
+    # 2 pi (1 - cos a) loses about 1e-6 relative at a = 1e-5 to the cancellation of 1 - cos a; the light's
+    # solid angle is written without it.
+    for a in (1e-5, 1e-3, 0.3, 1.5):
+        exact = 4 * math.pi * math.sin(a / 2) ** 2
+        assert abs(gl.lights.cap((0.0, 0.0, 1.0), a).solid_angle / exact - 1) < 1e-14, a

@@ -240,7 +240,10 @@ double Light::exit(Vec3 pole, Vec3 dir, bool horizon) const {
 }
 
 double Light::solid_angle() const {
-  if (kind_ == Kind::kCap) return 2 * kPi * (1 - std::cos(half_angle_));
+  if (kind_ == Kind::kCap) {  // 2 pi (1 - cos a), written without the cancellation of 1 - cos a for small a
+    const double s = std::sin(0.5 * half_angle_);
+    return 4 * kPi * s * s;
+  }
   if (kind_ == Kind::kRect)
     return triangle_solid_angle(corners_[0], corners_[1], corners_[2]) +
            triangle_solid_angle(corners_[0], corners_[2], corners_[3]);
