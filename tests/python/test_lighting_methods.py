@@ -12,7 +12,11 @@ the facets' expectation: z = (F - M / b) / sqrt(2 frames M / b), F the facets li
 count whose variance the footprints' overlap at most doubles and the camera path's frames, which see the
 same facets, multiply by their number), |z| < 4: a false-failure rate of about 6e-5 under the normal
 approximation. The wrong variants (the Jacobian 1 / (4 wo.h) left out; the light's solid angle left out)
-fail it."""
+fail it.
+
+Under the shipped sky: the smooth NDF per region against the exact p (1e-2 per region, 2e-3 for the value at
+the default blocks of 8 cells), and the methods whose bias is 1 (smooth, ZK16, DB23's binomial) within 3 %
+of the exact value sum_r L_r p_r over a frame (deterministic given the seed; measured 0.98-1.00)."""
 import numpy as np
 import pytest
 
@@ -77,7 +81,7 @@ def test_the_smooth_ndf_through_the_quadrature_is_the_exact_p(scene, frame, kind
     light = LI.scene_light(scene, kind, size).in_frame(*tbn)
     views = wo[:: max(1, len(wo) // 150)]
     err = LM.quadrature_error(mat.target, mat.alpha, light, views, LM.SAMPLES)
-    assert err["views"] > 100
+    assert err["values"] > 100
     assert err["max_rel_error"] < worst and err["weighted_rel_error"] < weighted, err
     coarse, fine = (LM.quadrature_error(mat.target, mat.alpha, light, views, s)["weighted_rel_error"] for s in (16, 144))
     assert fine < coarse / 3  # O(1 / S): 9 times the samples, at least 3 times less error
@@ -149,7 +153,41 @@ def test_bad_arguments_are_named(scene, frame):
     with pytest.raises(ValueError, match="methods"):
         LM.method_renderers(mat, ["no such method"])
     with pytest.raises(ValueError, match="light"):
-        LM.method_light_path(scene, gl.lights.envmap("sky", regions=3))
+        LM.method_light_path(scene, gl.lights.cap([0, 0, 1.0], 0.1))
+    with pytest.raises(ValueError, match="block"):
+        LM.map_samples(gl.lights.envmap("sky", regions=3), 0)
     with pytest.raises(ValueError, match="wrong"):
         LM.method_renderers(mat, ["zk16"], wrong="no_radiance")
     assert "truth" not in LM.light_methods() and "zk16" in LM.light_methods()
+
+
+@pytest.fixture(scope="module")
+def sky():
+    return gl.lights.envmap("sky", regions=3)
+
+
+def test_the_smooth_ndf_over_the_map_is_the_exact_p_per_region(frame, sky):
+    mat, _, wo, _, _ = frame
+    views = wo[:: max(1, len(wo) // 60)]
+    err = LM.quadrature_error(mat.target, mat.alpha, sky, views, block=LM.MAP_BLOCK)
+    assert err["max_rel_error"] < 1e-2 and err["max_value_rel_error"] < 2e-3, err
+    fine = LM.quadrature_error(mat.target, mat.alpha, sky, views, block=2)
+    assert fine["weighted_rel_error"] < err["weighted_rel_error"] / 4  # 16 times the samples of the large region
+    dirs, w, region = LM.map_samples(sky, LM.MAP_BLOCK)
+    assert np.allclose(np.bincount(region, weights=w), sky.region_solid_angle, rtol=1e-12)
+    assert np.bincount(region)[1:].tolist() == [(sky.labels == r).sum() for r in (1, 2)]  # sun, window: own cells
+
+
+@pytest.mark.parametrize("name", ["smooth", "zk16", "db23_trilinear[binomial]"])
+def test_the_unbiased_methods_average_to_the_exact_value_under_the_map(frame, sky, name):
+    """Sum over a frame's pixels of value x n against sum of (sum_r L_r p_r) x n: the methods whose point-light
+    bias is 1 are within 3 % (measured 0.98-1.00 on seeds 1 and 3); the wrong variant without the Jacobian
+    is off by more than 30 %."""
+    mat, _, wo, uv, J = frame
+    n = mat.density * np.abs(J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2])
+    exact = (gl.reflection_probability(mat.target, mat.alpha, wo[::8], sky) @ sky.region_radiance * n[::8]).sum()
+    render = LM.method_renderers(mat, [name])[_label(name)]
+    value = render(sky, wo[::8], uv[::8], J[::8], 3)
+    assert abs((value * n[::8]).sum() / exact - 1) < 0.03
+    wrong = LM.method_renderers(mat, [name], wrong="no_jacobian")[f"{_label(name)} (wrong: no_jacobian)"]
+    assert abs((wrong(sky, wo[::8], uv[::8], J[::8], 3) * n[::8]).sum() / exact - 1) > 0.3

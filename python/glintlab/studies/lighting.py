@@ -34,14 +34,21 @@ DEFAULTS = {"targets": ["beckmann", "ggx"], "alphas": [0.05, 0.2, 0.5], "half_an
             # The registered NDF image methods under the cap and the window by quadrature over the light's
             # directions (validation.lighting_methods; S = k^2 samples per pixel): "smooth" is the quadrature's check.
             "scene_methods": ["smooth", "db23_trilinear[gated]", "db23_shader_48[gated]", "zk16", "kpt25"],
-            "scene_method_samples": 64}
+            "scene_method_samples": 64,
+            # ... and under the sky: its cells pooled in blocks of scene_map_block (its sun and window at their own cells).
+            "scene_map_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"], "scene_map_block": 8}
 # KPT25's Algorithm 2 under the sky map (studies.sampling_lighting with the map's radiance): pixels of its
 # PIXELS, estimates x samples per estimator, the view's polar angle; |z| above alg2_max_z fails the section.
 DEFAULTS.update({"alg2_pixels": [0, 2], "alg2_repeats": 64, "alg2_samples": 256, "alg2_wo_theta_deg": 30.0,
                  "alg2_max_z": 4.0})
-FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17}
+# make bench's full sizes; the registered methods at QUICK's lists and samples (at 480 x 270 x 8 frames each
+# method costs about 0.5 us per pixel and sample: ~10 s per method and light at 36 samples).
+FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17,
+              "scene_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"], "scene_method_samples": 36,
+              "scene_map_methods": ["smooth", "zk16"], "scene_map_block": 16}
 QUICK = {"scene_scale": 1.0 / 16, "scene_frames": 3, "scene_grid_nodes": 9, "scene_method_samples": 36,
-         "scene_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"],
+         "scene_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"], "scene_map_methods": ["smooth", "zk16"],
+         "scene_map_block": 16,
          "alphas": [0.05, 0.3], "half_angles": [0.01, 0.1], "elevations_deg": [30.0], "views_deg": [20.0, 60.0],
          "count_half_angles": [0.001, 0.1, 0.3], "realizations": 1, "alg2_pixels": [0], "alg2_repeats": 32,
          "alg2_samples": 128}
@@ -158,7 +165,7 @@ def scene_images(params: dict, seed: int):
     """The plane under a cap, a window (rectangle) and the shipped sky: ([LightPath], their table). The
     shipped area-light method shader and its wrong variant are rendered under the cap and the window
     when a Vulkan device is present, and the registered image methods ``scene_methods`` by quadrature over
-    the light (validation.lighting_methods; not under the map)."""
+    the light (validation.lighting_methods), ``scene_map_methods`` under the map."""
     scene = with_density(resolve_scene(params["scene"]).scaled(params["scene_scale"], keep_n=True),
                          params["scene_density_factor"])
     lights = [LI.scene_light(scene, "cap", (params["scene_cap_half_angle"], 0.0)),
@@ -172,12 +179,13 @@ def scene_images(params: dict, seed: int):
     kw = dict(frames=params["scene_frames"], seed=seed, grid_nodes=params["scene_grid_nodes"])
     paths = [LM.method_light_path(scene, light, methods=params["scene_methods"], samples=params["scene_method_samples"],
                                   shaders=shaders, **kw) for light in lights]
-    paths.append(LI.light_path(scene, gl_lights.envmap("sky", regions=3), **kw))
+    paths.append(LM.method_light_path(scene, gl_lights.envmap("sky", regions=3), methods=params["scene_map_methods"],
+                                      block=params["scene_map_block"], **kw))
     return paths, pd.concat([LI.light_table(p) for p in paths], ignore_index=True)
 
 
 def _method_labels(params) -> set:
-    return {IMAGE_METHODS.get(n).label for n in params["scene_methods"]}
+    return {IMAGE_METHODS.get(n).label for n in params["scene_methods"] + params["scene_map_methods"]}
 
 
 def scene_figure(paths):

@@ -5,7 +5,8 @@ stratified quadrature of the light integral over the light's directions,
 
     value(pixel) = L sum_s w_s D_glint(h_s) (h_s . n) / (4 (wo . h_s)),   h_s = normalize(wo + l_s),
 
-l_s the light's S sample directions and w_s their solid angles (sum w_s = the light's solid angle). For the
+l_s the light's S sample directions and w_s their solid angles (sum w_s = the light's solid angle; under an
+environment map, the map's cells pooled in blocks, each sample weighted by its region's radiance). For the
 smooth D this is L times the exact p of docs/math/lighting.md#lighting-probability (L1), the facet truth's and
 the counting laws' scale (radiance x K / n), so a method's value is compared with the facets lit by the same
 light (:func:`method_light_path`, tabled by ``lighting_images.light_table``).
@@ -30,6 +31,10 @@ SAMPLES = 64
 #: The deliberately wrong variants the tests reject: the half vector's Jacobian 1 / (4 wo.h) left out, or
 #: the light's solid angle left out (the weights 1 / S: the mean p density taken as a probability).
 WRONG_VARIANTS = ("no_jacobian", "no_solid_angle")
+#: An environment map's cells pooled per sample by default: blocks of 8 x 8 cells, one sample per region present
+#: in a block (docs/math/lighting.md#lighting-methods: 112 samples for the shipped 64 x 128 sky in 3 regions,
+#: its sun and window at their own cells).
+MAP_BLOCK = 8
 #: Evaluations per call of a method's ``evaluate`` (pixels x samples are batched up to this many).
 BATCH = 1 << 20
 
@@ -75,6 +80,28 @@ def light_samples(light: gl_lights.Light, samples: int = SAMPLES) -> tuple[np.nd
     return x / r[:, None], w * (light.solid_angle / w.sum())
 
 
+def map_samples(env: gl_lights.EnvMap, block: int = MAP_BLOCK) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(directions (S, 3), solid angles (S,), regions (S,)): the map's cells above the horizon pooled in blocks
+    of ``block`` x ``block`` cells, one sample per (block, region) pair present: the direction of the
+    solid-angle-weighted mean of the region's cells in the block (normalised), weighted by their total solid
+    angle. A region of fewer than ``block``^2 cells (a sun, a window: small and bright) keeps its own cells,
+    each at its centre; ``block`` 1 is the map's own cells."""
+    if not isinstance(env, gl_lights.EnvMap):
+        V.fail("env", env, "an environment map from gl.lights.envmap")
+    b = V.integer("block", block, minimum=1)
+    rows, cols = env.shape
+    cell = (np.arange(rows) // b)[:, None] * (-(-cols // b)) + (np.arange(cols) // b)[None, :]
+    small = np.bincount(env.labels[env.labels >= 0], minlength=env.regions) < b * b
+    own = np.arange(rows * cols).reshape(rows, cols) + cell.max() + 1  # a cell of its own: a key of its own
+    cell = np.where(small[np.maximum(env.labels, 0)], own, cell)
+    keep = env.labels >= 0
+    dirs, w = gl_lights.directions(rows, cols)[keep], env.solid_angles[keep]
+    key, inv = np.unique(cell[keep] * env.regions + env.labels[keep], return_inverse=True)
+    weights = np.bincount(inv, weights=w)
+    mean = np.stack([np.bincount(inv, weights=w * dirs[:, i]) for i in range(3)], axis=1)
+    return mean / np.linalg.norm(mean, axis=1, keepdims=True), weights, key % env.regions
+
+
 def light_integral(method, uv, J, wo, directions, weights, seed: int = 0, wrong: str | None = None) -> np.ndarray:
     """sum_s w_s D(h_s) (h_s . n) / (4 (wo . h_s)) per pixel: ``method`` (a glinty NDF: ``evaluate(uv, J, h,
     seed)``) at the half vectors of the views ``wo`` (m, 3, unit, tangent frame) and the light's sample
@@ -103,8 +130,12 @@ def light_integral(method, uv, J, wo, directions, weights, seed: int = 0, wrong:
     return out
 
 
-def _render(method, samples, wrong, light, wo, uv, J, seed):
-    """A light_path renderer: the light's radiance x the light integral of ``method``."""
+def _render(method, samples, block, wrong, light, wo, uv, J, seed):
+    """A light_path renderer: the light integral of ``method`` times the radiance (a map: each sample's
+    region's constant radiance, as the counting methods take it)."""
+    if isinstance(light, gl_lights.EnvMap):
+        dirs, w, region = map_samples(light, block)
+        return light_integral(method, uv, J, wo, dirs, w * light.region_radiance[region], seed, wrong)
     dirs, w = light_samples(light, samples)
     return light.radiance * light_integral(method, uv, J, wo, dirs, w, seed, wrong)
 
@@ -126,43 +157,55 @@ def _check_methods(methods) -> list[str]:
     return names
 
 
-def method_renderers(material, methods=None, samples: int = SAMPLES, wrong: str | None = None) -> dict:
+def method_renderers(material, methods=None, samples: int = SAMPLES, wrong: str | None = None,
+                     block: int = MAP_BLOCK) -> dict:
     """{label: renderer for ``lighting_images.light_path(..., renderers=)``}: each registered NDF image method
     of ``methods`` (default :func:`light_methods`) for ``material``, at its registered density, through the
-    light integral at ``samples`` directions (labels: the registry's, with " (wrong: ...)" for a variant)."""
+    light integral at ``samples`` directions of a cap or a rectangle, or an environment map's cells pooled in
+    blocks of ``block`` (labels: the registry's, with " (wrong: ...)" for a variant)."""
     _grid_side(samples)
+    V.integer("block", block, minimum=1)
     if wrong is not None:
         V.choice("wrong", wrong, WRONG_VARIANTS)
     suffix = f" (wrong: {wrong})" if wrong else ""
-    return {IMAGE_METHODS.get(n).label + suffix: functools.partial(_render, make_method(n, material), samples, wrong)
+    return {IMAGE_METHODS.get(n).label + suffix: functools.partial(_render, make_method(n, material), samples, block, wrong)
             for n in _check_methods(methods)}
 
 
-def method_light_path(scene, light, methods=None, samples: int = SAMPLES, wrong: str | None = None, **kw):
-    """``lighting_images.light_path`` of the plane ``scene`` under ``light`` (a :class:`SceneLight`) with the
-    registered NDF image methods ``methods`` rendered beside the facets and the counting laws (keyword
-    arguments: light_path's). An environment map is refused: a method under its regions is the same integral
-    per region over the map's cells, not built yet (docs/math/lighting.md#lighting-methods)."""
-    if not isinstance(light, SceneLight):
-        V.fail("light", light, "a SceneLight (a cap or a rectangle; the registered methods under an environment "
-               "map are not built)")
+def method_light_path(scene, light, methods=None, samples: int = SAMPLES, wrong: str | None = None,
+                      block: int = MAP_BLOCK, **kw):
+    """``lighting_images.light_path`` of the plane ``scene`` under ``light`` (a :class:`SceneLight` or an
+    environment map in the plane's tangent frame) with the registered NDF image methods ``methods`` rendered
+    beside the facets and the counting laws (:func:`method_renderers`; keyword arguments: light_path's)."""
+    if not isinstance(light, (SceneLight, gl_lights.EnvMap)):
+        V.fail("light", light, "a SceneLight (scene_light) or an environment map")
     mat, _ = plane_material(scene)
-    renderers = {**kw.pop("renderers", {}), **method_renderers(mat, methods, samples, wrong)}
+    renderers = {**kw.pop("renderers", {}), **method_renderers(mat, methods, samples, wrong, block)}
     return light_path(scene, light, renderers=renderers, **kw)
 
 
-def quadrature_error(target: str, alpha: float, light: gl_lights.Light, wo, samples: int = SAMPLES) -> dict:
-    """The quadrature's error: the smooth NDF through :func:`light_integral` at ``samples`` directions against
-    the exact p by cubature (``reflection_probability``), over the views ``wo`` (m, 3): the largest and the
-    mean relative error where p > 1e-3 of the largest p, and the p-weighted mean relative error."""
+def quadrature_error(target: str, alpha: float, light, wo, samples: int = SAMPLES, block: int = MAP_BLOCK) -> dict:
+    """The quadrature's error: the smooth NDF through :func:`light_integral` at ``samples`` directions of a
+    cap or a rectangle (a map: its cells pooled in blocks of ``block``, p per region) against the exact p by
+    cubature (``reflection_probability``), over the views ``wo`` (m, 3): the largest and the mean relative
+    error where p > 1e-3 of the largest p (a map's: of its region), the p-weighted mean relative error and,
+    for a map, the largest relative error of the value sum_r L_r p_r."""
     wo = np.asarray(wo, float)
     wo = wo / np.linalg.norm(wo, axis=1, keepdims=True)
     exact = reflection_probability(target, alpha, wo, light, "exact")
-    dirs, w = light_samples(light, samples)
-    quad = light_integral(SmoothNDF(target, alpha), np.zeros((len(wo), 2)), np.tile([1.0, 0, 0, 1.0], (len(wo), 1)),
-                          wo, dirs, w)
-    big = exact > 1e-3 * exact.max()
+    smooth, uv, J = SmoothNDF(target, alpha), np.zeros((len(wo), 2)), np.tile([1.0, 0, 0, 1.0], (len(wo), 1))
+    if isinstance(light, gl_lights.EnvMap):
+        dirs, w, region = map_samples(light, block)
+        quad = np.column_stack([light_integral(smooth, uv, J, wo, dirs, w * (region == r)) for r in range(light.regions)])
+        samples = len(dirs)
+    else:
+        quad = light_integral(smooth, uv, J, wo, *light_samples(light, samples))
+    big = exact > 1e-3 * exact.max(axis=0)
     rel = np.abs(quad[big] / exact[big] - 1)
-    return {"samples": int(samples), "views": int(big.sum()), "max_rel_error": float(rel.max()),
-            "mean_rel_error": float(rel.mean()),
-            "weighted_rel_error": float(np.abs(quad - exact).sum() / exact.sum())}
+    out = {"samples": int(samples), "values": int(big.sum()), "max_rel_error": float(rel.max()),
+           "mean_rel_error": float(rel.mean()),
+           "weighted_rel_error": float(np.abs(quad - exact).sum() / exact.sum())}
+    if isinstance(light, gl_lights.EnvMap):  # the pixel's value: the regions' p weighted by their radiance
+        value, value_exact = quad @ light.region_radiance, exact @ light.region_radiance
+        out["max_value_rel_error"] = float(np.max(np.abs(value / value_exact - 1)))
+    return out
