@@ -192,3 +192,25 @@ def test_the_unbiased_methods_average_to_the_exact_value_under_the_map(frame, sk
     assert abs((value * n[::8]).sum() / exact - 1) < 0.03
     wrong = LM.method_renderers(mat, [name], wrong="no_jacobian")[f"{_label(name)} (wrong: no_jacobian)"]
     assert abs((wrong(sky, wo[::8], uv[::8], J[::8], 3) * n[::8]).sum() / exact - 1) > 0.3
+
+
+class _Doubled(gl.api.glinty_ndf.SmoothNDF):
+    """A user's NDF method: twice the smooth D (a deliberate bias of 2 the path must show)."""
+
+    def evaluate(self, uv, J, h, seed: int = 0):
+        return 2.0 * super().evaluate(uv, J, h, seed)
+
+
+def test_a_user_registered_ndf_method_is_rendered_by_default(scene, frame):
+    mat, tbn, wo, uv, J = frame
+    registry = gl.api.method_registry.IMAGE_METHODS
+    saved = registry.snapshot()
+    try:
+        gl.api.method_registry.register_image_method("x_doubled", lambda m: _Doubled(m.target, m.alpha), label="x doubled")
+        assert "x_doubled" in LM.light_methods()
+        renderers = LM.method_renderers(mat)
+        light = LI.scene_light(scene, "cap", (0.2, 0.0)).in_frame(*tbn)
+        ratio = renderers["x doubled"](light, wo, uv, J, 0) / renderers["smooth D(h)"](light, wo, uv, J, 0)
+        assert np.allclose(ratio[np.isfinite(ratio)], 2.0)
+    finally:
+        registry.restore(saved)
