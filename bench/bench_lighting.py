@@ -9,7 +9,8 @@ issue 40's speed goals at full size:
    on two cores: the cubature per pixel (timed on every 50th pixel, scaled to the frame: the baseline)
    against the ProbabilityGrid of 17^2 and 33^2 nodes, with the grid's error against the cubature;
 3. the lighting section's scene images at full size (FULL_SCENE: plane_25 under a cap, a window and the
-   sky, with the shipped area-light method shader when Vulkan is present), seconds per light.
+   sky, with the shipped area-light method shader when Vulkan is present, and the registered image methods
+   by quadrature over the light: validation.lighting_methods), seconds per light and method.
 
 Prints each figure with PASS or FAIL against its goal. A benchmark, not a test: exits 0 when the
 measurements complete.

@@ -8,9 +8,11 @@ import pandas as pd
 
 from ..api import lights as gl_lights
 from ..api.lighting import reflection_probability
+from ..api.method_registry import IMAGE_METHODS
 from ..api.shaders import NoVulkanDevice
 from ..validation import lighting as VL
 from ..validation import lighting_images as LI
+from ..validation import lighting_methods as LM
 from ..validation.scene_images import resolve_scene, with_density
 from . import sampling_lighting
 from .base import Context, Tables
@@ -28,13 +30,25 @@ DEFAULTS = {"targets": ["beckmann", "ggx"], "alphas": [0.05, 0.2, 0.5], "half_an
             # fraction of 1920 x 1080 per side, N x density_factor x scale^2, frames of the scene images' path
             # (about 10 s; FULL_SCENE's sizes, 4 minutes, are make bench's: bench/bench_lighting.py).
             "scene": "plane_25", "scene_scale": 1.0 / 12, "scene_density_factor": 0.25, "scene_frames": 4,
-            "scene_cap_half_angle": 0.2, "scene_rect_half_widths": [0.3, 0.2], "scene_grid_nodes": 11}
+            "scene_cap_half_angle": 0.2, "scene_rect_half_widths": [0.3, 0.2], "scene_grid_nodes": 11,
+            # The registered NDF image methods under the cap and the window by quadrature over the light's
+            # directions (validation.lighting_methods; S = k^2 samples per pixel): "smooth" is the quadrature's check.
+            "scene_methods": ["smooth", "db23_trilinear[gated]", "db23_shader_48[gated]", "zk16", "kpt25"],
+            "scene_method_samples": 64,
+            # ... and under the sky: its cells pooled in blocks of scene_map_block (its sun and window at their own cells).
+            "scene_map_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"], "scene_map_block": 8}
 # KPT25's Algorithm 2 under the sky map (studies.sampling_lighting with the map's radiance): pixels of its
 # PIXELS, estimates x samples per estimator, the view's polar angle; |z| above alg2_max_z fails the section.
 DEFAULTS.update({"alg2_pixels": [0, 2], "alg2_repeats": 64, "alg2_samples": 256, "alg2_wo_theta_deg": 30.0,
                  "alg2_max_z": 4.0})
-FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17}
-QUICK = {"scene_scale": 1.0 / 16, "scene_frames": 3, "scene_grid_nodes": 9,
+# make bench's full sizes; the registered methods at QUICK's lists and samples (at 480 x 270 x 8 frames each
+# method costs about 0.5 us per pixel and sample: ~10 s per method and light at 36 samples).
+FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17,
+              "scene_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"], "scene_method_samples": 36,
+              "scene_map_methods": ["smooth", "zk16"], "scene_map_block": 16}
+QUICK = {"scene_scale": 1.0 / 16, "scene_frames": 3, "scene_grid_nodes": 9, "scene_method_samples": 25,
+         "scene_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"], "scene_map_methods": ["smooth", "zk16"],
+         "scene_map_block": 16,
          "alphas": [0.05, 0.3], "half_angles": [0.01, 0.1], "elevations_deg": [30.0], "views_deg": [20.0, 60.0],
          "count_half_angles": [0.001, 0.1, 0.3], "realizations": 1, "alg2_pixels": [0], "alg2_repeats": 32,
          "alg2_samples": 128}
@@ -58,6 +72,10 @@ TABLE = {
 #: factor: with the section's ~10^2 to 10^3 expected lit facets per path a Poisson count misses it with probability
 #: far below 1e-6, while the shader without the light's solid angle is off by 1 / Omega (8 for the cap).
 SHADER_FACTOR = 2.0
+#: The smooth NDF through the registered methods' quadrature over the light (validation.lighting_methods) must sum
+#: to the exact p's sum within this relative error (the quadrature's, about 1.5e-3 p-weighted at the QUICK 25 samples, and
+#: the exact p grid's, below 1e-4): deterministic, so a failure is a bug.
+QUADRATURE_TOL = 1e-2
 PASS = 1e-3  # the chi-square level of the exact paths' checks (their false-failure rate; the seeds are fixed)
 
 
@@ -98,6 +116,9 @@ def compute(params: dict, ctx: Context) -> Tables:
     for _, r in shipped.iterrows():
         if not (1 / SHADER_FACTOR <= r.expected_ratio <= SHADER_FACTOR):
             failures.append(f"the area-light method shader under the {r.light}: lit facets / expected = {r.expected_ratio:.3g}")
+    quad = scene_table[scene_table.method == "smooth D(h)"]
+    for _, r in quad[(quad.expected_ratio - 1).abs() > QUADRATURE_TOL].iterrows():
+        failures.append(f"the smooth NDF by quadrature over the {r.light}: {r.expected_ratio:.6g} x the exact p")
     ms = probs.exact_ms
     stats = {"exact p: CPU ms per (view, light), median / max": f"{ms.median():.3g} / {ms.max():.3g}",
              "exact p: largest error estimate / p (p > 1e-20)":
@@ -107,7 +128,11 @@ def compute(params: dict, ctx: Context) -> Tables:
                        .share_within.mean()),
              "environment map: partition's relative radiance error": partition["rel_partition_error"],
              "scene images: exact p grid's largest relative error (p > 1e-3 max p), over the lights":
-                 max(p.grid_error["max_rel_error_p_above_1e-3_max"] for p in paths)}
+                 max(p.grid_error["max_rel_error_p_above_1e-3_max"] for p in paths),
+             "scene images: the smooth NDF by quadrature over the light / the exact p, largest |ratio - 1|":
+                 float((quad.expected_ratio - 1).abs().max()) if len(quad) else float("nan"),
+             "scene images: CPU s of the registered methods by quadrature":
+                 sum(v for p in paths for k, v in p.seconds.items() if k in _method_labels(params))}
     return Tables({"lighting_accuracy": accuracy, "lighting_counts": counts, "lighting_point_limit": limit,
                    "lighting_envmap": envtab, "lighting_own_truths": own, "lighting_images": image_table,
                    "lighting_scene_images": scene_table, "lighting_kpt25_envmap": alg2},
@@ -139,7 +164,8 @@ def kpt25_envmap(params: dict, env, seed: int):
 def scene_images(params: dict, seed: int):
     """The plane under a cap, a window (rectangle) and the shipped sky: ([LightPath], their table). The
     shipped area-light method shader and its wrong variant are rendered under the cap and the window
-    when a Vulkan device is present."""
+    when a Vulkan device is present, and the registered image methods ``scene_methods`` by quadrature over
+    the light (validation.lighting_methods), ``scene_map_methods`` under the map."""
     scene = with_density(resolve_scene(params["scene"]).scaled(params["scene_scale"], keep_n=True),
                          params["scene_density_factor"])
     lights = [LI.scene_light(scene, "cap", (params["scene_cap_half_angle"], 0.0)),
@@ -151,9 +177,15 @@ def scene_images(params: dict, seed: int):
     except NoVulkanDevice:
         shaders = {}
     kw = dict(frames=params["scene_frames"], seed=seed, grid_nodes=params["scene_grid_nodes"])
-    paths = [LI.light_path(scene, light, shaders=shaders, **kw) for light in lights]
-    paths.append(LI.light_path(scene, gl_lights.envmap("sky", regions=3), **kw))
+    paths = [LM.method_light_path(scene, light, methods=params["scene_methods"], samples=params["scene_method_samples"],
+                                  shaders=shaders, **kw) for light in lights]
+    paths.append(LM.method_light_path(scene, gl_lights.envmap("sky", regions=3), methods=params["scene_map_methods"],
+                                      block=params["scene_map_block"], **kw))
     return paths, pd.concat([LI.light_table(p) for p in paths], ignore_index=True)
+
+
+def _method_labels(params) -> set:
+    return {IMAGE_METHODS.get(n).label for n in params["scene_methods"] + params["scene_map_methods"]}
 
 
 def scene_figure(paths):

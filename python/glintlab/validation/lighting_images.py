@@ -197,9 +197,10 @@ def _frame_geometry(inp, material_density):
     return m, (t, b, n), wo, inp.uv[m], J, nf
 
 
-def _light_frame(light, mat, side, inp, seed, shaders, k, grid):
+def _light_frame(light, mat, side, inp, seed, shaders, k, grid, renderers=None):
     """One frame under a SceneLight or an EnvMap: (mask, {name: values on the masked pixels}, target, {name:
-    seconds}); a counting method's seconds include its p's (each p computed once, charged to its first user)."""
+    seconds}); a counting method's seconds include its p's (each p computed once, charged to its first user).
+    ``renderers``: {name: render(light in the tangent frame, wo, uv, J, seed) -> values} (light_path's)."""
     m, tbn, wo, uv, J, nf = _frame_geometry(inp, mat.density)
     fps = [Ellipse.from_uv_derivatives(*j) for j in J]
     centres = [tuple(c) for c in np.mod(uv, 1.0)]
@@ -227,6 +228,10 @@ def _light_frame(light, mat, side, inp, seed, shaders, k, grid):
         rows, _ = light_rows(inp, light, seed, k)
         out[name] = np.asarray(sh.shade(rows), float)
         secs[name] = time.perf_counter() - t0
+    for name, render in (renderers or {}).items():
+        t0 = time.perf_counter()
+        out[name] = render(lt, wo, uv, J, seed)
+        secs[name] = time.perf_counter() - t0
     target = p["exact"] @ light.region_radiance if env else light.radiance * p["exact"]
     return m, out, target, secs, nf
 
@@ -240,13 +245,15 @@ def plane_material(scene: Scene) -> tuple[Material, int]:
 
 
 def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom: float = 0.99, seed: int = 1,
-               shaders=None, label: str | None = None, grid_nodes: int = 17) -> LightPath:
+               shaders=None, label: str | None = None, grid_nodes: int = 17, renderers=None) -> LightPath:
     """Every method's images of the plane ``scene`` under ``light`` (a :class:`SceneLight` or an environment
     map in the plane's tangent frame, from ``gl.lights.envmap``) along the camera path: the facet truth,
     the counting laws (``LAW_METHODS``; a map: ``MAP_METHODS``) and ``shaders`` ({name: method shader},
     rendered with :func:`light_rows`; not for a map, which the contract does not carry). The exact p of
     every pixel of every frame comes from one :class:`~glintlab.api.lighting.ProbabilityGrid` of
-    ``grid_nodes``^2 views (its error against the exact p: ``LightPath.grid_error``)."""
+    ``grid_nodes``^2 views (its error against the exact p: ``LightPath.grid_error``). ``renderers``: {name:
+    render(light in the tangent frame, wo, uv, J, seed) -> value per pixel} rendered beside them (the
+    registered image methods by quadrature over the light: :mod:`glintlab.validation.lighting_methods`)."""
     if scene.kind != "plane":
         V.fail("scene", scene.name, "a plane scene (on the sphere the light's region changes per pixel)")
     seed = V.seed(seed)
@@ -271,7 +278,7 @@ def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom:
     grid_error = grid.error(views, seed=seed)
     images, target, mask, nf = {}, np.zeros(shape), np.zeros(shape, bool), np.zeros(shape)
     for k, inp in enumerate(inputs):
-        m, out, tgt, secs, n = _light_frame(light, mat, side, inp, seed, shaders, k, grid)
+        m, out, tgt, secs, n = _light_frame(light, mat, side, inp, seed, shaders, k, grid, renderers)
         mask[k], target[k][m], nf[k][m] = m, tgt, n
         for name, values in out.items():
             images.setdefault(name, np.zeros(shape))[k][m] = values
