@@ -216,20 +216,27 @@ def _map_cell_counts(density, probs, law, scheme, uv, J, slope, seed):
     (floor(n + u), mean n), so each cell's multinomial is over whole facets (a chain of conditional binomials
     over a fractional n would clip the counts at the fraction left). The counter carries one p per pixel: it
     carries the pixel's index, coded in [0, 1), by which the cell's law reads the pixel's region
-    probabilities; one pass per region, each drawing the cell's whole multinomial from the same uniforms and
-    keeping its region's count."""
+    probabilities; one pass per region, each keeping its region's count of the cell's whole multinomial
+    (drawn once per batch of cells and reused by the other passes, which hand the counter's law the same
+    cells: keyed by their rows)."""
     lw = make_law(law)
     m, k = probs.shape
     nu = max(lw.n_uniforms, 1)
     code = (np.arange(m) + 0.5) / max(m, 1)
+    drawn = {}
 
-    def region_law(r):
-        def fn(n, p, u):
+    def cells_multinomial(n, p, u):
+        key = (n.tobytes(), p.tobytes(), u.tobytes())
+        if key not in drawn:
             pixel = np.minimum((p * m).astype(np.int64), m - 1)
             split = iter(range(k + 1))
             whole = np.floor(n + u[:, -1])
-            return _scheme_counts(whole, probs[pixel], lw, scheme, lambda: u[:, next(split) * nu:][:, :nu])[:, r]
-        return CustomLaw(fn, (k + 1) * nu + 1, f"{law} {scheme} region {r} (lighting cells)")
+            drawn[key] = _scheme_counts(whole, probs[pixel], lw, scheme, lambda: u[:, next(split) * nu:][:, :nu])
+        return drawn[key]
+
+    def region_law(r):
+        return CustomLaw(lambda n, p, u: cells_multinomial(n, p, u)[:, r], (k + 1) * nu + 1,
+                         f"{law} {scheme} region {r} (lighting cells)")
     return np.column_stack([cell_counts(region_law(r), density, uv, J, code, slope, seed) for r in range(k)]) \
         if m else np.zeros((0, k))
 
