@@ -91,6 +91,28 @@ def test_the_cells_under_a_point_light_are_the_db23_pipeline(scene):
                            expected, rtol=1e-9, atol=1e-9)
 
 
+def test_the_map_cells_keep_each_region_mean_and_fractional_trials_do_not():
+    # 20000 separate footprints of 0.5 to 6 facets, each cell's multinomial over 3 regions: each region's summed
+    # count against sum n p_r. Its variance: the binomials' sum n p (1 - p) plus the rounding's, at most 1/4 per
+    # cell times p^2 with at most 8 cells per pixel (DB23's trilinear vertices), a bound, so |z| <= 4.5 misses
+    # with probability below 1e-5 (normal z). The multinomial over the fractional trials is off by |z| > 10.
+    rng = np.random.default_rng(0)
+    m, density = 20000, 1024.0
+    area, ratio = rng.uniform(0.5, 6, m) / density, rng.uniform(1, 4, m)
+    uv = np.column_stack([np.arange(m) * 7.3, np.arange(m) * 3.1 % 97])
+    J = np.column_stack([np.sqrt(area * ratio), np.zeros(m), np.zeros(m), np.sqrt(area / ratio)])
+    probs = np.tile([0.3, 0.2, 0.1], (m, 1))
+    n = density * area
+    mean = (n[:, None] * probs).sum(axis=0)
+    sd = np.sqrt((n[:, None] * probs * (1 - probs)).sum(axis=0) + 8 * 0.25 * m * probs[0] ** 2)
+    for scheme in ("chain", "tree"):
+        k = LI._map_cell_counts(density, probs, "binomial", scheme, uv, J, np.zeros((m, 2)), seed=3)
+        assert np.all(np.abs((k.sum(axis=0) - mean) / sd) <= 4.5), scheme
+        wrong = LI._map_cell_counts(density, probs, "binomial", scheme, uv, J, np.zeros((m, 2)), seed=3,
+                                    whole_facets=False)
+        assert np.abs((wrong.sum(axis=0) - mean) / sd).max() > 10, scheme
+
+
 def test_the_contract_carries_the_light_after_the_point_light_words():
     fields = {name: (lo, k) for name, lo, k in M.GLINT_INPUT_FIELDS}
     assert fields["seed"] == (30, 1)  # the point-light contract's words are where they were

@@ -208,7 +208,7 @@ def _map_counts(n, probs, law, scheme, uv, J, seed):
     return _scheme_counts(n, probs, lw, scheme, lambda: texel_uniforms(uv, J, seed, next(salt))[:, :max(lw.n_uniforms, 1)])
 
 
-def _map_cell_counts(density, probs, law, scheme, uv, J, slope, seed):
+def _map_cell_counts(density, probs, law, scheme, uv, J, slope, seed, whole_facets: bool = True):
     """The "db23" cells: counts per region (m, k) per pixel, each cell of :func:`cell_counts` drawing its own
     multinomial over the regions (every split's uniforms from the cell's hash) and the cells' region counts
     summed as the counter sums them. A cell's trial count is fractional (its share of the LOD and ratio
@@ -218,7 +218,8 @@ def _map_cell_counts(density, probs, law, scheme, uv, J, slope, seed):
     carries the pixel's index, coded in [0, 1), by which the cell's law reads the pixel's region
     probabilities; one pass per region, each keeping its region's count of the cell's whole multinomial
     (drawn once per batch of cells and reused by the other passes, which hand the counter's law the same
-    cells: keyed by their rows)."""
+    cells: keyed by their rows). ``whole_facets=False`` is the deliberately wrong variant for the tests: the
+    multinomial over the fractional trial count."""
     lw = make_law(law)
     m, k = probs.shape
     nu = max(lw.n_uniforms, 1)
@@ -230,7 +231,7 @@ def _map_cell_counts(density, probs, law, scheme, uv, J, slope, seed):
         if key not in drawn:
             pixel = np.minimum((p * m).astype(np.int64), m - 1)
             split = iter(range(k + 1))
-            whole = np.floor(n + u[:, -1])
+            whole = np.floor(n + u[:, -1]) if whole_facets else n
             drawn[key] = _scheme_counts(whole, probs[pixel], lw, scheme, lambda: u[:, next(split) * nu:][:, :nu])
         return drawn[key]
 
