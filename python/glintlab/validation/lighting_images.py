@@ -364,7 +364,8 @@ def light_table(path: LightPath, tau: float = TAU) -> pd.DataFrame:
     :func:`~glintlab.validation.scene_images.flicker_metrics`) and its mean and RMS difference against the
     smooth value (radiance x exact p); ``lit_facets`` the radiance-weighted count summed over pixels and
     frames (sum of value x n), ``count_ratio`` it over the facets' and ``expected_ratio`` over its expectation
-    at the exact p (sums: a pixel of n < 1 showing one facet weighs as one facet, not as 1 / n)."""
+    at the exact p (sums: a pixel of n < 1 showing one facet weighs as one facet, not as 1 / n);
+    ``streak_excess`` the horizontal streaks' measure (:func:`streak_excess`, 0 for the facets)."""
     valid = path.mask.all(axis=0)
     d = path.target[:, valid]
     n = path.n[:, valid]
@@ -379,7 +380,8 @@ def light_table(path: LightPath, tau: float = TAU) -> pd.DataFrame:
                          smooth_mean_ratio=float(x.mean() / d.mean()),
                          smooth_rel_rmse=float(np.sqrt(((x - d) ** 2).mean()) / d.mean()),
                          lit_facets=float((x * n).sum()), count_ratio=float((x * n).sum() / facets) if facets > 0 else math.nan,
-                         expected_ratio=float((x * n).sum() / (d * n).sum()), pixels=r["pixels"],
+                         expected_ratio=float((x * n).sum() / (d * n).sum()), streak_excess=streak_excess(path, name),
+                         pixels=r["pixels"],
                          frames=r["frames"]))
     return pd.DataFrame(rows)
 
