@@ -8,7 +8,13 @@ Thresholds: the lit facets of a path over their expectation at the exact p must 
 (SHADER_FACTOR); the paths below expect ~10^3 lit facets (the scene's footprints overlap, which at most
 doubles the variance of their sum), so a correct method misses by chance with probability far below 1e-6,
 and the seeds are fixed. The facet truth itself must lie within 20% of its expectation (about 4 standard
-deviations of that sum)."""
+deviations of that sum).
+
+Streaks (docs/math/lighting.md#lighting-scene-cells): the counting methods' residual correlation between
+horizontally adjacent pixels minus the facets' (streak_excess) must stay below STREAK_LIMIT = 0.2 on DB23's
+cells, and the single-texel scheme must exceed it. Over seeds 1-6 on the cap path below the cells gave
+0.05-0.15 (mean 0.095, sd 0.03: the limit is 3.5 sd above the mean, a false failure well below 1e-3 with
+the seed fixed) and the single texel 0.34-0.46 (mean 0.39: 5 sd above the limit)."""
 import functools
 
 import numpy as np
@@ -21,6 +27,8 @@ from glintlab.studies import sampling_lighting as SL
 from glintlab.studies.lighting import SHADER_FACTOR
 from glintlab.validation import lighting_images as LI
 from glintlab.validation.scene_images import frame_inputs, resolve_scene, with_density, with_directional_light
+
+STREAK_LIMIT = 0.2
 
 needs_vulkan = pytest.mark.skipif(not gl.vulkan_devices(), reason="no Vulkan device (install mesa-vulkan-drivers)")
 
@@ -39,6 +47,70 @@ def cap_path(scene):
                    "shader hlsl": LI.area_light_shader(mat, "hlsl")}
     light = LI.scene_light(scene, "cap", (0.2, 0.0), radiance=3.0)
     return LI.light_path(scene, light, frames=2, seed=5, shaders=shaders, grid_nodes=11)
+
+
+@pytest.fixture(scope="module")
+def texel_path(scene):
+    light = LI.scene_light(scene, "cap", (0.2, 0.0), radiance=3.0)
+    return LI.light_path(scene, light, frames=2, seed=5, grid_nodes=11, cells="texel")
+
+
+def test_counts_on_db23_cells_do_not_streak_and_the_single_texel_does(cap_path, texel_path):
+    for name in ("binomial (exact p)", "gated (exact p)", "gated (point p)"):
+        assert LI.streak_excess(cap_path, name) < STREAK_LIMIT, name
+        assert LI.streak_excess(texel_path, name) > STREAK_LIMIT, name
+    with pytest.raises(ValueError, match="cells"):
+        LI.light_path(resolve_scene("plane_25").scaled(0.02), texel_path, cells="tile")
+
+
+def test_the_cells_under_a_point_light_are_the_db23_pipeline(scene):
+    # The light counting's cells at DB23's p = R D(h) / D(n) and the point light's half vector give the DB23
+    # glinty NDF's counts exactly (same grids, weights, keys and angular texel).
+    mat, _ = LI.plane_material(scene)
+    inp = frame_inputs(with_directional_light(scene))
+    m = inp.mask
+    t, b, n = inp.t[m][0], inp.b[m][0], inp.n[m][0]
+    rot = np.array([t, b, n])
+    v = inp.view[m] / np.linalg.norm(inp.view[m], axis=-1, keepdims=True)
+    wo = v @ rot.T
+    lt = rot @ np.asarray(with_directional_light(scene).light["direction"], float)
+    lt /= np.linalg.norm(lt)
+    h = (wo + lt) / np.linalg.norm(wo + lt, axis=-1, keepdims=True)
+    res = 1.0 / mat.angular_texel
+    db23 = gl.glinty_ndf("db23", density=mat.density, target=mat.target, alpha=mat.alpha, scheme=LI.CELL_CONFIG,
+                         inner="gated_shader", angular_resolution=res)
+    uv, J = inp.uv[m], inp.J[m]
+    p, _ = db23.smooth_ndf.success_probability(h[:, 2], db23.R)
+    k = LI.cell_counts("gated_shader", mat.density, uv, J, p, LI.light_slope(wo, lt, res), seed=3)
+    area = np.abs(J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2])
+    expected = db23.evaluate(uv, J, h, seed=3) * db23.R * mat.density * area * np.pi * mat.alpha ** 2
+    assert (k > 0).sum() > 10
+    np.testing.assert_allclose(k, expected, rtol=1e-9, atol=1e-9)
+    # Another seed is other cells: the comparison can fail.
+    assert not np.allclose(LI.cell_counts("gated_shader", mat.density, uv, J, p, LI.light_slope(wo, lt, res), seed=4),
+                           expected, rtol=1e-9, atol=1e-9)
+
+
+def test_the_map_cells_keep_each_region_mean_and_fractional_trials_do_not():
+    # 20000 separate footprints of 0.5 to 6 facets, each cell's multinomial over 3 regions: each region's summed
+    # count against sum n p_r. Its variance: the binomials' sum n p (1 - p) plus the rounding's, at most 1/4 per
+    # cell times p^2 with at most 8 cells per pixel (DB23's trilinear vertices), a bound, so |z| <= 4.5 misses
+    # with probability below 1e-5 (normal z). The multinomial over the fractional trials is off by |z| > 10.
+    rng = np.random.default_rng(0)
+    m, density = 20000, 1024.0
+    area, ratio = rng.uniform(0.5, 6, m) / density, rng.uniform(1, 4, m)
+    uv = np.column_stack([np.arange(m) * 7.3, np.arange(m) * 3.1 % 97])
+    J = np.column_stack([np.sqrt(area * ratio), np.zeros(m), np.zeros(m), np.sqrt(area / ratio)])
+    probs = np.tile([0.3, 0.2, 0.1], (m, 1))
+    n = density * area
+    mean = (n[:, None] * probs).sum(axis=0)
+    sd = np.sqrt((n[:, None] * probs * (1 - probs)).sum(axis=0) + 8 * 0.25 * m * probs[0] ** 2)
+    for scheme in ("chain", "tree"):
+        k = LI._map_cell_counts(density, probs, "binomial", scheme, uv, J, np.zeros((m, 2)), seed=3)
+        assert np.all(np.abs((k.sum(axis=0) - mean) / sd) <= 4.5), scheme
+        wrong = LI._map_cell_counts(density, probs, "binomial", scheme, uv, J, np.zeros((m, 2)), seed=3,
+                                    whole_facets=False)
+        assert np.abs((wrong.sum(axis=0) - mean) / sd).max() > 10, scheme
 
 
 def test_the_contract_carries_the_light_after_the_point_light_words():

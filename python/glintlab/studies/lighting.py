@@ -66,7 +66,8 @@ TABLE = {
     "lighting_kpt25_envmap": ["pixel", "estimator", "samples", "reference", "reference_error", "mean", "z",
                               "relative_std_per_sample", "rmse_ratio_to_alg2"],
     "lighting_scene_images": ["light", "method", "own_std_ratio", "own_pop_rate", "own_truth_change_rate",
-                              "own_mean_ratio", "smooth_mean_ratio", "lit_facets", "count_ratio", "expected_ratio"],
+                              "own_mean_ratio", "smooth_mean_ratio", "lit_facets", "count_ratio", "expected_ratio",
+                              "streak_excess"],
 }
 #: The shipped area-light shader's lit facets over their expectation at the exact p must lie within this
 #: factor: with the section's ~10^2 to 10^3 expected lit facets per path a Poisson count misses it with probability

@@ -27,7 +27,9 @@ import pandas as pd
 
 from ..api import checks as V
 from ..api import lights as gl_lights
-from ..api.glinty_ndf import Material
+from ..api.glinty_ndf import Material, angular_slope
+from ..api.grids import configured_counter
+from ..api.laws import CustomLaw
 from ..api.laws import law as make_law
 from ..api.lighting import ProbabilityGrid, _split, facet_truth, reflection_probability
 from ..api.method_shaders import GLINT_INPUT_FIELDS, cell_values, frame_rows, shader_method
@@ -47,6 +49,15 @@ LAW_METHODS = (("binomial (exact p)", "binomial", "exact"), ("gated (exact p)", 
 MAP_METHODS = (("binomial chain (exact p)", "binomial", "chain", "exact"),
                ("dual_gated tree (filtered p)", "dual_gated", "tree", "filtered"),
                ("binomial independent (exact p)", "binomial", "independent", "exact"))
+#: How the counting methods draw their counts (docs/math/lighting.md#lighting-scene-cells): "db23" splits the
+#: footprint's facets over the cells of DB23's anisotropic virtual grids it covers at two LOD levels, each
+#: cell's count drawn at the light's p with the cell's own hashed uniforms (the point-light DB23 pipeline's
+#: counter, CELL_CONFIG); "texel" draws one count per pixel from the single texel of the footprint's own size
+#: (texel_uniforms: rows of pixels share it on a grazing plane, so the images streak and pop; kept to show it).
+CELL_SCHEMES = ("db23", "texel")
+#: The grid configuration of the "db23" cells: the one the shipped DB23 method shader runs (db23_method_body.h),
+#: so that the area-light shader counts on the same cells as its twin.
+CELL_CONFIG = "db23_trilinear"
 
 
 @dataclass(frozen=True)
@@ -113,7 +124,7 @@ def area_light_shader(material: Material, language: str = "glsl", wrong: bool = 
     ``material``; ``wrong`` builds its deliberately wrong variant (p without the light's solid angle)."""
     V.choice("language", language, ("glsl", "hlsl"))
     defines = {"GLINTLAB_DENSITY": float(material.density), "GLINTLAB_ALPHA": float(material.alpha),
-               "GLINTLAB_GGX": int(material.target == "ggx")}
+               "GLINTLAB_GGX": int(material.target == "ggx"), "GLINTLAB_ANGULAR_RES": 1.0 / float(material.angular_texel)}
     if wrong:
         defines["AREA_LIGHT_BUG_NO_SOLID_ANGLE"] = 1
     return shader_method(data_path("shaders", f"{AREA_LIGHT_SHADER}.{language}"), language=language,
@@ -130,22 +141,40 @@ def texel_uniforms(uv, J, seed: int, salt: int = 0) -> np.ndarray:
     return cell_values(np.column_stack([cell, level]), s).astype(np.float64)
 
 
-def area_light_twin(uv, J, p, n, radiance, seed: int) -> np.ndarray:
-    """The shipped area-light shader's value in float64 from its p: radiance x gated(n, p, u) / n."""
-    k = make_law("gated_shader").evaluate(n, p, texel_uniforms(uv, J, seed)[:, :2])
+def light_slope(wo, centre, angular_resolution: float) -> np.ndarray:
+    """DB23's angular coordinate (m, 2) of the half vector of the views ``wo`` (m, 3) and the light's centre
+    ``centre`` (3,) (tangent frame) in texels of 1 / ``angular_resolution``, as the DB23 pipeline places a
+    point light's half vector: the cells' uniforms change with the angular texel."""
+    h = np.asarray(wo, float) + np.asarray(centre, float)[None, :]
+    return np.clip(angular_slope(h / np.linalg.norm(h, axis=-1, keepdims=True)) * angular_resolution, -1e9, 1e9)
+
+
+def cell_counts(law, density, uv, J, p, slope, seed: int) -> np.ndarray:
+    """The count of each pixel's footprint on DB23's cells (CELL_CONFIG): its N |det J| facets split over the
+    cells its ellipse covers at two LOD levels, each cell's count drawn by ``law`` (a name or a law) at the
+    pixel's ``p`` with the cell's hashed uniforms (``seed``, the angular texel of ``slope``); 0 where the footprint
+    is degenerate. The point-light DB23 pipeline's counter, so neighbouring pixels share cells."""
+    counts = configured_counter(CELL_CONFIG, law, density).count_image(uv, J, density, p, slope=slope, seed=seed)
+    return np.where(counts.status == 0, counts.K, 0.0)
+
+
+def area_light_twin(uv, J, p, n, radiance, seed: int, slope=None, density=None, cells: str = "db23") -> np.ndarray:
+    """The shipped area-light shader's value in float64 from its p: radiance x K / n, K DB23's gated Gaussian
+    (``gated_shader``) on the cells (:func:`cell_counts` at ``density`` and ``slope``); ``cells="texel"``: the
+    former shader's single-texel count gated(n, p, u)."""
+    V.choice("cells", cells, CELL_SCHEMES)
+    if cells == "texel":
+        k = make_law("gated_shader").evaluate(n, p, texel_uniforms(uv, J, seed)[:, :2])
+    else:
+        k = cell_counts("gated_shader", density, uv, J, p, slope, seed)
     return radiance * k / n
 
 
-def _map_counts(n, probs, law, scheme, uv, J, seed):
-    """Counts per region (m, k) per pixel, drawn as multinomial_counts draws them but with each split's
-    uniforms hashed from the pixel's texel (one salt per split: the image holds still as the camera moves)."""
-    lw = make_law(law)
+def _scheme_counts(n, probs, lw, scheme, u):
+    """Counts per region (m, k) of n facets over the regions ``probs`` (m, k), drawn as multinomial_counts draws
+    them, ``u()`` giving each split's uniforms in turn."""
     m, k = probs.shape
     out = np.zeros((m, k))
-    salt = iter(range(1, 10_000))
-
-    def u():
-        return texel_uniforms(uv, J, seed, next(salt))[:, :max(lw.n_uniforms, 1)]
     if scheme == "independent":
         for r in range(k):
             out[:, r] = _split(n, np.ones(m), probs[:, r], lw, u())
@@ -169,6 +198,48 @@ def _map_counts(n, probs, law, scheme, uv, J, seed):
         descend(right, n_group - kl)
     descend(list(range(k + 1)), n.copy())
     return out
+
+
+def _map_counts(n, probs, law, scheme, uv, J, seed):
+    """The "texel" cells: counts per region (m, k) per pixel, each split's uniforms hashed from the pixel's
+    texel (one salt per split: the image holds still as the camera moves)."""
+    lw = make_law(law)
+    salt = iter(range(1, 10_000))
+    return _scheme_counts(n, probs, lw, scheme, lambda: texel_uniforms(uv, J, seed, next(salt))[:, :max(lw.n_uniforms, 1)])
+
+
+def _map_cell_counts(density, probs, law, scheme, uv, J, slope, seed, whole_facets: bool = True):
+    """The "db23" cells: counts per region (m, k) per pixel, each cell of :func:`cell_counts` drawing its own
+    multinomial over the regions (every split's uniforms from the cell's hash) and the cells' region counts
+    summed as the counter sums them. A cell's trial count is fractional (its share of the LOD and ratio
+    weights times N x its area): it is rounded to whole facets with one more of the cell's uniforms
+    (floor(n + u), mean n), so each cell's multinomial is over whole facets (a chain of conditional binomials
+    over a fractional n would clip the counts at the fraction left). The counter carries one p per pixel: it
+    carries the pixel's index, coded in [0, 1), by which the cell's law reads the pixel's region
+    probabilities; one pass per region, each keeping its region's count of the cell's whole multinomial
+    (drawn once per batch of cells and reused by the other passes, which hand the counter's law the same
+    cells: keyed by their rows). ``whole_facets=False`` is the deliberately wrong variant for the tests: the
+    multinomial over the fractional trial count."""
+    lw = make_law(law)
+    m, k = probs.shape
+    nu = max(lw.n_uniforms, 1)
+    code = (np.arange(m) + 0.5) / max(m, 1)
+    drawn = {}
+
+    def cells_multinomial(n, p, u):
+        key = (n.tobytes(), p.tobytes(), u.tobytes())
+        if key not in drawn:
+            pixel = np.minimum((p * m).astype(np.int64), m - 1)
+            split = iter(range(k + 1))
+            whole = np.floor(n + u[:, -1]) if whole_facets else n
+            drawn[key] = _scheme_counts(whole, probs[pixel], lw, scheme, lambda: u[:, next(split) * nu:][:, :nu])
+        return drawn[key]
+
+    def region_law(r):
+        return CustomLaw(lambda n, p, u: cells_multinomial(n, p, u)[:, r], (k + 1) * nu + 1,
+                         f"{law} {scheme} region {r} (lighting cells)")
+    return np.column_stack([cell_counts(region_law(r), density, uv, J, code, slope, seed) for r in range(k)]) \
+        if m else np.zeros((0, k))
 
 
 @dataclass
@@ -197,10 +268,11 @@ def _frame_geometry(inp, material_density):
     return m, (t, b, n), wo, inp.uv[m], J, nf
 
 
-def _light_frame(light, mat, side, inp, seed, shaders, k, grid, renderers=None):
+def _light_frame(light, mat, side, inp, seed, shaders, k, grid, renderers=None, cells="db23"):
     """One frame under a SceneLight or an EnvMap: (mask, {name: values on the masked pixels}, target, {name:
     seconds}); a counting method's seconds include its p's (each p computed once, charged to its first user).
-    ``renderers``: {name: render(light in the tangent frame, wo, uv, J, seed) -> values} (light_path's)."""
+    ``renderers``: {name: render(light in the tangent frame, wo, uv, J, seed) -> values} (light_path's);
+    ``cells``: how the counting methods draw (CELL_SCHEMES)."""
     m, tbn, wo, uv, J, nf = _frame_geometry(inp, mat.density)
     fps = [Ellipse.from_uv_derivatives(*j) for j in J]
     centres = [tuple(c) for c in np.mod(uv, 1.0)]
@@ -210,7 +282,8 @@ def _light_frame(light, mat, side, inp, seed, shaders, k, grid, renderers=None):
     t0 = time.perf_counter()
     out["facets"] = facet_truth(mat.target, mat.alpha, side * side, fps, centres, wo, lt, seed=seed).radiance / nf
     secs["facets"] = time.perf_counter() - t0
-    u = texel_uniforms(uv, J, seed)
+    # The cells' angular texel: the half vector of the light's centre (the map's: the plane's normal).
+    slope = light_slope(wo, (0.0, 0.0, 1.0) if env else lt.center, 1.0 / mat.angular_texel)
     for label, law, *rest in (MAP_METHODS if env else LAW_METHODS):
         t0 = time.perf_counter()
         meth = rest[-1]
@@ -218,10 +291,14 @@ def _light_frame(light, mat, side, inp, seed, shaders, k, grid, renderers=None):
             p[meth] = np.clip(grid(wo) if meth == "exact" else reflection_probability(mat.target, mat.alpha, wo, lt, meth),
                               0, 1)
         if env:
-            out[label] = _map_counts(nf, p[meth], law, rest[0], uv, J, seed) @ light.region_radiance / nf
-        else:
+            kr = (_map_counts(nf, p[meth], law, rest[0], uv, J, seed) if cells == "texel" else
+                  _map_cell_counts(mat.density, p[meth], law, rest[0], uv, J, slope, seed))
+            out[label] = kr @ light.region_radiance / nf
+        elif cells == "texel":
             lw = make_law(law)
-            out[label] = light.radiance * lw.evaluate(nf, p[meth], u[:, :max(lw.n_uniforms, 1)]) / nf
+            out[label] = light.radiance * lw.evaluate(nf, p[meth], texel_uniforms(uv, J, seed)[:, :max(lw.n_uniforms, 1)]) / nf
+        else:
+            out[label] = light.radiance * cell_counts(law, mat.density, uv, J, p[meth], slope, seed) / nf
         secs[label] = time.perf_counter() - t0
     for name, sh in shaders.items():
         t0 = time.perf_counter()
@@ -245,7 +322,8 @@ def plane_material(scene: Scene) -> tuple[Material, int]:
 
 
 def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom: float = 0.99, seed: int = 1,
-               shaders=None, label: str | None = None, grid_nodes: int = 17, renderers=None) -> LightPath:
+               shaders=None, label: str | None = None, grid_nodes: int = 17, renderers=None,
+               cells: str = "db23") -> LightPath:
     """Every method's images of the plane ``scene`` under ``light`` (a :class:`SceneLight` or an environment
     map in the plane's tangent frame, from ``gl.lights.envmap``) along the camera path: the facet truth,
     the counting laws (``LAW_METHODS``; a map: ``MAP_METHODS``) and ``shaders`` ({name: method shader},
@@ -253,7 +331,10 @@ def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom:
     every pixel of every frame comes from one :class:`~glintlab.api.lighting.ProbabilityGrid` of
     ``grid_nodes``^2 views (its error against the exact p: ``LightPath.grid_error``). ``renderers``: {name:
     render(light in the tangent frame, wo, uv, J, seed) -> value per pixel} rendered beside them (the
-    registered image methods by quadrature over the light: :mod:`glintlab.validation.lighting_methods`)."""
+    registered image methods by quadrature over the light: :mod:`glintlab.validation.lighting_methods`).
+    ``cells``: how the counting methods draw their counts (``CELL_SCHEMES``: "db23", DB23's cells; "texel",
+    the single texel)."""
+    V.choice("cells", cells, CELL_SCHEMES)
     if scene.kind != "plane":
         V.fail("scene", scene.name, "a plane scene (on the sphere the light's region changes per pixel)")
     seed = V.seed(seed)
@@ -278,7 +359,7 @@ def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom:
     grid_error = grid.error(views, seed=seed)
     images, target, mask, nf = {}, np.zeros(shape), np.zeros(shape, bool), np.zeros(shape)
     for k, inp in enumerate(inputs):
-        m, out, tgt, secs, n = _light_frame(light, mat, side, inp, seed, shaders, k, grid, renderers)
+        m, out, tgt, secs, n = _light_frame(light, mat, side, inp, seed, shaders, k, grid, renderers, cells)
         mask[k], target[k][m], nf[k][m] = m, tgt, n
         for name, values in out.items():
             images.setdefault(name, np.zeros(shape))[k][m] = values
@@ -292,7 +373,8 @@ def light_table(path: LightPath, tau: float = TAU) -> pd.DataFrame:
     :func:`~glintlab.validation.scene_images.flicker_metrics`) and its mean and RMS difference against the
     smooth value (radiance x exact p); ``lit_facets`` the radiance-weighted count summed over pixels and
     frames (sum of value x n), ``count_ratio`` it over the facets' and ``expected_ratio`` over its expectation
-    at the exact p (sums: a pixel of n < 1 showing one facet weighs as one facet, not as 1 / n)."""
+    at the exact p (sums: a pixel of n < 1 showing one facet weighs as one facet, not as 1 / n);
+    ``streak_excess`` the horizontal streaks' measure (:func:`streak_excess`, 0 for the facets)."""
     valid = path.mask.all(axis=0)
     d = path.target[:, valid]
     n = path.n[:, valid]
@@ -307,6 +389,27 @@ def light_table(path: LightPath, tau: float = TAU) -> pd.DataFrame:
                          smooth_mean_ratio=float(x.mean() / d.mean()),
                          smooth_rel_rmse=float(np.sqrt(((x - d) ** 2).mean()) / d.mean()),
                          lit_facets=float((x * n).sum()), count_ratio=float((x * n).sum() / facets) if facets > 0 else math.nan,
-                         expected_ratio=float((x * n).sum() / (d * n).sum()), pixels=r["pixels"],
+                         expected_ratio=float((x * n).sum() / (d * n).sum()), streak_excess=streak_excess(path, name),
+                         pixels=r["pixels"],
                          frames=r["frames"]))
     return pd.DataFrame(rows)
+
+
+def horizontal_residual_correlation(path: LightPath, name: str) -> float:
+    """The correlation of ``name``'s residual (value - radiance x exact p) between horizontally adjacent pixels,
+    pooled over the frames' pixels whose row neighbour is on the plane too. A count drawn once per texel that
+    rows of pixels share gives correlations near 1 (horizontal streaks); the facets' own correlation comes
+    from their footprints' overlap."""
+    r = path.images[name] - path.target
+    both = path.mask[:, :, :-1] & path.mask[:, :, 1:]
+    a, b = r[:, :, :-1][both], r[:, :, 1:][both]
+    a, b = a - a.mean(), b - b.mean()
+    den = math.sqrt(float((a * a).sum() * (b * b).sum()))
+    return float((a * b).sum() / den) if den > 0 else math.nan
+
+
+def streak_excess(path: LightPath, name: str) -> float:
+    """``name``'s :func:`horizontal_residual_correlation` minus the facets': about 0 when a method's
+    neighbouring pixels share their randomness as the facets' overlapping footprints do, large when they
+    share one texel's count (streaks)."""
+    return horizontal_residual_correlation(path, name) - horizontal_residual_correlation(path, "facets")

@@ -119,20 +119,11 @@ float db23_term(int scale, int ratio, int orientation, float area, float weight,
   return count(trials, p, float4(u0, u1, 0.0, 0.0));
 }
 
-float glint(GlintInput g) {
-  // Half vector in the tangent frame; D(h) / D(n) for DB23's p = min(R D(h) / D(n), 1).
-  float3 ht = float3(dot(g.h, g.t), dot(g.h, g.b), dot(g.h, g.n));
-  float c = ht.z / length(ht);
-  if (!(c > 0.0)) return 0.0;
-  float a2 = DB23_ALPHA * DB23_ALPHA;
-  float c2 = c * c;
-#if DB23_GGX
-  float q = (a2 - 1.0) * c2 + 1.0;
-  float ratio_dn = a2 * a2 / (q * q);
-#else
-  float ratio_dn = exp(-((1.0 - c2) / c2) / a2) / (c2 * c2);
-#endif
-  float p = min(DB23_R * ratio_dn, 1.0);
+// The count K of the footprint of g (uv, J) on DB23's grids at p: the footprint's N |det J| facets split over
+// the cells it covers at two scale levels, each cell's count drawn at p from the cell's uniforms, whose keys
+// take the angular texel of the tangent-frame half vector ht. 0 where the footprint is degenerate. Shared
+// with the area-light method shader (area_light_method_body.h defines DB23_COUNT_ONLY and calls it).
+float db23_count(GlintInput g, float3 ht, float p) {
   float2 slope = floor(ht.xy / ht.z * DB23_ANGULAR_RES);
   int2 texel = int2(int(clamp(slope.x, -1073741824.0, 1073741824.0)), int(clamp(slope.y, -1073741824.0, 1073741824.0)));
 
@@ -214,8 +205,30 @@ float glint(GlintInput g) {
       K += db23_term(lo + s, vr[q], vo[q], s == 0 ? area_lo : area_hi, w, g.uv, texel, p, seed_key);
     }
   }
+  return K;
+}
+
+#ifndef DB23_COUNT_ONLY
+float glint(GlintInput g) {
+  // Half vector in the tangent frame; D(h) / D(n) for DB23's p = min(R D(h) / D(n), 1).
+  float3 ht = float3(dot(g.h, g.t), dot(g.h, g.b), dot(g.h, g.n));
+  float c = ht.z / length(ht);
+  if (!(c > 0.0)) return 0.0;
+  float a2 = DB23_ALPHA * DB23_ALPHA;
+  float c2 = c * c;
+#if DB23_GGX
+  float q = (a2 - 1.0) * c2 + 1.0;
+  float ratio_dn = a2 * a2 / (q * q);
+#else
+  float ratio_dn = exp(-((1.0 - c2) / c2) / a2) / (c2 * c2);
+#endif
+  float p = min(DB23_R * ratio_dn, 1.0);
+  float det = abs(g.J.x * g.J.w - g.J.y * g.J.z);
+  if (!(det > 0.0)) return 0.0;
+  float K = db23_count(g, ht, p);
   float d_normal = 1.0 / (DB23_PI * a2);
   return d_normal / DB23_R * K / (DB23_DENSITY * det);
 }
+#endif
 
 #endif
