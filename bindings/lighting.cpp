@@ -76,16 +76,19 @@ void bind_probabilities(py::module_& m) {
       py::arg("max_evaluations") = 4000000);
   m.def(
       "reflection_probabilities",
-      [](const std::string& target, double alpha, const std::vector<double>& wo, const Light& light, double rel_tol) {
+      [](const std::string& target, double alpha, const std::vector<double>& wo, const Light& light, double rel_tol,
+         const std::vector<double>& frames) {
         const auto t = lighting::parse_target(target);
+        const auto fr = lighting::frames_from("reflection_probabilities", "frames", frames, wo.size() / 3);
         std::pair<std::vector<double>, std::vector<double>> r;
         {
           LongCall release;
-          r = lighting::reflection_probabilities(t, alpha, wo, light, rel_tol);
+          r = lighting::reflection_probabilities(t, alpha, wo, light, rel_tol, fr);
         }
         return py::make_tuple(to_numpy(r.first), to_numpy(r.second));
       },
-      py::arg("target"), py::arg("alpha"), py::arg("wo"), py::arg("light"), py::arg("rel_tol") = 1e-6);
+      py::arg("target"), py::arg("alpha"), py::arg("wo"), py::arg("light"), py::arg("rel_tol") = 1e-6,
+      py::arg("frames") = std::vector<double>{});
   m.def(
       "half_vector_solid_angle",
       [](std::array<double, 3> wo, const Light& light, double rel_tol) {
@@ -151,35 +154,40 @@ void bind_facets(py::module_& m) {
       "facet_truth_lights",
       [](const std::string& target, double alpha, std::int64_t side, const std::vector<spatial::Footprint>& fps,
          const std::vector<std::pair<double, double>>& centers, const std::vector<double>& wo,
-         const std::vector<Light>& lights, const std::vector<double>& radiance, std::uint64_t seed) {
+         const std::vector<Light>& lights, const std::vector<double>& radiance, std::uint64_t seed,
+         const std::vector<double>& frames) {
         const auto t = lighting::parse_target(target);
         const auto pl = placed(fps, centers);
+        const auto fr = lighting::frames_from("facet_truth_lights", "frames", frames, fps.size());
         lighting::FacetTruth r;
         {
           LongCall release;
-          r = lighting::facet_truth_lights(t, alpha, side, pl, wo, lights, radiance, seed);
+          r = lighting::facet_truth_lights(t, alpha, side, pl, wo, lights, radiance, seed, fr);
         }
         return truth_tuple(r, fps.size(), lights.size());
       },
       py::arg("target"), py::arg("alpha"), py::arg("side"), py::arg("footprints"), py::arg("centers"), py::arg("wo"),
-      py::arg("lights"), py::arg("radiance"), py::arg("seed"));
+      py::arg("lights"), py::arg("radiance"), py::arg("seed"), py::arg("frames") = std::vector<double>{});
   m.def(
       "facet_truth_map",
       [](const std::string& target, double alpha, std::int64_t side, const std::vector<spatial::Footprint>& fps,
          const std::vector<std::pair<double, double>>& centers, const std::vector<double>& wo, int rows, int cols,
-         int regions, const std::vector<int>& labels, const std::vector<double>& radiance, std::uint64_t seed) {
+         int regions, const std::vector<int>& labels, const std::vector<double>& radiance, std::uint64_t seed,
+         const std::vector<double>& frames) {
         const auto t = lighting::parse_target(target);
         const auto map = region_map(rows, cols, regions, labels, radiance);
         const auto pl = placed(fps, centers);
+        const auto fr = lighting::frames_from("facet_truth_map", "frames", frames, fps.size());
         lighting::FacetTruth r;
         {
           LongCall release;
-          r = lighting::facet_truth_map(t, alpha, side, pl, wo, map, seed);
+          r = lighting::facet_truth_map(t, alpha, side, pl, wo, map, seed, fr);
         }
         return truth_tuple(r, fps.size(), std::size_t(regions));
       },
       py::arg("target"), py::arg("alpha"), py::arg("side"), py::arg("footprints"), py::arg("centers"), py::arg("wo"),
-      py::arg("rows"), py::arg("cols"), py::arg("regions"), py::arg("labels"), py::arg("radiance"), py::arg("seed"));
+      py::arg("rows"), py::arg("cols"), py::arg("regions"), py::arg("labels"), py::arg("radiance"), py::arg("seed"),
+      py::arg("frames") = std::vector<double>{});
 }
 
 }  // namespace

@@ -46,9 +46,11 @@ void check_common(std::string_view where, double alpha, std::int64_t side, const
 
 // Every facet of the layout inside each footprint, counted for the channel `hit` gives it.
 FacetTruth count_facets(Target target, double alpha, std::int64_t side, const std::vector<spatial::Placed>& fps,
-                        const std::vector<double>& wo, const LightHit& hit, std::uint64_t seed) {
+                        const std::vector<double>& wo, const LightHit& hit, std::uint64_t seed,
+                        const std::vector<Frame>& frames) {
   FacetTruth out;
   const std::size_t count = fps.size();
+  if (!frames.empty()) check_length("facet_truth", "frames", frames.size(), count);
   const int channels = hit.channels();
   out.counts.assign(count * channels, 0.0);
   out.radiance.assign(count, 0.0);
@@ -60,6 +62,7 @@ FacetTruth count_facets(Target target, double alpha, std::int64_t side, const st
       const double x = fps[i].x - std::floor(fps[i].x), y = fps[i].y - std::floor(fps[i].y);
       const double n = std::sqrt(wo[3 * i] * wo[3 * i] + wo[3 * i + 1] * wo[3 * i + 1] + wo[3 * i + 2] * wo[3 * i + 2]);
       const Vec3 v{wo[3 * i] / n, wo[3 * i + 1] / n, wo[3 * i + 2] / n};
+      const Frame* frame = frames.empty() ? nullptr : &frames[i];
       const auto ix0 = std::int64_t(std::floor((x - fp.half_width()) * m)),
                  ix1 = std::int64_t(std::floor((x + fp.half_width()) * m));
       const auto iy0 = std::int64_t(std::floor((y - fp.half_height()) * m)),
@@ -73,7 +76,7 @@ FacetTruth count_facets(Target target, double alpha, std::int64_t side, const st
           out.facets[i] += 1;
           const double u = rng.uniform(), w = rng.uniform();
           double radiance = 0;
-          const int channel = hit.hit(v, sample_normal(target, alpha, u, w), radiance);
+          const int channel = hit.hit(v, sample_normal(target, alpha, u, w), radiance, true, frame);
           if (channel < 0) continue;
           out.counts[i * channels + channel] += 1;
           out.radiance[i] += radiance;
@@ -119,11 +122,12 @@ LightHit::LightHit(RegionMap map) : map_(std::move(map)), is_map_(true) {
   channels_ = map_.regions;
 }
 
-int LightHit::hit(Vec3 wo, Vec3 m, double& radiance, bool mirror) const {
+int LightHit::hit(Vec3 wo, Vec3 m, double& radiance, bool mirror, const Frame* frame) const {
   const double c = wo.x * m.x + wo.y * m.y + wo.z * m.z;
   if (!(c > 0)) return -1;  // a facet turned away from the viewer reflects nothing towards it
-  const Vec3 wi = mirror ? Vec3{2 * c * m.x - wo.x, 2 * c * m.y - wo.y, 2 * c * m.z - wo.z} : m;
-  if (!(wi.z > 0)) return -1;  // hidden by the surface
+  const Vec3 local = mirror ? Vec3{2 * c * m.x - wo.x, 2 * c * m.y - wo.y, 2 * c * m.z - wo.z} : m;
+  if (!(local.z > 0)) return -1;  // hidden by the surface
+  const Vec3 wi = frame ? frame->to_world(local) : local;
   if (is_map_) {
     const int cell = map_.cell(wi);
     radiance = map_.radiance[cell];
@@ -140,17 +144,17 @@ int LightHit::hit(Vec3 wo, Vec3 m, double& radiance, bool mirror) const {
 FacetTruth facet_truth_lights(Target target, double alpha, std::int64_t side,
                               const std::vector<spatial::Placed>& footprints, const std::vector<double>& wo,
                               const std::vector<Light>& lights, const std::vector<double>& radiance,
-                              std::uint64_t seed) {
+                              std::uint64_t seed, const std::vector<Frame>& frames) {
   check_common("facet_truth_lights", alpha, side, footprints, wo);
   check_length("facet_truth_lights", "radiance", radiance.size(), lights.size());
-  return count_facets(target, alpha, side, footprints, wo, LightHit(lights, radiance), seed);
+  return count_facets(target, alpha, side, footprints, wo, LightHit(lights, radiance), seed, frames);
 }
 
 FacetTruth facet_truth_map(Target target, double alpha, std::int64_t side,
                            const std::vector<spatial::Placed>& footprints, const std::vector<double>& wo,
-                           const RegionMap& map, std::uint64_t seed) {
+                           const RegionMap& map, std::uint64_t seed, const std::vector<Frame>& frames) {
   check_common("facet_truth_map", alpha, side, footprints, wo);
-  return count_facets(target, alpha, side, footprints, wo, LightHit(map), seed);
+  return count_facets(target, alpha, side, footprints, wo, LightHit(map), seed, frames);
 }
 
 namespace {
