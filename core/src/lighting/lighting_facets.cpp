@@ -143,8 +143,8 @@ int LightHit::hit(Vec3 wo, Vec3 m, double& radiance, bool mirror, const Frame* f
 
 FacetTruth facet_truth_lights(Target target, double alpha, std::int64_t side,
                               const std::vector<spatial::Placed>& footprints, const std::vector<double>& wo,
-                              const std::vector<Light>& lights, const std::vector<double>& radiance,
-                              std::uint64_t seed, const std::vector<Frame>& frames) {
+                              const std::vector<Light>& lights, const std::vector<double>& radiance, std::uint64_t seed,
+                              const std::vector<Frame>& frames) {
   check_common("facet_truth_lights", alpha, side, footprints, wo);
   check_length("facet_truth_lights", "radiance", radiance.size(), lights.size());
   return count_facets(target, alpha, side, footprints, wo, LightHit(lights, radiance), seed, frames);

@@ -175,8 +175,8 @@ struct FacetTruth {
 };
 FacetTruth facet_truth_lights(Target target, double alpha, std::int64_t side,
                               const std::vector<spatial::Placed>& footprints, const std::vector<double>& wo,
-                              const std::vector<Light>& lights, const std::vector<double>& radiance,
-                              std::uint64_t seed, const std::vector<Frame>& frames = {});
+                              const std::vector<Light>& lights, const std::vector<double>& radiance, std::uint64_t seed,
+                              const std::vector<Frame>& frames = {});
 FacetTruth facet_truth_map(Target target, double alpha, std::int64_t side,
                            const std::vector<spatial::Placed>& footprints, const std::vector<double>& wo,
                            const RegionMap& map, std::uint64_t seed, const std::vector<Frame>& frames = {});
