@@ -186,36 +186,73 @@ class LightPath:
     grid_error: dict | None = None
 
 
-def _frame_geometry(inp, material_density):
-    """(m, t, b, n, wo, uv, J, nf) of one frame's masked pixels on a plane."""
+def _frame_geometry(inp, material_density, per_pixel: bool = False):
+    """(m, frame, wo, uv, J, nf) of one frame's masked pixels: ``frame`` the plane's one tangent frame
+    (t, b, n), or with ``per_pixel`` every pixel's (k, 3, 3) (rows t, b, n in world space: a curved
+    surface), ``wo`` the unit views in each pixel's frame."""
     m = inp.mask
-    t, b, n = inp.t[m][0], inp.b[m][0], inp.n[m][0]
     v = inp.view[m] / np.linalg.norm(inp.view[m], axis=-1, keepdims=True)
-    wo = np.column_stack([v @ t, v @ b, v @ n])
+    if per_pixel:
+        frames = np.stack([inp.t[m], inp.b[m], inp.n[m]], axis=1)
+        wo = np.einsum("kij,kj->ki", frames, v)
+    else:
+        t, b, n = inp.t[m][0], inp.b[m][0], inp.n[m][0]
+        frames = (t, b, n)
+        wo = np.column_stack([v @ t, v @ b, v @ n])
     J = inp.J[m]
     nf = material_density * np.abs(J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2])
-    return m, (t, b, n), wo, inp.uv[m], J, nf
+    return m, frames, wo, inp.uv[m], J, nf
 
 
-def _light_frame(light, mat, side, inp, seed, shaders, k, grid):
+#: A pixel is imaged when its footprint's bounding box spans at most this share of the texture's unit square
+#: per axis (the facet truth tiles the unit square; on the sphere the pixels at its poles cover every u).
+MAX_FOOTPRINT = 0.5
+
+
+def _narrow_footprints(inp):
+    """``inp`` with the pixels whose footprint's bounding box exceeds MAX_FOOTPRINT per axis left out of its
+    mask (the ellipse J {|x| <= 1/sqrt(pi)}: half-widths |(du/dx, du/dy)| / sqrt(pi) and |(dv/dx, dv/dy)| / sqrt(pi))."""
+    J = inp.J
+    width = 2 * np.maximum(np.hypot(J[..., 0], J[..., 2]), np.hypot(J[..., 1], J[..., 3])) / math.sqrt(math.pi)
+    return dataclasses.replace(inp, mask=inp.mask & (width <= MAX_FOOTPRINT))
+
+
+def _world_light(light):
+    """A SceneLight as ``gl.lights`` describes it in world space (the frame of the identity)."""
+    return light.in_frame(*np.eye(3))
+
+
+def _exact_p(mat, light, frames, wo, per_pixel: bool, grid, rel_tol: float):
+    """The exact p of the masked pixels: per pixel by cubature with each pixel's own light (``per_pixel``),
+    else from the path's ProbabilityGrid (one light for every pixel: its error is the path's)."""
+    if per_pixel:
+        return reflection_probability(mat.target, mat.alpha, wo, _world_light(light), "exact", rel_tol, frames=frames)
+    return grid(wo)
+
+
+def _light_frame(light, mat, side, inp, seed, shaders, k, grid, per_pixel=False, rel_tol=1e-6):
     """One frame under a SceneLight or an EnvMap: (mask, {name: values on the masked pixels}, target, {name:
-    seconds}); a counting method's seconds include its p's (each p computed once, charged to its first user)."""
-    m, tbn, wo, uv, J, nf = _frame_geometry(inp, mat.density)
+    seconds}); a counting method's seconds include its p's (each p computed once, charged to its first user).
+    ``per_pixel``: every pixel sees the world-space light in its own tangent frame (a curved surface); the facet
+    truth maps each facet's mirror direction to world space, the exact p is cubature per pixel at ``rel_tol``."""
+    m, frames, wo, uv, J, nf = _frame_geometry(inp, mat.density, per_pixel)
     fps = [Ellipse.from_uv_derivatives(*j) for j in J]
     centres = [tuple(c) for c in np.mod(uv, 1.0)]
     env = isinstance(light, gl_lights.EnvMap)
-    lt = light if env else light.in_frame(*tbn)
+    lt = light if env else (_world_light(light) if per_pixel else light.in_frame(*frames))
     out, secs, p = {}, {}, {}
     t0 = time.perf_counter()
-    out["facets"] = facet_truth(mat.target, mat.alpha, side * side, fps, centres, wo, lt, seed=seed).radiance / nf
+    out["facets"] = facet_truth(mat.target, mat.alpha, side * side, fps, centres, wo, lt, seed=seed,
+                                frames=frames if per_pixel else None).radiance / nf
     secs["facets"] = time.perf_counter() - t0
     u = texel_uniforms(uv, J, seed)
     for label, law, *rest in (MAP_METHODS if env else LAW_METHODS):
         t0 = time.perf_counter()
         meth = rest[-1]
-        if meth not in p:  # the exact p from the path's grid (ProbabilityGrid: its error is the path's)
-            p[meth] = np.clip(grid(wo) if meth == "exact" else reflection_probability(mat.target, mat.alpha, wo, lt, meth),
-                              0, 1)
+        if meth not in p:  # the exact p per pixel or from the path's grid (_exact_p)
+            p[meth] = np.clip(_exact_p(mat, light, frames, wo, per_pixel, grid, rel_tol) if meth == "exact" else
+                              reflection_probability(mat.target, mat.alpha, wo, lt, meth,
+                                                     frames=frames if per_pixel else None), 0, 1)
         if env:
             out[label] = _map_counts(nf, p[meth], law, rest[0], uv, J, seed) @ light.region_radiance / nf
         else:
@@ -240,20 +277,28 @@ def plane_material(scene: Scene) -> tuple[Material, int]:
 
 
 def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom: float = 0.99, seed: int = 1,
-               shaders=None, label: str | None = None, grid_nodes: int = 17) -> LightPath:
-    """Every method's images of the plane ``scene`` under ``light`` (a :class:`SceneLight` or an environment
-    map in the plane's tangent frame, from ``gl.lights.envmap``) along the camera path: the facet truth,
-    the counting laws (``LAW_METHODS``; a map: ``MAP_METHODS``) and ``shaders`` ({name: method shader},
-    rendered with :func:`light_rows`; not for a map, which the contract does not carry). The exact p of
-    every pixel of every frame comes from one :class:`~glintlab.api.lighting.ProbabilityGrid` of
-    ``grid_nodes``^2 views (its error against the exact p: ``LightPath.grid_error``)."""
-    if scene.kind != "plane":
-        V.fail("scene", scene.name, "a plane scene (on the sphere the light's region changes per pixel)")
+               shaders=None, label: str | None = None, grid_nodes: int = 17, per_pixel: bool | None = None,
+               rel_tol: float = 1e-6) -> LightPath:
+    """Every method's images of ``scene`` under ``light`` (a :class:`SceneLight` in world space, or on a plane
+    an environment map in the plane's tangent frame, from ``gl.lights.envmap``) along the camera path: the
+    facet truth, the counting laws (``LAW_METHODS``; a map: ``MAP_METHODS``) and ``shaders`` ({name: method
+    shader}, rendered with :func:`light_rows`; not for a map, which the contract does not carry).
+    ``per_pixel`` (default: on every scene but a plane) lights each pixel by the world-space light seen in
+    its own tangent frame: the facet truth with per-footprint frames and the exact p by cubature per pixel at
+    ``rel_tol``. Otherwise (a plane: one frame for all pixels) the exact p of every pixel of every frame comes
+    from one :class:`~glintlab.api.lighting.ProbabilityGrid` of ``grid_nodes``^2 views (its error against the
+    exact p: ``LightPath.grid_error``)."""
+    per_pixel = scene.kind != "plane" if per_pixel is None else bool(per_pixel)
+    if not per_pixel and scene.kind != "plane":
+        V.fail("per_pixel", per_pixel, "True on a curved surface (its pixels' tangent frames differ)")
     seed = V.seed(seed)
     shaders = dict(shaders or {})
     env = isinstance(light, gl_lights.EnvMap)
     if env and shaders:
         V.fail("shaders", list(shaders), "none under an environment map (the method contract carries analytic lights)")
+    if env and per_pixel:
+        V.fail("light", light, "a SceneLight on a curved surface or per pixel (the map's exact p per pixel, its regions "
+                               "rotated into each pixel's frame, is not built)")
     if not env and not isinstance(light, SceneLight):
         V.fail("light", light, "a SceneLight (scene_light) or an environment map")
     spec = with_directional_light(scene).spec  # a copy
@@ -263,15 +308,19 @@ def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom:
     mat, side = plane_material(lit)
     shape = (frames, lit.height, lit.width)
     inputs = [frame_inputs(cam) for cam in camera_path(lit, frames, pan_px, zoom)]
-    t0 = time.perf_counter()
-    geo = [_frame_geometry(inp, mat.density) for inp in inputs]
-    views = np.concatenate([g[2] for g in geo])
-    grid = ProbabilityGrid(mat.target, mat.alpha, light if env else light.in_frame(*geo[0][1]), views, grid_nodes)
-    seconds = {"(exact p grid)": time.perf_counter() - t0}
-    grid_error = grid.error(views, seed=seed)
+    if per_pixel:
+        inputs = [_narrow_footprints(inp) for inp in inputs]
+    grid, grid_error, seconds = None, None, {}
+    if not per_pixel:
+        t0 = time.perf_counter()
+        geo = [_frame_geometry(inp, mat.density) for inp in inputs]
+        views = np.concatenate([g[2] for g in geo])
+        grid = ProbabilityGrid(mat.target, mat.alpha, light if env else light.in_frame(*geo[0][1]), views, grid_nodes)
+        seconds["(exact p grid)"] = time.perf_counter() - t0
+        grid_error = grid.error(views, seed=seed)
     images, target, mask, nf = {}, np.zeros(shape), np.zeros(shape, bool), np.zeros(shape)
     for k, inp in enumerate(inputs):
-        m, out, tgt, secs, n = _light_frame(light, mat, side, inp, seed, shaders, k, grid)
+        m, out, tgt, secs, n = _light_frame(light, mat, side, inp, seed, shaders, k, grid, per_pixel, rel_tol)
         mask[k], target[k][m], nf[k][m] = m, tgt, n
         for name, values in out.items():
             images.setdefault(name, np.zeros(shape))[k][m] = values
