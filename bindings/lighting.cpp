@@ -151,6 +151,24 @@ void bind_facets(py::module_& m) {
       py::arg("target"), py::arg("alpha"), py::arg("wo"), py::arg("rows"), py::arg("cols"), py::arg("regions"),
       py::arg("labels"), py::arg("radiance"), py::arg("rel_tol") = 1e-6);
   m.def(
+      "region_probabilities_many",
+      [](const std::string& target, double alpha, const std::vector<double>& wo, int rows, int cols, int regions,
+         const std::vector<int>& labels, const std::vector<double>& radiance, double rel_tol,
+         const std::vector<double>& frames) {
+        const auto t = lighting::parse_target(target);
+        const auto map = region_map(rows, cols, regions, labels, radiance);
+        const auto fr = lighting::frames_from("region_probabilities", "frames", frames, wo.size() / 3);
+        std::pair<std::vector<double>, std::vector<double>> r;
+        {
+          LongCall release;
+          r = lighting::region_probabilities_many(t, alpha, wo, map, rel_tol, fr);
+        }
+        const py::ssize_t count = static_cast<py::ssize_t>(wo.size() / 3), k = regions;
+        return py::make_tuple(to_numpy(r.first).reshape({count, k}), to_numpy(r.second).reshape({count, k}));
+      },
+      py::arg("target"), py::arg("alpha"), py::arg("wo"), py::arg("rows"), py::arg("cols"), py::arg("regions"),
+      py::arg("labels"), py::arg("radiance"), py::arg("rel_tol") = 1e-6, py::arg("frames") = std::vector<double>{});
+  m.def(
       "facet_truth_lights",
       [](const std::string& target, double alpha, std::int64_t side, const std::vector<spatial::Footprint>& fps,
          const std::vector<std::pair<double, double>>& centers, const std::vector<double>& wo,

@@ -1,7 +1,8 @@
 """The sphere under extended lights (glintlab.validation.lighting_images with per-pixel frames;
 docs/math/lighting.md#lighting-scene-images): every pixel sees the world-space light in its own tangent frame,
 in the facet truth (each facet's mirror direction mapped to world space) and in the exact p (the light rotated
-into the pixel's frame, cubature per pixel).
+into the pixel's frame, cubature per pixel); under the sky map in world space, each pixel sees the map's
+directions in its frame, cut at its own horizon.
 
 Statistics: on every other pixel of every other row the footprints (circles of radius 1/sqrt(pi) pixel around
 pixels 2 apart) are disjoint, so the lit facets are a sum of independent Bernoulli counts (one per facet of the
@@ -15,6 +16,7 @@ import numpy as np
 import pytest
 
 import glintlab as gl
+from glintlab.api import lighting as L
 from glintlab.api.lighting import facet_truth, reflection_probability
 from glintlab.api.spatial import Ellipse
 from glintlab.validation import lighting_images as LI
@@ -34,12 +36,13 @@ def sharp_sphere():
 
 
 def disjoint_pixels(scene, light):
-    """(material, side, frames, wo, footprints, centres, n) on the pixels 2 apart of the scene lit by ``light``."""
+    """(material, side, frames, wo, footprints, centres, n) on the pixels 2 apart of the scene lit by ``light``
+    (a SceneLight, or None for a map: every pixel that sees the surface)."""
     spec = with_directional_light(scene).spec
-    spec["light"] = {"type": "directional", "direction": list(light.direction)}
+    spec["light"] = {"type": "directional", "direction": list(light.direction) if light else [0.0, 0.0, 1.0]}
     lit = Scene(spec, name=scene.name, source="test")
     mat, side = LI.plane_material(lit)
-    inp = LI._narrow_footprints(frame_inputs(lit))
+    inp = LI._narrow_footprints(frame_inputs(lit), env=light is None)
     y, x = np.mgrid[0:lit.height, 0:lit.width]
     inp.mask &= (y % 2 == 0) & (x % 2 == 0)
     _, frames, wo, uv, J, nf = LI._frame_geometry(inp, mat.density, per_pixel=True)
@@ -62,6 +65,48 @@ def test_sphere_facets_meet_the_per_pixel_expectation_and_one_frame_is_rejected(
     assert abs(wrong - expected) > 5 * Z_MAX * np.sqrt(expected)
     wrong_p = float((nf * reflection_probability(mat.target, mat.alpha, wo, one)).sum())
     assert abs(count - wrong_p) > 5 * Z_MAX * np.sqrt(wrong_p)
+
+
+def test_sphere_facets_per_region_of_the_world_map_meet_the_per_pixel_expectation():
+    """Per region of the sky: |K_r - E_r| <= 4 sqrt(E_r) for each of the 3 regions (false failure <= 2e-4)."""
+    scene = sharp_sphere()
+    env = gl.lights.envmap("sky", regions=3)
+    mat, side, frames, wo, fps, centres, nf = disjoint_pixels(scene, None)
+    expected = (nf[:, None] * reflection_probability(mat.target, mat.alpha, wo, env, frames=frames)).sum(axis=0)
+    count = facet_truth(mat.target, mat.alpha, side * side, fps, centres, wo, env, seed=1, frames=frames).counts.sum(axis=0)
+    assert expected.min() > 50
+    assert np.all(np.abs(count - expected) <= Z_MAX * np.sqrt(expected))
+    # The map in each pixel's tangent frame (as on a plane): the facets and the exact p both leave the truth.
+    wrong = facet_truth(mat.target, mat.alpha, side * side, fps, centres, wo, env, seed=1).counts.sum(axis=0)
+    assert np.abs(wrong - expected).max() > 5 * Z_MAX * np.sqrt(expected[0])
+    wrong_p = (nf[:, None] * reflection_probability(mat.target, mat.alpha, wo, env)).sum(axis=0)
+    assert np.abs(count - wrong_p).max() > 5 * Z_MAX * np.sqrt(wrong_p[0])
+
+
+def test_the_map_per_frame_matches_a_fine_quadrature_in_the_frame():
+    """The exact p per region with a tilted frame against a 512 x 1024 midpoint sum over the frame's hemisphere
+    (its cell boundaries cost it ~1e-3 relative on the small regions)."""
+    env = gl.lights.envmap("sky", regions=3)
+    th, ph = np.radians(70.0), np.radians(200.0)  # tilted towards the sun
+    n = np.array([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)])
+    t = np.cross([0.0, 0.0, 1.0], n)
+    t /= np.linalg.norm(t)
+    frame = np.array([t, np.cross(n, t), n])
+    wo = np.array([0.1, 0.2, 0.95]) / np.linalg.norm([0.1, 0.2, 0.95])
+    got = reflection_probability("beckmann", 0.3, wo[None], env, frames=frame[None])[0]
+    d, dw = gl.lights.directions(512, 1024), gl.lights.cell_solid_angles(512, 1024)
+    up = d[..., 2] > 0
+    local = d[up]
+    dens = L.density("beckmann", 0.3, np.broadcast_to(wo, local.shape), local) * dw[up]
+    world = local @ frame  # local components times the rows t, b, n
+    rows, cols = env.shape
+    theta, phi = np.arccos(np.clip(world[:, 2], -1, 1)), np.mod(np.arctan2(world[:, 1], world[:, 0]), 2 * np.pi)
+    lab = env.labels[np.minimum((theta / np.pi * rows).astype(int), rows - 1),
+                     np.minimum((phi / (2 * np.pi) * cols).astype(int), cols - 1)]
+    quad = np.array([dens[lab == r].sum() for r in range(env.regions)])
+    assert np.all(quad > 0) and np.allclose(got, quad, rtol=1e-2, atol=0)
+    unrotated = reflection_probability("beckmann", 0.3, wo[None], env)[0]
+    assert not np.allclose(unrotated, quad, rtol=0.1, atol=0)
 
 
 def test_per_view_frames_equal_the_light_built_in_each_frame():
@@ -90,6 +135,8 @@ def test_bad_frames_are_refused():
         reflection_probability("ggx", 0.3, [0, 0, 1.0], light, frames=2 * np.eye(3))
     with pytest.raises(ValueError, match="frames"):
         reflection_probability("ggx", 0.3, [0, 0, 1.0], light, "cap", frames=np.eye(3))
+    with pytest.raises(ValueError, match="frames"):
+        reflection_probability("ggx", 0.3, [0, 0, 1.0], gl.lights.envmap("sky"), frames=np.stack([np.eye(3)] * 2))
 
 
 def test_a_plane_per_pixel_equals_the_one_frame_path():
@@ -105,7 +152,7 @@ def test_a_plane_per_pixel_equals_the_one_frame_path():
     assert np.abs(one.target - each.target)[both].max() <= 1e-3 * one.target.max()
 
 
-def test_the_sphere_path_renders_and_refuses_what_is_not_built():
+def test_the_sphere_path_renders_and_a_sphere_needs_per_pixel_frames():
     scene = with_density(resolve_scene("sphere").scaled(1 / 24, keep_n=True), 4.0)
     light = LI.scene_light(scene, "cap", (0.2, 0.0))
     path = LI.light_path(scene, light, frames=2, seed=2)
@@ -114,5 +161,3 @@ def test_the_sphere_path_renders_and_refuses_what_is_not_built():
     assert 0.8 < t.loc["facets", "expected_ratio"] < 1.25
     with pytest.raises(ValueError, match="per_pixel"):
         LI.light_path(scene, light, frames=2, per_pixel=False)
-    with pytest.raises(ValueError, match="light"):
-        LI.light_path(scene, gl.lights.envmap("sky"), frames=2)

@@ -83,17 +83,18 @@ def reflection_probability(target, alpha, wo, light, method: str = "exact", rel_
                            return_error: bool = False, frames=None):
     """p for each view ``wo`` (3,) or (..., 3) and a light from ``gl.lights`` (see the module docs).
     An environment map gives one p per region (last axis). ``return_error`` (exact only) also returns the
-    cubature's error estimate. ``frames`` (..., 3, 3), one per view (methods "exact" and "point", an
-    analytic light): each view's tangent frame (rows t, b, n) in the light's coordinates, the view in
-    that frame and the light seen from it (a curved surface under one distant light,
-    docs/math/lighting.md#lighting-scene-images)."""
+    cubature's error estimate. ``frames`` (..., 3, 3), one per view (an analytic light: methods "exact" and
+    "point"; a map: all three): each view's tangent frame (rows t, b, n) in the light's (world) coordinates,
+    the view in that frame and the light seen from it, cut at its horizon (a curved surface under one distant
+    light, docs/math/lighting.md#lighting-scene-images); a map's "filtered" and "unfiltered" look up the world
+    mirror direction (KK25's maps know no horizon but the map's)."""
     nd = _target(target, alpha)
     wo = _view(wo)
-    if frames is not None and (isinstance(light, EnvMap) or method not in ("exact", "point")):
-        V.fail("frames", "per-view frames", 'an analytic light with method "exact" or "point" (or frames=None)')
+    if frames is not None and not isinstance(light, EnvMap) and method not in ("exact", "point"):
+        V.fail("frames", "per-view frames", 'method "exact" or "point" for an analytic light (or frames=None)')
     if isinstance(light, EnvMap):
         V.choice("method", method, MAP_METHODS)
-        return _map_probability(nd, wo, light, method, rel_tol, return_error)
+        return _map_probability(nd, wo, light, method, rel_tol, return_error, frames)
     if not isinstance(light, Light):
         V.fail("light", light, "a light from gl.lights (cap, rect, disk, envmap)")
     V.choice("method", method, METHODS)
@@ -386,16 +387,18 @@ def _lookup(maps, R):
 FILTER_GRID = (32, 64)
 
 
-def _map_probability(nd, wo, env: EnvMap, method, rel_tol, return_error):
+def _map_probability(nd, wo, env: EnvMap, method, rel_tol, return_error, frames=None):
     flat = wo.reshape(-1, 3)
+    frame_list = _frames(frames, len(flat))
     if method == "exact":
         rows, cols, k, labels, rad = env.core_args()
-        res = [_core.region_probabilities(nd.name, nd.alpha, tuple(w), rows, cols, k, labels, rad, V.real("rel_tol", rel_tol))
-               for w in flat]
-        values = np.array([[r[0] for r in row] for row in res]).reshape(wo.shape[:-1] + (k,))
-        errors = np.array([[r[1] for r in row] for row in res]).reshape(values.shape)
+        values, errors = _core.region_probabilities_many(nd.name, nd.alpha, np.ascontiguousarray(flat).reshape(-1), rows,
+                                                         cols, k, labels, rad, V.real("rel_tol", rel_tol), frame_list)
+        values, errors = values.reshape(wo.shape[:-1] + (k,)), errors.reshape(wo.shape[:-1] + (k,))
         return (values, errors) if return_error else values
     mirror = flat * np.array([-1.0, -1.0, 1.0])
+    if frame_list:  # the mirror direction in world space: sum of its components times the rows t, b, n
+        mirror = np.einsum("kji,kj->ki", np.asarray(frames, float).reshape(-1, 3, 3), mirror)
     if method == "filtered":
         out = _lookup(_filtered_maps(nd, env, *FILTER_GRID), mirror)
     else:

@@ -28,13 +28,16 @@ DEFAULTS = {"targets": ["beckmann", "ggx"], "alphas": [0.05, 0.2, 0.5], "half_an
             # fraction of 1920 x 1080 per side, N x density_factor x scale^2, frames of the scene images' path
             # (about 10 s; FULL_SCENE's sizes, 4 minutes, are make bench's: bench/bench_lighting.py).
             "scene": "plane_25", "scene_scale": 1.0 / 12, "scene_density_factor": 0.25, "scene_frames": 4,
-            "scene_cap_half_angle": 0.2, "scene_rect_half_widths": [0.3, 0.2], "scene_grid_nodes": 11}
+            "scene_cap_half_angle": 0.2, "scene_rect_half_widths": [0.3, 0.2], "scene_grid_nodes": 11,
+            # The sphere under the same cap and window, each pixel lit in its own tangent frame (the exact p by
+            # cubature per pixel at sphere_rel_tol; docs/math/lighting.md#lighting-scene-images).
+            "sphere_scene": "sphere", "sphere_scale": 1.0 / 12, "sphere_rel_tol": 1e-6}
 # KPT25's Algorithm 2 under the sky map (studies.sampling_lighting with the map's radiance): pixels of its
 # PIXELS, estimates x samples per estimator, the view's polar angle; |z| above alg2_max_z fails the section.
 DEFAULTS.update({"alg2_pixels": [0, 2], "alg2_repeats": 64, "alg2_samples": 256, "alg2_wo_theta_deg": 30.0,
                  "alg2_max_z": 4.0})
-FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17}
-QUICK = {"scene_scale": 1.0 / 16, "scene_frames": 3, "scene_grid_nodes": 9,
+FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17, "sphere_scale": 0.25}
+QUICK = {"scene_scale": 1.0 / 16, "scene_frames": 3, "scene_grid_nodes": 9, "sphere_scale": 1.0 / 16,
          "alphas": [0.05, 0.3], "half_angles": [0.01, 0.1], "elevations_deg": [30.0], "views_deg": [20.0, 60.0],
          "count_half_angles": [0.001, 0.1, 0.3], "realizations": 1, "alg2_pixels": [0], "alg2_repeats": 32,
          "alg2_samples": 128}
@@ -51,7 +54,7 @@ TABLE = {
     "lighting_images": ["image", "mean_count", "vs_facets", "vs_expected", "lit_share"],
     "lighting_kpt25_envmap": ["pixel", "estimator", "samples", "reference", "reference_error", "mean", "z",
                               "relative_std_per_sample", "rmse_ratio_to_alg2"],
-    "lighting_scene_images": ["light", "method", "own_std_ratio", "own_pop_rate", "own_truth_change_rate",
+    "lighting_scene_images": ["scene", "light", "method", "own_std_ratio", "own_pop_rate", "own_truth_change_rate",
                               "own_mean_ratio", "smooth_mean_ratio", "lit_facets", "count_ratio", "expected_ratio"],
 }
 #: The shipped area-light shader's lit facets over their expectation at the exact p must lie within this
@@ -97,7 +100,8 @@ def compute(params: dict, ctx: Context) -> Tables:
     shipped = scene_table[scene_table.method == "area_light (glsl)"]
     for _, r in shipped.iterrows():
         if not (1 / SHADER_FACTOR <= r.expected_ratio <= SHADER_FACTOR):
-            failures.append(f"the area-light method shader under the {r.light}: lit facets / expected = {r.expected_ratio:.3g}")
+            failures.append(f"the area-light method shader on {r.scene} under the {r.light}: lit facets / expected = "
+                            f"{r.expected_ratio:.3g}")
     ms = probs.exact_ms
     stats = {"exact p: CPU ms per (view, light), median / max": f"{ms.median():.3g} / {ms.max():.3g}",
              "exact p: largest error estimate / p (p > 1e-20)":
@@ -107,7 +111,9 @@ def compute(params: dict, ctx: Context) -> Tables:
                        .share_within.mean()),
              "environment map: partition's relative radiance error": partition["rel_partition_error"],
              "scene images: exact p grid's largest relative error (p > 1e-3 max p), over the lights":
-                 max(p.grid_error["max_rel_error_p_above_1e-3_max"] for p in paths)}
+                 max(p.grid_error["max_rel_error_p_above_1e-3_max"] for p in paths if p.grid_error is not None),
+             "scene images: the sphere's exact p per pixel (cubature), seconds over its lights":
+                 sum(p.seconds.get("binomial (exact p)", 0.0) for p in paths if p.grid_error is None)}
     return Tables({"lighting_accuracy": accuracy, "lighting_counts": counts, "lighting_point_limit": limit,
                    "lighting_envmap": envtab, "lighting_own_truths": own, "lighting_images": image_table,
                    "lighting_scene_images": scene_table, "lighting_kpt25_envmap": alg2},
@@ -137,27 +143,39 @@ def kpt25_envmap(params: dict, env, seed: int):
 
 
 def scene_images(params: dict, seed: int):
-    """The plane under a cap, a window (rectangle) and the shipped sky: ([LightPath], their table). The
-    shipped area-light method shader and its wrong variant are rendered under the cap and the window
-    when a Vulkan device is present."""
+    """The plane under a cap, a window (rectangle) and the shipped sky, and the sphere under the same cap and
+    window, each pixel lit in its own tangent frame: ([LightPath], their table). The shipped area-light method
+    shader and its wrong variant are rendered under the cap and the window when a Vulkan device is present."""
     scene = with_density(resolve_scene(params["scene"]).scaled(params["scene_scale"], keep_n=True),
                          params["scene_density_factor"])
-    lights = [LI.scene_light(scene, "cap", (params["scene_cap_half_angle"], 0.0)),
-              LI.scene_light(scene, "rect", tuple(params["scene_rect_half_widths"]))]
+    sphere = with_density(resolve_scene(params["sphere_scene"]).scaled(params["sphere_scale"], keep_n=True),
+                          params["scene_density_factor"])
     mat, _ = LI.plane_material(scene)
     try:
         shaders = {"area_light (glsl)": LI.area_light_shader(mat),
                    "area_light without solid angle (wrong)": LI.area_light_shader(mat, wrong=True)}
+        sphere_mat, _ = LI.plane_material(sphere)
+        sphere_shaders = {"area_light (glsl)": LI.area_light_shader(sphere_mat),
+                          "area_light without solid angle (wrong)": LI.area_light_shader(sphere_mat, wrong=True)}
     except NoVulkanDevice:
-        shaders = {}
-    kw = dict(frames=params["scene_frames"], seed=seed, grid_nodes=params["scene_grid_nodes"])
-    paths = [LI.light_path(scene, light, shaders=shaders, **kw) for light in lights]
-    paths.append(LI.light_path(scene, gl_lights.envmap("sky", regions=3), **kw))
+        shaders, sphere_shaders = {}, {}
+    kw = dict(frames=params["scene_frames"], seed=seed)
+    paths = [LI.light_path(scene, light, shaders=shaders, grid_nodes=params["scene_grid_nodes"], **kw)
+             for light in scene_lights(scene, params)]
+    paths.append(LI.light_path(scene, gl_lights.envmap("sky", regions=3), grid_nodes=params["scene_grid_nodes"], **kw))
+    paths += [LI.light_path(sphere, light, shaders=sphere_shaders, rel_tol=params["sphere_rel_tol"], **kw)
+              for light in scene_lights(sphere, params)]
     return paths, pd.concat([LI.light_table(p) for p in paths], ignore_index=True)
 
 
+def scene_lights(scene, params: dict):
+    """The section's cap and window for ``scene``, centred where its light is."""
+    return [LI.scene_light(scene, "cap", (params["scene_cap_half_angle"], 0.0)),
+            LI.scene_light(scene, "rect", tuple(params["scene_rect_half_widths"]))]
+
+
 def scene_figure(paths):
-    """Frame 0 of the plane under each light: the facet truth beside each method (radiance per facet)."""
+    """Frame 0 of each scene under each light: the facet truth beside each method (radiance per facet)."""
     import matplotlib.pyplot as plt
 
     cols = max(len(p.images) for p in paths)
@@ -168,8 +186,8 @@ def scene_figure(paths):
             ax.axis("off")
         for ax, (name, seq) in zip(row, path.images.items()):
             ax.imshow(seq[0], cmap="inferno", vmin=0, vmax=vmax, interpolation="nearest")
-            ax.set_title(f"{path.light}: {name}", fontsize=6)
-    fig.suptitle(f"{paths[0].scene} under extended lights: each method beside the facets lit the same way (frame 0)", fontsize=8)
+            ax.set_title(f"{path.scene}, {path.light}: {name}", fontsize=6)
+    fig.suptitle("scenes under extended lights: each method beside the facets lit the same way (frame 0)", fontsize=8)
     fig.tight_layout()
     return fig
 

@@ -1,14 +1,17 @@
-"""Glint images of the Table 1 planes under an area light and an environment map, each method beside the
+"""Glint images of the Table 1 scenes under an area light and an environment map, each method beside the
 facet truth lit by the same light, along the scene images' camera path (docs/math/lighting.md#lighting-scene-images).
 
-A distant extended light is one region of directions for every pixel (as the scene images' directional
-light is one direction): a :class:`SceneLight` (a cap or a rectangle, in world space) or an environment
-map in the plane's tangent frame. A pixel's value is the radiance its facets reflect per facet: the facet
+A distant extended light is one region of directions in world space for every pixel (as the scene images'
+directional light is one direction): a :class:`SceneLight` (a cap or a rectangle) or an environment map (on
+a plane: in its tangent frame). On a plane every pixel has the same tangent frame, so the light is one region
+in it and the exact p of every pixel comes from one grid of views; on a curved surface (the sphere) each
+pixel sees the light in its own tangent frame (t, b, n) and cut at its own horizon: the facet truth maps each
+facet's mirror direction to world space before the light test, and the exact p rotates the light (or the
+map's directions) into the pixel's frame, by cubature per pixel. A pixel's value is the radiance its facets reflect per facet: the facet
 truth's sum of the radiance of the facets whose mirror direction of the view hits the light, over the
 footprint's n = N |det J| facets; a counting method's value is the radiance times K / n, K its count at its
 p; the smooth value is the radiance times the exact p (the pops' reference level, as D(h) is a point
-light's). Only planes: on the sphere the light's region in the tangent frame changes from pixel to pixel,
-while the facet truth takes one region for all of its footprints.
+light's).
 
 The method-shader path: :func:`light_rows` packs a frame's GlintInput rows with the light's description
 (``light_kind``, ``light_radiance``, ``light_size``, ``light_edge``; docs/math/glint_images.md#glint-contract),
@@ -209,12 +212,18 @@ def _frame_geometry(inp, material_density, per_pixel: bool = False):
 MAX_FOOTPRINT = 0.5
 
 
-def _narrow_footprints(inp):
+def _narrow_footprints(inp, env: bool = False):
     """``inp`` with the pixels whose footprint's bounding box exceeds MAX_FOOTPRINT per axis left out of its
-    mask (the ellipse J {|x| <= 1/sqrt(pi)}: half-widths |(du/dx, du/dy)| / sqrt(pi) and |(dv/dx, dv/dy)| / sqrt(pi))."""
+    mask (the ellipse J {|x| <= 1/sqrt(pi)}: half-widths |(du/dx, du/dy)| / sqrt(pi) and |(dv/dx, dv/dy)| / sqrt(pi)).
+    Under a map (``env``) every pixel that sees the surface is kept, whatever the frame's light vector: each sees
+    the part of the map above its own horizon."""
     J = inp.J
     width = 2 * np.maximum(np.hypot(J[..., 0], J[..., 2]), np.hypot(J[..., 1], J[..., 3])) / math.sqrt(math.pi)
-    return dataclasses.replace(inp, mask=inp.mask & (width <= MAX_FOOTPRINT))
+    mask = inp.mask
+    if env:
+        det = J[..., 0] * J[..., 3] - J[..., 1] * J[..., 2]
+        mask = inp.hit & ((inp.view * inp.n).sum(-1) > 0) & np.isfinite(J).all(-1) & (np.abs(det) > 0)
+    return dataclasses.replace(inp, mask=mask & (width <= MAX_FOOTPRINT))
 
 
 def _world_light(light):
@@ -226,7 +235,8 @@ def _exact_p(mat, light, frames, wo, per_pixel: bool, grid, rel_tol: float):
     """The exact p of the masked pixels: per pixel by cubature with each pixel's own light (``per_pixel``),
     else from the path's ProbabilityGrid (one light for every pixel: its error is the path's)."""
     if per_pixel:
-        return reflection_probability(mat.target, mat.alpha, wo, _world_light(light), "exact", rel_tol, frames=frames)
+        lt = light if isinstance(light, gl_lights.EnvMap) else _world_light(light)
+        return reflection_probability(mat.target, mat.alpha, wo, lt, "exact", rel_tol, frames=frames)
     return grid(wo)
 
 
@@ -279,8 +289,9 @@ def plane_material(scene: Scene) -> tuple[Material, int]:
 def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom: float = 0.99, seed: int = 1,
                shaders=None, label: str | None = None, grid_nodes: int = 17, per_pixel: bool | None = None,
                rel_tol: float = 1e-6) -> LightPath:
-    """Every method's images of ``scene`` under ``light`` (a :class:`SceneLight` in world space, or on a plane
-    an environment map in the plane's tangent frame, from ``gl.lights.envmap``) along the camera path: the
+    """Every method's images of ``scene`` under ``light`` (a :class:`SceneLight` in world space, or an
+    environment map from ``gl.lights.envmap``: on a plane in its tangent frame, per pixel in world space) along
+    the camera path: the
     facet truth, the counting laws (``LAW_METHODS``; a map: ``MAP_METHODS``) and ``shaders`` ({name: method
     shader}, rendered with :func:`light_rows`; not for a map, which the contract does not carry).
     ``per_pixel`` (default: on every scene but a plane) lights each pixel by the world-space light seen in
@@ -296,20 +307,19 @@ def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom:
     env = isinstance(light, gl_lights.EnvMap)
     if env and shaders:
         V.fail("shaders", list(shaders), "none under an environment map (the method contract carries analytic lights)")
-    if env and per_pixel:
-        V.fail("light", light, "a SceneLight on a curved surface or per pixel (the map's exact p per pixel, its regions "
-                               "rotated into each pixel's frame, is not built)")
     if not env and not isinstance(light, SceneLight):
         V.fail("light", light, "a SceneLight (scene_light) or an environment map")
     spec = with_directional_light(scene).spec  # a copy
-    # The frame's light vector: the light's centre (the map: the plane's normal), as a directional light's.
-    spec["light"] = {"type": "directional", "direction": [float(x) for x in (scene.normal if env else light.direction)]}
+    # The frame's light vector: the light's centre (the map: the plane's normal, or per pixel the zenith, unused
+    # but by the mask, which _narrow_footprints then takes from the view alone), as a directional light's.
+    up = (0.0, 0.0, 1.0) if per_pixel else scene.normal
+    spec["light"] = {"type": "directional", "direction": [float(x) for x in (up if env else light.direction)]}
     lit = Scene(spec, name=scene.name, source=scene.source)
     mat, side = plane_material(lit)
     shape = (frames, lit.height, lit.width)
     inputs = [frame_inputs(cam) for cam in camera_path(lit, frames, pan_px, zoom)]
     if per_pixel:
-        inputs = [_narrow_footprints(inp) for inp in inputs]
+        inputs = [_narrow_footprints(inp, env) for inp in inputs]
     grid, grid_error, seconds = None, None, {}
     if not per_pixel:
         t0 = time.perf_counter()

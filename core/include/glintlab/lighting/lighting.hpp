@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "glintlab/counting/spatial.hpp"
@@ -134,8 +135,16 @@ void check_region_map(const RegionMap& map);  // std::invalid_argument naming th
 
 // p_r(wo) for every region r of the map: the integral of D(h)(h.n) / (4 (wo.h)) over the cells labelled
 // r above the horizon, by adaptive cubature row by row (docs/math/lighting.md#lighting-env-exact).
+// With `frame` (none: the map's own frame) wo is in that tangent frame, the map's directions are seen in it
+// and cut at its horizon: a curved surface's pixel under a world-space map.
 std::vector<Integral> region_probabilities(Target target, double alpha, Vec3 wo, const RegionMap& map,
-                                           double rel_tol = 1e-6);
+                                           double rel_tol = 1e-6, const Frame* frame = nullptr);
+// Many views at once (3 * count values of wo; `frames` one per view or none), threads over views: (values,
+// errors), count x regions row-major.
+std::pair<std::vector<double>, std::vector<double>> region_probabilities_many(Target target, double alpha,
+                                                                              const std::vector<double>& wo,
+                                                                              const RegionMap& map, double rel_tol,
+                                                                              const std::vector<Frame>& frames = {});
 
 // Which light or region a facet reflects the view into: the one test of "its mirror direction hits the
 // light" that every truth under a light shares (the stratified facets below, KPT25's points, WWH18's
