@@ -123,16 +123,7 @@ py::tuple truth_tuple(const lighting::FacetTruth& t, std::size_t count, std::siz
   return py::make_tuple(counts, to_numpy(t.radiance), to_numpy(t.facets));
 }
 
-void bind_facets(py::module_& m) {
-  // The one "mirror direction hits the light" test, handed to the methods' own truths (KPT25, WWH18).
-  py::class_<lighting::LightHit>(m, "LightHit")
-      .def(py::init<std::vector<Light>, std::vector<double>>(), py::arg("lights"), py::arg("radiance"))
-      .def(py::init([](int rows, int cols, int regions, const std::vector<int>& labels,
-                       const std::vector<double>& radiance) {
-             return lighting::LightHit(region_map(rows, cols, regions, labels, radiance));
-           }),
-           py::arg("rows"), py::arg("cols"), py::arg("regions"), py::arg("labels"), py::arg("radiance"))
-      .def_property_readonly("channels", &lighting::LightHit::channels);
+void bind_regions(py::module_& m) {
   m.def(
       "region_probabilities",
       [](const std::string& target, double alpha, std::array<double, 3> wo, int rows, int cols, int regions,
@@ -168,6 +159,18 @@ void bind_facets(py::module_& m) {
       },
       py::arg("target"), py::arg("alpha"), py::arg("wo"), py::arg("rows"), py::arg("cols"), py::arg("regions"),
       py::arg("labels"), py::arg("radiance"), py::arg("rel_tol") = 1e-6, py::arg("frames") = std::vector<double>{});
+}
+
+void bind_facets(py::module_& m) {
+  // The one "mirror direction hits the light" test, handed to the methods' own truths (KPT25, WWH18).
+  py::class_<lighting::LightHit>(m, "LightHit")
+      .def(py::init<std::vector<Light>, std::vector<double>>(), py::arg("lights"), py::arg("radiance"))
+      .def(py::init([](int rows, int cols, int regions, const std::vector<int>& labels,
+                       const std::vector<double>& radiance) {
+             return lighting::LightHit(region_map(rows, cols, regions, labels, radiance));
+           }),
+           py::arg("rows"), py::arg("cols"), py::arg("regions"), py::arg("labels"), py::arg("radiance"))
+      .def_property_readonly("channels", &lighting::LightHit::channels);
   m.def(
       "facet_truth_lights",
       [](const std::string& target, double alpha, std::int64_t side, const std::vector<spatial::Footprint>& fps,
@@ -213,6 +216,7 @@ void bind_facets(py::module_& m) {
 void bind_lighting(py::module_& m) {
   bind_light(m);
   bind_probabilities(m);
+  bind_regions(m);
   bind_facets(m);
 }
 

@@ -7,8 +7,8 @@ a plane: in its tangent frame). On a plane every pixel has the same tangent fram
 in it and the exact p of every pixel comes from one grid of views; on a curved surface (the sphere) each
 pixel sees the light in its own tangent frame (t, b, n) and cut at its own horizon: the facet truth maps each
 facet's mirror direction to world space before the light test, and the exact p rotates the light (or the
-map's directions) into the pixel's frame, by cubature per pixel. A pixel's value is the radiance its facets reflect per facet: the facet
-truth's sum of the radiance of the facets whose mirror direction of the view hits the light, over the
+map's directions) into the pixel's frame, by cubature per pixel. A pixel's value is the radiance its facets
+reflect per facet: the facet truth's sum of the radiance of the facets whose mirror direction of the view hits the light, over the
 footprint's n = N |det J| facets; a counting method's value is the radiance times K / n, K its count at its
 p; the smooth value is the radiance times the exact p (the pops' reference level, as D(h) is a point
 light's).
