@@ -9,7 +9,7 @@ issue 40's speed goals at full size:
    on two cores: the cubature per pixel (timed on every 50th pixel, scaled to the frame: the baseline)
    against the ProbabilityGrid of 17^2 and 33^2 nodes, with the grid's error against the cubature;
 3. the lighting section's scene images at full size (FULL_SCENE: plane_25 under a cap, a window and the
-   sky, the sphere under the cap and the window at 480 x 270 and under the sky in world space at 120 x 68, each
+   sky, the sphere under the cap and the window at 240 x 135 and under the sky in world space at 96 x 54, each
    pixel in its own tangent frame with the exact p by cubature per pixel; the shipped area-light method shader
    when Vulkan is present), seconds per light.
 

@@ -39,8 +39,8 @@ DEFAULTS = {"targets": ["beckmann", "ggx"], "alphas": [0.05, 0.2, 0.5], "half_an
 # PIXELS, estimates x samples per estimator, the view's polar angle; |z| above alg2_max_z fails the section.
 DEFAULTS.update({"alg2_pixels": [0, 2], "alg2_repeats": 64, "alg2_samples": 256, "alg2_wo_theta_deg": 30.0,
                  "alg2_max_z": 4.0})
-FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17, "sphere_scale": 0.25,
-              "sphere_envmap_scale": 1.0 / 16}
+FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17, "sphere_scale": 0.125,
+              "sphere_envmap_scale": 1.0 / 20}
 QUICK = {"scene_scale": 1.0 / 16, "scene_frames": 3, "scene_grid_nodes": 9,
          "alphas": [0.05, 0.3], "half_angles": [0.01, 0.1], "elevations_deg": [30.0], "views_deg": [20.0, 60.0],
          "count_half_angles": [0.001, 0.1, 0.3], "realizations": 1, "alg2_pixels": [0], "alg2_repeats": 32,

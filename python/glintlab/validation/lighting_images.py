@@ -7,11 +7,11 @@ a plane: in its tangent frame). On a plane every pixel has the same tangent fram
 in it and the exact p of every pixel comes from one grid of views; on a curved surface (the sphere) each
 pixel sees the light in its own tangent frame (t, b, n) and cut at its own horizon: the facet truth maps each
 facet's mirror direction to world space before the light test, and the exact p rotates the light (or the
-map's directions) into the pixel's frame, by cubature per pixel. A pixel's value is the radiance its facets
-reflect per facet: the facet truth's sum of the radiance of the facets whose mirror direction of the view hits the light, over the
-footprint's n = N |det J| facets; a counting method's value is the radiance times K / n, K its count at its
-p; the smooth value is the radiance times the exact p (the pops' reference level, as D(h) is a point
-light's).
+map's directions) into the pixel's frame, by cubature per pixel (docs/math/lighting.md#lighting-curved).
+A pixel's value is the radiance its facets reflect per facet: the facet truth's sum of the radiance of the
+facets whose mirror direction of the view hits the light, over the footprint's n = N |det J| facets; a
+counting method's value is the radiance times K / n, K its count at its p; the smooth value is the
+radiance times the exact p (the pops' reference level, as D(h) is a point light's).
 
 The method-shader path: :func:`light_rows` packs a frame's GlintInput rows with the light's description
 (``light_kind``, ``light_radiance``, ``light_size``, ``light_edge``; docs/math/glint_images.md#glint-contract),
@@ -291,8 +291,7 @@ def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom:
                rel_tol: float = 1e-6) -> LightPath:
     """Every method's images of ``scene`` under ``light`` (a :class:`SceneLight` in world space, or an
     environment map from ``gl.lights.envmap``: on a plane in its tangent frame, per pixel in world space) along
-    the camera path: the
-    facet truth, the counting laws (``LAW_METHODS``; a map: ``MAP_METHODS``) and ``shaders`` ({name: method
+    the camera path: the facet truth, the counting laws (``LAW_METHODS``; a map: ``MAP_METHODS``) and ``shaders`` ({name: method
     shader}, rendered with :func:`light_rows`; not for a map, which the contract does not carry).
     ``per_pixel`` (default: on every scene but a plane) lights each pixel by the world-space light seen in
     its own tangent frame: the facet truth with per-footprint frames and the exact p by cubature per pixel at
