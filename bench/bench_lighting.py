@@ -9,8 +9,10 @@ issue 40's speed goals at full size:
    on two cores: the cubature per pixel (timed on every 50th pixel, scaled to the frame: the baseline)
    against the ProbabilityGrid of 17^2 and 33^2 nodes, with the grid's error against the cubature;
 3. the lighting section's scene images at full size (FULL_SCENE: plane_25 under a cap, a window and the
-   sky, with the shipped area-light method shader when Vulkan is present, and the registered image methods
-   by quadrature over the light: validation.lighting_methods), seconds per light and method.
+   sky, the sphere under the cap and the window at 240 x 135 and under the sky in world space at 96 x 54, each
+   pixel in its own tangent frame with the exact p by cubature per pixel; the shipped area-light method shader
+   when Vulkan is present; the registered image methods by quadrature over the light:
+   validation.lighting_methods), seconds per light and method.
 
 Prints each figure with PASS or FAIL against its goal. A benchmark, not a test: exits 0 when the
 measurements complete.
@@ -90,8 +92,10 @@ def main() -> int:
     print(f"  section's scene images at full size ({full['scene_scale']:g} of 1920 x 1080, {full['scene_frames']} frames, "
           f"{len(paths)} lights): {time.perf_counter() - t0:.1f} s")
     for p in paths:
-        print(f"    {p.light}: " + ", ".join(f"{k} {v:.2f} s" for k, v in p.seconds.items()))
-    print(table[["light", "method", "own_std_ratio", "own_pop_rate", "count_ratio", "expected_ratio"]].to_string(index=False))
+        print(f"    {p.scene}, {p.light} ({int(p.mask.sum())} pixel-frames): "
+              + ", ".join(f"{k} {v:.2f} s" for k, v in p.seconds.items()))
+    columns = ["scene", "light", "method", "own_std_ratio", "own_pop_rate", "count_ratio", "expected_ratio"]
+    print(table[columns].to_string(index=False))
     return 0
 
 

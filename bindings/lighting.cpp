@@ -77,16 +77,19 @@ void bind_probabilities(py::module_& m) {
       py::arg("max_evaluations") = 4000000);
   m.def(
       "reflection_probabilities",
-      [](const std::string& target, double alpha, const std::vector<double>& wo, const Light& light, double rel_tol) {
+      [](const std::string& target, double alpha, const std::vector<double>& wo, const Light& light, double rel_tol,
+         const std::vector<double>& frames) {
         const auto t = lighting::parse_target(target);
+        const auto fr = lighting::frames_from("reflection_probabilities", "frames", frames, wo.size() / 3);
         std::pair<std::vector<double>, std::vector<double>> r;
         {
           LongCall release;
-          r = lighting::reflection_probabilities(t, alpha, wo, light, rel_tol);
+          r = lighting::reflection_probabilities(t, alpha, wo, light, rel_tol, fr);
         }
         return py::make_tuple(to_numpy(r.first), to_numpy(r.second));
       },
-      py::arg("target"), py::arg("alpha"), py::arg("wo"), py::arg("light"), py::arg("rel_tol") = 1e-6);
+      py::arg("target"), py::arg("alpha"), py::arg("wo"), py::arg("light"), py::arg("rel_tol") = 1e-6,
+      py::arg("frames") = std::vector<double>{});
   m.def(
       "half_vector_solid_angle",
       [](std::array<double, 3> wo, const Light& light, double rel_tol) {
@@ -121,16 +124,7 @@ py::tuple truth_tuple(const lighting::FacetTruth& t, std::size_t count, std::siz
   return py::make_tuple(counts, to_numpy(t.radiance), to_numpy(t.facets));
 }
 
-void bind_facets(py::module_& m) {
-  // The one "mirror direction hits the light" test, handed to the methods' own truths (KPT25, WWH18).
-  py::class_<lighting::LightHit>(m, "LightHit")
-      .def(py::init<std::vector<Light>, std::vector<double>>(), py::arg("lights"), py::arg("radiance"))
-      .def(py::init([](int rows, int cols, int regions, const std::vector<int>& labels,
-                       const std::vector<double>& radiance) {
-             return lighting::LightHit(region_map(rows, cols, regions, labels, radiance));
-           }),
-           py::arg("rows"), py::arg("cols"), py::arg("regions"), py::arg("labels"), py::arg("radiance"))
-      .def_property_readonly("channels", &lighting::LightHit::channels);
+void bind_regions(py::module_& m) {
   m.def(
       "region_probabilities",
       [](const std::string& target, double alpha, std::array<double, 3> wo, int rows, int cols, int regions,
@@ -149,38 +143,73 @@ void bind_facets(py::module_& m) {
       py::arg("target"), py::arg("alpha"), py::arg("wo"), py::arg("rows"), py::arg("cols"), py::arg("regions"),
       py::arg("labels"), py::arg("radiance"), py::arg("rel_tol") = 1e-6);
   m.def(
+      "region_probabilities_many",
+      [](const std::string& target, double alpha, const std::vector<double>& wo, int rows, int cols, int regions,
+         const std::vector<int>& labels, const std::vector<double>& radiance, double rel_tol,
+         const std::vector<double>& frames) {
+        const auto t = lighting::parse_target(target);
+        const auto map = region_map(rows, cols, regions, labels, radiance);
+        const auto fr = lighting::frames_from("region_probabilities", "frames", frames, wo.size() / 3);
+        std::pair<std::vector<double>, std::vector<double>> r;
+        {
+          LongCall release;
+          r = lighting::region_probabilities_many(t, alpha, wo, map, rel_tol, fr);
+        }
+        const py::ssize_t count = static_cast<py::ssize_t>(wo.size() / 3), k = regions;
+        return py::make_tuple(to_numpy(r.first).reshape({count, k}), to_numpy(r.second).reshape({count, k}));
+      },
+      py::arg("target"), py::arg("alpha"), py::arg("wo"), py::arg("rows"), py::arg("cols"), py::arg("regions"),
+      py::arg("labels"), py::arg("radiance"), py::arg("rel_tol") = 1e-6, py::arg("frames") = std::vector<double>{});
+}
+
+void bind_facets(py::module_& m) {
+  // The one "mirror direction hits the light" test, handed to the methods' own truths (KPT25, WWH18).
+  py::class_<lighting::LightHit>(m, "LightHit")
+      .def(py::init<std::vector<Light>, std::vector<double>>(), py::arg("lights"), py::arg("radiance"))
+      .def(py::init([](int rows, int cols, int regions, const std::vector<int>& labels,
+                       const std::vector<double>& radiance) {
+             return lighting::LightHit(region_map(rows, cols, regions, labels, radiance));
+           }),
+           py::arg("rows"), py::arg("cols"), py::arg("regions"), py::arg("labels"), py::arg("radiance"))
+      .def_property_readonly("channels", &lighting::LightHit::channels);
+  m.def(
       "facet_truth_lights",
       [](const std::string& target, double alpha, std::int64_t side, const std::vector<spatial::Footprint>& fps,
          const std::vector<std::pair<double, double>>& centers, const std::vector<double>& wo,
-         const std::vector<Light>& lights, const std::vector<double>& radiance, std::uint64_t seed) {
+         const std::vector<Light>& lights, const std::vector<double>& radiance, std::uint64_t seed,
+         const std::vector<double>& frames) {
         const auto t = lighting::parse_target(target);
         const auto pl = placed(fps, centers);
+        const auto fr = lighting::frames_from("facet_truth_lights", "frames", frames, fps.size());
         lighting::FacetTruth r;
         {
           LongCall release;
-          r = lighting::facet_truth_lights(t, alpha, side, pl, wo, lights, radiance, seed);
+          r = lighting::facet_truth_lights(t, alpha, side, pl, wo, lights, radiance, seed, fr);
         }
         return truth_tuple(r, fps.size(), lights.size());
       },
       py::arg("target"), py::arg("alpha"), py::arg("side"), py::arg("footprints"), py::arg("centers"), py::arg("wo"),
-      py::arg("lights"), py::arg("radiance"), py::arg("seed"));
+      py::arg("lights"), py::arg("radiance"), py::arg("seed"), py::arg("frames") = std::vector<double>{});
   m.def(
       "facet_truth_map",
       [](const std::string& target, double alpha, std::int64_t side, const std::vector<spatial::Footprint>& fps,
          const std::vector<std::pair<double, double>>& centers, const std::vector<double>& wo, int rows, int cols,
-         int regions, const std::vector<int>& labels, const std::vector<double>& radiance, std::uint64_t seed) {
+         int regions, const std::vector<int>& labels, const std::vector<double>& radiance, std::uint64_t seed,
+         const std::vector<double>& frames) {
         const auto t = lighting::parse_target(target);
         const auto map = region_map(rows, cols, regions, labels, radiance);
         const auto pl = placed(fps, centers);
+        const auto fr = lighting::frames_from("facet_truth_map", "frames", frames, fps.size());
         lighting::FacetTruth r;
         {
           LongCall release;
-          r = lighting::facet_truth_map(t, alpha, side, pl, wo, map, seed);
+          r = lighting::facet_truth_map(t, alpha, side, pl, wo, map, seed, fr);
         }
         return truth_tuple(r, fps.size(), std::size_t(regions));
       },
       py::arg("target"), py::arg("alpha"), py::arg("side"), py::arg("footprints"), py::arg("centers"), py::arg("wo"),
-      py::arg("rows"), py::arg("cols"), py::arg("regions"), py::arg("labels"), py::arg("radiance"), py::arg("seed"));
+      py::arg("rows"), py::arg("cols"), py::arg("regions"), py::arg("labels"), py::arg("radiance"), py::arg("seed"),
+      py::arg("frames") = std::vector<double>{});
 }
 
 // The lobes of the methods' own truths (lobes.hpp).
@@ -221,6 +250,7 @@ void bind_lobes(py::module_& m) {
 void bind_lighting(py::module_& m) {
   bind_light(m);
   bind_probabilities(m);
+  bind_regions(m);
   bind_facets(m);
   bind_lobes(m);
 }

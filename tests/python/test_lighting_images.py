@@ -154,13 +154,11 @@ def test_the_exact_p_grid_matches_the_cubature():
     assert sharp.error(views, samples=128, seed=3)["max_rel_error_p_above_1e-3_max"] > 0.1
 
 
-def test_facets_meet_their_expectation_and_a_plane_is_required(scene, cap_path):
+def test_facets_meet_their_expectation(scene, cap_path):
     t = LI.light_table(cap_path).set_index("method")
     assert 0.8 < t.loc["facets", "expected_ratio"] < 1.25
     assert t.loc["facets", "lit_facets"] > 300
     assert 1 / SHADER_FACTOR < t.loc["binomial (exact p)", "expected_ratio"] < SHADER_FACTOR
-    with pytest.raises(ValueError, match="scene"):
-        LI.light_path(resolve_scene("sphere").scaled(0.02), LI.scene_light(scene, "cap", (0.1, 0.0)))
     with pytest.raises(ValueError, match="size"):
         LI.scene_light(scene, "rect", (0.3, -1.0))
 

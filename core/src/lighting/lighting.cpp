@@ -251,6 +251,47 @@ double Light::solid_angle() const {
   return integrate_light(*this, center_, center_, 0.0, one, 1e-12, 4000000, false, 0.0).value;
 }
 
+Light Light::in_frame(const Frame& frame) const {
+  Light l = *this;
+  l.center_ = frame.to_local(center_);
+  for (auto& hs : l.half_spaces_) hs.g = frame.to_local(hs.g);
+  for (auto& c : l.corners_) c = frame.to_local(c);
+  l.front_ = frame.to_local(front_);
+  // The disk's cone w^T Q w <= 0 in local directions w = R^T w_local (R's rows t, b, n): Q' = R Q R^T.
+  const Vec3 rows[3] = {frame.t, frame.b, frame.n};
+  double qr[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const double rj[3] = {rows[j].x, rows[j].y, rows[j].z};
+      qr[i][j] = q_[i][0] * rj[0] + q_[i][1] * rj[1] + q_[i][2] * rj[2];  // (Q R^T)[i][j]
+    }
+  for (int i = 0; i < 3; ++i) {
+    const double ri[3] = {rows[i].x, rows[i].y, rows[i].z};
+    for (int j = 0; j < 3; ++j) l.q_[i][j] = ri[0] * qr[0][j] + ri[1] * qr[1][j] + ri[2] * qr[2][j];
+  }
+  return l;
+}
+
+std::vector<Frame> frames_from(std::string_view where, std::string_view name, const std::vector<double>& values,
+                               std::size_t count) {
+  if (values.empty()) return {};
+  check_length(where, name, values.size(), 9 * count);
+  std::vector<Frame> out(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const double* v = values.data() + 9 * i;
+    const Frame f{{v[0], v[1], v[2]}, {v[3], v[4], v[5]}, {v[6], v[7], v[8]}};
+    const Vec3 axes[3] = {f.t, f.b, f.n};
+    double worst = 0;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) worst = std::max(worst, std::abs(dot(axes[a], axes[b]) - (a == b ? 1.0 : 0.0)));
+    if (!(worst <= 1e-6))
+      throw_invalid(where, indexed_name(std::string(name), i, true), worst,
+                    "an orthonormal frame (t, b, n) (its largest |t.b|, |t.t - 1|, ... shown)");
+    out[i] = f;
+  }
+  return out;
+}
+
 std::string Light::describe() const {
   std::ostringstream s;
   s.precision(6);
@@ -307,13 +348,17 @@ Integral visible_solid_angle(const Light& light, double rel_tol) {
 
 std::pair<std::vector<double>, std::vector<double>> reflection_probabilities(Target target, double alpha,
                                                                              const std::vector<double>& wo,
-                                                                             const Light& light, double rel_tol) {
+                                                                             const Light& light, double rel_tol,
+                                                                             const std::vector<Frame>& frames) {
   if (wo.size() % 3 != 0) check_length("reflection_probabilities", "wo", wo.size(), 3 * (wo.size() / 3 + 1));
   const std::size_t count = wo.size() / 3;
+  if (!frames.empty()) check_length("reflection_probabilities", "frames", frames.size(), count);
   std::vector<double> values(count), errors(count);
   glintlab::detail::parallel_chunks(count, 16, 32, [&](std::size_t i0, std::size_t i1) {
     for (std::size_t i = i0; i < i1; ++i) {
-      const auto r = reflection_probability(target, alpha, {wo[3 * i], wo[3 * i + 1], wo[3 * i + 2]}, light, rel_tol);
+      const Vec3 v{wo[3 * i], wo[3 * i + 1], wo[3 * i + 2]};
+      const auto r = frames.empty() ? reflection_probability(target, alpha, v, light, rel_tol)
+                                    : reflection_probability(target, alpha, v, light.in_frame(frames[i]), rel_tol);
       values[i] = r.value;
       errors[i] = r.error;
     }

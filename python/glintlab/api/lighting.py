@@ -68,28 +68,49 @@ def density(target, alpha, wo, wi) -> np.ndarray:
     return np.where((wi[..., 2] > 0) & (woh > 0), out, 0.0)
 
 
+def _frames(frames, count: int):
+    """The tangent frames (count, 3, 3) (rows t, b, n in the lights' coordinates) as the core's flat list,
+    or [] for none."""
+    if frames is None:
+        return []
+    f = V.as_float_array("frames", frames)
+    if f.shape[-2:] != (3, 3) or f.size != 9 * count or not np.all(np.isfinite(f)):
+        V.fail("frames", f"an array of shape {f.shape}", f"{count} finite frames (..., 3, 3) shaped like the views")
+    return np.ascontiguousarray(f.reshape(-1)).tolist()
+
+
 def reflection_probability(target, alpha, wo, light, method: str = "exact", rel_tol: float = 1e-6,
-                           return_error: bool = False):
+                           return_error: bool = False, frames=None):
     """p for each view ``wo`` (3,) or (..., 3) and a light from ``gl.lights`` (see the module docs).
     An environment map gives one p per region (last axis). ``return_error`` (exact only) also returns the
-    cubature's error estimate."""
+    cubature's error estimate. ``frames`` (..., 3, 3), one per view (an analytic light: methods "exact" and
+    "point"; a map: all three): each view's tangent frame (rows t, b, n) in the light's (world) coordinates,
+    the view in that frame and the light seen from it, cut at its horizon (a curved surface under one distant
+    light, docs/math/lighting.md#lighting-scene-images); a map's "filtered" and "unfiltered" look up the world
+    mirror direction (KK25's maps know no horizon but the map's)."""
     nd = _target(target, alpha)
     wo = _view(wo)
+    if frames is not None and not isinstance(light, EnvMap) and method not in ("exact", "point"):
+        V.fail("frames", "per-view frames", 'method "exact" or "point" for an analytic light (or frames=None)')
     if isinstance(light, EnvMap):
         V.choice("method", method, MAP_METHODS)
-        return _map_probability(nd, wo, light, method, rel_tol, return_error)
+        return _map_probability(nd, wo, light, method, rel_tol, return_error, frames)
     if not isinstance(light, Light):
         V.fail("light", light, "a light from gl.lights (cap, rect, disk, envmap)")
     V.choice("method", method, METHODS)
     flat = wo.reshape(-1, 3)
+    frame_list = _frames(frames, len(flat))
     if method == "exact":
         rel = V.real("rel_tol", rel_tol)
         views = np.ascontiguousarray(flat).reshape(-1)
-        values, errors = _core.reflection_probabilities(target, nd.alpha, views, light._core, rel)
+        values, errors = _core.reflection_probabilities(target, nd.alpha, views, light._core, rel, frame_list)
         values, errors = values.reshape(wo.shape[:-1]), errors.reshape(wo.shape[:-1])
         return (values, errors) if return_error else values
     if method == "point":
-        out = density(target, nd.alpha, flat, np.broadcast_to(light.center, flat.shape)) * light.solid_angle
+        centre = np.broadcast_to(light.center, flat.shape)
+        if frames is not None:  # the light's centre in each view's frame: (t.c, b.c, n.c)
+            centre = np.asarray(frames, float).reshape(-1, 3, 3) @ light.center
+        out = density(target, nd.alpha, flat, centre) * light.solid_angle
     elif method == "cap":
         h = flat + light.center
         h = h / np.linalg.norm(h, axis=-1, keepdims=True)
@@ -366,16 +387,18 @@ def _lookup(maps, R):
 FILTER_GRID = (32, 64)
 
 
-def _map_probability(nd, wo, env: EnvMap, method, rel_tol, return_error):
+def _map_probability(nd, wo, env: EnvMap, method, rel_tol, return_error, frames=None):
     flat = wo.reshape(-1, 3)
+    frame_list = _frames(frames, len(flat))
     if method == "exact":
         rows, cols, k, labels, rad = env.core_args()
-        res = [_core.region_probabilities(nd.name, nd.alpha, tuple(w), rows, cols, k, labels, rad, V.real("rel_tol", rel_tol))
-               for w in flat]
-        values = np.array([[r[0] for r in row] for row in res]).reshape(wo.shape[:-1] + (k,))
-        errors = np.array([[r[1] for r in row] for row in res]).reshape(values.shape)
+        values, errors = _core.region_probabilities_many(nd.name, nd.alpha, np.ascontiguousarray(flat).reshape(-1), rows,
+                                                         cols, k, labels, rad, V.real("rel_tol", rel_tol), frame_list)
+        values, errors = values.reshape(wo.shape[:-1] + (k,)), errors.reshape(wo.shape[:-1] + (k,))
         return (values, errors) if return_error else values
     mirror = flat * np.array([-1.0, -1.0, 1.0])
+    if frame_list:  # the mirror direction in world space: sum of its components times the rows t, b, n
+        mirror = np.einsum("kji,kj->ki", np.asarray(frames, float).reshape(-1, 3, 3), mirror)
     if method == "filtered":
         out = _lookup(_filtered_maps(nd, env, *FILTER_GRID), mirror)
     else:
@@ -407,13 +430,18 @@ def _side(density):
     return side
 
 
-def facet_truth(target, alpha, density, footprints, centers, wo, light, seed=0, radiance: str = "map") -> FacetCounts:
+def facet_truth(target, alpha, density, footprints, centers, wo, light, seed=0, radiance: str = "map",
+                frames=None) -> FacetCounts:
     """The facet truth under ``light`` (a Light, a list of them, or an EnvMap): explicit facets of the
     stratified layout of ``density`` (one per cell, jittered, each with its normal drawn from D(m)(m.n)),
     counted per placed footprint (``footprints`` from gl.Rect / gl.Ellipse, ``centers`` (x, y) pairs) when the
     mirror of that footprint's view ``wo`` (one (3,) for all or one per footprint) about its normal hits a
     light (the first that contains it) or a region; for a map, ``radiance`` "map" sums the map's own
-    values, "regions" the partition's constants. One realization per ``seed``, whatever the threads."""
+    values, "regions" the partition's constants. One realization per ``seed``, whatever the threads.
+    ``frames`` (footprints, 3, 3): each footprint's tangent frame (rows t, b, n) in the light's (world)
+    coordinates, ``wo`` in that frame; a facet's mirror direction is tested above that frame's horizon,
+    then mapped to world space and looked up in the light or the map (a curved surface under distant
+    lights); None: every footprint in the light's frame."""
     nd = _target(target, alpha)
     side = _side(density)
     fps = [f._core for f in footprints]
@@ -422,13 +450,14 @@ def facet_truth(target, alpha, density, footprints, centers, wo, light, seed=0, 
     seed = V.seed(seed)
     if isinstance(light, EnvMap):
         V.choice("radiance", radiance, ("map", "regions"))
-        c, r, f = _core.facet_truth_map(target, nd.alpha, side, fps, cs, w, *light.core_args(radiance), seed)
+        c, r, f = _core.facet_truth_map(target, nd.alpha, side, fps, cs, w, *light.core_args(radiance), seed,
+                                        _frames(frames, len(fps)))
     else:
         lights = [light] if isinstance(light, Light) else list(light)
         if not lights or not all(isinstance(x, Light) for x in lights):
             V.fail("light", light, "a light from gl.lights, a list of them, or an environment map")
         c, r, f = _core.facet_truth_lights(target, nd.alpha, side, fps, cs, w, [x._core for x in lights],
-                                           [x.radiance for x in lights], seed)
+                                           [x.radiance for x in lights], seed, _frames(frames, len(fps)))
     return FacetCounts(c, r, f)
 
 

@@ -38,14 +38,21 @@ DEFAULTS = {"targets": ["beckmann", "ggx"], "alphas": [0.05, 0.2, 0.5], "half_an
             "scene_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"],
             "scene_method_samples": 25,
             # ... and under the sky: its cells pooled in blocks of scene_map_block (its sun and window at their own cells).
-            "scene_map_methods": ["smooth", "zk16"], "scene_map_block": 16}
+            "scene_map_methods": ["smooth", "zk16"], "scene_map_block": 16,
+            # The sphere under the same cap and window, each pixel lit in its own tangent frame (the exact p by
+            # cubature per pixel at sphere_rel_tol; docs/math/lighting.md#lighting-scene-images).
+            "sphere_scene": "sphere", "sphere_scale": 1.0 / 20, "sphere_rel_tol": 1e-6,
+            # The sphere under the sky in world space at this scale, or None: the map's exact p per pixel costs
+            # ~7 ms (20x a cap's), so the report leaves it to make bench (FULL_SCENE).
+            "sphere_envmap_scale": None}
 # KPT25's Algorithm 2 under the sky map (studies.sampling_lighting with the map's radiance): pixels of its
 # PIXELS, estimates x samples per estimator, the view's polar angle; |z| above alg2_max_z fails the section.
 DEFAULTS.update({"alg2_pixels": [0, 2], "alg2_repeats": 64, "alg2_samples": 256, "alg2_wo_theta_deg": 30.0,
                  "alg2_max_z": 4.0})
 # make bench's full sizes; the registered methods at QUICK's lists and samples (at 480 x 270 x 8 frames each
 # method costs about 0.5 us per pixel and sample: ~10 s per method and light at 36 samples).
-FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17,
+FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17, "sphere_scale": 0.125,
+              "sphere_envmap_scale": 1.0 / 20,
               "scene_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"], "scene_method_samples": 36,
               "scene_map_methods": ["smooth", "zk16"], "scene_map_block": 16}
 QUICK = {"scene_scale": 1.0 / 16, "scene_frames": 3, "scene_grid_nodes": 9, "scene_method_samples": 25,
@@ -67,7 +74,7 @@ TABLE = {
     "lighting_images": ["image", "mean_count", "vs_facets", "vs_expected", "lit_share"],
     "lighting_kpt25_envmap": ["pixel", "estimator", "samples", "reference", "reference_error", "mean", "z",
                               "relative_std_per_sample", "rmse_ratio_to_alg2"],
-    "lighting_scene_images": ["light", "method", "own_std_ratio", "own_pop_rate", "own_truth_change_rate",
+    "lighting_scene_images": ["scene", "light", "method", "own_std_ratio", "own_pop_rate", "own_truth_change_rate",
                               "own_mean_ratio", "smooth_mean_ratio", "lit_facets", "count_ratio", "expected_ratio",
                               "streak_excess"],
 }
@@ -118,7 +125,8 @@ def compute(params: dict, ctx: Context) -> Tables:
     shipped = scene_table[scene_table.method == "area_light (glsl)"]
     for _, r in shipped.iterrows():
         if not (1 / SHADER_FACTOR <= r.expected_ratio <= SHADER_FACTOR):
-            failures.append(f"the area-light method shader under the {r.light}: lit facets / expected = {r.expected_ratio:.3g}")
+            failures.append(f"the area-light method shader on {r.scene} under the {r.light}: lit facets / expected = "
+                            f"{r.expected_ratio:.3g}")
     quad = scene_table[scene_table.method == "smooth D(h)"]
     for _, r in quad[(quad.expected_ratio - 1).abs() > QUADRATURE_TOL].iterrows():
         failures.append(f"the smooth NDF by quadrature over the {r.light}: {r.expected_ratio:.6g} x the exact p")
@@ -131,11 +139,13 @@ def compute(params: dict, ctx: Context) -> Tables:
                        .share_within.mean()),
              "environment map: partition's relative radiance error": partition["rel_partition_error"],
              "scene images: exact p grid's largest relative error (p > 1e-3 max p), over the lights":
-                 max(p.grid_error["max_rel_error_p_above_1e-3_max"] for p in paths),
+                 max(p.grid_error["max_rel_error_p_above_1e-3_max"] for p in paths if p.grid_error is not None),
              "scene images: the smooth NDF by quadrature over the light / the exact p, largest |ratio - 1|":
                  float((quad.expected_ratio - 1).abs().max()) if len(quad) else float("nan"),
              "scene images: CPU s of the registered methods by quadrature":
-                 sum(v for p in paths for k, v in p.seconds.items() if k in _method_labels(params))}
+                 sum(v for p in paths for k, v in p.seconds.items() if k in _method_labels(params)),
+             "scene images: the sphere's exact p per pixel (cubature), seconds over its lights":
+                 sum(p.seconds.get("binomial (exact p)", 0.0) for p in paths if p.grid_error is None)}
     return Tables({"lighting_accuracy": accuracy, "lighting_counts": counts, "lighting_point_limit": limit,
                    "lighting_envmap": envtab, "lighting_own_truths": own, "lighting_images": image_table,
                    "lighting_scene_images": scene_table, "lighting_kpt25_envmap": alg2},
@@ -165,25 +175,37 @@ def kpt25_envmap(params: dict, env, seed: int):
 
 
 def scene_images(params: dict, seed: int):
-    """The plane under a cap, a window (rectangle) and the shipped sky: ([LightPath], their table). The
-    shipped area-light method shader and its wrong variant are rendered under the cap and the window
-    when a Vulkan device is present, and the registered image methods ``scene_methods`` by quadrature over
-    the light (validation.lighting_methods), ``scene_map_methods`` under the map."""
+    """The plane under a cap, a window (rectangle) and the shipped sky, and the sphere under the same cap and
+    window (and the sky in world space when ``sphere_envmap_scale`` is set), each pixel lit in its own tangent
+    frame: ([LightPath], their table). The shipped area-light method shader and its wrong variant are rendered
+    under the cap and the window when a Vulkan device is present, and on the plane the registered image
+    methods ``scene_methods`` by quadrature over the light (validation.lighting_methods), ``scene_map_methods``
+    under the map."""
     scene = with_density(resolve_scene(params["scene"]).scaled(params["scene_scale"], keep_n=True),
                          params["scene_density_factor"])
-    lights = [LI.scene_light(scene, "cap", (params["scene_cap_half_angle"], 0.0)),
-              LI.scene_light(scene, "rect", tuple(params["scene_rect_half_widths"]))]
+    sphere = with_density(resolve_scene(params["sphere_scene"]).scaled(params["sphere_scale"], keep_n=True),
+                          params["scene_density_factor"])
     mat, _ = LI.plane_material(scene)
     try:
         shaders = {"area_light (glsl)": LI.area_light_shader(mat),
                    "area_light without solid angle (wrong)": LI.area_light_shader(mat, wrong=True)}
+        sphere_mat, _ = LI.plane_material(sphere)
+        sphere_shaders = {"area_light (glsl)": LI.area_light_shader(sphere_mat),
+                          "area_light without solid angle (wrong)": LI.area_light_shader(sphere_mat, wrong=True)}
     except NoVulkanDevice:
-        shaders = {}
-    kw = dict(frames=params["scene_frames"], seed=seed, grid_nodes=params["scene_grid_nodes"])
+        shaders, sphere_shaders = {}, {}
+    kw = dict(frames=params["scene_frames"], seed=seed)
+    grid = dict(grid_nodes=params["scene_grid_nodes"])
     paths = [LM.method_light_path(scene, light, methods=params["scene_methods"], samples=params["scene_method_samples"],
-                                  shaders=shaders, **kw) for light in lights]
+                                  shaders=shaders, **grid, **kw) for light in scene_lights(scene, params)]
     paths.append(LM.method_light_path(scene, gl_lights.envmap("sky", regions=3), methods=params["scene_map_methods"],
-                                      block=params["scene_map_block"], **kw))
+                                      block=params["scene_map_block"], **grid, **kw))
+    paths += [LI.light_path(sphere, light, shaders=sphere_shaders, rel_tol=params["sphere_rel_tol"], **kw)
+              for light in scene_lights(sphere, params)]
+    if params["sphere_envmap_scale"]:
+        small = with_density(resolve_scene(params["sphere_scene"]).scaled(params["sphere_envmap_scale"], keep_n=True),
+                             params["scene_density_factor"])
+        paths.append(LI.light_path(small, gl_lights.envmap("sky", regions=3), rel_tol=params["sphere_rel_tol"], **kw))
     return paths, pd.concat([LI.light_table(p) for p in paths], ignore_index=True)
 
 
@@ -191,8 +213,14 @@ def _method_labels(params) -> set:
     return {IMAGE_METHODS.get(n).label for n in params["scene_methods"] + params["scene_map_methods"]}
 
 
+def scene_lights(scene, params: dict):
+    """The section's cap and window for ``scene``, centred where its light is."""
+    return [LI.scene_light(scene, "cap", (params["scene_cap_half_angle"], 0.0)),
+            LI.scene_light(scene, "rect", tuple(params["scene_rect_half_widths"]))]
+
+
 def scene_figure(paths):
-    """Frame 0 of the plane under each light: the facet truth beside each method (radiance per facet)."""
+    """Frame 0 of each scene under each light: the facet truth beside each method (radiance per facet)."""
     import matplotlib.pyplot as plt
 
     cols = max(len(p.images) for p in paths)
@@ -203,8 +231,8 @@ def scene_figure(paths):
             ax.axis("off")
         for ax, (name, seq) in zip(row, path.images.items()):
             ax.imshow(seq[0], cmap="inferno", vmin=0, vmax=vmax, interpolation="nearest")
-            ax.set_title(f"{path.light}: {name}", fontsize=6)
-    fig.suptitle(f"{paths[0].scene} under extended lights: each method beside the facets lit the same way (frame 0)", fontsize=8)
+            ax.set_title(f"{path.scene}, {path.light}: {name}", fontsize=6)
+    fig.suptitle("scenes under extended lights: each method beside the facets lit the same way (frame 0)", fontsize=8)
     fig.tight_layout()
     return fig
 

@@ -1,14 +1,17 @@
-"""Glint images of the Table 1 planes under an area light and an environment map, each method beside the
+"""Glint images of the Table 1 scenes under an area light and an environment map, each method beside the
 facet truth lit by the same light, along the scene images' camera path (docs/math/lighting.md#lighting-scene-images).
 
-A distant extended light is one region of directions for every pixel (as the scene images' directional
-light is one direction): a :class:`SceneLight` (a cap or a rectangle, in world space) or an environment
-map in the plane's tangent frame. A pixel's value is the radiance its facets reflect per facet: the facet
-truth's sum of the radiance of the facets whose mirror direction of the view hits the light, over the
-footprint's n = N |det J| facets; a counting method's value is the radiance times K / n, K its count at its
-p; the smooth value is the radiance times the exact p (the pops' reference level, as D(h) is a point
-light's). Only planes: on the sphere the light's region in the tangent frame changes from pixel to pixel,
-while the facet truth takes one region for all of its footprints.
+A distant extended light is one region of directions in world space for every pixel (as the scene images'
+directional light is one direction): a :class:`SceneLight` (a cap or a rectangle) or an environment map (on
+a plane: in its tangent frame). On a plane every pixel has the same tangent frame, so the light is one region
+in it and the exact p of every pixel comes from one grid of views; on a curved surface (the sphere) each
+pixel sees the light in its own tangent frame (t, b, n) and cut at its own horizon: the facet truth maps each
+facet's mirror direction to world space before the light test, and the exact p rotates the light (or the
+map's directions) into the pixel's frame, by cubature per pixel (docs/math/lighting.md#lighting-curved).
+A pixel's value is the radiance its facets reflect per facet: the facet truth's sum of the radiance of the
+facets whose mirror direction of the view hits the light, over the footprint's n = N |det J| facets; a
+counting method's value is the radiance times K / n, K its count at its p; the smooth value is the
+radiance times the exact p (the pops' reference level, as D(h) is a point light's).
 
 The method-shader path: :func:`light_rows` packs a frame's GlintInput rows with the light's description
 (``light_kind``, ``light_radiance``, ``light_size``, ``light_edge``; docs/math/glint_images.md#glint-contract),
@@ -143,9 +146,9 @@ def texel_uniforms(uv, J, seed: int, salt: int = 0) -> np.ndarray:
 
 def light_slope(wo, centre, angular_resolution: float) -> np.ndarray:
     """DB23's angular coordinate (m, 2) of the half vector of the views ``wo`` (m, 3) and the light's centre
-    ``centre`` (3,) (tangent frame) in texels of 1 / ``angular_resolution``, as the DB23 pipeline places a
-    point light's half vector: the cells' uniforms change with the angular texel."""
-    h = np.asarray(wo, float) + np.asarray(centre, float)[None, :]
+    ``centre`` (3,) or per view (m, 3) (tangent frame) in texels of 1 / ``angular_resolution``, as the DB23
+    pipeline places a point light's half vector: the cells' uniforms change with the angular texel."""
+    h = np.asarray(wo, float) + np.atleast_2d(np.asarray(centre, float))
     return np.clip(angular_slope(h / np.linalg.norm(h, axis=-1, keepdims=True)) * angular_resolution, -1e9, 1e9)
 
 
@@ -257,39 +260,86 @@ class LightPath:
     grid_error: dict | None = None
 
 
-def _frame_geometry(inp, material_density):
-    """(m, t, b, n, wo, uv, J, nf) of one frame's masked pixels on a plane."""
+def _frame_geometry(inp, material_density, per_pixel: bool = False):
+    """(m, frame, wo, uv, J, nf) of one frame's masked pixels: ``frame`` the plane's one tangent frame
+    (t, b, n), or with ``per_pixel`` every pixel's (k, 3, 3) (rows t, b, n in world space: a curved
+    surface), ``wo`` the unit views in each pixel's frame."""
     m = inp.mask
-    t, b, n = inp.t[m][0], inp.b[m][0], inp.n[m][0]
     v = inp.view[m] / np.linalg.norm(inp.view[m], axis=-1, keepdims=True)
-    wo = np.column_stack([v @ t, v @ b, v @ n])
+    if per_pixel:
+        frames = np.stack([inp.t[m], inp.b[m], inp.n[m]], axis=1)
+        wo = np.einsum("kij,kj->ki", frames, v)
+    else:
+        t, b, n = inp.t[m][0], inp.b[m][0], inp.n[m][0]
+        frames = (t, b, n)
+        wo = np.column_stack([v @ t, v @ b, v @ n])
     J = inp.J[m]
     nf = material_density * np.abs(J[:, 0] * J[:, 3] - J[:, 1] * J[:, 2])
-    return m, (t, b, n), wo, inp.uv[m], J, nf
+    return m, frames, wo, inp.uv[m], J, nf
 
 
-def _light_frame(light, mat, side, inp, seed, shaders, k, grid, renderers=None, cells="db23"):
+#: A pixel is imaged when its footprint's bounding box spans at most this share of the texture's unit square
+#: per axis (the facet truth tiles the unit square; on the sphere the pixels at its poles cover every u).
+MAX_FOOTPRINT = 0.5
+
+
+def _narrow_footprints(inp, env: bool = False):
+    """``inp`` with the pixels whose footprint's bounding box exceeds MAX_FOOTPRINT per axis left out of its
+    mask (the ellipse J {|x| <= 1/sqrt(pi)}: half-widths |(du/dx, du/dy)| / sqrt(pi) and |(dv/dx, dv/dy)| / sqrt(pi)).
+    Under a map (``env``) every pixel that sees the surface is kept, whatever the frame's light vector: each sees
+    the part of the map above its own horizon."""
+    J = inp.J
+    width = 2 * np.maximum(np.hypot(J[..., 0], J[..., 2]), np.hypot(J[..., 1], J[..., 3])) / math.sqrt(math.pi)
+    mask = inp.mask
+    if env:
+        det = J[..., 0] * J[..., 3] - J[..., 1] * J[..., 2]
+        mask = inp.hit & ((inp.view * inp.n).sum(-1) > 0) & np.isfinite(J).all(-1) & (np.abs(det) > 0)
+    return dataclasses.replace(inp, mask=mask & (width <= MAX_FOOTPRINT))
+
+
+def _world_light(light):
+    """A SceneLight as ``gl.lights`` describes it in world space (the frame of the identity)."""
+    return light.in_frame(*np.eye(3))
+
+
+def _exact_p(mat, light, frames, wo, per_pixel: bool, grid, rel_tol: float):
+    """The exact p of the masked pixels: per pixel by cubature with each pixel's own light (``per_pixel``),
+    else from the path's ProbabilityGrid (one light for every pixel: its error is the path's)."""
+    if per_pixel:
+        lt = light if isinstance(light, gl_lights.EnvMap) else _world_light(light)
+        return reflection_probability(mat.target, mat.alpha, wo, lt, "exact", rel_tol, frames=frames)
+    return grid(wo)
+
+
+def _light_frame(light, mat, side, inp, seed, shaders, k, grid, per_pixel=False, rel_tol=1e-6, renderers=None,
+                 cells="db23"):
     """One frame under a SceneLight or an EnvMap: (mask, {name: values on the masked pixels}, target, {name:
     seconds}); a counting method's seconds include its p's (each p computed once, charged to its first user).
-    ``renderers``: {name: render(light in the tangent frame, wo, uv, J, seed) -> values} (light_path's);
-    ``cells``: how the counting methods draw (CELL_SCHEMES)."""
-    m, tbn, wo, uv, J, nf = _frame_geometry(inp, mat.density)
+    ``renderers``: {name: render(light in the tangent frame, wo, uv, J, seed) -> values} (light_path's; one
+    frame for all pixels); ``cells``: how the counting methods draw (CELL_SCHEMES).
+    ``per_pixel``: every pixel sees the world-space light in its own tangent frame (a curved surface); the facet
+    truth maps each facet's mirror direction to world space, the exact p is cubature per pixel at ``rel_tol``."""
+    m, frames, wo, uv, J, nf = _frame_geometry(inp, mat.density, per_pixel)
     fps = [Ellipse.from_uv_derivatives(*j) for j in J]
     centres = [tuple(c) for c in np.mod(uv, 1.0)]
     env = isinstance(light, gl_lights.EnvMap)
-    lt = light if env else light.in_frame(*tbn)
+    lt = light if env else (_world_light(light) if per_pixel else light.in_frame(*frames))
     out, secs, p = {}, {}, {}
     t0 = time.perf_counter()
-    out["facets"] = facet_truth(mat.target, mat.alpha, side * side, fps, centres, wo, lt, seed=seed).radiance / nf
+    out["facets"] = facet_truth(mat.target, mat.alpha, side * side, fps, centres, wo, lt, seed=seed,
+                                frames=frames if per_pixel else None).radiance / nf
     secs["facets"] = time.perf_counter() - t0
     # The cells' angular texel: the half vector of the light's centre (the map's: the plane's normal).
-    slope = light_slope(wo, (0.0, 0.0, 1.0) if env else lt.center, 1.0 / mat.angular_texel)
+    # Per pixel (a curved surface), the world light's centre in each pixel's frame.
+    centre = (0.0, 0.0, 1.0) if env else (np.einsum("kij,j->ki", frames, lt.center) if per_pixel else lt.center)
+    slope = light_slope(wo, centre, 1.0 / mat.angular_texel)
     for label, law, *rest in (MAP_METHODS if env else LAW_METHODS):
         t0 = time.perf_counter()
         meth = rest[-1]
-        if meth not in p:  # the exact p from the path's grid (ProbabilityGrid: its error is the path's)
-            p[meth] = np.clip(grid(wo) if meth == "exact" else reflection_probability(mat.target, mat.alpha, wo, lt, meth),
-                              0, 1)
+        if meth not in p:  # the exact p per pixel or from the path's grid (_exact_p)
+            p[meth] = np.clip(_exact_p(mat, light, frames, wo, per_pixel, grid, rel_tol) if meth == "exact" else
+                              reflection_probability(mat.target, mat.alpha, wo, lt, meth,
+                                                     frames=frames if per_pixel else None), 0, 1)
         if env:
             kr = (_map_counts(nf, p[meth], law, rest[0], uv, J, seed) if cells == "texel" else
                   _map_cell_counts(mat.density, p[meth], law, rest[0], uv, J, slope, seed))
@@ -322,21 +372,26 @@ def plane_material(scene: Scene) -> tuple[Material, int]:
 
 
 def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom: float = 0.99, seed: int = 1,
-               shaders=None, label: str | None = None, grid_nodes: int = 17, renderers=None,
-               cells: str = "db23") -> LightPath:
-    """Every method's images of the plane ``scene`` under ``light`` (a :class:`SceneLight` or an environment
-    map in the plane's tangent frame, from ``gl.lights.envmap``) along the camera path: the facet truth,
-    the counting laws (``LAW_METHODS``; a map: ``MAP_METHODS``) and ``shaders`` ({name: method shader},
-    rendered with :func:`light_rows`; not for a map, which the contract does not carry). The exact p of
-    every pixel of every frame comes from one :class:`~glintlab.api.lighting.ProbabilityGrid` of
-    ``grid_nodes``^2 views (its error against the exact p: ``LightPath.grid_error``). ``renderers``: {name:
-    render(light in the tangent frame, wo, uv, J, seed) -> value per pixel} rendered beside them (the
-    registered image methods by quadrature over the light: :mod:`glintlab.validation.lighting_methods`).
-    ``cells``: how the counting methods draw their counts (``CELL_SCHEMES``: "db23", DB23's cells; "texel",
-    the single texel)."""
+               shaders=None, label: str | None = None, grid_nodes: int = 17, per_pixel: bool | None = None,
+               rel_tol: float = 1e-6, renderers=None, cells: str = "db23") -> LightPath:
+    """Every method's images of ``scene`` under ``light`` (a :class:`SceneLight` in world space, or an
+    environment map from ``gl.lights.envmap``: on a plane in its tangent frame, per pixel in world space) along
+    the camera path: the facet truth, the counting laws (``LAW_METHODS``; a map: ``MAP_METHODS``) and ``shaders`` ({name: method
+    shader}, rendered with :func:`light_rows`; not for a map, which the contract does not carry).
+    ``per_pixel`` (default: on every scene but a plane) lights each pixel by the world-space light seen in
+    its own tangent frame: the facet truth with per-footprint frames and the exact p by cubature per pixel at
+    ``rel_tol``. Otherwise (a plane: one frame for all pixels) the exact p of every pixel of every frame comes
+    from one :class:`~glintlab.api.lighting.ProbabilityGrid` of ``grid_nodes``^2 views (its error against the
+    exact p: ``LightPath.grid_error``). ``renderers``: {name: render(light in the tangent frame, wo, uv, J, seed)
+    -> value per pixel} rendered beside them on a plane (the registered image methods by quadrature over the
+    light: :mod:`glintlab.validation.lighting_methods`). ``cells``: how the counting methods draw their counts
+    (``CELL_SCHEMES``: "db23", DB23's cells; "texel", the single texel)."""
     V.choice("cells", cells, CELL_SCHEMES)
-    if scene.kind != "plane":
-        V.fail("scene", scene.name, "a plane scene (on the sphere the light's region changes per pixel)")
+    per_pixel = scene.kind != "plane" if per_pixel is None else bool(per_pixel)
+    if not per_pixel and scene.kind != "plane":
+        V.fail("per_pixel", per_pixel, "True on a curved surface (its pixels' tangent frames differ)")
+    if per_pixel and renderers:
+        V.fail("renderers", list(renderers), "none with per-pixel frames (a renderer takes one light for all pixels)")
     seed = V.seed(seed)
     shaders = dict(shaders or {})
     env = isinstance(light, gl_lights.EnvMap)
@@ -345,21 +400,28 @@ def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom:
     if not env and not isinstance(light, SceneLight):
         V.fail("light", light, "a SceneLight (scene_light) or an environment map")
     spec = with_directional_light(scene).spec  # a copy
-    # The frame's light vector: the light's centre (the map: the plane's normal), as a directional light's.
-    spec["light"] = {"type": "directional", "direction": [float(x) for x in (scene.normal if env else light.direction)]}
+    # The frame's light vector: the light's centre (the map: the plane's normal, or per pixel the zenith, unused
+    # but by the mask, which _narrow_footprints then takes from the view alone), as a directional light's.
+    up = (0.0, 0.0, 1.0) if per_pixel else scene.normal
+    spec["light"] = {"type": "directional", "direction": [float(x) for x in (up if env else light.direction)]}
     lit = Scene(spec, name=scene.name, source=scene.source)
     mat, side = plane_material(lit)
     shape = (frames, lit.height, lit.width)
     inputs = [frame_inputs(cam) for cam in camera_path(lit, frames, pan_px, zoom)]
-    t0 = time.perf_counter()
-    geo = [_frame_geometry(inp, mat.density) for inp in inputs]
-    views = np.concatenate([g[2] for g in geo])
-    grid = ProbabilityGrid(mat.target, mat.alpha, light if env else light.in_frame(*geo[0][1]), views, grid_nodes)
-    seconds = {"(exact p grid)": time.perf_counter() - t0}
-    grid_error = grid.error(views, seed=seed)
+    if per_pixel:
+        inputs = [_narrow_footprints(inp, env) for inp in inputs]
+    grid, grid_error, seconds = None, None, {}
+    if not per_pixel:
+        t0 = time.perf_counter()
+        geo = [_frame_geometry(inp, mat.density) for inp in inputs]
+        views = np.concatenate([g[2] for g in geo])
+        grid = ProbabilityGrid(mat.target, mat.alpha, light if env else light.in_frame(*geo[0][1]), views, grid_nodes)
+        seconds["(exact p grid)"] = time.perf_counter() - t0
+        grid_error = grid.error(views, seed=seed)
     images, target, mask, nf = {}, np.zeros(shape), np.zeros(shape, bool), np.zeros(shape)
     for k, inp in enumerate(inputs):
-        m, out, tgt, secs, n = _light_frame(light, mat, side, inp, seed, shaders, k, grid, renderers, cells)
+        m, out, tgt, secs, n = _light_frame(light, mat, side, inp, seed, shaders, k, grid, per_pixel, rel_tol,
+                                            renderers, cells)
         mask[k], target[k][m], nf[k][m] = m, tgt, n
         for name, values in out.items():
             images.setdefault(name, np.zeros(shape))[k][m] = values

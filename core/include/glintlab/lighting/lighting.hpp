@@ -14,6 +14,8 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "glintlab/counting/spatial.hpp"
@@ -23,6 +25,23 @@ namespace glintlab::lighting {
 struct Vec3 {
   double x = 0, y = 0, z = 0;
 };
+
+// A shading point's tangent frame in the lights' coordinates (world space): unit tangent t, bitangent b,
+// normal n (orthonormal). A curved surface has one per pixel; a distant light is one region of directions
+// in world space, so in each pixel's own frame (normal +z) it is that region rotated by the frame.
+struct Frame {
+  Vec3 t{1, 0, 0}, b{0, 1, 0}, n{0, 0, 1};
+  Vec3 to_world(Vec3 w) const {
+    return {w.x * t.x + w.y * b.x + w.z * n.x, w.x * t.y + w.y * b.y + w.z * n.y, w.x * t.z + w.y * b.z + w.z * n.z};
+  }
+  Vec3 to_local(Vec3 w) const {
+    return {w.x * t.x + w.y * t.y + w.z * t.z, w.x * b.x + w.y * b.y + w.z * b.z, w.x * n.x + w.y * n.y + w.z * n.z};
+  }
+};
+// Frames from 9 numbers each (t, b, n), checked orthonormal to 1e-6 (std::invalid_argument naming
+// `name`[i]); `count` frames expected, or none (an empty vector: every shading point in the lights' frame).
+std::vector<Frame> frames_from(std::string_view where, std::string_view name, const std::vector<double>& values,
+                               std::size_t count);
 
 enum class Target { kBeckmann, kGgx };
 Target parse_target(const std::string& name);  // throws std::invalid_argument naming "target"
@@ -57,6 +76,8 @@ class Light {
     return kind_ == Kind::kRect ? std::vector<Vec3>(corners_, corners_ + 4) : std::vector<Vec3>{};
   }
   std::string describe() const;
+  // The same light seen in the tangent frame `frame` (every direction mapped by frame.to_local).
+  Light in_frame(const Frame& frame) const;
 
  private:
   struct HalfSpace {
@@ -94,10 +115,12 @@ Integral half_vector_solid_angle(Vec3 wo, const Light& light, double rel_tol = 1
 Integral visible_solid_angle(const Light& light, double rel_tol = 1e-10);
 
 // Many views at once (one per pixel), threads over pixels, each pixel's value a function of its view
-// alone. wo: 3 * count values. Returns (values, errors).
+// alone. wo: 3 * count values. With `frames` (one per view, or none) each view's light is `light` seen in
+// that view's frame (Light::in_frame): a curved surface's pixels under one distant light. Returns (values, errors).
 std::pair<std::vector<double>, std::vector<double>> reflection_probabilities(Target target, double alpha,
                                                                              const std::vector<double>& wo,
-                                                                             const Light& light, double rel_tol);
+                                                                             const Light& light, double rel_tol,
+                                                                             const std::vector<Frame>& frames = {});
 
 // An environment map's regions: an equirectangular grid of `rows` x `cols` labels (row 0 at the zenith,
 // theta = (i + 1/2) pi / rows; phi = (j + 1/2) 2 pi / cols, the x axis at phi = 0), label -1 for
@@ -112,8 +135,16 @@ void check_region_map(const RegionMap& map);  // std::invalid_argument naming th
 
 // p_r(wo) for every region r of the map: the integral of D(h)(h.n) / (4 (wo.h)) over the cells labelled
 // r above the horizon, by adaptive cubature row by row (docs/math/lighting.md#lighting-env-exact).
+// With `frame` (none: the map's own frame) wo is in that tangent frame, the map's directions are seen in it
+// and cut at its horizon: a curved surface's pixel under a world-space map.
 std::vector<Integral> region_probabilities(Target target, double alpha, Vec3 wo, const RegionMap& map,
-                                           double rel_tol = 1e-6);
+                                           double rel_tol = 1e-6, const Frame* frame = nullptr);
+// Many views at once (3 * count values of wo; `frames` one per view or none), threads over views: (values,
+// errors), count x regions row-major.
+std::pair<std::vector<double>, std::vector<double>> region_probabilities_many(Target target, double alpha,
+                                                                              const std::vector<double>& wo,
+                                                                              const RegionMap& map, double rel_tol,
+                                                                              const std::vector<Frame>& frames = {});
 
 // Which light or region a facet reflects the view into: the one test of "its mirror direction hits the
 // light" that every truth under a light shares (the stratified facets below, KPT25's points, WWH18's
@@ -127,8 +158,10 @@ class LightHit {
   // The channel (-1: none) a facet of unit normal m lit through the unit view wo reflects, and in `radiance`
   // the radiance it receives: none when wo.m <= 0 (turned away from the viewer) or the mirror direction
   // 2 (wo.m) m - wo is below the horizon. mirror = false tests m itself in place of the mirror direction:
-  // a deliberately wrong variant the tests use to show that their checks can fail.
-  int hit(Vec3 wo, Vec3 m, double& radiance, bool mirror = true) const;
+  // a deliberately wrong variant the tests use to show that their checks can fail. wo and m are in the
+  // shading point's tangent frame; `frame` (none: the lights' own frame) maps the mirror direction to the
+  // lights' (world) coordinates before the light or the map is looked up, after the horizon test.
+  int hit(Vec3 wo, Vec3 m, double& radiance, bool mirror = true, const Frame* frame = nullptr) const;
   bool is_map() const { return is_map_; }
   const std::vector<Light>& lights() const { return lights_; }  // none for a map
   double light_radiance(int k) const { return radiance_[k]; }
@@ -145,7 +178,8 @@ class LightHit {
 // `side` (one facet per cell, jittered; density side^2), each facet with its normal drawn from
 // D(m)(m.n); in each placed footprint, every facet inside, whose mirror direction of its pixel's view
 // wo hits a light (the first that contains it) or a region of the map, is counted for that light or
-// region, and adds the radiance there.
+// region, and adds the radiance there. `frames` (one per footprint, or none) are the footprints' tangent
+// frames in the lights' coordinates (LightHit::hit): a curved surface under distant lights.
 struct FacetTruth {
   std::vector<double> counts;    // footprints x channels, row-major (channels: lights or regions)
   std::vector<double> radiance;  // per footprint: the sum of the reflecting facets' radiance
@@ -153,10 +187,10 @@ struct FacetTruth {
 };
 FacetTruth facet_truth_lights(Target target, double alpha, std::int64_t side,
                               const std::vector<spatial::Placed>& footprints, const std::vector<double>& wo,
-                              const std::vector<Light>& lights, const std::vector<double>& radiance,
-                              std::uint64_t seed);
+                              const std::vector<Light>& lights, const std::vector<double>& radiance, std::uint64_t seed,
+                              const std::vector<Frame>& frames = {});
 FacetTruth facet_truth_map(Target target, double alpha, std::int64_t side,
                            const std::vector<spatial::Placed>& footprints, const std::vector<double>& wo,
-                           const RegionMap& map, std::uint64_t seed);
+                           const RegionMap& map, std::uint64_t seed, const std::vector<Frame>& frames = {});
 
 }  // namespace glintlab::lighting
