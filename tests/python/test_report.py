@@ -181,6 +181,10 @@ def test_bad_arguments_and_configs_exit_2(tmp_path, capsys):
          "at /sections/0/quick/sample: expected a parameter of exact_laws"),
         ('{"kind": "report", "sections": [{"name": "wwh18_threshold", "params": {"thresholds": [1, -2]}}]}',
          "at /sections/0/params/thresholds: expected a non-empty list of finite numbers > 0"),
+        ('{"kind": "report", "sections": [{"name": "lighting", "params": {"scene_methods": ["zk16", 3]}}]}',
+         "at /sections/0/params/scene_methods: expected a non-empty list of non-empty strings"),
+        ('{"kind": "report", "sections": [{"name": "lighting", "quick": {"sphere_envmap_scale": -1}}]}',
+         "at /sections/0/quick/sphere_envmap_scale: expected null or a finite number > 0"),
         ('{"kind": "report", "seed": -3, "sections": [{"name": "exact_laws"}]}', "at /seed:"),
     ]
     for text, message in cases:

@@ -57,6 +57,13 @@ def check_type(where: str, value, default) -> None:
         what = "a finite number"
     elif isinstance(default, str):
         ok, what = isinstance(value, str) and value != "", "a non-empty string"
+    elif default is None:  # an optional size (None: off)
+        ok = value is None or (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+                               and value > 0)
+        what = "null or a finite number > 0"
+    elif default and all(isinstance(x, str) for x in default):  # names (methods, targets)
+        ok = isinstance(value, list) and len(value) > 0 and all(isinstance(x, str) and x != "" for x in value)
+        what = "a non-empty list of non-empty strings"
     else:  # a list takes its default's kind: indices (integers >= 0), values that may be 0, or numbers > 0
         indices = all(isinstance(x, int) and not isinstance(x, bool) for x in default)
         zero_ok = indices or any(x == 0 for x in default)
