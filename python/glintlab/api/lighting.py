@@ -324,15 +324,34 @@ def _ml_shape(wi, t0, sx, sy):
                                    options={"xatol": 1e-6, "fatol": 1e-9, "maxiter": 4000}).x
 
 
-def _value_shape(target, alpha, wo, start, upper):
+def _brdf_lobe(nd, wo, wi):
+    """The BRDF's lobe f_r cos(theta_i) = D(h) G2(wo, wi) / (4 cos theta_o), Fresnel 1, G2 Smith's
+    height-correlated shadowing-masking (the lobe of Heitz et al.'s shading tables), 0 below the horizon."""
+    s = wo + wi
+    h = s / np.linalg.norm(s, axis=-1, keepdims=True)
+    g2 = 1.0 / (1.0 + nd.smith_lambda(wo[2]) + nd.smith_lambda(np.clip(wi[..., 2], 1e-12, 1.0)))
+    return np.where(wi[..., 2] > 0, nd.D(h[..., 2]) * g2 / (4.0 * wo[2]), 0.0)
+
+
+def _value_shape(target, alpha, wo, start, upper, lobe="p"):
     """Heitz et al.'s objective: the LTC parameters minimizing the L3 error of the LTC's values against the
-    normalised target density q = p density / upper over the upper hemisphere, integral estimated by
-    multiple importance sampling (balance heuristic) over the target's samples wi and the LTC's own."""
+    normalised target lobe q over the upper hemisphere (``lobe`` "p": the p density / upper; "brdf": the
+    BRDF's lobe / its integral), the integral estimated by multiple importance sampling (balance heuristic)
+    over samples of the p density (the target's draws) and of the LTC."""
     n = LTC_VALUE_SAMPLES
     wi = _facet_directions(target, alpha, wo, n)  # the kept ones of n^2 draws of the p density
     cosines = _cosine_directions(n)
     nd = _target(target, alpha)
-    q_target = _density(nd, wo, wi)
+    pdf_target = _density(nd, wo, wi)
+    if lobe == "p":
+        def value(x):
+            return _density(nd, wo, x) / upper
+    else:  # the lobe's integral by the same draws: the mean of lobe / pdf over all n^2 of them
+        norm = float(np.sum(_brdf_lobe(nd, wo, wi) / pdf_target)) / (n * n)
+
+        def value(x):
+            return _brdf_lobe(nd, wo, x) / norm
+    q_target = value(wi)
 
     def loss(params):
         m = _ltc_matrix(params)
@@ -341,23 +360,26 @@ def _value_shape(target, alpha, wo, start, upper):
         own = own[own[:, 2] > 0]
         own /= np.linalg.norm(own, axis=-1, keepdims=True)
         x = np.concatenate([wi, own])
-        q = np.concatenate([q_target, _density(nd, wo, own)])
+        q = np.concatenate([q_target, value(own)])
+        pdf = np.concatenate([pdf_target, _density(nd, wo, own)])
         ltc = np.exp(_ltc_log_density(minv, x))
-        return float(np.sum(np.abs(q / upper - ltc) ** 3 / (n * n * q + len(cosines) * ltc)))
+        return float(np.sum(np.abs(q - ltc) ** 3 / (n * n * pdf + len(cosines) * ltc)))
 
     scale = loss(start)
     return scipy.optimize.minimize(lambda x: loss(x) / scale, start, method="Nelder-Mead",
                                    options={"xatol": 1e-5, "fatol": 1e-7, "maxiter": 3000}).x
 
 
-LTC_FITS = ("values", "ml")
+LTC_FITS = ("values", "brdf", "ml")
 
 
 def _fit_ltc(target, alpha, theta, fit="values"):
     """The LTC parameters (t, log sx, log sy, skew) at view angle theta (view in the xz-plane, +x side) and
-    its magnitude. ``fit`` "values": Heitz et al.'s L3 fit of the values (started from the likelihood fit),
-    magnitude the exact p of the upper hemisphere (Heitz et al.'s norm); "ml": the maximum likelihood of the
-    p density's samples, magnitude that p divided by the LTC's mass above the horizon (the total conserved)."""
+    its magnitude. ``fit`` "values": Heitz et al.'s L3 fit of the values of the p density (started from the
+    likelihood fit), magnitude the exact p of the upper hemisphere (Heitz et al.'s norm); "brdf": the same fit
+    to the BRDF's lobe (the reading in which KK24 reuse the shading's LTC), the same magnitude; "ml": the
+    maximum likelihood of the p density's samples, magnitude that p divided by the LTC's mass above the
+    horizon (the total conserved)."""
     wo = np.array([math.sin(theta), 0.0, math.cos(theta)])
     wi = _facet_directions(target, alpha, wo)
     mean = wi.mean(axis=0)
@@ -368,8 +390,8 @@ def _fit_ltc(target, alpha, theta, fit="values"):
     sy = max(2 * math.sqrt(np.mean((local[:, 1] / local[:, 2]) ** 2)), 1e-3)
     params = _ml_shape(wi, t0, sx, sy)
     upper = _core.reflection_probability(target, alpha, tuple(wo), _core.Light.cap((0.0, 0.0, 1.0), math.pi / 2), 1e-8)[0]
-    if fit == "values":  # Heitz et al.'s norm: the target's mass, the LTC's own loss below the horizon kept
-        return np.concatenate([_value_shape(target, alpha, wo, params, upper), [upper]])
+    if fit != "ml":  # Heitz et al.'s norm: the target's mass, the LTC's own loss below the horizon kept
+        return np.concatenate([_value_shape(target, alpha, wo, params, upper, "p" if fit == "values" else "brdf"), [upper]])
     return np.concatenate([params, [upper / max(_ltc_upper_mass(_ltc_matrix(params)), 1e-300)]])
 
 
