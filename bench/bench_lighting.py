@@ -54,6 +54,20 @@ def frame_views(scale: float):
     return wo, LI.scene_light(sc, "cap", (0.2, 0.0)).in_frame(*tbn), sc
 
 
+def time_grids(target, alpha, light, wo, wall):
+    """Each of GRIDS over the views wo: seconds (build and every view) and error against the cubature."""
+    for kind, kw in GRIDS:
+        t0 = time.perf_counter()
+        grid = ProbabilityGrid(target, alpha, light, wo, **kw)
+        grid(wo)
+        g = time.perf_counter() - t0
+        e = grid.error(wo, samples=512)
+        rel = e['max_rel_error_p_above_1e-3_max']
+        print(f"    {kind} {grid.nodes}^2: {g:.2f} s wall ({wall / g:.0f}x faster), largest |error| / max p "
+              f"{e['max_abs_error_over_max_p']:.2g}, largest relative error where p > 1e-3 max p "
+              f"{rel:.2g}  {'PASS' if g < 60 and rel < 1e-6 else 'FAIL'} (goal: < 60 s at 1e-6)")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--scale", type=float, default=0.5, help="frame size per side of 1920 x 1080 (0.5: 960 x 540)")
@@ -78,16 +92,7 @@ def main() -> int:
         cpu = (time.process_time() - c0) * len(wo) / len(sub)
         print(f"  {sc.width} x {sc.height} ({len(wo)} views), {target} {alpha}: cubature per pixel ~{wall:.1f} s wall, "
               f"~{cpu:.1f} s CPU (the baseline; {'PASS' if wall < 60 else 'FAIL'} against 60 s)")
-        for kind, kw in GRIDS:
-            t0 = time.perf_counter()
-            grid = ProbabilityGrid(target, alpha, light, wo, **kw)
-            grid(wo)
-            g = time.perf_counter() - t0
-            e = grid.error(wo, samples=512)
-            rel = e['max_rel_error_p_above_1e-3_max']
-            print(f"    {kind} {grid.nodes}^2: {g:.2f} s wall ({wall / g:.0f}x faster), largest |error| / max p "
-                  f"{e['max_abs_error_over_max_p']:.2g}, largest relative error where p > 1e-3 max p "
-                  f"{rel:.2g}  {'PASS' if g < 60 and rel < 1e-6 else 'FAIL'} (goal: < 60 s at 1e-6)")
+        time_grids(target, alpha, light, wo, wall)
     t0 = time.perf_counter()
     full = {**d, **study.FULL_SCENE}
     paths, table = study.scene_images(full, seed=1)
