@@ -77,9 +77,10 @@ def test_ltc_likelihood_fit_preserves_the_upper_hemisphere_and_approximations_ar
         gl.reflection_probability("ggx", 0.3, wo, small, "ltc", ltc_fit="heitz")
 
 
-#: The value fit's median error over the configurations below measures about 4 %, the likelihood fit's about
-#: 14 %: the bound is twice the former, so a change of the optimiser's convergence does not fail it while the
-#: likelihood fit does. Both fits are deterministic (fixed samples), so the test has no false-failure rate.
+#: The value fit's median error over the configurations below measures 5.2 %, the likelihood fit's 15 % and
+#: the BRDF-lobe reading's 9 %: the bound sits between, 1.5 times the value fit's, so a change of the
+#: optimiser's convergence does not fail it while the likelihood fit does. The fits are deterministic (fixed
+#: samples and start), so the test has no false-failure rate.
 LTC_MEDIAN_TOLERANCE = 0.08
 
 

@@ -275,13 +275,23 @@ def _ltc_matrix(params):
     return rot @ np.array([[math.exp(lsx), 0.0, k], [0.0, math.exp(lsy), 0.0], [0.0, 0.0, 1.0]])
 
 
-def _ltc_log_density(minv, w):
-    """log of the LTC density at unit directions w: D_o(w_o) |det M^-1| / |M^-1 w|^3, D_o the clamped cosine."""
+def _ltc_inverse(params):
+    """(M^-1, log |det M^-1|) of _ltc_matrix(params) in closed form (the fits' inner loops): M = R_y(t) S, so
+    M^-1 = S^-1 R_y(t)^T and det M = s_x s_y."""
+    t, lsx, lsy, k = params
+    c, s = math.cos(t), math.sin(t)
+    ix, iy = math.exp(-lsx), math.exp(-lsy)
+    rot_t = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+    return np.array([[ix, 0.0, -k * ix], [0.0, iy, 0.0], [0.0, 0.0, 1.0]]) @ rot_t, -(lsx + lsy)
+
+
+def _ltc_log_density(params, w):
+    """log of the LTC density at unit directions w: D_o(w_o) |det M^-1| / |M^-1 w|^3, D_o the clamped cosine,
+    w_o = M^-1 w / |M^-1 w|: log(max(x_z, 0) / pi) + log |det M^-1| - 2 log |x|^2 with x = M^-1 w."""
+    minv, log_det = _ltc_inverse(params)
     x = w @ minv.T
-    r = np.linalg.norm(x, axis=-1)
-    cz = x[:, 2] / r
-    det = abs(np.linalg.det(minv))
-    return np.log(np.maximum(cz, 1e-300) / math.pi) + math.log(det) - 3.0 * np.log(r)
+    r2 = np.einsum("ij,ij->i", x, x)
+    return np.log(np.maximum(x[:, 2], 1e-300) / math.pi) + log_det - 2.0 * np.log(r2)
 
 
 def _facet_directions(target, alpha, wo, m=LTC_SAMPLES):
@@ -318,7 +328,7 @@ def _cosine_directions(m=LTC_SAMPLES):
 def _ml_shape(wi, t0, sx, sy):
     """The LTC parameters maximizing the likelihood of the p density's samples wi."""
     def loss(params):
-        return -np.mean(_ltc_log_density(np.linalg.inv(_ltc_matrix(params)), wi))
+        return -np.mean(_ltc_log_density(params, wi))
 
     return scipy.optimize.minimize(loss, [t0, math.log(sx), math.log(sy), 0.0], method="Nelder-Mead",
                                    options={"xatol": 1e-6, "fatol": 1e-9, "maxiter": 4000}).x
@@ -344,25 +354,24 @@ def _value_shape(target, alpha, wo, start, upper, lobe="p"):
     nd = _target(target, alpha)
     pdf_target = _density(nd, wo, wi)
     if lobe == "p":
-        def value(x):
-            return _density(nd, wo, x) / upper
+        def value(x, pdf):
+            return pdf / upper
     else:  # the lobe's integral by the same draws: the mean of lobe / pdf over all n^2 of them
         norm = float(np.sum(_brdf_lobe(nd, wo, wi) / pdf_target)) / (n * n)
 
-        def value(x):
+        def value(x, pdf):
             return _brdf_lobe(nd, wo, x) / norm
-    q_target = value(wi)
+    q_target = value(wi, pdf_target)
 
     def loss(params):
-        m = _ltc_matrix(params)
-        minv = np.linalg.inv(m)
-        own = cosines @ m.T
+        own = cosines @ _ltc_matrix(params).T
         own = own[own[:, 2] > 0]
-        own /= np.linalg.norm(own, axis=-1, keepdims=True)
+        own /= np.sqrt(np.einsum("ij,ij->i", own, own))[:, None]
         x = np.concatenate([wi, own])
-        q = np.concatenate([q_target, value(own)])
-        pdf = np.concatenate([pdf_target, _density(nd, wo, own)])
-        ltc = np.exp(_ltc_log_density(minv, x))
+        pdf_own = _density(nd, wo, own)
+        q = np.concatenate([q_target, value(own, pdf_own)])
+        pdf = np.concatenate([pdf_target, pdf_own])
+        ltc = np.exp(_ltc_log_density(params, x))
         return float(np.sum(np.abs(q - ltc) ** 3 / (n * n * pdf + len(cosines) * ltc)))
 
     scale = loss(start)
