@@ -108,8 +108,8 @@ INTERPOLATIONS = ("chebyshev", "spline")
 
 
 def _chebyshev_nodes(lo, hi, n):
-    """The n Chebyshev points of the second kind (extrema, ends included) on [lo, hi], largest first: n = 2^k + 1
-    nest, so doubling the intervals reuses every node."""
+    """The n Chebyshev points of the second kind (extrema, ends included) on [lo, hi], largest first: those of
+    2n - 1 (the intervals doubled) hold them at their even indices, so a refinement reuses every node."""
     return 0.5 * (lo + hi) + 0.5 * (hi - lo) * np.cos(math.pi * np.arange(n) / (n - 1))
 
 
@@ -135,7 +135,7 @@ class ProbabilityGrid:
     inside the unit disk (views around the normal), else their polar and azimuthal angles (a view box away
     from the normal, azimuths within half a turn). ``interpolation`` "chebyshev": the tensor polynomial
     through ``nodes`` x ``nodes`` Chebyshev points (spectral accuracy for a p analytic in the view);
-    "spline": bicubic splines through a uniform grid. ``tolerance`` (Chebyshev): double the intervals (2^k + 1
+    "spline": bicubic splines through a uniform grid. ``tolerance`` (Chebyshev): double the intervals (n -> 2n - 1
     nodes, nested, up to ``max_nodes``) until the interpolant's largest relative error at the next grid's new
     nodes, where p exceeds 1e-3 of its largest value, is below it (``refinement_error``: that of the grid one
     doubling coarser than the one kept, so an over-estimate for it; ``converged`` False when ``max_nodes``
