@@ -4,6 +4,7 @@ the environment map's multinomial; each statistical check also rejects its delib
 
 Thresholds: a chi-square passes at p > 1e-3 (its false-failure rate; the seeds are fixed, so a run is
 deterministic) and a wrong variant must be rejected at p < 1e-6."""
+import itertools
 import math
 import time
 
@@ -60,15 +61,54 @@ def test_point_light_limit_and_todays_point_p():
     assert np.allclose(table.p_point, table.p_db23, rtol=1e-12, atol=0)
 
 
-def test_ltc_preserves_the_upper_hemisphere_and_approximations_are_close_for_small_lights():
+def test_ltc_likelihood_fit_preserves_the_upper_hemisphere_and_approximations_are_close_for_small_lights():
     wo = _unit(40.0)
     whole = gl.lights.cap((0, 0, 1), math.pi / 2)
     exact = gl.reflection_probability("ggx", 0.3, wo, whole)
-    assert gl.reflection_probability("ggx", 0.3, wo, whole, "ltc") == pytest.approx(exact, rel=0.02)
+    assert gl.reflection_probability("ggx", 0.3, wo, whole, "ltc", ltc_fit="ml") == pytest.approx(exact, rel=0.02)
+    # The value fits keep Heitz et al.'s norm: the LTC's mass below the horizon (a few %) is lost.
+    for fit in ("values", "brdf"):
+        assert gl.reflection_probability("ggx", 0.3, wo, whole, "ltc", ltc_fit=fit) == pytest.approx(exact, rel=0.1)
     small = gl.lights.cap(_unit(45.0, 180.0), 0.01)
     for method in ("cap", "point"):
         assert gl.reflection_probability("ggx", 0.3, wo, small, method) == pytest.approx(
             gl.reflection_probability("ggx", 0.3, wo, small), rel=1e-3)
+    with pytest.raises(ValueError, match="fit"):
+        gl.reflection_probability("ggx", 0.3, wo, small, "ltc", ltc_fit="heitz")
+
+
+#: The value fit's median error over the configurations below measures 5.2 %, the likelihood fit's 15 % and
+#: the BRDF-lobe reading's 9 %: the bound sits between, 1.5 times the value fit's, so a change of the
+#: optimiser's convergence does not fail it while the likelihood fit does. The fits are deterministic (fixed
+#: samples and start), so the test has no false-failure rate.
+LTC_MEDIAN_TOLERANCE = 0.08
+
+
+def _ltc_median_error(fit):
+    errors = []
+    for alpha, a, el, vw in itertools.product((0.2, 0.5), (0.05, 0.2), (20.0, 45.0), (10.0, 40.0, 70.0)):
+        light, wo = gl.lights.cap(_unit(el, 180.0), a), _unit(vw)
+        exact = gl.reflection_probability("ggx", alpha, wo, light)
+        if exact > 1e-6:
+            errors.append(abs(gl.reflection_probability("ggx", alpha, wo, light, "ltc", ltc_fit=fit) / exact - 1))
+    return float(np.median(errors))
+
+
+def test_ltc_value_fit_is_within_its_tolerance_and_the_likelihood_fit_is_not():
+    assert _ltc_median_error("values") < LTC_MEDIAN_TOLERANCE
+    assert _ltc_median_error("ml") > LTC_MEDIAN_TOLERANCE
+
+
+def test_chebyshev_grid_refines_to_1e_6_for_beckmann_alpha_1():
+    views = np.array([[np.sin(t) * np.cos(f), np.sin(t) * np.sin(f), np.cos(t)]
+                      for t in np.linspace(0.2, 1.2, 40) for f in np.linspace(-0.8, 0.8, 40)])
+    light = gl.lights.cap((-0.6, 0.0, 0.8), 0.2)
+    grid = L.ProbabilityGrid("beckmann", 1.0, light, views, nodes=5, tolerance=1e-6)
+    assert grid.converged and grid.refinement_error <= 1e-6
+    assert grid.error(views, samples=256, seed=4)["max_rel_error_p_above_1e-3_max"] < 1e-6
+    # The same nodes through uniform bicubic splines miss the target by the same measure (the check can fail).
+    spline = L.ProbabilityGrid("beckmann", 1.0, light, views, nodes=grid.nodes, interpolation="spline")
+    assert spline.error(views, samples=256, seed=4)["max_rel_error_p_above_1e-3_max"] > 1e-6
 
 
 def test_exact_p_speed_per_view_and_light():

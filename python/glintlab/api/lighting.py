@@ -7,7 +7,8 @@ from D(m)(m.n) mirrors the view wo into the light (docs/math/lighting.md#lightin
 
 - ``"exact"``: adaptive cubature (C++, ``rel_tol`` 1e-6 by default);
 - ``"ltc"``: a linearly transformed cosine fitted to the target NDF and alpha (KK24's large-light
-  approximation; docs/math/lighting.md#lighting-ltc);
+  approximation; ``ltc_fit`` "values", Heitz et al.'s fit of the values, or "ml", the likelihood fit;
+  docs/math/lighting.md#lighting-ltc);
 - ``"cap"``: the NDF held at the half vector of the light's centre, the half-vector region's solid
   angle exact (KK24's locally constant approximation; docs/math/lighting.md#lighting-cap);
 - ``"point"``: the point light's p density at the light's centre times the light's solid angle.
@@ -58,8 +59,11 @@ def _target(target, alpha):
 def density(target, alpha, wo, wi) -> np.ndarray:
     """The p density per unit solid angle of light directions, D(h)(h.n) / (4 (wo.h)) (0 below the horizon):
     the point light's p at wi is this times the light's solid angle."""
-    nd = _target(target, alpha)
-    wo, wi = _view(wo), V.unit_vectors(V.as_float_array("wi", wi))
+    return _density(_target(target, alpha), _view(wo), V.unit_vectors(V.as_float_array("wi", wi)))
+
+
+def _density(nd, wo, wi):
+    """density() without the argument checks (the LTC fit's inner loop)."""
     s = wo + wi
     h = s / np.linalg.norm(s, axis=-1, keepdims=True)
     c, woh = h[..., 2], np.sum(wo * h, axis=-1)
@@ -80,14 +84,15 @@ def _frames(frames, count: int):
 
 
 def reflection_probability(target, alpha, wo, light, method: str = "exact", rel_tol: float = 1e-6,
-                           return_error: bool = False, frames=None):
+                           return_error: bool = False, frames=None, ltc_fit: str = "values"):
     """p for each view ``wo`` (3,) or (..., 3) and a light from ``gl.lights`` (see the module docs).
     An environment map gives one p per region (last axis). ``return_error`` (exact only) also returns the
     cubature's error estimate. ``frames`` (..., 3, 3), one per view (an analytic light: methods "exact" and
     "point"; a map: all three): each view's tangent frame (rows t, b, n) in the light's (world) coordinates,
     the view in that frame and the light seen from it, cut at its horizon (a curved surface under one distant
     light, docs/math/lighting.md#lighting-scene-images); a map's "filtered" and "unfiltered" look up the world
-    mirror direction (KK25's maps know no horizon but the map's)."""
+    mirror direction (KK25's maps know no horizon but the map's). ``ltc_fit``: the LTC's fit (LTC_FITS, see
+    ltc_table)."""
     nd = _target(target, alpha)
     wo = _view(wo)
     if frames is not None and not isinstance(light, EnvMap) and method not in ("exact", "point"):
@@ -117,24 +122,64 @@ def reflection_probability(target, alpha, wo, light, method: str = "exact", rel_
         omega_h = np.array([_core.half_vector_solid_angle(tuple(w), light._core)[0] for w in flat])
         out = nd.D(h[:, 2]) * h[:, 2] * omega_h
     else:
-        out = np.array([ltc_probability(target, nd.alpha, w, light) for w in flat])
+        out = np.array([ltc_probability(target, nd.alpha, w, light, ltc_fit) for w in flat])
     return out.reshape(wo.shape[:-1])
 
 
-class ProbabilityGrid:
-    """The exact p of many views at the cost of ``nodes`` x ``nodes`` (docs/math/lighting.md#lighting-grid): the
-    exact p (cubature at ``rel_tol``) at the nodes of a grid spanning ``views``, interpolated by bicubic
-    splines (one per region of a map). The grid's coordinates are the views' tangent components (x, y) when
-    their box lies inside the unit disk (views around the normal), else their polar and azimuthal angles
-    (a view box away from the normal, azimuths within half a turn). Its error against the exact p is what
-    :meth:`error` measures; p varies over the lobe's width and the light's size, so the grid must resolve
-    both across the views' span."""
+INTERPOLATIONS = ("chebyshev", "spline")
 
-    def __init__(self, target, alpha, light, views, nodes: int = 17, rel_tol: float = 1e-6):
+
+def _chebyshev_nodes(lo, hi, n):
+    """The n Chebyshev points of the second kind (extrema, ends included) on [lo, hi], largest first: those of
+    2n - 1 (the intervals doubled) hold them at their even indices, so a refinement reuses every node."""
+    return 0.5 * (lo + hi) + 0.5 * (hi - lo) * np.cos(math.pi * np.arange(n) / (n - 1))
+
+
+def _barycentric_weights(nodes, x):
+    """(len(x), n) weights of the barycentric formula of the polynomial through Chebyshev points of the
+    second kind (weights (-1)^j, halved at the ends): p(x) = weights @ values; exact at the nodes."""
+    n = len(nodes)
+    w = (-1.0) ** np.arange(n)
+    w[0] *= 0.5
+    w[-1] *= 0.5
+    d = x[:, None] - nodes[None, :]
+    hit = d == 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = w / d
+    t = np.where(hit.any(axis=1, keepdims=True), hit.astype(float), t)
+    return t / t.sum(axis=1, keepdims=True)
+
+
+class ProbabilityGrid:
+    """The exact p of many views at the cost of a grid of them (docs/math/lighting.md#lighting-grid): the exact
+    p (cubature at ``rel_tol``) at the nodes of a grid spanning ``views``, interpolated (one interpolant per
+    region of a map). The grid's coordinates are the views' tangent components (x, y) when their box lies
+    inside the unit disk (views around the normal), else their polar and azimuthal angles (a view box away
+    from the normal, azimuths within half a turn). ``interpolation`` "chebyshev": the tensor polynomial
+    through ``nodes`` x ``nodes`` Chebyshev points (spectral accuracy for a p analytic in the view);
+    "spline": bicubic splines through a uniform grid. ``tolerance`` (Chebyshev): double the intervals (n -> 2n - 1
+    nodes, nested, up to ``max_nodes``) until the interpolant's largest relative error at the next grid's new
+    nodes, where p exceeds 1e-3 of its largest value, is below it (``refinement_error``: that of the grid one
+    doubling coarser than the one kept, so an over-estimate for it; ``converged`` False when ``max_nodes``
+    stopped the doubling first). Its error at the views is what :meth:`error` measures against the cubature."""
+
+    def __init__(self, target, alpha, light, views, nodes: int = 17, rel_tol: float = 1e-6,
+                 interpolation: str = "chebyshev", tolerance: float | None = None, max_nodes: int = 129):
         nd = _target(target, alpha)
         self.target, self.alpha, self.light, self.rel_tol = target, nd.alpha, light, V.real("rel_tol", rel_tol)
         self.nodes = V.integer("nodes", nodes, minimum=4, maximum=1024)
-        wo = _view(views).reshape(-1, 3)
+        self.interpolation = V.choice("interpolation", interpolation, INTERPOLATIONS)
+        self.regions = light.regions if isinstance(light, EnvMap) else None
+        self._box(_view(views).reshape(-1, 3))
+        if self.interpolation == "spline":
+            self.axes = [np.linspace(self.lo[i], self.hi[i], self.nodes) for i in (0, 1)]
+            values = self._exact_at(*self.axes)
+            self.splines = [scipy.interpolate.RectBivariateSpline(*self.axes, values[..., r]) for r in range(values.shape[2])]
+            self.refinement_error = self.converged = None
+            return
+        self._chebyshev(tolerance, V.integer("max_nodes", max_nodes, minimum=self.nodes, maximum=1024))
+
+    def _box(self, wo):
         if wo.shape[0] == 0 or np.any(wo[:, 2] <= 0):
             V.fail("views", f"{wo.shape[0]} views", "at least one view, all above the horizon (z > 0)")
         xy = wo[:, :2]
@@ -142,20 +187,58 @@ class ProbabilityGrid:
         self.polar = bool(np.hypot(*np.maximum(np.abs(lo), np.abs(hi))) >= 0.999)
         self.phi0 = 0.0
         if self.polar:
-            ang = self._angles(wo, None)
-            self.phi0 = float(np.angle(np.mean(np.exp(1j * ang[:, 1]))))
+            self.phi0 = float(np.angle(np.mean(np.exp(1j * self._angles(wo, None)[:, 1]))))
             ang = self._angles(wo, self.phi0)
             lo, hi = ang.min(axis=0), ang.max(axis=0)
             if hi[1] - lo[1] > math.pi:
                 V.fail("views", "views all around the normal and near the horizon", "views whose box fits a grid")
         span = np.maximum(hi - lo, 1e-6)
-        self.axes = [np.linspace(lo[i] - 1e-9 * span[i], hi[i] + 1e-9 * span[i], self.nodes) for i in (0, 1)]
-        a, b = np.meshgrid(*self.axes, indexing="ij")
-        node_views = self._views(a.reshape(-1), b.reshape(-1))
-        values = np.asarray(reflection_probability(target, nd.alpha, node_views, light, "exact", self.rel_tol))
-        values = values.reshape(self.nodes, self.nodes, -1)
-        self.splines = [scipy.interpolate.RectBivariateSpline(*self.axes, values[..., r]) for r in range(values.shape[2])]
-        self.regions = light.regions if isinstance(light, EnvMap) else None
+        self.lo, self.hi = lo - 1e-9 * span, hi + 1e-9 * span
+
+    def _exact_at(self, xs, ys):
+        """The exact p at the tensor grid xs x ys: (len(xs), len(ys), channels)."""
+        a, b = np.meshgrid(xs, ys, indexing="ij")
+        values = np.asarray(reflection_probability(self.target, self.alpha, self._views(a.reshape(-1), b.reshape(-1)),
+                                                   self.light, "exact", self.rel_tol))
+        return values.reshape(len(xs), len(ys), -1)
+
+    def _chebyshev(self, tolerance, max_nodes):
+        n = self.nodes
+        self.axes = [_chebyshev_nodes(self.lo[i], self.hi[i], n) for i in (0, 1)]
+        self.values = self._exact_at(*self.axes)
+        self.refinement_error, self.converged = None, None
+        if tolerance is None:
+            return
+        tol = V.real("tolerance", tolerance)
+        while True:
+            m = 2 * n - 1
+            if m > max_nodes:
+                self.converged = False
+                return
+            axes = [_chebyshev_nodes(self.lo[i], self.hi[i], m) for i in (0, 1)]
+            fine = np.empty((m, m, self.values.shape[2]))
+            fine[::2, ::2] = self.values
+            new = np.ones((m, m), bool)
+            new[::2, ::2] = False
+            for sl in ((slice(1, None, 2), slice(None)), (slice(0, None, 2), slice(1, None, 2))):
+                fine[sl] = self._exact_at(axes[0][sl[0]], axes[1][sl[1]])
+            a, b = np.meshgrid(*axes, indexing="ij")
+            coarse = self._chebyshev_eval(np.column_stack([a[new], b[new]]))
+            exact = fine[new]
+            big = exact > 1e-3 * max(float(fine.max()), 1e-300)
+            self.refinement_error = float((np.abs(coarse - exact)[big] / exact[big]).max()) if big.any() else 0.0
+            self.axes, self.values, self.nodes, n = axes, fine, m, m
+            if self.refinement_error <= tol:
+                self.converged = True
+                return
+
+    def _chebyshev_eval(self, c, chunk: int = 16384):
+        out = np.empty((len(c), self.values.shape[2]))
+        for i in range(0, len(c), chunk):
+            wx = _barycentric_weights(self.axes[0], c[i:i + chunk, 0])
+            wy = _barycentric_weights(self.axes[1], c[i:i + chunk, 1])
+            out[i:i + chunk] = np.einsum("ni,ijk,nj->nk", wx, self.values, wy, optimize=True)
+        return out
 
     @staticmethod
     def _angles(wo, phi0):
@@ -175,7 +258,11 @@ class ProbabilityGrid:
         w = _view(wo)
         flat = w.reshape(-1, 3)
         c = self._angles(flat, self.phi0) if self.polar else flat[:, :2]
-        out = np.column_stack([np.maximum(s.ev(c[:, 0], c[:, 1]), 0.0) for s in self.splines])
+        if self.interpolation == "spline":
+            out = np.column_stack([s.ev(c[:, 0], c[:, 1]) for s in self.splines])
+        else:
+            out = self._chebyshev_eval(c)
+        out = np.maximum(out, 0.0)
         return out.reshape(w.shape[:-1] + ((self.regions,) if self.regions is not None else ()))
 
     def error(self, wo, samples: int = 256, seed: int = 0) -> dict:
@@ -200,6 +287,7 @@ class ProbabilityGrid:
 #: View angles of the fitted table: uniform in sqrt(1 - cos(theta_o)), as Heitz et al.'s tables.
 LTC_NODES = 16
 LTC_SAMPLES = 32
+LTC_VALUE_SAMPLES = 16
 
 
 def _ltc_matrix(params):
@@ -209,13 +297,23 @@ def _ltc_matrix(params):
     return rot @ np.array([[math.exp(lsx), 0.0, k], [0.0, math.exp(lsy), 0.0], [0.0, 0.0, 1.0]])
 
 
-def _ltc_log_density(minv, w):
-    """log of the LTC density at unit directions w: D_o(w_o) |det M^-1| / |M^-1 w|^3, D_o the clamped cosine."""
+def _ltc_inverse(params):
+    """(M^-1, log |det M^-1|) of _ltc_matrix(params) in closed form (the fits' inner loops): M = R_y(t) S, so
+    M^-1 = S^-1 R_y(t)^T and det M = s_x s_y."""
+    t, lsx, lsy, k = params
+    c, s = math.cos(t), math.sin(t)
+    ix, iy = math.exp(-lsx), math.exp(-lsy)
+    rot_t = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+    return np.array([[ix, 0.0, -k * ix], [0.0, iy, 0.0], [0.0, 0.0, 1.0]]) @ rot_t, -(lsx + lsy)
+
+
+def _ltc_log_density(params, w):
+    """log of the LTC density at unit directions w: D_o(w_o) |det M^-1| / |M^-1 w|^3, D_o the clamped cosine,
+    w_o = M^-1 w / |M^-1 w|: log(max(x_z, 0) / pi) + log |det M^-1| - 2 log |x|^2 with x = M^-1 w."""
+    minv, log_det = _ltc_inverse(params)
     x = w @ minv.T
-    r = np.linalg.norm(x, axis=-1)
-    cz = x[:, 2] / r
-    det = abs(np.linalg.det(minv))
-    return np.log(np.maximum(cz, 1e-300) / math.pi) + math.log(det) - 3.0 * np.log(r)
+    r2 = np.einsum("ij,ij->i", x, x)
+    return np.log(np.maximum(x[:, 2], 1e-300) / math.pi) + log_det - 2.0 * np.log(r2)
 
 
 def _facet_directions(target, alpha, wo, m=LTC_SAMPLES):
@@ -233,10 +331,86 @@ def _facet_directions(target, alpha, wo, m=LTC_SAMPLES):
     return wi[(d > 0) & (wi[:, 2] > 0)]
 
 
-def _fit_ltc(target, alpha, theta):
-    """The LTC parameters (t, log sx, log sy, skew) maximizing the likelihood of the p density's samples at
-    view angle theta (view in the xz-plane, +x side), and the magnitude: the exact p of the upper
-    hemisphere divided by the LTC's mass above the horizon."""
+def _ltc_upper_mass(m):
+    """The LTC's mass above the horizon: the clamped cosine's mass in the half-space g.w_o > 0, g the third
+    row of M, which is (1 + cos(angle of g from z)) / 2."""
+    g = m[2]
+    return 0.5 * (1.0 + g[2] / np.linalg.norm(g))
+
+
+def _cosine_directions(m=LTC_SAMPLES):
+    """Clamped-cosine directions at the midpoints of an m x m grid of uniforms (fixed: the value fit's LTC
+    samples move with M but not with the random numbers, so the fit is deterministic and smooth in M)."""
+    u = (np.arange(m) + 0.5) / m
+    uu, vv = np.meshgrid(u, u, indexing="ij")
+    r = np.sqrt(uu)
+    return np.stack([r * np.cos(2 * math.pi * vv), r * np.sin(2 * math.pi * vv), np.sqrt(1 - uu)], axis=-1).reshape(-1, 3)
+
+
+def _ml_shape(wi, t0, sx, sy):
+    """The LTC parameters maximizing the likelihood of the p density's samples wi."""
+    def loss(params):
+        return -np.mean(_ltc_log_density(params, wi))
+
+    return scipy.optimize.minimize(loss, [t0, math.log(sx), math.log(sy), 0.0], method="Nelder-Mead",
+                                   options={"xatol": 1e-6, "fatol": 1e-9, "maxiter": 4000}).x
+
+
+def _brdf_lobe(nd, wo, wi):
+    """The BRDF's lobe f_r cos(theta_i) = D(h) G2(wo, wi) / (4 cos theta_o), Fresnel 1, G2 Smith's
+    height-correlated shadowing-masking (the lobe of Heitz et al.'s shading tables), 0 below the horizon."""
+    s = wo + wi
+    h = s / np.linalg.norm(s, axis=-1, keepdims=True)
+    g2 = 1.0 / (1.0 + nd.smith_lambda(wo[2]) + nd.smith_lambda(np.clip(wi[..., 2], 1e-12, 1.0)))
+    return np.where(wi[..., 2] > 0, nd.D(h[..., 2]) * g2 / (4.0 * wo[2]), 0.0)
+
+
+def _value_shape(target, alpha, wo, start, upper, lobe="p"):
+    """Heitz et al.'s objective: the LTC parameters minimizing the L3 error of the LTC's values against the
+    normalised target lobe q over the upper hemisphere (``lobe`` "p": the p density / upper; "brdf": the
+    BRDF's lobe / its integral), the integral estimated by multiple importance sampling (balance heuristic)
+    over samples of the p density (the target's draws) and of the LTC."""
+    n = LTC_VALUE_SAMPLES
+    wi = _facet_directions(target, alpha, wo, n)  # the kept ones of n^2 draws of the p density
+    cosines = _cosine_directions(n)
+    nd = _target(target, alpha)
+    pdf_target = _density(nd, wo, wi)
+    if lobe == "p":
+        def value(x, pdf):
+            return pdf / upper
+    else:  # the lobe's integral by the same draws: the mean of lobe / pdf over all n^2 of them
+        norm = float(np.sum(_brdf_lobe(nd, wo, wi) / pdf_target)) / (n * n)
+
+        def value(x, pdf):
+            return _brdf_lobe(nd, wo, x) / norm
+    q_target = value(wi, pdf_target)
+
+    def loss(params):
+        own = cosines @ _ltc_matrix(params).T
+        own = own[own[:, 2] > 0]
+        own /= np.sqrt(np.einsum("ij,ij->i", own, own))[:, None]
+        x = np.concatenate([wi, own])
+        pdf_own = _density(nd, wo, own)
+        q = np.concatenate([q_target, value(own, pdf_own)])
+        pdf = np.concatenate([pdf_target, pdf_own])
+        ltc = np.exp(_ltc_log_density(params, x))
+        return float(np.sum(np.abs(q - ltc) ** 3 / (n * n * pdf + len(cosines) * ltc)))
+
+    scale = loss(start)
+    return scipy.optimize.minimize(lambda x: loss(x) / scale, start, method="Nelder-Mead",
+                                   options={"xatol": 1e-5, "fatol": 1e-7, "maxiter": 3000}).x
+
+
+LTC_FITS = ("values", "brdf", "ml")
+
+
+def _fit_ltc(target, alpha, theta, fit="values"):
+    """The LTC parameters (t, log sx, log sy, skew) at view angle theta (view in the xz-plane, +x side) and
+    its magnitude. ``fit`` "values": Heitz et al.'s L3 fit of the values of the p density (started from the
+    likelihood fit), magnitude the exact p of the upper hemisphere (Heitz et al.'s norm); "brdf": the same fit
+    to the BRDF's lobe (the reading in which KK24 reuse the shading's LTC), the same magnitude; "ml": the
+    maximum likelihood of the p density's samples, magnitude that p divided by the LTC's mass above the
+    horizon (the total conserved)."""
     wo = np.array([math.sin(theta), 0.0, math.cos(theta)])
     wi = _facet_directions(target, alpha, wo)
     mean = wi.mean(axis=0)
@@ -245,30 +419,22 @@ def _fit_ltc(target, alpha, theta):
     local = wi @ np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]]).T
     sx = max(2 * math.sqrt(np.mean((local[:, 0] / local[:, 2]) ** 2)), 1e-3)
     sy = max(2 * math.sqrt(np.mean((local[:, 1] / local[:, 2]) ** 2)), 1e-3)
-
-    def loss(params):
-        m = _ltc_matrix(params)
-        return -np.mean(_ltc_log_density(np.linalg.inv(m), wi))
-
-    best = scipy.optimize.minimize(loss, [t0, math.log(sx), math.log(sy), 0.0], method="Nelder-Mead",
-                                   options={"xatol": 1e-6, "fatol": 1e-9, "maxiter": 4000})
-    m = _ltc_matrix(best.x)
+    params = _ml_shape(wi, t0, sx, sy)
     upper = _core.reflection_probability(target, alpha, tuple(wo), _core.Light.cap((0.0, 0.0, 1.0), math.pi / 2), 1e-8)[0]
-    # The LTC's mass above the horizon: the clamped cosine's mass in the half-space g.w_o > 0, g the third
-    # row of M, which is (1 + cos(angle of g from z)) / 2.
-    g = m[2]
-    mass = 0.5 * (1.0 + g[2] / np.linalg.norm(g))
-    return np.concatenate([best.x, [upper / max(mass, 1e-300)]])
+    if fit != "ml":  # Heitz et al.'s norm: the target's mass, the LTC's own loss below the horizon kept
+        return np.concatenate([_value_shape(target, alpha, wo, params, upper, "p" if fit == "values" else "brdf"), [upper]])
+    return np.concatenate([params, [upper / max(_ltc_upper_mass(_ltc_matrix(params)), 1e-300)]])
 
 
 @functools.lru_cache(maxsize=64)
-def ltc_table(target: str, alpha: float) -> tuple[np.ndarray, np.ndarray]:
-    """(theta nodes, parameters (nodes, 5)): the LTC fitted at LTC_NODES view angles, cached per (target,
-    alpha); parameters are interpolated linearly between nodes."""
+def ltc_table(target: str, alpha: float, fit: str = "values") -> tuple[np.ndarray, np.ndarray]:
+    """(theta nodes, parameters (nodes, 5)): the LTC fitted (``fit``, see _fit_ltc) at LTC_NODES view angles,
+    cached per (target, alpha, fit); parameters are interpolated linearly between nodes."""
+    V.choice("fit", fit, LTC_FITS)
     x = (np.arange(LTC_NODES) + 0.5) / LTC_NODES
     theta = np.arccos(1 - x * x)
     theta = np.minimum(theta, math.radians(89.0))
-    return theta, np.array([_fit_ltc(target, alpha, t) for t in theta])
+    return theta, np.array([_fit_ltc(target, alpha, t, fit) for t in theta])
 
 
 def _clip_upper(poly):
@@ -322,14 +488,14 @@ def light_polygon(light: Light, n: int = 64) -> np.ndarray:
     return centre + r * (np.cos(a)[:, None] * e1 + np.sin(a)[:, None] * e2)
 
 
-def ltc_probability(target, alpha, wo, light: Light) -> float:
-    """p by the LTC (see ltc_table): the view rotated into the xz-plane, the light with it."""
+def ltc_probability(target, alpha, wo, light: Light, fit: str = "values") -> float:
+    """p by the LTC (see ltc_table, ``fit``): the view rotated into the xz-plane, the light with it."""
     wo = _view(wo).reshape(3)
     theta = math.acos(min(wo[2], 1.0))
     phi = math.atan2(wo[1], wo[0])
     c, s = math.cos(-phi), math.sin(-phi)
     rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    nodes, params = ltc_table(target, float(alpha))
+    nodes, params = ltc_table(target, float(alpha), fit)
     par = np.array([np.interp(theta, nodes, params[:, j]) for j in range(params.shape[1])])
     minv = np.linalg.inv(_ltc_matrix(par[:4]))
     poly = _clip_upper(light_polygon(light) @ rot.T)
