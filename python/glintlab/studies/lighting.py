@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ..api import checks as V
 from ..api import lights as gl_lights
 from ..api.lighting import reflection_probability
 from ..api.method_registry import IMAGE_METHODS
@@ -29,14 +30,14 @@ DEFAULTS = {"targets": ["beckmann", "ggx"], "alphas": [0.05, 0.2, 0.5], "half_an
             # Images of a Table 1 plane under a cap, a window and the sky (validation.lighting_images): this
             # fraction of 1920 x 1080 per side, N x density_factor x scale^2, frames of the scene images' path
             # (about 10 s; FULL_SCENE's sizes, 4 minutes, are make bench's: bench/bench_lighting.py).
-            "scene": "plane_25", "scene_scale": 1.0 / 12, "scene_density_factor": 0.25, "scene_frames": 4,
+            "scene": "plane_25", "scene_scale": 1.0 / 12, "scene_density_factor": 0.25, "scene_frames": 3,
             "scene_cap_half_angle": 0.2, "scene_rect_half_widths": [0.3, 0.2], "scene_grid_nodes": 11,
             # The registered NDF image methods under the cap and the window by quadrature over the light's
             # directions (validation.lighting_methods; S = k^2 samples per pixel): "smooth" is the quadrature's check.
             # (make run's budget: the quadrature costs about 0.5 us per pixel and sample, so three methods at 25
             # samples, ZK16 under the map only; make bench's FULL_SCENE renders all four on larger images at 36.)
             "scene_methods": ["smooth", "db23_trilinear[gated]", "kpt25"],
-            "scene_method_samples": 25,
+            "scene_method_samples": 25, "scene_method_lights": ["cap"],  # make run: the cap; QUICK and bench: both
             # ... and under the sky: its cells pooled in blocks of scene_map_block (its sun and window at their own cells).
             "scene_map_methods": ["smooth", "zk16"], "scene_map_block": 16,
             # The sphere under the same cap and window, each pixel lit in its own tangent frame (the exact p by
@@ -54,8 +55,10 @@ DEFAULTS.update({"alg2_pixels": [0, 2], "alg2_repeats": 64, "alg2_samples": 256,
 FULL_SCENE = {"scene_scale": 0.25, "scene_frames": 8, "scene_grid_nodes": 17, "sphere_scale": 0.125,
               "sphere_envmap_scale": 1.0 / 20,
               "scene_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"], "scene_method_samples": 36,
+              "scene_method_lights": ["cap", "rect"],
               "scene_map_methods": ["smooth", "zk16"], "scene_map_block": 16}
 QUICK = {"scene_scale": 1.0 / 16, "scene_frames": 3, "scene_grid_nodes": 9, "scene_method_samples": 25,
+         "scene_method_lights": ["cap", "rect"],
          "scene_methods": ["smooth", "db23_trilinear[gated]", "zk16", "kpt25"], "scene_map_methods": ["smooth", "zk16"],
          "scene_map_block": 16,
          "alphas": [0.05, 0.3], "half_angles": [0.01, 0.1], "elevations_deg": [30.0], "views_deg": [20.0, 60.0],
@@ -179,8 +182,8 @@ def scene_images(params: dict, seed: int):
     window (and the sky in world space when ``sphere_envmap_scale`` is set), each pixel lit in its own tangent
     frame: ([LightPath], their table). The shipped area-light method shader and its wrong variant are rendered
     under the cap and the window when a Vulkan device is present, and on the plane the registered image
-    methods ``scene_methods`` by quadrature over the light (validation.lighting_methods), ``scene_map_methods``
-    under the map."""
+    methods ``scene_methods`` by quadrature over the lights of ``scene_method_lights`` (validation.lighting_methods),
+    ``scene_map_methods`` under the map."""
     scene = with_density(resolve_scene(params["scene"]).scaled(params["scene_scale"], keep_n=True),
                          params["scene_density_factor"])
     sphere = with_density(resolve_scene(params["sphere_scene"]).scaled(params["sphere_scale"], keep_n=True),
@@ -196,8 +199,11 @@ def scene_images(params: dict, seed: int):
         shaders, sphere_shaders = {}, {}
     kw = dict(frames=params["scene_frames"], seed=seed)
     grid = dict(grid_nodes=params["scene_grid_nodes"])
-    paths = [LM.method_light_path(scene, light, methods=params["scene_methods"], samples=params["scene_method_samples"],
-                                  shaders=shaders, **grid, **kw) for light in scene_lights(scene, params)]
+    for name in params["scene_method_lights"]:
+        V.choice("scene_method_lights", name, ("cap", "rect"))
+    paths = [LM.method_light_path(scene, light, shaders=shaders, samples=params["scene_method_samples"],
+                                  methods=params["scene_methods"] if light.kind in params["scene_method_lights"] else [],
+                                  **grid, **kw) for light in scene_lights(scene, params)]
     paths.append(LM.method_light_path(scene, gl_lights.envmap("sky", regions=3), methods=params["scene_map_methods"],
                                       block=params["scene_map_block"], **grid, **kw))
     paths += [LI.light_path(sphere, light, shaders=sphere_shaders, rel_tol=params["sphere_rel_tol"], **kw)
