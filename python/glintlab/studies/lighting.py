@@ -181,9 +181,9 @@ def scene_images(params: dict, seed: int):
     """The plane under a cap, a window (rectangle) and the shipped sky, and the sphere under the same cap and
     window (and the sky in world space when ``sphere_envmap_scale`` is set), each pixel lit in its own tangent
     frame: ([LightPath], their table). The shipped area-light method shader and its wrong variant are rendered
-    under the cap and the window when a Vulkan device is present, and on the plane the registered image
-    methods ``scene_methods`` by quadrature over the lights of ``scene_method_lights`` (validation.lighting_methods),
-    ``scene_map_methods`` under the map."""
+    under the cap and the window when a Vulkan device is present, and the registered image methods
+    ``scene_methods`` by quadrature over the lights of ``scene_method_lights`` (validation.lighting_methods; on
+    the sphere, each pixel sees the light's samples in its own frame), ``scene_map_methods`` under the plane's map."""
     scene = with_density(resolve_scene(params["scene"]).scaled(params["scene_scale"], keep_n=True),
                          params["scene_density_factor"])
     sphere = with_density(resolve_scene(params["sphere_scene"]).scaled(params["sphere_scale"], keep_n=True),
@@ -206,8 +206,10 @@ def scene_images(params: dict, seed: int):
                                   **grid, **kw) for light in scene_lights(scene, params)]
     paths.append(LM.method_light_path(scene, gl_lights.envmap("sky", regions=3), methods=params["scene_map_methods"],
                                       block=params["scene_map_block"], **grid, **kw))
-    paths += [LI.light_path(sphere, light, shaders=sphere_shaders, rel_tol=params["sphere_rel_tol"], **kw)
-              for light in scene_lights(sphere, params)]
+    paths += [LM.method_light_path(sphere, light, shaders=sphere_shaders, rel_tol=params["sphere_rel_tol"],
+                                   samples=params["scene_method_samples"],
+                                   methods=params["scene_methods"] if light.kind in params["scene_method_lights"] else [],
+                                   **kw) for light in scene_lights(sphere, params)]
     if params["sphere_envmap_scale"]:
         small = with_density(resolve_scene(params["sphere_scene"]).scaled(params["sphere_envmap_scale"], keep_n=True),
                              params["scene_density_factor"])

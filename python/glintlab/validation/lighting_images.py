@@ -315,8 +315,9 @@ def _light_frame(light, mat, side, inp, seed, shaders, k, grid, per_pixel=False,
                  cells="db23"):
     """One frame under a SceneLight or an EnvMap: (mask, {name: values on the masked pixels}, target, {name:
     seconds}); a counting method's seconds include its p's (each p computed once, charged to its first user).
-    ``renderers``: {name: render(light in the tangent frame, wo, uv, J, seed) -> values} (light_path's; one
-    frame for all pixels); ``cells``: how the counting methods draw (CELL_SCHEMES).
+    ``renderers``: {name: render(light, wo, uv, J, seed, frames) -> values} (light_path's: the light in the
+    tangent frame and frames None, or per pixel the world light and the pixels' frames); ``cells``: how the
+    counting methods draw (CELL_SCHEMES).
     ``per_pixel``: every pixel sees the world-space light in its own tangent frame (a curved surface); the facet
     truth maps each facet's mirror direction to world space, the exact p is cubature per pixel at ``rel_tol``."""
     m, frames, wo, uv, J, nf = _frame_geometry(inp, mat.density, per_pixel)
@@ -357,7 +358,7 @@ def _light_frame(light, mat, side, inp, seed, shaders, k, grid, per_pixel=False,
         secs[name] = time.perf_counter() - t0
     for name, render in (renderers or {}).items():
         t0 = time.perf_counter()
-        out[name] = render(lt, wo, uv, J, seed)
+        out[name] = render(lt, wo, uv, J, seed, frames if per_pixel else None)
         secs[name] = time.perf_counter() - t0
     target = p["exact"] @ light.region_radiance if env else light.radiance * p["exact"]
     return m, out, target, secs, nf
@@ -384,16 +385,15 @@ def light_path(scene: Scene, light, frames: int = 4, pan_px: float = 0.25, zoom:
     ``rel_tol``. Otherwise (a plane: one frame for all pixels) the exact p of every pixel of every frame comes
     from one :class:`~glintlab.api.lighting.ProbabilityGrid` of ``grid_nodes``^2 views (its error against the
     exact p: ``LightPath.grid_error``), refined under an analytic light until its interpolation error is below
-    ``grid_tolerance`` (None: ``grid_nodes`` as given). ``renderers``: {name: render(light in the tangent frame, wo, uv, J, seed)
-    -> value per pixel} rendered beside them on a plane (the registered image methods by quadrature over the
-    light: :mod:`glintlab.validation.lighting_methods`). ``cells``: how the counting methods draw their counts
+    ``grid_tolerance`` (None: ``grid_nodes`` as given). ``renderers``: {name: render(light, wo, uv, J, seed, frames)
+    -> value per pixel} rendered beside them (the registered image methods by quadrature over the light:
+    :mod:`glintlab.validation.lighting_methods`; on a plane the light in its tangent frame and frames None,
+    per pixel the world-space light and the pixels' frames (k, 3, 3)). ``cells``: how the counting methods draw their counts
     (``CELL_SCHEMES``: "db23", DB23's cells; "texel", the single texel)."""
     V.choice("cells", cells, CELL_SCHEMES)
     per_pixel = scene.kind != "plane" if per_pixel is None else bool(per_pixel)
     if not per_pixel and scene.kind != "plane":
         V.fail("per_pixel", per_pixel, "True on a curved surface (its pixels' tangent frames differ)")
-    if per_pixel and renderers:
-        V.fail("renderers", list(renderers), "none with per-pixel frames (a renderer takes one light for all pixels)")
     seed = V.seed(seed)
     shaders = dict(shaders or {})
     env = isinstance(light, gl_lights.EnvMap)

@@ -105,39 +105,49 @@ def map_samples(env: gl_lights.EnvMap, block: int = MAP_BLOCK) -> tuple[np.ndarr
 def light_integral(method, uv, J, wo, directions, weights, seed: int = 0, wrong: str | None = None) -> np.ndarray:
     """sum_s w_s D(h_s) (h_s . n) / (4 (wo . h_s)) per pixel: ``method`` (a glinty NDF: ``evaluate(uv, J, h,
     seed)``) at the half vectors of the views ``wo`` (m, 3, unit, tangent frame) and the light's sample
-    ``directions`` (S, 3) of solid angles ``weights`` (S,); 0 for a direction at or below the horizon or a
+    ``directions`` (S, 3), or per pixel (m, S, 3) (a curved surface: each pixel's frame), of solid angles
+    ``weights`` (S,); 0 for a direction at or below the pixel's horizon or a
     facet facing away. Pixels x samples are evaluated in batches of up to ``BATCH``. ``wrong``: one of
     ``WRONG_VARIANTS`` (the tests' deliberately wrong variants)."""
     if wrong is not None:
         V.choice("wrong", wrong, WRONG_VARIANTS)
     dirs, w = np.asarray(directions, float), np.asarray(weights, float)
-    m, s = len(wo), len(dirs)
+    m, s = len(wo), dirs.shape[-2]
+    if dirs.ndim == 3 and dirs.shape[0] != m:
+        V.fail("directions", f"an array of shape {dirs.shape}", f"(S, 3) or one row of samples per view, ({m}, S, 3)")
     if wrong == "no_solid_angle":
         w = np.full(s, 1.0 / s)
     out = np.zeros(m)
     step = max(1, BATCH // max(s, 1))
     for lo in range(0, m, step):
         sl = slice(lo, min(m, lo + step))
-        h = wo[sl, None, :] + dirs[None]
+        d_sl = dirs[None] if dirs.ndim == 2 else dirs[sl]
+        h = wo[sl, None, :] + d_sl
         h /= np.linalg.norm(h, axis=-1, keepdims=True)
         woh = np.einsum("msk,mk->ms", h, wo[sl])
         n = h.shape[0]
         d = method.evaluate(np.repeat(uv[sl], s, axis=0), np.repeat(J[sl], s, axis=0), h.reshape(-1, 3),
                             seed=seed).reshape(n, s)
         jac = 1.0 if wrong == "no_jacobian" else 1.0 / (4.0 * np.where(woh > 0, woh, 1.0))
-        visible = (dirs[None, :, 2] > 0) & (woh > 0) & (h[..., 2] > 0)
+        visible = (d_sl[..., 2] > 0) & (woh > 0) & (h[..., 2] > 0)
         out[sl] = np.where(visible, d * h[..., 2] * jac, 0.0) @ w
     return out
 
 
-def _render(method, samples, block, wrong, light, wo, uv, J, seed):
+def _render(method, samples, block, wrong, light, wo, uv, J, seed, frames=None):
     """A light_path renderer: the light integral of ``method`` times the radiance (a map: each sample's
-    region's constant radiance, as the counting methods take it)."""
+    region's constant radiance, as the counting methods take it). ``frames`` (m, 3, 3): each pixel's tangent
+    frame (rows t, b, n in world space) on a curved surface, ``light`` then in world space: its sample
+    directions are seen in each pixel's frame (the same world samples, so the quadrature is the plane's)."""
     if isinstance(light, gl_lights.EnvMap):
         dirs, w, region = map_samples(light, block)
-        return light_integral(method, uv, J, wo, dirs, w * light.region_radiance[region], seed, wrong)
-    dirs, w = light_samples(light, samples)
-    return light.radiance * light_integral(method, uv, J, wo, dirs, w, seed, wrong)
+        w = w * light.region_radiance[region]
+    else:
+        dirs, w = light_samples(light, samples)
+        w = light.radiance * w
+    if frames is not None:
+        dirs = np.einsum("kij,sj->ksi", np.asarray(frames, float), dirs)
+    return light_integral(method, uv, J, wo, dirs, w, seed, wrong)
 
 
 def light_methods() -> list[str]:
@@ -174,9 +184,10 @@ def method_renderers(material, methods=None, samples: int = SAMPLES, wrong: str 
 
 def method_light_path(scene, light, methods=None, samples: int = SAMPLES, wrong: str | None = None,
                       block: int = MAP_BLOCK, **kw):
-    """``lighting_images.light_path`` of the plane ``scene`` under ``light`` (a :class:`SceneLight` or an
-    environment map in the plane's tangent frame) with the registered NDF image methods ``methods`` rendered
-    beside the facets and the counting laws (:func:`method_renderers`; keyword arguments: light_path's)."""
+    """``lighting_images.light_path`` of ``scene`` under ``light`` (a :class:`SceneLight` or an environment map:
+    on a plane in its tangent frame, on a curved surface in world space, seen in each pixel's frame) with the
+    registered NDF image methods ``methods`` rendered beside the facets and the counting laws
+    (:func:`method_renderers`; keyword arguments: light_path's)."""
     if not isinstance(light, (SceneLight, gl_lights.EnvMap)):
         V.fail("light", light, "a SceneLight (scene_light) or an environment map")
     mat, _ = plane_material(scene)
