@@ -31,7 +31,7 @@ DEFAULTS = {"targets": ["beckmann", "ggx"], "alphas": [0.05, 0.2, 0.5], "half_an
             # fraction of 1920 x 1080 per side, N x density_factor x scale^2, frames of the scene images' path
             # (about 10 s; FULL_SCENE's sizes, 4 minutes, are make bench's: bench/bench_lighting.py).
             "scene": "plane_25", "scene_scale": 1.0 / 12, "scene_density_factor": 0.25, "scene_frames": 3,
-            "scene_cap_half_angle": 0.2, "scene_rect_half_widths": [0.3, 0.2], "scene_grid_nodes": 11,
+            "scene_cap_half_angle": 0.2, "scene_rect_half_widths": [0.3, 0.2], "scene_grid_nodes": 13,
             # The registered NDF image methods under the cap and the window by quadrature over the light's
             # directions (validation.lighting_methods; S = k^2 samples per pixel): "smooth" is the quadrature's check.
             # (make run's budget: the quadrature costs about 0.5 us per pixel and sample, so three methods at 25
