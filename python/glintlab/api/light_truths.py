@@ -192,18 +192,7 @@ def cone_blurred_p(ndf: WWH18, views, light, nodes=CONE_P_NODES) -> np.ndarray:
     p blurred by the cone, which tends to p as gamma -> 0 (docs/math/lighting.md#lighting-lobes). A Light: the
     lobes' light rule at ``nodes``; a map: the exact p per region plus the blur (blurred less unblurred
     density, smooth on the scale of alpha) integrated over RIM_LOSS_SUBNODES^2 nodes per cell."""
-    out = []
-    if isinstance(light, EnvMap):
-        dirs, omega, labels = _map_nodes(light, RIM_LOSS_SUBNODES)
-        p = reflection_probability(ndf.target, ndf.alpha, views, light).reshape(len(views), -1)
-        for wo, pv in zip(np.asarray(views, dtype=float).reshape(-1, 3), p):
-            blurred, plain = _cone_density(ndf, wo, dirs)
-            out.append(pv + np.bincount(labels, (blurred - plain) * omega, minlength=light.regions))
-        return np.array(out)
-    dirs, w, _, _, _ = _core.light_nodes(light_hit(light), *nodes)
-    for wo in np.asarray(views, dtype=float).reshape(-1, 3):
-        out.append([np.sum(w * _cone_density(ndf, wo, dirs)[0])])
-    return np.array(out)
+    return _lobe_p(ndf, views, light, _cone_density, nodes)
 
 
 # Sub-nodes per side of each map cell for KPT25's rim loss under a map (a smooth integrand).
@@ -243,18 +232,25 @@ def kpt25_lobe_p(ndf: KPT25, views, light) -> np.ndarray:
     D(h) times m_U(T(h)), the share of the lobe at T(h) inside U (KPT25's loss at U's rim; (L8)). A Light:
     the lobes' light rule at CONE_P_NODES; a map: the exact p per region less the rim loss, integrated over
     RIM_LOSS_SUBNODES^2 nodes per cell."""
+    return _lobe_p(ndf, views, light, _kpt25_lobe_density, CONE_P_NODES)
+
+
+def _lobe_p(ndf, views, light, density, nodes) -> np.ndarray:
+    """(views, channels): the integral over ``light`` of ``density(ndf, wo, dirs)[0]`` (the lobes' expected
+    count per steradian of light) per view. A Light: the lobes' light rule at ``nodes``; a map: the exact p
+    per region plus the integral of the lobes' difference from the plain p density (``density``'s second
+    value), smooth on the scale of alpha, over RIM_LOSS_SUBNODES^2 nodes per cell."""
     out = []
     if isinstance(light, EnvMap):
         dirs, omega, labels = _map_nodes(light, RIM_LOSS_SUBNODES)
         p = reflection_probability(ndf.target, ndf.alpha, views, light).reshape(len(views), -1)
         for wo, pv in zip(np.asarray(views, dtype=float).reshape(-1, 3), p):
-            kept, full = _kpt25_lobe_density(ndf, wo, dirs)
-            loss = np.bincount(labels, (full - kept) * omega, minlength=light.regions)
-            out.append(pv - loss)
+            lobe, plain = density(ndf, wo, dirs)
+            out.append(pv + np.bincount(labels, (lobe - plain) * omega, minlength=light.regions))
         return np.array(out)
-    dirs, w, _, _, _ = _core.light_nodes(light_hit(light), *CONE_P_NODES)
+    dirs, w, _, _, _ = _core.light_nodes(light_hit(light), *nodes)
     for wo in np.asarray(views, dtype=float).reshape(-1, 3):
-        out.append([np.sum(w * _kpt25_lobe_density(ndf, wo, dirs)[0])])
+        out.append([np.sum(w * density(ndf, wo, dirs)[0])])
     return np.array(out)
 
 
