@@ -539,9 +539,7 @@ void Kpt25Ndf::expected(const double* jac, const double* h, std::size_t m, doubl
 void Kpt25Ndf::visible_counts(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
                               double radius, double* out) const {
   refuse_glint_anisotropy("visible_glints");
-  const double q_max = 1.0 / (kPi * p_.filter * p_.filter);
-  if (!(q_max <= kFilterRadius * kFilterRadius))
-    throw_invalid(kWhere, "filter", p_.filter, "a filter std >= 1 / (3 sqrt(pi)) for visible glint counts");
+  const double q_max = point_filter_limit(p_.filter, "visible glint counts");
   if (!(radius > 0.0 && radius <= 10.0)) throw_invalid(kWhere, "radius", radius, "a number of lobe stds in (0, 10]");
   detail::parallel_chunks(m, 16, 32, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {

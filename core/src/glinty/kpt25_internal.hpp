@@ -16,6 +16,7 @@
 #include <numbers>
 #include <string>
 
+#include "glintlab/base/errors.hpp"
 #include "glintlab/base/rng.hpp"
 #include "glintlab/glinty/glinty_ndf.hpp"
 
@@ -30,6 +31,15 @@ inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // to 1 (docs/math/glinty_ndf.md#glinty-filter). 1 - exp(-9/2) is the mass a 2D Gaussian keeps there.
 inline constexpr double kFilterRadius = 3.0;
 inline const double kFilterMass = -std::expm1(-0.5 * kFilterRadius * kFilterRadius);
+// The largest filter weight a point can have, q_max = 1 / (pi filter^2), for the counts that take a point's
+// weight as its keep rate (light counts, visible glints): the filter must be wide enough that q_max stays
+// within the truncated filter's radius^2. `use` names the count in the error.
+inline double point_filter_limit(double filter, const char* use) {
+  const double q_max = 1.0 / (kPi * filter * filter);
+  if (!(q_max <= kFilterRadius * kFilterRadius))
+    throw_invalid(kWhere, "filter", filter, std::string("a filter std >= 1 / (3 sqrt(pi)) for ") + use);
+  return q_max;
+}
 // Angular cells farther than this many stds from T(h) contribute exp(-x^2/2) = 0 in double arithmetic
 // (exp underflows to 0 below -745.2, and 39^2/2 = 760.5): skipping them keeps the reference an exact sum.
 inline constexpr double kUnderflowRadius = kGlintUnderflowRadius;

@@ -148,9 +148,7 @@ void Kpt25Ndf::light_counts(const double* uv, const double* jac, const double* h
                             std::uint64_t seed, const lighting::LightHit& hit, const lighting::GlintLightOptions& opt,
                             double* counts, double* radiance, double* points) const {
   refuse_glint_anisotropy("light_counts");
-  const double q_max = 1.0 / (kPi * p_.filter * p_.filter);
-  if (!(q_max <= kFilterRadius * kFilterRadius))
-    throw_invalid(kWhere, "filter", p_.filter, "a filter std >= 1 / (3 sqrt(pi)) for light counts");
+  const double q_max = point_filter_limit(p_.filter, "light counts");
   const bool lobes = opt.lit_as == lighting::GlintLight::kLobe;
   const lighting::LightNodes nodes = lobes ? lighting::light_nodes(hit, opt.rule) : lighting::LightNodes{};
   const int channels = hit.channels();
@@ -219,9 +217,7 @@ void Kpt25Ndf::light_counts(const double* uv, const double* jac, const double* h
 void Kpt25Ndf::footprint_ndf(const double* uv, const double* jac, const double* h, std::size_t m, std::uint64_t seed,
                              double* out) const {
   refuse_glint_anisotropy("footprint_ndf");
-  const double q_max = 1.0 / (kPi * p_.filter * p_.filter);
-  if (!(q_max <= kFilterRadius * kFilterRadius))
-    throw_invalid(kWhere, "filter", p_.filter, "a filter std >= 1 / (3 sqrt(pi)) for light counts");
+  const double q_max = point_filter_limit(p_.filter, "light counts");
   detail::parallel_chunks(m, 4, 8, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i) {
       check_position("uv", uv, i, 2, cells_per_uv_);
